@@ -1,0 +1,25 @@
+//! ClarabelQp: not implemented yet.
+
+use crate::problem::Problem;
+use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+
+/// Problem classes handled.
+pub(crate) const PROBLEM_CLASSES: &str = "not implemented yet";
+
+/// ClarabelQp solver.
+#[derive(Debug, Clone, Default)]
+pub struct ClarabelQp {}
+
+impl Solver for ClarabelQp {
+    fn name(&self) -> &'static str {
+        "clarabel_qp"
+    }
+
+    fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        Monitor::new(problem, settings).finish(
+            Vec::new(),
+            0,
+            Outcome::Unsupported("not implemented yet".into()),
+        )
+    }
+}

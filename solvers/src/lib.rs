@@ -1,0 +1,137 @@
+//! # lcpbench-solvers
+//!
+//! Linear complementarity problems of rigid-body contact and interchangeable solvers for them.
+//!
+//! A [`Problem`] is a boxed LCP: find `f` with
+//!
+//! ```text
+//! w = A f + b,   lo <= f <= hi,   f_i = lo_i ⇒ w_i >= 0,   f_i = hi_i ⇒ w_i <= 0,
+//! lo_i < f_i < hi_i ⇒ w_i = 0,
+//! ```
+//!
+//! where a friction row `i` takes the bounds `±mu f_k` of its normal row `k`. The standard LCP
+//! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`. Every solver implements [`Solver`],
+//! and every result's [`Status`] is decided by the one shared residual in [`metrics`].
+//!
+//! ```
+//! use lcpbench_solvers::{Problem, Settings, SolverKind, Status};
+//! use faer::Mat;
+//!
+//! let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+//! let problem = Problem::lcp(a, vec![-1.0, 1.0]).unwrap();
+//! for kind in SolverKind::ALL {
+//!     let result = kind.create().solve(&problem, &Settings::default());
+//!     assert_eq!(result.status, Status::Converged, "{}", kind.name());
+//!     assert!((result.f[0] - 0.5).abs() < 1e-6);
+//! }
+//! ```
+#![warn(missing_docs)]
+
+mod clarabel_qp;
+mod dantzig;
+pub mod generate;
+mod io;
+mod lemke;
+pub mod metrics;
+mod micro_impulse;
+mod pgs;
+mod problem;
+mod solver;
+
+pub use clarabel_qp::ClarabelQp;
+pub use dantzig::Dantzig;
+pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
+pub use lemke::Lemke;
+pub use metrics::{residuals, Residuals};
+pub use micro_impulse::MicroImpulse;
+pub use pgs::ProjectedSor;
+pub use problem::{FrictionRow, Problem, ProblemError};
+pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
+
+/// The solvers lcpbench ships, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SolverKind {
+    /// Projected Gauss–Seidel.
+    Pgs,
+    /// Projected SOR (`omega = 1.3` unless set).
+    Sor,
+    /// Lemke's complementary pivoting.
+    Lemke,
+    /// Dantzig principal pivoting (ODE's `dSolveLCP` style).
+    Dantzig,
+    /// Convex QP through Clarabel's interior-point method.
+    Clarabel,
+    /// Sequential micro-impulses.
+    MicroImpulse,
+}
+
+impl SolverKind {
+    /// Every solver, in report order.
+    pub const ALL: [SolverKind; 6] = [
+        SolverKind::Pgs,
+        SolverKind::Sor,
+        SolverKind::Lemke,
+        SolverKind::Dantzig,
+        SolverKind::Clarabel,
+        SolverKind::MicroImpulse,
+    ];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Pgs => "pgs",
+            SolverKind::Sor => "sor",
+            SolverKind::Lemke => "lemke",
+            SolverKind::Dantzig => "dantzig",
+            SolverKind::Clarabel => "clarabel",
+            SolverKind::MicroImpulse => "micro",
+        }
+    }
+
+    /// Look a solver up by name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The problem classes the solver handles, in one line.
+    pub fn problem_classes(self) -> &'static str {
+        match self {
+            SolverKind::Pgs => "LCP, boxed LCP, friction rows; converges for SPD A",
+            SolverKind::Sor => "as PGS, with relaxation omega in (0, 2) (default 1.3)",
+            SolverKind::Lemke => lemke::PROBLEM_CLASSES,
+            SolverKind::Dantzig => dantzig::PROBLEM_CLASSES,
+            SolverKind::Clarabel => clarabel_qp::PROBLEM_CLASSES,
+            SolverKind::MicroImpulse => micro_impulse::PROBLEM_CLASSES,
+        }
+    }
+
+    /// True for solvers that iterate from a starting impulse (and so use a warm start).
+    pub fn is_iterative(self) -> bool {
+        matches!(
+            self,
+            SolverKind::Pgs | SolverKind::Sor | SolverKind::MicroImpulse
+        )
+    }
+
+    /// A solver of this kind with default parameters.
+    pub fn create(self) -> Box<dyn Solver + Send> {
+        match self {
+            SolverKind::Pgs => Box::new(ProjectedSor::pgs()),
+            SolverKind::Sor => Box::new(ProjectedSor::sor(1.3)),
+            SolverKind::Lemke => Box::new(Lemke::default()),
+            SolverKind::Dantzig => Box::new(Dantzig::default()),
+            SolverKind::Clarabel => Box::new(ClarabelQp::default()),
+            SolverKind::MicroImpulse => Box::new(MicroImpulse::default()),
+        }
+    }
+}
+
+impl std::str::FromStr for SolverKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::from_name(s).ok_or_else(|| {
+            let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
+            format!("unknown solver `{s}` (known: {})", names.join(", "))
+        })
+    }
+}

@@ -1,0 +1,25 @@
+//! MicroImpulse: not implemented yet.
+
+use crate::problem::Problem;
+use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+
+/// Problem classes handled.
+pub(crate) const PROBLEM_CLASSES: &str = "not implemented yet";
+
+/// MicroImpulse solver.
+#[derive(Debug, Clone, Default)]
+pub struct MicroImpulse {}
+
+impl Solver for MicroImpulse {
+    fn name(&self) -> &'static str {
+        "micro_impulse"
+    }
+
+    fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        Monitor::new(problem, settings).finish(
+            Vec::new(),
+            0,
+            Outcome::Unsupported("not implemented yet".into()),
+        )
+    }
+}

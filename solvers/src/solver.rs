@@ -1,0 +1,301 @@
+//! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
+//! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
+
+use crate::metrics::{residuals, Residuals};
+use crate::problem::Problem;
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+/// Settings shared by every solver. Solver-specific parameters (SOR's `omega`, ...) live on the
+/// solver value itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Tolerance on the relative natural-map residual
+    /// ([`Residuals::natural_map_rel`]). Default `1e-8`.
+    pub tolerance: f64,
+    /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
+    /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
+    /// Default `10_000`.
+    pub max_iterations: usize,
+    /// Wall-time budget; `None` (the default) means none.
+    pub time_budget: Option<Duration>,
+    /// Initial impulse for solvers that can use one (iterative solvers; pivoting solvers use it to
+    /// guess the initial active set or ignore it, as their docs say). Default `None` (zero).
+    pub warm_start: Option<Vec<f64>>,
+    /// Record the shared residual after every iteration (time spent measuring it is excluded from
+    /// the reported wall time). Default `false`.
+    pub record_history: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            max_iterations: 10_000,
+            time_budget: None,
+            warm_start: None,
+            record_history: false,
+        }
+    }
+}
+
+/// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
+/// `Converged` if and only if `natural_map_rel <= tolerance`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum Status {
+    /// The shared residual of the returned `f` is within tolerance.
+    Converged,
+    /// The iteration or pivot cap was reached with the residual above tolerance.
+    IterationLimit,
+    /// The time budget ran out with the residual above tolerance.
+    TimeLimit,
+    /// The solver met its own stopping rule, but the shared residual is above tolerance.
+    Stalled {
+        /// Why.
+        reason: String,
+    },
+    /// The solver proved there is no solution (Lemke's ray termination, an infeasibility
+    /// certificate).
+    NoSolution {
+        /// Why.
+        reason: String,
+    },
+    /// The solver does not handle this problem class.
+    Unsupported {
+        /// Why.
+        reason: String,
+    },
+    /// Breakdown: singular pivot, non-finite values, a failed factorisation.
+    NumericalFailure {
+        /// Why.
+        reason: String,
+    },
+}
+
+impl Status {
+    /// `snake_case` name of the variant, as used in JSON and CSV output.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Status::Converged => "converged",
+            Status::IterationLimit => "iteration_limit",
+            Status::TimeLimit => "time_limit",
+            Status::Stalled { .. } => "stalled",
+            Status::NoSolution { .. } => "no_solution",
+            Status::Unsupported { .. } => "unsupported",
+            Status::NumericalFailure { .. } => "numerical_failure",
+        }
+    }
+
+    /// The reason string, if the variant has one.
+    pub fn reason(&self) -> Option<&str> {
+        match self {
+            Status::Stalled { reason }
+            | Status::NoSolution { reason }
+            | Status::Unsupported { reason }
+            | Status::NumericalFailure { reason } => Some(reason),
+            _ => None,
+        }
+    }
+
+    /// True for `Converged`.
+    pub fn is_converged(&self) -> bool {
+        matches!(self, Status::Converged)
+    }
+}
+
+impl std::fmt::Display for Status {
+    fn fmt(&self, fmt: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.reason() {
+            Some(r) => write!(fmt, "{} ({r})", self.name()),
+            None => write!(fmt, "{}", self.name()),
+        }
+    }
+}
+
+/// One point of a convergence history.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HistoryPoint {
+    /// Iteration (or pivot) count after which the residual was measured.
+    pub iteration: usize,
+    /// Relative natural-map residual at that point.
+    pub residual: f64,
+    /// Solver wall time up to that point, measurement time excluded.
+    pub time_s: f64,
+}
+
+/// Everything a solve returns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolveResult {
+    /// The impulse.
+    pub f: Vec<f64>,
+    /// `w = A f + b` at the returned impulse.
+    pub w: Vec<f64>,
+    /// How it ended.
+    pub status: Status,
+    /// Iterations or pivots used (see [`Settings::max_iterations`]).
+    pub iterations: usize,
+    /// Solver wall time, history measurement excluded.
+    pub time: Duration,
+    /// The shared residuals of the returned `f`.
+    pub residuals: Residuals,
+    /// Residual after each iteration, when [`Settings::record_history`] was set.
+    pub history: Vec<HistoryPoint>,
+}
+
+/// A contact solver: takes a problem, returns an impulse and an honest status.
+pub trait Solver {
+    /// Short name (`pgs`, `lemke`, ...).
+    fn name(&self) -> &'static str;
+    /// Solve. Never panics on a valid [`Problem`]; every outcome is a [`Status`].
+    fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult;
+}
+
+/// What a solver's own loop concluded, before the shared residual has its say.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Outcome {
+    /// The solver's own stopping rule was met.
+    Stopped,
+    /// The iteration or pivot cap was reached.
+    IterationLimit,
+    /// The time budget ran out.
+    TimeLimit,
+    /// Proof of no solution.
+    NoSolution(String),
+    /// Problem class not handled.
+    Unsupported(String),
+    /// Breakdown.
+    NumericalFailure(String),
+}
+
+/// Clock, time budget and history recorder for one solve. Solver bodies stay the textbook
+/// algorithm and call [`Monitor::record`] once per iteration.
+pub(crate) struct Monitor<'a> {
+    problem: &'a Problem,
+    settings: &'a Settings,
+    start: Instant,
+    excluded: Duration,
+    history: Vec<HistoryPoint>,
+}
+
+impl<'a> Monitor<'a> {
+    pub(crate) fn new(problem: &'a Problem, settings: &'a Settings) -> Self {
+        Self {
+            problem,
+            settings,
+            start: Instant::now(),
+            excluded: Duration::ZERO,
+            history: Vec::new(),
+        }
+    }
+
+    /// Solver time so far, history measurement excluded.
+    pub(crate) fn elapsed(&self) -> Duration {
+        self.start.elapsed().saturating_sub(self.excluded)
+    }
+
+    /// True when the time budget is spent.
+    pub(crate) fn out_of_time(&self) -> bool {
+        self.settings
+            .time_budget
+            .is_some_and(|budget| self.elapsed() >= budget)
+    }
+
+    /// Record the shared residual of `f` after `iteration`, if history is on.
+    pub(crate) fn record(&mut self, iteration: usize, f: &[f64]) {
+        if !self.settings.record_history {
+            return;
+        }
+        let t0 = Instant::now();
+        let time_s = self.elapsed().as_secs_f64();
+        let residual = residuals(self.problem, f).natural_map_rel;
+        self.history.push(HistoryPoint {
+            iteration,
+            residual,
+            time_s,
+        });
+        self.excluded += t0.elapsed();
+    }
+
+    /// Decide the status from the shared residual of `f` and package the result.
+    pub(crate) fn finish(self, f: Vec<f64>, iterations: usize, outcome: Outcome) -> SolveResult {
+        let time = self.elapsed();
+        let problem = self.problem;
+        let tol = self.settings.tolerance;
+        let n = problem.n();
+        let (f, w, res, status) = if let Outcome::Unsupported(reason) = outcome {
+            let f = vec![0.0; n];
+            let w = problem.velocity(&f);
+            let res = residuals(problem, &f);
+            (f, w, res, Status::Unsupported { reason })
+        } else if f.len() != n {
+            let reason = format!("solver returned {} values for {n} rows", f.len());
+            let w = vec![f64::NAN; n];
+            (
+                f,
+                w,
+                Residuals::INFINITE,
+                Status::NumericalFailure { reason },
+            )
+        } else if let Some(i) = f.iter().position(|v| !v.is_finite()) {
+            let reason = format!("non-finite impulse f[{i}] = {}", f[i]);
+            let w = problem.velocity(&f);
+            (
+                f,
+                w,
+                Residuals::INFINITE,
+                Status::NumericalFailure { reason },
+            )
+        } else {
+            let w = problem.velocity(&f);
+            let res = residuals(problem, &f);
+            let status = if res.natural_map_rel <= tol {
+                Status::Converged
+            } else {
+                match outcome {
+                    Outcome::Stopped => Status::Stalled {
+                        reason: format!(
+                            "stopping rule met at relative residual {:.3e} > tolerance {tol:.1e}",
+                            res.natural_map_rel
+                        ),
+                    },
+                    Outcome::IterationLimit => Status::IterationLimit,
+                    Outcome::TimeLimit => Status::TimeLimit,
+                    Outcome::NoSolution(reason) => Status::NoSolution { reason },
+                    Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
+                    Outcome::Unsupported(_) => unreachable!("handled above"),
+                }
+            };
+            (f, w, res, status)
+        };
+        SolveResult {
+            f,
+            w,
+            status,
+            iterations,
+            time,
+            residuals: res,
+            history: self.history,
+        }
+    }
+}
+
+/// Initial impulse: the warm start projected onto the bounds (friction bounds at the projected
+/// normals), or zero projected onto the bounds.
+pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64> {
+    let n = problem.n();
+    let mut f = match &settings.warm_start {
+        Some(ws) if ws.len() == n && ws.iter().all(|v| v.is_finite()) => ws.clone(),
+        _ => vec![0.0; n],
+    };
+    for i in 0..n {
+        if problem.friction_of(i).is_none() {
+            f[i] = f[i].max(problem.lo()[i]).min(problem.hi()[i]);
+        }
+    }
+    for fr in problem.friction() {
+        let (lo, hi) = problem.bounds_at(fr.row, &f);
+        f[fr.row] = f[fr.row].max(lo).min(hi);
+    }
+    f
+}
