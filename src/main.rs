@@ -1,1 +1,52 @@
-fn main() {}
+//! `lcpbench`: the command-line front end of the contact-solver workbench.
+
+mod cli;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Compare rigid-body contact solvers posed as linear complementarity problems.
+#[derive(Parser)]
+#[command(name = "lcpbench", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve one problem file with one solver.
+    Solve(cli::solve::SolveArgs),
+    /// List the solvers and the problem classes each supports.
+    Solvers,
+    /// Write a random problem instance with a planted solution.
+    Gen(cli::gen::GenArgs),
+    /// Run a scene and print per-run figures.
+    Simulate(cli::simulate::SimulateArgs),
+    /// Write the contact LCP of one step of a scene as a problem file.
+    Export(cli::simulate::ExportArgs),
+    /// Run solvers × scenes × budgets and write result rows as they finish.
+    Bench(cli::bench::BenchArgs),
+    /// Run the default suite and write the comparison report.
+    Report(cli::bench::ReportArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Solve(args) => cli::solve::run(args),
+        Command::Solvers => cli::solve::list_solvers(),
+        Command::Gen(args) => cli::gen::run(args),
+        Command::Simulate(args) => cli::simulate::run_simulate(args),
+        Command::Export(args) => cli::simulate::run_export(args),
+        Command::Bench(args) => cli::bench::run_bench(args),
+        Command::Report(args) => cli::bench::run_report(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! One module per subcommand.
+
+pub mod bench;
+pub mod gen;
+pub mod simulate;
+pub mod solve;
