@@ -1,1 +1,25 @@
-//! placeholder
+//! # lcpbench-contact
+//!
+//! The physics half of lcpbench: rigid bodies and shapes, collision detection (parry), the
+//! contact-matrix builder (`J`, the Delassus matrix `A = J M⁻¹ Jᵀ`, `b`, bounds and friction
+//! rows), time stepping and scene files.
+//!
+//! Data flow: scene file → bodies + shapes → broad phase → narrow phase (manifolds) →
+//! contact-matrix builder → solver → impulses → integrator.
+#![warn(missing_docs)]
+
+// Geometry and detection.
+pub mod body;
+pub mod collision;
+pub mod shape;
+
+// Dynamics: builder, solvers on bodies, stepping, scenes.
+pub mod body_solvers;
+pub mod builder;
+pub mod integrate;
+pub mod scene;
+pub mod step;
+
+pub use body::RigidBody;
+pub use collision::Contact;
+pub use shape::Shape;
