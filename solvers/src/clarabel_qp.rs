@@ -672,7 +672,7 @@ mod tests {
     }
 
     #[test]
-    fn iteration_cap_and_empty_problem() {
+    fn iteration_cap_time_budget_and_empty_problem() {
         let g = generate(Family::Spd { cond: 1e3 }, 20, 2);
         let settings = Settings {
             max_iterations: 2,
@@ -681,6 +681,12 @@ mod tests {
         let r = ClarabelQp::default().solve(&g.problem, &settings);
         assert_eq!(r.status, Status::IterationLimit);
         assert!(r.iterations <= 2);
+        let settings = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let r = ClarabelQp::default().solve(&g.problem, &settings);
+        assert_eq!(r.status, Status::TimeLimit);
         let p = Problem::lcp(Mat::zeros(0, 0), vec![]).unwrap();
         assert_eq!(solve(&p).status, Status::Converged);
     }

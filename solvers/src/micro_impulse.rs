@@ -200,18 +200,23 @@ mod tests {
 
     #[test]
     fn decoupled_rows_take_one_impulse_each() {
-        // Diagonal A: every row's impulse is exact after one sweep-equivalent.
-        let diag = [2.0, 0.5, 4.0, 1.0];
-        let a = Mat::from_fn(4, 4, |i, j| if i == j { diag[i] } else { 0.0 });
-        let b = vec![-1.0, 2.0, -8.0, -0.25];
-        let p = Problem::lcp(a, b).unwrap();
+        // Diagonal A: every row's impulse is exact after one sweep-equivalent. Row 4 is
+        // bilateral (unbounded both ways) and takes a negative impulse; row 5 is capped at 1.
+        let diag = [2.0, 0.5, 4.0, 1.0, 2.0, 1.0];
+        let a = Mat::from_fn(6, 6, |i, j| if i == j { diag[i] } else { 0.0 });
+        let b = vec![-1.0, 2.0, -8.0, -0.25, 3.0, -5.0];
+        let mut lo = vec![0.0; 6];
+        let mut hi = vec![f64::INFINITY; 6];
+        lo[4] = f64::NEG_INFINITY;
+        hi[5] = 1.0;
+        let p = Problem::boxed(a, b, lo, hi, vec![]).unwrap();
         let settings = Settings {
             record_history: true,
             ..Settings::default()
         };
         let r = MicroImpulse::default().solve(&p, &settings);
         assert_eq!(r.status, Status::Converged);
-        assert_eq!(r.f, vec![0.5, 0.0, 2.0, 0.25]);
+        assert_eq!(r.f, vec![0.5, 0.0, 2.0, 0.25, -1.5, 1.0]);
         assert_eq!(r.residuals.natural_map, 0.0);
         assert_eq!(r.iterations, 1);
         assert_eq!(r.history.len(), 1);
@@ -269,6 +274,18 @@ mod tests {
         let r = MicroImpulse::default().solve(&p, &Settings::default());
         assert_eq!(r.status, Status::Converged);
         assert!((r.f[0] - 100.0).abs() < 1e-3, "{:?}", r.f);
+    }
+
+    #[test]
+    fn spent_time_budget_stops_before_the_first_impulse() {
+        let p = Problem::lcp(mat(&[&[2.0]]), vec![-3.0]).unwrap();
+        let settings = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let r = MicroImpulse::default().solve(&p, &settings);
+        assert_eq!(r.status, Status::TimeLimit);
+        assert_eq!(r.f, vec![0.0]);
     }
 
     #[test]
