@@ -20,40 +20,43 @@
 //! * **Friction rows are a convex relaxation.** A friction row `t` with normal row `k` becomes the
 //!   two linear constraints `f_t − mu f_k <= 0` and `−f_t − mu f_k <= 0`. The KKT point of this QP
 //!   is *not* the boxed LCP's solution: the constraint gradients add `−mu (λ₊ + λ₋)` to the normal
-//!   row's stationarity condition, so at a sliding contact `w_k = mu (λ₊ + λ₋) > 0` with `f_k > 0`
-//!   (the contact pushes harder and separates: the "boundary layer" of Anitescu's relaxation, a
-//!   lift-off of order `mu · |tangential velocity|` per step). The shared residual measures the
-//!   difference, so such results come back `Stalled`, not `Converged`; the reports quantify it.
-//!   The relaxation also forces `f_k >= 0` on a normal row that carries friction even when its own
-//!   `lo_k < 0`. When the normal row cannot be positive (`hi_k <= 0`) or `mu = 0`, the LCP's
-//!   friction bounds are identically zero and the row is fixed at `f_t = 0` exactly.
+//!   row's stationarity condition, and stationarity of the friction row gives `λ₊ + λ₋ = |w_t|`,
+//!   so a sliding contact ends with `w_k = mu Σ_t |w_t| > 0` (summed over its friction rows)
+//!   while `f_k > 0`: the contact pushes harder than the LCP's and separates, the "boundary
+//!   layer" of Anitescu's relaxation. The shared residual measures the difference, so such results
+//!   come back `Stalled`, not `Converged`; sticking contacts (strictly inside the cone) are
+//!   unaffected. The relaxation also forces `f_k >= 0` on a normal row that carries friction even
+//!   when its own `lo_k < 0`. When the normal row cannot be positive (`hi_k <= 0`) or `mu = 0`, the
+//!   LCP's friction bounds are identically zero and the row is fixed at `f_t = 0` exactly.
 //! * **Scaling**: Clarabel's tolerances are partly absolute, so the problem is first made
 //!   dimensionless: `f = τ E h` with `E = diag(1/√d)` (`d` the
 //!   [diagonal scale](crate::Problem::diagonal_scale)) and `τ = max_i |b_i| / √d_i` (or the
 //!   largest finite bound magnitude when `b = 0`), and the objective is divided by `τ²`. The QP in
 //!   `h` has a unit diagonal and a linear term of size one, and is the same QP for `(A, b)` and
 //!   `(σA, σb)`, so problems with entries of size `1e-9` or `1e9` behave as those of size one.
-//! * **Tolerances**: Clarabel's `tol_gap_abs`, `tol_gap_rel` and `tol_feas` are set to
-//!   `tolerance_factor · Settings::tolerance` (default factor `1e-2`), floored at
-//!   `min_ipm_tolerance` (default `1e-13`). The status is then decided, as for every solver, by the
-//!   shared residual of the returned `f`.
+//! * **Tolerances**: Clarabel's `tol_gap_abs`, `tol_gap_rel`, `tol_feas`, `tol_infeas_abs` and
+//!   `tol_infeas_rel` are set to `tolerance_factor · Settings::tolerance` (default factor `1e-2`),
+//!   floored at `min_ipm_tolerance` (default `1e-13`). The status is then decided, as for every
+//!   solver, by the shared residual of the returned `f`.
 //! * **Output**: an interior-point iterate can sit a rounding error outside a bound; the returned
 //!   `f` is projected onto the bounds (stored bounds first, then the friction bounds at the
 //!   projected normal impulses). An interior point also leaves every inactive row a little off
-//!   its bound (`f_i w_i ≈ μ`), which the relative residual sees when the solution is small. So,
-//!   as OSQP's *solution polishing* (Stellato et al., 2020), problems without friction rows are
-//!   then polished once: the active set is read off the natural map, `f` is fixed at its bounds
-//!   there, and the free rows solve `A_FF f_F = −(b + A_FC f_C)_F` by `polish_refinements`
-//!   (default 3) steps of iterative refinement from `f_F = 0` with one Cholesky factorisation of the scaled
+//!   its bound (`f_i w_i ≈ μ`), which the relative residual sees when the solution is small (for
+//!   `b = 0` the solution is `f = 0` and any `f ≠ 0` is wrong by 100%). Problems without friction
+//!   rows are therefore polished once, like OSQP's *solution polishing* (Stellato et al., 2020):
+//!   the active set is read off the natural map, `f` is fixed at its bounds there, and the free
+//!   rows solve `A_FF f_F = −(b + A_FC f_C)_F` by `polish_refinements` (default 3) steps of
+//!   iterative refinement from `f_F = 0`, with one Cholesky factorisation of the scaled
 //!   `Â_FF + 10⁻¹² max|Â| I` (which also converges for singular, consistent `A_FF`). The polished
 //!   `f` is kept only if its shared residual is smaller; the cost is one extra dense
 //!   factorisation, and the reported iterations do not count it.
-//! * **Cost**: one sparse `LDLᵀ` factorisation of the quasi-definite KKT matrix per interior-point
-//!   iteration. `A` is dense here, so that is `O(n³)` per iteration; Clarabel typically needs 10 to
-//!   40 iterations. `Settings::max_iterations` counts interior-point iterations and is capped at
-//!   `max_ipm_iterations` (default 200). `Settings::warm_start` is ignored (interior-point methods
-//!   start from the central path), and the history holds one point, the final iterate, because
-//!   Clarabel does not expose its iterates.
+//! * **Cost**: one sparse `LDLᵀ` factorisation of the quasi-definite KKT matrix per
+//!   interior-point iteration. `A` is dense here, so that is `O(n³)` per iteration; Clarabel
+//!   needs 7 to 20 iterations on the generated families. `Settings::max_iterations` counts
+//!   interior-point iterations and is capped at `max_ipm_iterations` (default 200).
+//!   `Settings::warm_start` is ignored (interior-point methods start from the central path), and
+//!   the history holds one point, the final iterate, because Clarabel does not expose its
+//!   iterates.
 //! * **Failure modes**: for PSD `A` (no friction rows) the LCP has a solution if and only if the QP
 //!   is bounded below (a convex QP bounded below on a nonempty polyhedron attains its minimum, and
 //!   its minimisers are exactly the KKT points). Clarabel's certificate of dual infeasibility (a
@@ -653,6 +656,8 @@ mod tests {
         assert!((r.f[1] - 0.8).abs() < 1e-6, "{:?}", r.f);
         assert!(matches!(r.status, Status::Stalled { .. }), "{}", r.status);
         assert!(r.residuals.natural_map_rel > 0.1);
+        // The separating velocity is mu times the sliding speed: 0.6 = 0.5 · 1.2.
+        assert!((r.w[0] - 0.5 * r.w[1].abs()).abs() < 1e-6, "{:?}", r.w);
         // A sticking contact is inside the cone: no multiplier, the relaxation is exact.
         let p = Problem::boxed(
             Mat::identity(2, 2),

@@ -23,12 +23,18 @@
 //! with `f_i > 0` and `w_i > 0` (a contact that pushes while separating), which no later impulse
 //! can repair. The solver then stops by its own rule and the shared residual, which does see the
 //! over-shoot, reports `Stalled`, not `Converged`. On decoupled rows (diagonal `A`) each row needs
-//! one impulse and the answer is exact; on Z-matrices (`A_ij <= 0`, e.g. M-matrices) the impulses
-//! increase monotonically towards the least solution without over-shoot.
+//! one impulse and the answer is exact; for a standard LCP with a Z-matrix (`A_ij <= 0` off the
+//! diagonal, e.g. an M-matrix) an impulse on one row only lowers the others' `w`, so no row ever
+//! over-shoots and the impulses increase monotonically towards the least solution.
 //!
 //! * **Problem class**: standard LCP, boxed LCP, friction rows, any `A` with a positive diagonal;
 //!   converges (exactly, in finitely many impulses) on diagonal `A`, in the limit on M-matrices;
 //!   otherwise it is a physically motivated heuristic that may stall. It never pulls on contacts.
+//! * **Failure modes**: over-shoot on coupled rows (`Stalled`, above); on a problem with no
+//!   solution the pushes never end (`IterationLimit`); on non-symmetric `A` with a large skew part
+//!   (not a Delassus matrix) one push can drive other rows ever deeper, and the impulses may grow
+//!   by orders of magnitude before every row separates (`Stalled`); a non-finite impulse ends the
+//!   solve as `NumericalFailure`.
 //! * **Cost**: `O(n)` per impulse (an arg-max over the rows plus one column of `A`), so `O(n²)`
 //!   per sweep-equivalent, as a PGS sweep.
 //! * **Iterations**: [`Settings::max_iterations`] counts *sweep-equivalents* of `n` single
