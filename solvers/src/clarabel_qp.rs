@@ -343,7 +343,7 @@ fn project_onto_bounds(problem: &Problem, f: &mut [f64]) {
 
 impl Solver for ClarabelQp {
     fn name(&self) -> &'static str {
-        "clarabel_qp"
+        "clarabel"
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -90,7 +90,7 @@ fn actionable_step(problem: &Problem, i: usize, f: &[f64], w: &[f64], d: &[f64])
 
 impl Solver for MicroImpulse {
     fn name(&self) -> &'static str {
-        "micro_impulse"
+        "micro"
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
