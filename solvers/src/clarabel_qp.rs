@@ -694,5 +694,9 @@ mod tests {
         assert_eq!(r.status, Status::TimeLimit);
         let p = Problem::lcp(Mat::zeros(0, 0), vec![]).unwrap();
         assert_eq!(solve(&p).status, Status::Converged);
+        assert_eq!(
+            ClarabelQp::default().name(),
+            crate::SolverKind::Clarabel.name()
+        );
     }
 }

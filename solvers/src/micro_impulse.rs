@@ -284,6 +284,10 @@ mod tests {
 
     #[test]
     fn spent_time_budget_stops_before_the_first_impulse() {
+        assert_eq!(
+            MicroImpulse::default().name(),
+            crate::SolverKind::MicroImpulse.name()
+        );
         let p = Problem::lcp(mat(&[&[2.0]]), vec![-3.0]).unwrap();
         let settings = Settings {
             time_budget: Some(std::time::Duration::ZERO),
