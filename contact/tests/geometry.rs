@@ -364,3 +364,64 @@ fn resting_contacts_persist_with_prediction_and_keep_keys() {
     assert_eq!(k1, k2);
     assert!(second.iter().all(|c| (c.dist - 5e-3).abs() < 1e-9));
 }
+
+mod time_of_impact {
+    use super::*;
+    use lcpbench_contact::collision::toi::{
+        time_of_impact_bisection, time_of_impact_conservative, Motion, ToiSettings,
+    };
+    use nalgebra::Isometry3;
+
+    /// A sphere of radius 0.01 at 300 m/s towards a 0.02-thick wall, one step of 0.01 s.
+    #[test]
+    fn fast_sphere_through_thin_box() {
+        let (r, speed, dt) = (0.01, 300.0, 0.01);
+        let ball = Shape::sphere(r).unwrap();
+        let wall = Shape::cuboid(Vector3::new(0.01, 0.5, 0.5)).unwrap();
+        let x0 = -1.0;
+        let ma = Motion::new(
+            Isometry3::translation(x0, 0.0, 0.0),
+            Vector3::new(speed, 0.0, 0.0),
+            Vector3::zeros(),
+        );
+        let mb = Motion::stationary(Isometry3::identity());
+        // The ball's surface reaches the wall face x = -0.01 when its centre is at -0.02.
+        let t_exact = (-0.01 - r - x0) / speed;
+
+        // The end-of-step test sees nothing: the ball is 2 m past the wall.
+        let end = parry3d_f64::query::intersection_test(
+            &ma.at(dt),
+            &*ball.to_parry(),
+            &mb.at(dt),
+            &*wall.to_parry(),
+        )
+        .unwrap();
+        assert!(!end, "end-of-step overlap should miss the impact");
+
+        let settings = ToiSettings {
+            tolerance: 1e-5,
+            ..Default::default()
+        };
+        let time_tol = settings.tolerance / speed;
+        for (name, toi) in [
+            (
+                "bisection",
+                time_of_impact_bisection(&ball, &ma, &wall, &mb, dt, &settings),
+            ),
+            (
+                "conservative advancement",
+                time_of_impact_conservative(&ball, &ma, &wall, &mb, dt, &settings),
+            ),
+        ] {
+            let toi = toi.unwrap_or_else(|| panic!("{name}: missed the impact"));
+            let err = t_exact - toi.time;
+            println!(
+                "{name}: t = {:.9e}, exact {t_exact:.9e}, early by {err:.2e} s \
+                 (tolerance {time_tol:.2e} s), gap {:.2e} m, {} distance queries",
+                toi.time, toi.distance, toi.iterations
+            );
+            assert!(err >= -1e-12 && err <= time_tol + 1e-12, "{name}: {toi:?}");
+            assert!(toi.distance <= settings.tolerance);
+        }
+    }
+}
