@@ -562,6 +562,21 @@ mod more_detection {
             c.iter().all(|c| c.normal.z > 0.99 && c.dist < 0.0),
             "{c:#?}"
         );
+
+        // Flush stack of identical blocks: the coplanar side walls must not produce the
+        // wall-long penetrations parry's triangle pairs report (2 m here). Vertical contacts
+        // remain at (at least) five of the six footprint corners; parry reports the sixth only
+        // with a sideways normal.
+        let bodies = vec![
+            body(block.clone(), [0.0; 3], true),
+            body(block.clone(), [0.0, 0.0, 0.5 - 1e-4], false),
+        ];
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let deepest = c.iter().map(|c| c.dist).fold(0.0, f64::min);
+        println!("flush L stack: {} contacts, deepest {deepest:.2e}", c.len());
+        assert!(deepest > -1e-3, "{c:#?}");
+        let vertical = c.iter().filter(|c| c.normal.z > 0.99).count();
+        assert!(vertical >= 5, "{c:#?}");
     }
 
     #[test]
