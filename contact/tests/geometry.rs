@@ -612,3 +612,73 @@ mod more_detection {
         assert_eq!(first, second);
     }
 }
+
+mod first_impact_in_scene {
+    use super::*;
+    use lcpbench_contact::collision::toi::{first_impact, ToiMethod, ToiSettings};
+
+    #[test]
+    fn bullet_through_wall_among_other_bodies() {
+        let (r, speed, dt) = (0.01, 300.0, 0.01);
+        let mut bodies = vec![ground()];
+        // Resting boxes (touching the ground: contacts, not impacts) away from the path.
+        for i in 0..20 {
+            bodies.push(body(
+                Shape::cuboid(Vector3::new(0.1, 0.1, 0.1)).unwrap(),
+                [-5.0 + 0.5 * i as f64, 3.0, 0.1],
+                false,
+            ));
+        }
+        bodies.push(body(
+            Shape::cuboid(Vector3::new(0.01, 0.5, 0.5)).unwrap(),
+            [0.0, 0.0, 1.0],
+            true,
+        ));
+        let mut bullet = body(Shape::sphere(r).unwrap(), [-1.0, 0.0, 1.0], false);
+        bullet.linear_momentum = bullet.mass * Vector3::new(speed, 0.0, 0.0);
+        bodies.push(bullet);
+        let (wall, bullet) = (bodies.len() - 2, bodies.len() - 1);
+        let t_exact = (-0.01 - r + 1.0) / speed;
+        let settings = ToiSettings {
+            tolerance: 1e-5,
+            ..Default::default()
+        };
+        for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
+            let hit = first_impact(&bodies, dt, method, &settings).expect("impact");
+            assert_eq!((hit.body_a, hit.body_b), (wall, bullet), "{method:?}");
+            let err = t_exact - hit.toi.time;
+            println!("first_impact {method:?}: early by {err:.2e} s");
+            assert!(err >= -1e-12 && err <= settings.tolerance / speed + 1e-12);
+        }
+        // Without the bullet's speed nothing happens within the step.
+        bodies[bullet].linear_momentum = Vector3::zeros();
+        assert!(first_impact(&bodies, dt, ToiMethod::default(), &settings).is_none());
+    }
+
+    #[test]
+    fn fast_fall_onto_the_ground() {
+        // A spinning box falling at 50 m/s, 0.3 m above the ground at the start of a 0.01 s step.
+        let mut b = body(
+            Shape::cuboid(Vector3::new(0.1, 0.2, 0.05)).unwrap(),
+            [0.0, 0.0, 0.35],
+            false,
+        );
+        b.linear_momentum = b.mass * Vector3::new(0.0, 0.0, -50.0);
+        b.angular_momentum = b.inertia_world() * Vector3::new(0.0, 0.0, 3.0);
+        let bodies = vec![ground(), b];
+        let settings = ToiSettings::default();
+        let t_exact = 0.3 / 50.0; // spin about z keeps the bottom face horizontal
+        for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
+            let hit = first_impact(&bodies, 0.01, method, &settings).expect("impact");
+            let err = t_exact - hit.toi.time;
+            println!(
+                "fall {method:?}: early by {err:.2e} s, {} queries",
+                hit.toi.iterations
+            );
+            assert!(
+                err >= -1e-12 && err <= settings.tolerance / 50.0 + 1e-12,
+                "{hit:?}"
+            );
+        }
+    }
+}
