@@ -682,3 +682,63 @@ mod first_impact_in_scene {
         }
     }
 }
+
+mod properties {
+    use super::*;
+    use parry3d_f64::bounding_volume::Aabb;
+    use proptest::prelude::*;
+
+    /// A box with centre in `[0, 10]³` and half extents in `[0.05, 1.5]`.
+    fn aabb() -> impl Strategy<Value = Aabb> {
+        (
+            prop::array::uniform3(0.0..10.0f64),
+            prop::array::uniform3(0.05..1.5f64),
+        )
+            .prop_map(|(c, h)| {
+                let (c, h) = (Vector3::from(c), Vector3::from(h));
+                Aabb::new((c - h).into(), (c + h).into())
+            })
+    }
+
+    /// Two spheres with radii in `[0.1, 1]`, the second placed at a planted gap in
+    /// `[-0.05, 0.05]` along a random direction.
+    fn sphere_pair() -> impl Strategy<Value = (f64, f64, Vector3<f64>, f64)> {
+        (
+            0.1..1.0f64,
+            0.1..1.0f64,
+            prop::array::uniform3(-1.0..1.0f64),
+            -0.05..0.05f64,
+        )
+            .prop_filter("direction", |(_, _, d, _)| Vector3::from(*d).norm() > 0.1)
+            .prop_map(|(r1, r2, d, gap)| (r1, r2, Vector3::from(d).normalize(), gap))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, rng_seed: proptest::test_runner::RngSeed::Fixed(7), ..ProptestConfig::default() })]
+
+        #[test]
+        fn sweep_and_prune_equals_brute_force(
+            boxes in prop::collection::vec(aabb(), 0..120),
+            statics in prop::collection::vec(any::<bool>(), 120),
+        ) {
+            let skip = |i: usize, j: usize| statics[i] && statics[j];
+            prop_assert_eq!(sweep_and_prune(&boxes, skip), brute_force_pairs(&boxes, skip));
+        }
+
+        #[test]
+        fn sphere_pair_gap_is_planted((r1, r2, dir, gap) in sphere_pair()) {
+            let c2 = dir * (r1 + r2 + gap);
+            let bodies = vec![
+                body(Shape::sphere(r1).unwrap(), [0.0; 3], false),
+                body(Shape::sphere(r2).unwrap(), c2.into(), false),
+            ];
+            let contacts = CollisionPipeline::new().detect(&bodies, 0.1);
+            prop_assert_eq!(contacts.len(), 1);
+            let c = contacts[0];
+            prop_assert!((c.dist - gap).abs() < 1e-12);
+            prop_assert!((c.normal - dir).norm() < 1e-12);
+            let mid = dir * (r1 + 0.5 * gap);
+            prop_assert!((c.point.coords - mid).norm() < 1e-12);
+        }
+    }
+}
