@@ -11,10 +11,13 @@
 //! Mass properties come from parry's closed forms for the primitives and from the exact
 //! volume integral over a closed triangle mesh for hulls and meshes: the solid is split into
 //! signed tetrahedra with a common apex and the polynomial moments of each tetrahedron are
-//! summed, which is the divergence-theorem integral of Mirtich (1996) and Eberly
-//! ("Polyhedral mass properties (revisited)", 2002) written per tetrahedron
-//! (`parry::mass_properties::MassProperties::from_trimesh`). It is exact for a closed,
-//! consistently oriented mesh; an open mesh gives a meaningless volume.
+//! summed (`parry::mass_properties::MassProperties::from_trimesh`). This is the same exact
+//! volume integral that B. Mirtich, "Fast and accurate computation of polyhedral mass
+//! properties", *Journal of Graphics Tools* 1(2), 1996, and D. Eberly, "Polyhedral mass
+//! properties (revisited)", Geometric Tools 2002, obtain with the divergence theorem, organised
+//! per tetrahedron instead of per face. It is exact for a closed, consistently oriented mesh
+//! (an inside-out mesh is flipped on construction); an open mesh has no meaningful volume and
+//! is rejected when its signed volume is negligible.
 
 use nalgebra::{Isometry3, Matrix3, Point3, Unit, Vector3};
 use parry3d_f64::bounding_volume::Aabb;
@@ -495,6 +498,12 @@ pub fn signed_volume(vertices: &[Point3<f64>], indices: &[[u32; 3]]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shapes_can_cross_threads() {
+        fn send_sync<T: Send + Sync>() {}
+        send_sync::<Shape>();
+    }
 
     #[test]
     fn rejects_bad_sizes() {
