@@ -310,36 +310,26 @@ impl Shape {
             path: path.to_path_buf(),
             reason,
         };
-        let options = tobj::LoadOptions {
-            triangulate: true,
-            single_index: false,
-            ..Default::default()
-        };
-        let (models, _materials) =
-            tobj::load_obj(path, &options).map_err(|e| file_err(e.to_string()))?;
-        let mut vertices = Vec::new();
-        let mut indices = Vec::new();
-        for model in &models {
-            let base = vertices.len() as u32;
-            vertices.extend(
-                model
-                    .mesh
-                    .positions
-                    .chunks_exact(3)
-                    .map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
-            );
-            indices.extend(
-                model
-                    .mesh
-                    .indices
-                    .chunks_exact(3)
-                    .map(|t| [base + t[0], base + t[1], base + t[2]]),
-            );
-        }
+        let (vertices, indices) = read_obj(path)?;
         if indices.is_empty() {
             return Err(file_err("no triangles in the file".into()));
         }
         Self::trimesh(vertices, indices, &path.display().to_string())
+    }
+
+    /// Convex hull of the vertices of a Wavefront OBJ file (all objects merged), re-centred on
+    /// its centre of mass. The robust choice for stacked blocks, see
+    /// [`crate::collision::narrow_phase`].
+    pub fn convex_hull_from_obj(path: impl AsRef<Path>) -> Result<Self, ShapeError> {
+        let path = path.as_ref();
+        let (vertices, _) = read_obj(path)?;
+        if vertices.is_empty() {
+            return Err(ShapeError::MeshFile {
+                path: path.to_path_buf(),
+                reason: "no vertices in the file".into(),
+            });
+        }
+        Self::convex_hull(&vertices)
     }
 
     /// Short name of the shape kind (`"sphere"`, `"box"`, …).
@@ -464,6 +454,43 @@ impl Shape {
             inertia: mp.reconstruct_inertia_matrix(),
         })
     }
+}
+
+/// Vertex positions and triangles (indices into the positions) of a mesh.
+type MeshBuffers = (Vec<Point3<f64>>, Vec<[u32; 3]>);
+
+/// Vertex positions and triangles of every object in an OBJ file.
+fn read_obj(path: &Path) -> Result<MeshBuffers, ShapeError> {
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ..Default::default()
+    };
+    let (models, _materials) =
+        tobj::load_obj(path, &options).map_err(|e| ShapeError::MeshFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    for model in &models {
+        let base = vertices.len() as u32;
+        vertices.extend(
+            model
+                .mesh
+                .positions
+                .chunks_exact(3)
+                .map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
+        );
+        indices.extend(
+            model
+                .mesh
+                .indices
+                .chunks_exact(3)
+                .map(|t| [base + t[0], base + t[1], base + t[2]]),
+        );
+    }
+    Ok((vertices, indices))
 }
 
 fn max_norm(points: &[Point3<f64>]) -> f64 {
