@@ -8,7 +8,8 @@
 //! contact-matrix builder → solver → impulses → integrator.
 #![warn(missing_docs)]
 
-// Geometry and detection.
+// Geometry and detection: shapes and mass properties (`shape`), rigid-body state (`body`),
+// broad phase, narrow phase and time of impact (`collision`).
 pub mod body;
 pub mod collision;
 pub mod shape;
@@ -20,6 +21,6 @@ pub mod integrate;
 pub mod scene;
 pub mod step;
 
-pub use body::RigidBody;
-pub use collision::Contact;
-pub use shape::Shape;
+pub use body::{MassSpec, RigidBody};
+pub use collision::{candidate_pairs, CollisionPipeline, Contact};
+pub use shape::{MassProperties, Shape, ShapeError};
