@@ -776,6 +776,20 @@ mod tests {
             let total: f64 = (0..4).map(|c| r.f[k * c]).sum();
             assert!(total >= 1.0 - 1e-9, "v = {v:?}: {:?}", r.f);
         }
+        // Nearly identical rows (a PSD perturbation of 1e-9): no blow-up either.
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let g = Mat::from_fn(4, 4, |_, _| crate::generate::gaussian(&mut rng));
+        let a = Mat::from_fn(4, 4, |i, j| {
+            1.0 + 1e-9 * (0..4).map(|k| g[(i, k)] * g[(j, k)]).sum::<f64>()
+        });
+        let p = Problem::lcp(a, vec![-1.0; 4]).unwrap();
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged, "{:?}", r.f);
+        assert!(
+            r.f.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)),
+            "{:?}",
+            r.f
+        );
         // Four identical rows: any split summing to 1 solves it, and none may blow up.
         let ones = vec![1.0; 4];
         let a: Vec<&[f64]> = vec![&ones; 4];
@@ -828,5 +842,14 @@ mod tests {
         };
         let r = Dantzig::default().solve(&g.problem, &timed);
         assert_eq!(r.status, Status::TimeLimit);
+    }
+
+    #[test]
+    fn empty_problem() {
+        let p = Problem::lcp(Mat::zeros(0, 0), vec![]).unwrap();
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!((r.status, r.iterations), (Status::Converged, 0));
+        let r = crate::Lemke::default().solve(&p, &Settings::default());
+        assert_eq!((r.status, r.iterations), (Status::Converged, 0));
     }
 }
