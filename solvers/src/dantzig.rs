@@ -29,9 +29,16 @@
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
-//!   the previous pass's normals, up to [`Dantzig::friction_passes`] passes, until the bounds
-//!   stop changing (a fixed point). The shared residual decides whether the returned `f` meets
-//!   the bounds at its own normals.
+//!   the previous pass's normals (a fixed point), up to 4 passes or until the bounds stop moving.
+//!   If the shared residual is still above tolerance, *active-set steps* follow: every friction
+//!   row that slides (at a bound, with `w_t` of the sliding sign) is eliminated by
+//!   `f_t = ±mu f_k`, which adds `±mu A_{:,t}` to column `k` (a non-symmetric problem, solved by
+//!   the same passes), and the sliding set is re-read from the result, up to
+//!   [`Dantzig::active_set_steps`] times. When the sliding set is right this gives the exact
+//!   fixed point in one step; when the coupled matrix is not a P-matrix the step fails (a
+//!   negative pivot) and the plain fixed point resumes from the best impulse so far, for up to
+//!   [`Dantzig::friction_passes`] passes in all. The impulse with the smallest shared residual is
+//!   returned; the residual decides whether it meets the bounds at its own normals.
 //! * **Cost**: `O(n·|C|)` per pivot (a triangular solve with the factorisation and the rates
 //!   `Δw` of the rows in `N` and `D`), `O(|C|²)` per change of `C`; about `n` pivots for a
 //!   well-behaved problem, so `O(n³)` per pass. After each row, `f_C` is recomputed from the
@@ -48,6 +55,7 @@
 //! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
 //! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
+use crate::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
 
@@ -58,12 +66,15 @@ pub(crate) const PROBLEM_CLASSES: &str =
 /// Dantzig-style principal pivoting. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dantzig {
-    /// Largest number of passes of the friction-bound fixed point (ignored without friction
-    /// rows). Default `50`.
+    /// Largest number of passes of the plain friction-bound fixed point (ignored without
+    /// friction rows). Default `50`.
     pub friction_passes: usize,
     /// A row joins the clamped set only if its pivot (Schur complement against the clamped set)
     /// exceeds `pivot_tol · A_ii`. Default `1e-10`.
     pub pivot_tol: f64,
+    /// Largest number of active-set steps for friction rows (see the module doc); `0` turns
+    /// them off. Default `10`.
+    pub active_set_steps: usize,
 }
 
 impl Default for Dantzig {
@@ -71,6 +82,7 @@ impl Default for Dantzig {
         Self {
             friction_passes: 50,
             pivot_tol: 1e-10,
+            active_set_steps: 10,
         }
     }
 }
@@ -86,6 +98,98 @@ impl Solver for Dantzig {
             let reason = format!("pivot_tol = {} must be finite and > 0", self.pivot_tol);
             return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
         }
+        let mut pivots = 0;
+        let tol = settings.tolerance;
+        let passes = self.friction_passes.max(1);
+        let first = passes.min(PASSES_BEFORE_ACTIVE_SET);
+        let (f, mut outcome) = self.fixed_point(
+            problem,
+            None,
+            first,
+            settings,
+            &mut monitor,
+            &mut pivots,
+            true,
+        );
+        let mut best = (residuals(problem, &f).natural_map_rel, f);
+        if problem.friction().is_empty() || outcome != Outcome::Stopped || best.0 <= tol {
+            return monitor.finish(best.1, pivots, outcome);
+        }
+        // Active-set refinement of the friction bounds.
+        let mut current = best.1.clone();
+        let mut last_sliding = Vec::new();
+        for _ in 0..self.active_set_steps {
+            let sliding = sliding_rows(problem, &current);
+            if sliding == last_sliding {
+                break;
+            }
+            let Some(reduced) = Coupled::new(problem, &sliding) else {
+                break;
+            };
+            let (g, o) = self.fixed_point(
+                &reduced.problem,
+                None,
+                passes,
+                settings,
+                &mut monitor,
+                &mut pivots,
+                false,
+            );
+            let f = reduced.expand(&g);
+            let r = residuals(problem, &f).natural_map_rel;
+            if r < best.0 {
+                best = (r, f.clone());
+            }
+            if matches!(o, Outcome::IterationLimit | Outcome::TimeLimit) {
+                outcome = o;
+                break;
+            }
+            if o != Outcome::Stopped || best.0 <= tol {
+                break;
+            }
+            last_sliding = sliding;
+            current = f;
+        }
+        // Otherwise, continue the plain fixed point from the best impulse so far.
+        if best.0 > tol && outcome == Outcome::Stopped && passes > first {
+            let normals: Vec<f64> = best.1.iter().map(|v| v.max(0.0)).collect();
+            let (f, o) = self.fixed_point(
+                problem,
+                Some(normals),
+                passes - first,
+                settings,
+                &mut monitor,
+                &mut pivots,
+                true,
+            );
+            let r = residuals(problem, &f).natural_map_rel;
+            if r < best.0 {
+                best = (r, f);
+            }
+            outcome = o;
+        }
+        monitor.finish(best.1, pivots, outcome)
+    }
+}
+
+/// Plain fixed-point passes run before the active-set refinement of the friction bounds.
+const PASSES_BEFORE_ACTIVE_SET: usize = 4;
+
+impl Dantzig {
+    /// Up to `passes` principal-pivoting passes, the friction bounds frozen at the previous
+    /// pass's normals (the first pass takes them from `frozen`, or from each normal as its
+    /// friction row is added). Stops when the bounds no longer move.
+    #[allow(clippy::too_many_arguments)]
+    fn fixed_point(
+        &self,
+        problem: &Problem,
+        mut frozen: Option<Vec<f64>>,
+        passes: usize,
+        settings: &Settings,
+        monitor: &mut Monitor<'_>,
+        pivots: &mut usize,
+        record: bool,
+    ) -> (Vec<f64>, Outcome) {
         let n = problem.n();
         // Normal (and plain) rows first, then friction rows, each in index order.
         let order: Vec<usize> = (0..n)
@@ -97,44 +201,149 @@ impl Solver for Dantzig {
             .map(|i| (problem.b()[i] / d[i]).abs())
             .fold(0.0, f64::max);
         let scale = if scale > 0.0 { scale } else { 1.0 };
-        let mut pivots = 0;
-        let mut frozen: Option<Vec<f64>> = None;
         let passes = if problem.friction().is_empty() {
             1
         } else {
-            self.friction_passes.max(1)
+            passes
         };
         let mut f = vec![0.0; n];
-        let mut outcome = Outcome::Stopped;
         for _ in 0..passes {
             let mut pass = Pass::new(problem, self.pivot_tol, &d, scale, frozen.as_deref());
-            let result = pass.run(&order, &mut pivots, settings, &mut monitor);
+            pass.record = record;
+            let result = pass.run(&order, pivots, settings, monitor);
             f = pass.x;
             if let Err(o) = result {
-                outcome = o;
-                break;
+                return (f, o);
             }
             // Fixed point of the friction bounds: stop when the normals that set them moved
             // by less than round-off.
-            let normals: Vec<f64> = (0..n).map(|k| f[k].max(0.0)).collect();
-            let moved = match &frozen {
-                None => problem
-                    .friction()
-                    .iter()
-                    .map(|fr| (pass.friction_bound_used[fr.row] - fr.mu * normals[fr.normal]).abs())
-                    .fold(0.0, f64::max),
-                Some(prev) => problem
-                    .friction()
-                    .iter()
-                    .map(|fr| fr.mu * (prev[fr.normal] - normals[fr.normal]).abs())
-                    .fold(0.0, f64::max),
-            };
+            let normals: Vec<f64> = f.iter().map(|v| v.max(0.0)).collect();
+            let moved = problem
+                .friction()
+                .iter()
+                .map(|fr| {
+                    let used = pass.friction_bound_used[fr.row];
+                    (used - fr.mu * normals[fr.normal]).abs()
+                })
+                .fold(0.0, f64::max);
             if moved <= 1e-13 * scale {
                 break;
             }
             frozen = Some(normals);
         }
-        monitor.finish(f, pivots, outcome)
+        (f, Outcome::Stopped)
+    }
+}
+
+/// Friction rows of `f` that slide: `f_t` near a bound `±mu f_k > 0` (within half of it, since
+/// `f` may come from bounds frozen at older normals) and `w_t` strictly of the sliding sign;
+/// with the sign of the bound.
+fn sliding_rows(problem: &Problem, f: &[f64]) -> Vec<(usize, f64)> {
+    let w = problem.velocity(f);
+    let d = problem.diagonal_scale();
+    let scale = (0..problem.n())
+        .map(|i| (problem.b()[i] / d[i]).abs())
+        .fold(0.0, f64::max);
+    problem
+        .friction()
+        .iter()
+        .filter_map(|fr| {
+            let c = fr.mu * f[fr.normal].max(0.0);
+            let t = f[fr.row];
+            let sign = if t > 0.0 { 1.0 } else { -1.0 };
+            let slips = w[fr.row] * sign < -1e-10 * d[fr.row] * scale;
+            (c > 0.0 && t.abs() >= 0.5 * c && slips).then_some((fr.row, sign))
+        })
+        .collect()
+}
+
+/// The problem with the sliding friction rows `t` eliminated by `f_t = sign · mu · f_k`: column
+/// `k` of `A` gains `sign · mu · A_{:,t}` (so `A` becomes non-symmetric), and row `t` is dropped.
+struct Coupled {
+    problem: Problem,
+    /// Original row of each kept row.
+    kept: Vec<usize>,
+    /// `(t, k, sign · mu)` per eliminated row.
+    sliding: Vec<(usize, usize, f64)>,
+    n: usize,
+}
+
+impl Coupled {
+    fn new(problem: &Problem, sliding: &[(usize, f64)]) -> Option<Self> {
+        let n = problem.n();
+        let mut gone = vec![false; n];
+        let sliding: Vec<(usize, usize, f64)> = sliding
+            .iter()
+            .map(|&(t, sign)| {
+                gone[t] = true;
+                let (k, mu) = problem.friction_of(t).expect("a friction row");
+                (t, k, sign * mu)
+            })
+            .collect();
+        let kept: Vec<usize> = (0..n).filter(|&i| !gone[i]).collect();
+        let mut new_index = vec![usize::MAX; n];
+        for (r, &i) in kept.iter().enumerate() {
+            new_index[i] = r;
+        }
+        let a = problem.a();
+        let mut full = a.clone();
+        for &(t, k, s) in &sliding {
+            for r in 0..n {
+                full[(r, k)] += s * a[(r, t)];
+            }
+        }
+        let m = kept.len();
+        let reduced = faer::Mat::from_fn(m, m, |r, c| full[(kept[r], kept[c])]);
+        let pick = |v: &[f64]| kept.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let friction = problem
+            .friction()
+            .iter()
+            .filter(|fr| !gone[fr.row])
+            .map(|fr| crate::problem::FrictionRow {
+                row: new_index[fr.row],
+                normal: new_index[fr.normal],
+                mu: fr.mu,
+            })
+            .collect();
+        let lo: Vec<f64> = kept
+            .iter()
+            .map(|&i| {
+                if problem.friction_of(i).is_some() {
+                    0.0
+                } else {
+                    problem.lo()[i]
+                }
+            })
+            .collect();
+        let hi: Vec<f64> = kept
+            .iter()
+            .map(|&i| {
+                if problem.friction_of(i).is_some() {
+                    0.0
+                } else {
+                    problem.hi()[i]
+                }
+            })
+            .collect();
+        let problem = Problem::boxed(reduced, pick(problem.b()), lo, hi, friction).ok()?;
+        Some(Self {
+            problem,
+            kept,
+            sliding,
+            n,
+        })
+    }
+
+    /// The full impulse from the reduced one.
+    fn expand(&self, g: &[f64]) -> Vec<f64> {
+        let mut f = vec![0.0; self.n];
+        for (&i, &v) in self.kept.iter().zip(g) {
+            f[i] = v;
+        }
+        for &(t, k, s) in &self.sliding {
+            f[t] = s * f[k];
+        }
+        f
     }
 }
 
@@ -183,6 +392,8 @@ struct Pass<'a> {
     lu: ClampedLu,
     /// The half-width `mu f_k` each friction row was given.
     friction_bound_used: Vec<f64>,
+    /// Record the history (off for the reduced problems of the active-set steps).
+    record: bool,
 }
 
 impl<'a> Pass<'a> {
@@ -213,6 +424,7 @@ impl<'a> Pass<'a> {
             set: vec![Set::Pending; n],
             lu: ClampedLu::new(n),
             friction_bound_used: vec![0.0; n],
+            record: true,
         }
     }
 
@@ -380,7 +592,9 @@ impl<'a> Pass<'a> {
                 }
             }
             self.w[i] += s * dw[i];
-            monitor.record(*pivots, &self.x);
+            if self.record {
+                monitor.record(*pivots, &self.x);
+            }
 
             match event {
                 Event::RowClamps => return self.clamp_or_depend(i),
@@ -700,8 +914,18 @@ mod tests {
             let reference = ProjectedSor::pgs().solve(&p, &tight());
             assert_eq!(reference.status, Status::Converged, "seed {seed}");
             let r = Dantzig::default().solve(&p, &Settings::default());
+            let plain = Dantzig {
+                active_set_steps: 0,
+                ..Dantzig::default()
+            }
+            .solve(&p, &Settings::default());
             assert_eq!(r.status, Status::Converged, "seed {seed}");
             assert_close(&r.f, &reference.f, 1e-7);
+            // The plain fixed point gets there too, in more pivots (measured: 116, 240, 81, 89
+            // against 48, 54, 13, 55 with the active-set step).
+            assert_eq!(plain.status, Status::Converged, "seed {seed}");
+            assert_close(&plain.f, &reference.f, 1e-7);
+            assert!(r.iterations < plain.iterations, "seed {seed}");
             for fr in p.friction() {
                 let (lo, hi) = p.bounds_at(fr.row, &r.f);
                 let f = r.f[fr.row];
