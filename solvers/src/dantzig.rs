@@ -24,8 +24,9 @@
 //!
 //! * **Problem class**: standard and boxed LCP (any bounds, infinite allowed) with friction rows,
 //!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant
-//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot that is
-//!   negative beyond round-off proves `A` is neither and gives `Unsupported`.
+//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
+//!   `−1e-6 · A_ii` proves `A` is neither and gives `Unsupported`; a ray on a matrix that is not
+//!   symmetric PSD (checked by an eigenvalue decomposition, only then) also gives `Unsupported`.
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
@@ -43,6 +44,10 @@
 //!   `Δw` of the rows in `N` and `D`), `O(|C|²)` per change of `C`; about `n` pivots for a
 //!   well-behaved problem, so `O(n³)` per pass. After each row, `f_C` is recomputed from the
 //!   factorisation and `w` refreshed, so round-off does not accumulate across rows.
+//! * **Conditioning check**: if that recomputed `f_C` differs from the tracked one, or leaves its
+//!   box, by more than `1e-6` times the size of `f`, `A_CC` is too ill-conditioned to trust and
+//!   the solve ends in `NumericalFailure` (raise `pivot_tol`); within that, `f_C` is clipped to
+//!   its box.
 //! * **Failure modes**: a drive that no ratio test blocks is a ray and gives `NoSolution` (for PSD
 //!   `A` it proves that no solution exists); the pivot cap ([`Settings::max_iterations`] counts
 //!   drive steps) gives `IterationLimit`; the time budget gives `TimeLimit`; a breakdown of the
@@ -70,7 +75,7 @@ pub struct Dantzig {
     /// friction rows). Default `50`.
     pub friction_passes: usize,
     /// A row joins the clamped set only if its pivot (Schur complement against the clamped set)
-    /// exceeds `pivot_tol · A_ii`. Default `1e-10`.
+    /// exceeds `pivot_tol · A_ii`. Default `1e-8`.
     pub pivot_tol: f64,
     /// Largest number of active-set steps for friction rows (see the module doc); `0` turns
     /// them off. Default `10`.
@@ -81,7 +86,7 @@ impl Default for Dantzig {
     fn default() -> Self {
         Self {
             friction_passes: 50,
-            pivot_tol: 1e-10,
+            pivot_tol: 1e-8,
             active_set_steps: 10,
         }
     }
@@ -171,6 +176,14 @@ impl Solver for Dantzig {
         monitor.finish(best.1, pivots, outcome)
     }
 }
+
+/// A pivot below `−NEGATIVE_PIVOT_TOL · A_ii` proves that `A` is not PSD (nor a P-matrix);
+/// smaller negative pivots are round-off on a zero pivot (rank-deficient `A`).
+const NEGATIVE_PIVOT_TOL: f64 = 1e-6;
+
+/// Largest disagreement, relative to the size of `f`, between the clamped impulses tracked by
+/// the drives and those recomputed from the factorisation after each row.
+const CONDITIONING_TOL: f64 = 1e-6;
 
 /// Plain fixed-point passes run before the active-set refinement of the friction bounds.
 const PASSES_BEFORE_ACTIVE_SET: usize = 4;
@@ -459,7 +472,7 @@ impl<'a> Pass<'a> {
         self.w[i] = 0.0;
         match self.lu.try_add(self.problem, i, self.pivot_tol * self.d[i]) {
             Ok(()) => self.set[i] = Set::Clamped,
-            Err(s) if s < -self.pivot_tol * self.d[i] => return Err(negative_pivot(i, s)),
+            Err(s) if s < -NEGATIVE_PIVOT_TOL * self.d[i] => return Err(negative_pivot(i, s)),
             Err(_) => self.set[i] = Set::Dependent,
         }
         Ok(())
@@ -532,7 +545,7 @@ impl<'a> Pass<'a> {
             dw[i] = rate(i);
             let pivot = dw[i] * dir;
             let tol_i = self.pivot_tol * self.d[i];
-            if pivot < -tol_i {
+            if pivot < -NEGATIVE_PIVOT_TOL * self.d[i] {
                 return Err(negative_pivot(i, pivot));
             }
 
@@ -649,8 +662,22 @@ impl<'a> Pass<'a> {
                 "non-finite clamped impulses after a factorisation solve".into(),
             ));
         }
+        // The recomputed f_C must agree with the one the drives tracked and stay in its box;
+        // if not, A_CC is too ill-conditioned for the factorisation to be trusted.
+        let size = self.x.iter().fold(self.scale, |m, v| m.max(v.abs()));
+        let tol = CONDITIONING_TOL * size;
+        for (&c, &v) in rows.iter().zip(&rhs) {
+            let (drift, outside) = ((v - self.x[c]).abs(), (self.lo[c] - v).max(v - self.hi[c]));
+            if drift > tol || outside > tol {
+                return Err(Outcome::NumericalFailure(format!(
+                    "ill-conditioned clamped set ({} rows): recomputing f[{c}] moved it by \
+                     {drift:.3e} and {outside:.3e} outside its bounds; raise pivot_tol",
+                    rows.len()
+                )));
+            }
+        }
         for (&c, v) in rows.iter().zip(rhs) {
-            self.x[c] = v;
+            self.x[c] = v.max(self.lo[c]).min(self.hi[c]);
         }
         for (j, (wj, set)) in self.w.iter_mut().zip(&self.set).enumerate() {
             *wj = match set {
@@ -840,6 +867,17 @@ mod tests {
                 assert_eq!(r.status, Status::Converged, "{family:?} seed {seed}");
                 assert!(r.residuals.natural_map_rel <= 1e-8);
             }
+        }
+    }
+
+    #[test]
+    fn rank_deficient_regressions() {
+        // Seed 36: a round-off pivot of ~1e-10 once entered the clamped set and the impulses
+        // blew up; seed 97: a pivot of −1.6e-10 was once taken as proof of an indefinite A.
+        for seed in [36, 97] {
+            let g = generate(Family::PsdRankDeficient { rank: 15 }, 45, seed);
+            let r = Dantzig::default().solve(&g.problem, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "seed {seed}");
         }
     }
 
