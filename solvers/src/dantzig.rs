@@ -1114,4 +1114,20 @@ mod tests {
         let r = crate::Lemke::default().solve(&p, &Settings::default());
         assert_eq!((r.status, r.iterations), (Status::Converged, 0));
     }
+
+    #[test]
+    fn scale_invariant() {
+        // A and b scaled independently by 1e-9 and 1e9: the solution scales by sb / sa.
+        let g = generate(Family::Spd { cond: 1e3 }, 20, 4);
+        let (a0, b0) = (g.problem.a(), g.problem.b());
+        for (sa, sb) in [(1e-9, 1e9), (1e9, 1e-9), (1e-9, 1e-9)] {
+            let a = Mat::from_fn(20, 20, |i, j| sa * a0[(i, j)]);
+            let b = b0.iter().map(|v| sb * v).collect();
+            let r = Dantzig::default().solve(&Problem::lcp(a, b).unwrap(), &Settings::default());
+            assert_eq!(r.status, Status::Converged, "sa = {sa}, sb = {sb}");
+            for (x, y) in r.f.iter().zip(g.solution.as_ref().unwrap()) {
+                assert!((x * sa / sb - y).abs() < 1e-9, "sa = {sa}, sb = {sb}");
+            }
+        }
+    }
 }
