@@ -46,7 +46,7 @@
 //!   Neither the fixed point nor the active-set steps are guaranteed to converge (the coupled
 //!   problem is not a P-matrix problem in general and may have spurious solutions). Measured on
 //!   720 random contact problems (2–30 contacts with random Jacobians on 6 or 18 degrees of
-//!   freedom, `mu` 0.1–1, `A = J Jᵀ + eps I` with `eps` 1e-3 or 1e-6): 667 converged to `1e-8`,
+//!   freedom, `mu` 0.1–1, `A = J Jᵀ + eps I` with `eps` 1e-3 or 1e-6): 688 converged to `1e-8`,
 //!   the others ended `Stalled` or `IterationLimit` with the best residual found.
 //! * **Cost**: `O(n·|C|)` per pivot (a triangular solve with the factorisation and the rates
 //!   `Δw` of the rows in `N` and `D`), `O(|C|²)` per change of `C`; about `n` pivots for a
