@@ -24,18 +24,40 @@
 //!
 //! * **Problem class**: standard and boxed LCP (any bounds, infinite allowed) with friction rows,
 //!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant
-//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot that is
-//!   negative beyond round-off proves `A` is neither and gives `Unsupported`.
+//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
+//!   `−1e-6 · A_ii` proves `A` is neither and gives `Unsupported`; a ray on a matrix that is not
+//!   symmetric PSD (checked by an eigenvalue decomposition, only then) also gives `Unsupported`.
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
-//!   the previous pass's normals, up to [`Dantzig::friction_passes`] passes, until the bounds
-//!   stop changing (a fixed point). The shared residual decides whether the returned `f` meets
-//!   the bounds at its own normals.
+//!   the previous pass's normals (a fixed point), up to 4 passes or until the bounds stop moving.
+//!   If the shared residual is still above tolerance, *active-set steps* follow: every friction
+//!   row that slides (at a bound, with `w_t` of the sliding sign) is eliminated by
+//!   `f_t = ±mu f_k`, which adds `±mu A_{:,t}` to column `k` (a non-symmetric problem, solved by
+//!   the same passes), and the sliding set is re-read from the result, up to
+//!   [`Dantzig::active_set_steps`] times. When the sliding set is right this gives the exact
+//!   fixed point in one step. When the coupled matrix is not a P-matrix (a negative pivot),
+//!   [`crate::Lemke`] solves the coupled problem instead, with the sticking rows' bounds fixed at
+//!   the current normals and at most `20 n` pivots. The steps go on while they succeed or improve
+//!   the impulse; after them, if needed, the plain fixed point resumes from the best impulse so
+//!   far, for up to [`Dantzig::friction_passes`] passes in all. The impulse with the smallest
+//!   shared residual is returned; the residual decides whether it meets the bounds at its own
+//!   normals. Every pivot, Lemke's included, counts against [`Settings::max_iterations`].
+//!   Neither the fixed point nor the active-set steps are guaranteed to converge (the coupled
+//!   problem is not a P-matrix problem in general and may have spurious solutions). Measured on
+//!   720 random contact problems (2–30 contacts with random Jacobians on 6 or 18 degrees of
+//!   freedom, `mu` 0.1–1, `A = J Jᵀ + eps I` with `eps` 1e-3 or 1e-6): 688 converged to `1e-8`,
+//!   the others ended `Stalled` or `IterationLimit` with the best residual found.
 //! * **Cost**: `O(n·|C|)` per pivot (a triangular solve with the factorisation and the rates
 //!   `Δw` of the rows in `N` and `D`), `O(|C|²)` per change of `C`; about `n` pivots for a
-//!   well-behaved problem, so `O(n³)` per pass. After each row, `f_C` is recomputed from the
-//!   factorisation and `w` refreshed, so round-off does not accumulate across rows.
+//!   well-behaved problem, so `O(n³)` per pass. Passes after the first restart from a snapshot
+//!   taken after the normal rows, which do not depend on the friction bounds. After each row,
+//!   `f_C` is recomputed from the factorisation and `w` refreshed, so round-off does not
+//!   accumulate across rows.
+//! * **Conditioning check**: if that recomputed `f_C` differs from the tracked one, or leaves its
+//!   box, by more than `1e-6` times the size of `f`, `A_CC` is too ill-conditioned to trust and
+//!   the solve ends in `NumericalFailure` (raise `pivot_tol`); within that, `f_C` is clipped to
+//!   its box.
 //! * **Failure modes**: a drive that no ratio test blocks is a ray and gives `NoSolution` (for PSD
 //!   `A` it proves that no solution exists); the pivot cap ([`Settings::max_iterations`] counts
 //!   drive steps) gives `IterationLimit`; the time budget gives `TimeLimit`; a breakdown of the
@@ -48,8 +70,10 @@
 //! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
 //! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
+use crate::lemke::Lemke;
+use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver, Status};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
@@ -58,19 +82,23 @@ pub(crate) const PROBLEM_CLASSES: &str =
 /// Dantzig-style principal pivoting. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dantzig {
-    /// Largest number of passes of the friction-bound fixed point (ignored without friction
-    /// rows). Default `50`.
+    /// Largest number of passes of the plain friction-bound fixed point (ignored without
+    /// friction rows). Default `50`.
     pub friction_passes: usize,
     /// A row joins the clamped set only if its pivot (Schur complement against the clamped set)
-    /// exceeds `pivot_tol · A_ii`. Default `1e-10`.
+    /// exceeds `pivot_tol · A_ii`. Default `1e-8`.
     pub pivot_tol: f64,
+    /// Largest number of active-set steps for friction rows (see the module doc); `0` turns
+    /// them off. Default `10`.
+    pub active_set_steps: usize,
 }
 
 impl Default for Dantzig {
     fn default() -> Self {
         Self {
             friction_passes: 50,
-            pivot_tol: 1e-10,
+            pivot_tol: 1e-8,
+            active_set_steps: 10,
         }
     }
 }
@@ -86,6 +114,144 @@ impl Solver for Dantzig {
             let reason = format!("pivot_tol = {} must be finite and > 0", self.pivot_tol);
             return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
         }
+        let mut pivots = 0;
+        let tol = settings.tolerance;
+        let passes = self.friction_passes.max(1);
+        let first = passes.min(PASSES_BEFORE_ACTIVE_SET);
+        let (f, mut outcome) = self.fixed_point(
+            problem,
+            None,
+            first,
+            settings,
+            &mut monitor,
+            &mut pivots,
+            true,
+        );
+        let mut best = (residuals(problem, &f).natural_map_rel, f);
+        if problem.friction().is_empty() || outcome != Outcome::Stopped || best.0 <= tol {
+            return monitor.finish(best.1, pivots, outcome);
+        }
+        // Active-set refinement of the friction bounds.
+        let mut current = best.1.clone();
+        let mut last_sliding = Vec::new();
+        for _ in 0..self.active_set_steps {
+            let sliding = sliding_rows(problem, &current);
+            if sliding == last_sliding {
+                break;
+            }
+            let Some(reduced) = Coupled::new(problem, &sliding) else {
+                break;
+            };
+            let (g, mut o) = self.fixed_point(
+                &reduced.problem,
+                None,
+                passes,
+                settings,
+                &mut monitor,
+                &mut pivots,
+                false,
+            );
+            let mut f = reduced.expand(&g);
+            let mut r = residuals(problem, &f).natural_map_rel;
+            if !matches!(
+                o,
+                Outcome::Stopped | Outcome::IterationLimit | Outcome::TimeLimit
+            ) {
+                // The coupled matrix is not a P-matrix (a negative pivot) or the pass broke
+                // down: try Lemke on it, with the sticking rows' bounds fixed at the current
+                // normals.
+                let remaining = settings.max_iterations.saturating_sub(pivots);
+                let sub = Settings {
+                    max_iterations: remaining.min(LEMKE_PIVOTS_PER_ROW * problem.n()),
+                    time_budget: settings
+                        .time_budget
+                        .map(|b| b.saturating_sub(monitor.elapsed())),
+                    warm_start: None,
+                    record_history: false,
+                    tolerance: settings.tolerance,
+                };
+                let lemke = Lemke::default().solve(&reduced.with_fixed_bounds(&current), &sub);
+                pivots += lemke.iterations;
+                o = match lemke.status {
+                    Status::Converged => Outcome::Stopped,
+                    Status::IterationLimit if lemke.iterations >= remaining => {
+                        Outcome::IterationLimit
+                    }
+                    Status::TimeLimit => Outcome::TimeLimit,
+                    _ => o,
+                };
+                let fl = reduced.expand(&lemke.f);
+                let rl = residuals(problem, &fl).natural_map_rel;
+                if rl < r {
+                    (f, r) = (fl, rl);
+                }
+            }
+            let improved = r < best.0;
+            if improved {
+                best = (r, f.clone());
+            }
+            if matches!(o, Outcome::IterationLimit | Outcome::TimeLimit) {
+                outcome = o;
+                break;
+            }
+            // Go on while the coupled solves succeed or at least improve the impulse.
+            if best.0 <= tol || (o != Outcome::Stopped && !improved) {
+                break;
+            }
+            last_sliding = sliding;
+            current = f;
+        }
+        // Otherwise, continue the plain fixed point from the best impulse so far.
+        if best.0 > tol && outcome == Outcome::Stopped && passes > first {
+            let normals: Vec<f64> = best.1.iter().map(|v| v.max(0.0)).collect();
+            let (f, o) = self.fixed_point(
+                problem,
+                Some(normals),
+                passes - first,
+                settings,
+                &mut monitor,
+                &mut pivots,
+                true,
+            );
+            let r = residuals(problem, &f).natural_map_rel;
+            if r < best.0 {
+                best = (r, f);
+            }
+            outcome = o;
+        }
+        monitor.finish(best.1, pivots, outcome)
+    }
+}
+
+/// A pivot below `−NEGATIVE_PIVOT_TOL · A_ii` proves that `A` is not PSD (nor a P-matrix);
+/// smaller negative pivots are round-off on a zero pivot (rank-deficient `A`).
+const NEGATIVE_PIVOT_TOL: f64 = 1e-6;
+
+/// Largest disagreement, relative to the size of `f`, between the clamped impulses tracked by
+/// the drives and those recomputed from the factorisation after each row.
+const CONDITIONING_TOL: f64 = 1e-6;
+
+/// Cap on the pivots of one Lemke solve of a coupled problem, per row of the full problem.
+const LEMKE_PIVOTS_PER_ROW: usize = 20;
+
+/// Plain fixed-point passes run before the active-set refinement of the friction bounds.
+const PASSES_BEFORE_ACTIVE_SET: usize = 4;
+
+impl Dantzig {
+    /// Up to `passes` principal-pivoting passes, the friction bounds frozen at the previous
+    /// pass's normals (the first pass takes them from `frozen`, or from each normal as its
+    /// friction row is added). Stops when the bounds no longer move.
+    #[allow(clippy::too_many_arguments)]
+    fn fixed_point(
+        &self,
+        problem: &Problem,
+        mut frozen: Option<Vec<f64>>,
+        passes: usize,
+        settings: &Settings,
+        monitor: &mut Monitor<'_>,
+        pivots: &mut usize,
+        record: bool,
+    ) -> (Vec<f64>, Outcome) {
         let n = problem.n();
         // Normal (and plain) rows first, then friction rows, each in index order.
         let order: Vec<usize> = (0..n)
@@ -97,44 +263,184 @@ impl Solver for Dantzig {
             .map(|i| (problem.b()[i] / d[i]).abs())
             .fold(0.0, f64::max);
         let scale = if scale > 0.0 { scale } else { 1.0 };
-        let mut pivots = 0;
-        let mut frozen: Option<Vec<f64>> = None;
         let passes = if problem.friction().is_empty() {
             1
         } else {
-            self.friction_passes.max(1)
+            passes
         };
+        // The normal rows come first and do not depend on the friction bounds, so every pass
+        // starts from one snapshot of the state after them.
+        let split = order
+            .iter()
+            .position(|&i| problem.friction_of(i).is_some())
+            .unwrap_or(order.len());
+        let mut base: Option<Pass<'_>> = None;
         let mut f = vec![0.0; n];
-        let mut outcome = Outcome::Stopped;
         for _ in 0..passes {
-            let mut pass = Pass::new(problem, self.pivot_tol, &d, scale, frozen.as_deref());
-            let result = pass.run(&order, &mut pivots, settings, &mut monitor);
+            let mut pass = match &base {
+                Some(snapshot) => snapshot.clone(),
+                None => {
+                    let mut pass = Pass::new(problem, self.pivot_tol, &d, scale);
+                    pass.record = record;
+                    if let Err(o) = pass.run(&order[..split], pivots, settings, monitor) {
+                        return (pass.x, o);
+                    }
+                    base = Some(pass.clone());
+                    pass
+                }
+            };
+            pass.frozen = frozen.clone();
+            let result = pass.run(&order[split..], pivots, settings, monitor);
             f = pass.x;
             if let Err(o) = result {
-                outcome = o;
-                break;
+                return (f, o);
             }
             // Fixed point of the friction bounds: stop when the normals that set them moved
             // by less than round-off.
-            let normals: Vec<f64> = (0..n).map(|k| f[k].max(0.0)).collect();
-            let moved = match &frozen {
-                None => problem
-                    .friction()
-                    .iter()
-                    .map(|fr| (pass.friction_bound_used[fr.row] - fr.mu * normals[fr.normal]).abs())
-                    .fold(0.0, f64::max),
-                Some(prev) => problem
-                    .friction()
-                    .iter()
-                    .map(|fr| fr.mu * (prev[fr.normal] - normals[fr.normal]).abs())
-                    .fold(0.0, f64::max),
-            };
+            let normals: Vec<f64> = f.iter().map(|v| v.max(0.0)).collect();
+            let moved = problem
+                .friction()
+                .iter()
+                .map(|fr| {
+                    let used = pass.friction_bound_used[fr.row];
+                    (used - fr.mu * normals[fr.normal]).abs()
+                })
+                .fold(0.0, f64::max);
             if moved <= 1e-13 * scale {
                 break;
             }
             frozen = Some(normals);
         }
-        monitor.finish(f, pivots, outcome)
+        (f, Outcome::Stopped)
+    }
+}
+
+/// Friction rows of `f` that slide, with the sign of their bound: `f_t ≠ 0` (at a bound
+/// `±mu f_k`, possibly one frozen at older normals), `w_t` not of the sticking sign, and either
+/// `w_t` strictly of the sliding sign (rows inside their box have `w_t = 0`) or `f_t` at the bound
+/// of the current normal.
+fn sliding_rows(problem: &Problem, f: &[f64]) -> Vec<(usize, f64)> {
+    let w = problem.velocity(f);
+    let d = problem.diagonal_scale();
+    let scale = (0..problem.n())
+        .map(|i| (problem.b()[i] / d[i]).abs())
+        .fold(0.0, f64::max);
+    problem
+        .friction()
+        .iter()
+        .filter_map(|fr| {
+            let c = fr.mu * f[fr.normal].max(0.0);
+            let t = f[fr.row];
+            let sign = if t > 0.0 { 1.0 } else { -1.0 };
+            let tol = 1e-10 * d[fr.row] * scale;
+            let slips = w[fr.row] * sign < -tol;
+            let sticks = w[fr.row] * sign > tol;
+            let at_bound = t.abs() >= c * (1.0 - 1e-6);
+            (c > 0.0 && t != 0.0 && !sticks && (slips || at_bound)).then_some((fr.row, sign))
+        })
+        .collect()
+}
+
+/// The problem with the sliding friction rows `t` eliminated by `f_t = sign · mu · f_k`: column
+/// `k` of `A` gains `sign · mu · A_{:,t}` (so `A` becomes non-symmetric), and row `t` is dropped.
+struct Coupled {
+    problem: Problem,
+    /// Original row of each kept row.
+    kept: Vec<usize>,
+    /// `(t, k, sign · mu)` per eliminated row.
+    sliding: Vec<(usize, usize, f64)>,
+    n: usize,
+}
+
+impl Coupled {
+    fn new(problem: &Problem, sliding: &[(usize, f64)]) -> Option<Self> {
+        let n = problem.n();
+        let mut gone = vec![false; n];
+        let sliding: Vec<(usize, usize, f64)> = sliding
+            .iter()
+            .map(|&(t, sign)| {
+                gone[t] = true;
+                let (k, mu) = problem.friction_of(t).expect("a friction row");
+                (t, k, sign * mu)
+            })
+            .collect();
+        let kept: Vec<usize> = (0..n).filter(|&i| !gone[i]).collect();
+        let mut new_index = vec![usize::MAX; n];
+        for (r, &i) in kept.iter().enumerate() {
+            new_index[i] = r;
+        }
+        let a = problem.a();
+        let mut full = a.clone();
+        for &(t, k, s) in &sliding {
+            for r in 0..n {
+                full[(r, k)] += s * a[(r, t)];
+            }
+        }
+        let m = kept.len();
+        let reduced = faer::Mat::from_fn(m, m, |r, c| full[(kept[r], kept[c])]);
+        let pick = |v: &[f64]| kept.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let friction = problem
+            .friction()
+            .iter()
+            .filter(|fr| !gone[fr.row])
+            .map(|fr| crate::problem::FrictionRow {
+                row: new_index[fr.row],
+                normal: new_index[fr.normal],
+                mu: fr.mu,
+            })
+            .collect();
+        let lo: Vec<f64> = kept
+            .iter()
+            .map(|&i| {
+                if problem.friction_of(i).is_some() {
+                    0.0
+                } else {
+                    problem.lo()[i]
+                }
+            })
+            .collect();
+        let hi: Vec<f64> = kept
+            .iter()
+            .map(|&i| {
+                if problem.friction_of(i).is_some() {
+                    0.0
+                } else {
+                    problem.hi()[i]
+                }
+            })
+            .collect();
+        let problem = Problem::boxed(reduced, pick(problem.b()), lo, hi, friction).ok()?;
+        Some(Self {
+            problem,
+            kept,
+            sliding,
+            n,
+        })
+    }
+
+    /// The reduced problem with its friction rows given fixed bounds `±mu f_k` at the normals of
+    /// the full impulse `f`.
+    fn with_fixed_bounds(&self, f: &[f64]) -> Problem {
+        let p = &self.problem;
+        let (mut lo, mut hi) = (p.lo().to_vec(), p.hi().to_vec());
+        for fr in p.friction() {
+            let c = fr.mu * f[self.kept[fr.normal]].max(0.0);
+            lo[fr.row] = -c;
+            hi[fr.row] = c;
+        }
+        Problem::boxed(p.a().clone(), p.b().to_vec(), lo, hi, Vec::new()).expect("valid bounds")
+    }
+
+    /// The full impulse from the reduced one.
+    fn expand(&self, g: &[f64]) -> Vec<f64> {
+        let mut f = vec![0.0; self.n];
+        for (&i, &v) in self.kept.iter().zip(g) {
+            f[i] = v;
+        }
+        for &(t, k, s) in &self.sliding {
+            f[t] = s * f[k];
+        }
+        f
     }
 }
 
@@ -167,6 +473,7 @@ enum Event {
 }
 
 /// One principal-pivoting pass with fixed bounds for every row.
+#[derive(Clone)]
 struct Pass<'a> {
     problem: &'a Problem,
     pivot_tol: f64,
@@ -174,7 +481,7 @@ struct Pass<'a> {
     /// Scale of `f` (`max |b_i| / d_i`), for tolerances.
     scale: f64,
     /// Normals that fix the friction bounds (`None`: take them when the row is added).
-    frozen: Option<&'a [f64]>,
+    frozen: Option<Vec<f64>>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     x: Vec<f64>,
@@ -183,16 +490,12 @@ struct Pass<'a> {
     lu: ClampedLu,
     /// The half-width `mu f_k` each friction row was given.
     friction_bound_used: Vec<f64>,
+    /// Record the history (off for the reduced problems of the active-set steps).
+    record: bool,
 }
 
 impl<'a> Pass<'a> {
-    fn new(
-        problem: &'a Problem,
-        pivot_tol: f64,
-        d: &'a [f64],
-        scale: f64,
-        frozen: Option<&'a [f64]>,
-    ) -> Self {
+    fn new(problem: &'a Problem, pivot_tol: f64, d: &'a [f64], scale: f64) -> Self {
         let n = problem.n();
         let (mut lo, mut hi) = (problem.lo().to_vec(), problem.hi().to_vec());
         for fr in problem.friction() {
@@ -205,7 +508,7 @@ impl<'a> Pass<'a> {
             pivot_tol,
             d,
             scale,
-            frozen,
+            frozen: None,
             lo,
             hi,
             x,
@@ -213,6 +516,7 @@ impl<'a> Pass<'a> {
             set: vec![Set::Pending; n],
             lu: ClampedLu::new(n),
             friction_bound_used: vec![0.0; n],
+            record: true,
         }
     }
 
@@ -225,7 +529,7 @@ impl<'a> Pass<'a> {
     ) -> Result<(), Outcome> {
         for &i in order {
             if let Some((k, mu)) = self.problem.friction_of(i) {
-                let normal = self.frozen.map_or(self.x[k], |f| f[k]);
+                let normal = self.frozen.as_ref().map_or(self.x[k], |f| f[k]);
                 let c = mu * normal.max(0.0);
                 self.friction_bound_used[i] = c;
                 self.lo[i] = -c;
@@ -247,7 +551,7 @@ impl<'a> Pass<'a> {
         self.w[i] = 0.0;
         match self.lu.try_add(self.problem, i, self.pivot_tol * self.d[i]) {
             Ok(()) => self.set[i] = Set::Clamped,
-            Err(s) if s < -self.pivot_tol * self.d[i] => return Err(negative_pivot(i, s)),
+            Err(s) if s < -NEGATIVE_PIVOT_TOL * self.d[i] => return Err(negative_pivot(i, s)),
             Err(_) => self.set[i] = Set::Dependent,
         }
         Ok(())
@@ -320,7 +624,7 @@ impl<'a> Pass<'a> {
             dw[i] = rate(i);
             let pivot = dw[i] * dir;
             let tol_i = self.pivot_tol * self.d[i];
-            if pivot < -tol_i {
+            if pivot < -NEGATIVE_PIVOT_TOL * self.d[i] {
                 return Err(negative_pivot(i, pivot));
             }
 
@@ -380,7 +684,9 @@ impl<'a> Pass<'a> {
                 }
             }
             self.w[i] += s * dw[i];
-            monitor.record(*pivots, &self.x);
+            if self.record {
+                monitor.record(*pivots, &self.x);
+            }
 
             match event {
                 Event::RowClamps => return self.clamp_or_depend(i),
@@ -435,8 +741,22 @@ impl<'a> Pass<'a> {
                 "non-finite clamped impulses after a factorisation solve".into(),
             ));
         }
+        // The recomputed f_C must agree with the one the drives tracked and stay in its box;
+        // if not, A_CC is too ill-conditioned for the factorisation to be trusted.
+        let size = self.x.iter().fold(self.scale, |m, v| m.max(v.abs()));
+        let tol = CONDITIONING_TOL * size;
+        for (&c, &v) in rows.iter().zip(&rhs) {
+            let (drift, outside) = ((v - self.x[c]).abs(), (self.lo[c] - v).max(v - self.hi[c]));
+            if drift > tol || outside > tol {
+                return Err(Outcome::NumericalFailure(format!(
+                    "ill-conditioned clamped set ({} rows): recomputing f[{c}] moved it by \
+                     {drift:.3e} and {outside:.3e} outside its bounds; raise pivot_tol",
+                    rows.len()
+                )));
+            }
+        }
         for (&c, v) in rows.iter().zip(rhs) {
-            self.x[c] = v;
+            self.x[c] = v.max(self.lo[c]).min(self.hi[c]);
         }
         for (j, (wj, set)) in self.w.iter_mut().zip(&self.set).enumerate() {
             *wj = match set {
@@ -478,6 +798,7 @@ fn negative_pivot(i: usize, pivot: f64) -> Outcome {
 
 /// `A_CC = L U` (unit lower `L`, no row exchanges) for the clamped rows in factor order, stored
 /// row-major with stride `cap`.
+#[derive(Clone)]
 struct ClampedLu {
     cap: usize,
     rows: Vec<usize>,
@@ -630,6 +951,17 @@ mod tests {
     }
 
     #[test]
+    fn rank_deficient_regressions() {
+        // Seed 36: a round-off pivot of ~1e-10 once entered the clamped set and the impulses
+        // blew up; seed 97: a pivot of −1.6e-10 was once taken as proof of an indefinite A.
+        for seed in [36, 97] {
+            let g = generate(Family::PsdRankDeficient { rank: 15 }, 45, seed);
+            let r = Dantzig::default().solve(&g.problem, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "seed {seed}");
+        }
+    }
+
+    #[test]
     fn boxed_problems_match_pgs() {
         // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
         let n = 10;
@@ -700,8 +1032,18 @@ mod tests {
             let reference = ProjectedSor::pgs().solve(&p, &tight());
             assert_eq!(reference.status, Status::Converged, "seed {seed}");
             let r = Dantzig::default().solve(&p, &Settings::default());
+            let plain = Dantzig {
+                active_set_steps: 0,
+                ..Dantzig::default()
+            }
+            .solve(&p, &Settings::default());
             assert_eq!(r.status, Status::Converged, "seed {seed}");
             assert_close(&r.f, &reference.f, 1e-7);
+            // The plain fixed point gets there too, in more pivots (measured: 76, 168, 56, 61
+            // against 33, 42, 10, 39 with the active-set step).
+            assert_eq!(plain.status, Status::Converged, "seed {seed}");
+            assert_close(&plain.f, &reference.f, 1e-7);
+            assert!(r.iterations < plain.iterations, "seed {seed}");
             for fr in p.friction() {
                 let (lo, hi) = p.bounds_at(fr.row, &r.f);
                 let f = r.f[fr.row];
@@ -713,6 +1055,13 @@ mod tests {
             }
         }
         assert_eq!(sticking_and_sliding, (true, true));
+        // 30 contacts on 18 degrees of freedom: the coupled matrix is not a P-matrix and Lemke
+        // solves the active-set steps (measured: 969 pivots; the plain fixed point needs about
+        // 8800).
+        let p = random_contacts(30, 18, 0.4, 1e-3, 2);
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert!(r.iterations < 2000, "{} pivots", r.iterations);
     }
 
     /// A unit box resting on the ground on its four bottom corners, with velocity `v`
@@ -776,6 +1125,20 @@ mod tests {
             let total: f64 = (0..4).map(|c| r.f[k * c]).sum();
             assert!(total >= 1.0 - 1e-9, "v = {v:?}: {:?}", r.f);
         }
+        // Nearly identical rows (a PSD perturbation of 1e-9): no blow-up either.
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let g = Mat::from_fn(4, 4, |_, _| crate::generate::gaussian(&mut rng));
+        let a = Mat::from_fn(4, 4, |i, j| {
+            1.0 + 1e-9 * (0..4).map(|k| g[(i, k)] * g[(j, k)]).sum::<f64>()
+        });
+        let p = Problem::lcp(a, vec![-1.0; 4]).unwrap();
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged, "{:?}", r.f);
+        assert!(
+            r.f.iter().all(|v| (0.0..=1.0 + 1e-6).contains(v)),
+            "{:?}",
+            r.f
+        );
         // Four identical rows: any split summing to 1 solves it, and none may blow up.
         let ones = vec![1.0; 4];
         let a: Vec<&[f64]> = vec![&ones; 4];
@@ -828,5 +1191,30 @@ mod tests {
         };
         let r = Dantzig::default().solve(&g.problem, &timed);
         assert_eq!(r.status, Status::TimeLimit);
+    }
+
+    #[test]
+    fn empty_problem() {
+        let p = Problem::lcp(Mat::zeros(0, 0), vec![]).unwrap();
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!((r.status, r.iterations), (Status::Converged, 0));
+        let r = crate::Lemke::default().solve(&p, &Settings::default());
+        assert_eq!((r.status, r.iterations), (Status::Converged, 0));
+    }
+
+    #[test]
+    fn scale_invariant() {
+        // A and b scaled independently by 1e-9 and 1e9: the solution scales by sb / sa.
+        let g = generate(Family::Spd { cond: 1e3 }, 20, 4);
+        let (a0, b0) = (g.problem.a(), g.problem.b());
+        for (sa, sb) in [(1e-9, 1e9), (1e9, 1e-9), (1e-9, 1e-9)] {
+            let a = Mat::from_fn(20, 20, |i, j| sa * a0[(i, j)]);
+            let b = b0.iter().map(|v| sb * v).collect();
+            let r = Dantzig::default().solve(&Problem::lcp(a, b).unwrap(), &Settings::default());
+            assert_eq!(r.status, Status::Converged, "sa = {sa}, sb = {sb}");
+            for (x, y) in r.f.iter().zip(g.solution.as_ref().unwrap()) {
+                assert!((x * sa / sb - y).abs() < 1e-9, "sa = {sa}, sb = {sb}");
+            }
+        }
     }
 }
