@@ -7,10 +7,13 @@
 //!   the boxed LCP (for the standard LCP it is `‖min(f, w)‖∞`).
 //! * **relative natural-map residual** `r_rel = ‖f − mid(lo, hi, f − D⁻¹ w)‖∞ / s` with
 //!   `D = diag(d)` the [diagonal scale](crate::Problem::diagonal_scale) (`d_i = A_ii`, guarded
-//!   away from zero) and `s = max(‖f‖∞, ‖D⁻¹ b‖∞)` (`s = 1` when both are zero). Scaling `(A, b)`
-//!   to `(σA, σb)` leaves `f`, `D⁻¹w` and `D⁻¹b` unchanged, so `r_rel` is unchanged; scaling `b`
-//!   alone by `σ` scales the solution, numerator and `s` together, so `r_rel` is unchanged again
-//!   (for finite bounds that scale with it). This is the number every tolerance refers to.
+//!   away from zero) and `s = max(‖D⁻¹ b‖∞, β)`, where `β` is the largest finite magnitude among
+//!   the fixed bounds (`s = 1` when both are zero). `D⁻¹ b` is an impulse scale: the impulse that
+//!   would zero each row's velocity alone. Scaling `(A, b)` to `(σA, σb)` leaves `f`, `D⁻¹w` and
+//!   `D⁻¹b` unchanged, so `r_rel` is unchanged; scaling `b` alone by `σ` (with bounds `0`/`±∞`)
+//!   scales the solution, the numerator and `s` together, so `r_rel` is unchanged again. The scale
+//!   deliberately does not include `‖f‖`: a blown-up impulse must not make its own residual look
+//!   small. This is the number every tolerance refers to.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
@@ -58,6 +61,19 @@ pub fn residuals(problem: &Problem, f: &[f64]) -> Residuals {
     residuals_with_velocity(problem, f, &w, &problem.diagonal_scale())
 }
 
+/// The normalisation `s = max(‖D⁻¹ b‖∞, β)` of the relative residual (see the module doc), or 1
+/// when it is zero. `d` is the problem's [diagonal scale](Problem::diagonal_scale). Iterative
+/// solvers use it for their own stopping rules so that they stop where the shared residual agrees.
+pub fn residual_scale(problem: &Problem, d: &[f64]) -> f64 {
+    let b = problem.b();
+    let s = (0..problem.n()).fold(problem.bound_scale(), |m, i| m.max((b[i] / d[i]).abs()));
+    if s > 0.0 {
+        s
+    } else {
+        1.0
+    }
+}
+
 /// Residuals of `f` given `w = A f + b` and the problem's diagonal scale (both precomputed).
 pub fn residuals_with_velocity(problem: &Problem, f: &[f64], w: &[f64], d: &[f64]) -> Residuals {
     if f.iter().chain(w).any(|v| !v.is_finite()) {
@@ -70,7 +86,6 @@ pub fn residuals_with_velocity(problem: &Problem, f: &[f64], w: &[f64], d: &[f64
         complementarity_gap: 0.0,
         bound_violation: 0.0,
     };
-    let mut scale: f64 = 0.0;
     for i in 0..problem.n() {
         let (lo, hi) = problem.bounds_at(i, f);
         let fi = f[i];
@@ -85,11 +100,8 @@ pub fn residuals_with_velocity(problem: &Problem, f: &[f64], w: &[f64], d: &[f64
             r.complementarity_gap += (hi - fi).max(0.0) * (-w[i]).max(0.0);
         }
         r.bound_violation = r.bound_violation.max(lo - fi).max(fi - hi);
-        scale = scale.max(fi.abs()).max((b[i] / d[i]).abs());
     }
-    if scale > 0.0 {
-        r.natural_map_rel /= scale;
-    }
+    r.natural_map_rel /= residual_scale(problem, d);
     r
 }
 

@@ -52,6 +52,7 @@
 //! University of California, Berkeley, 1996, ch. 4; B. Mirtich and J. Canny, *Impulse-based
 //! simulation of rigid bodies*, Proc. Symposium on Interactive 3D Graphics, 1995.
 
+use crate::metrics::residual_scale;
 use crate::problem::Problem;
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
 
@@ -103,7 +104,7 @@ impl Solver for MicroImpulse {
             .filter(|&i| a[(i, i)] > self.diagonal_floor * amax)
             .collect();
         let d = problem.diagonal_scale();
-        let b_scale = (0..n).fold(0.0_f64, |m, i| m.max((b[i] / d[i]).abs()));
+        let scale = residual_scale(problem, &d);
         let mut f = initial_impulse(problem, settings);
         let mut w = problem.velocity(&f);
         let tol = settings.tolerance;
@@ -126,8 +127,6 @@ impl Solver for MicroImpulse {
                     "non-finite impulse after {impulses} impulses"
                 ));
             }
-            let f_scale = f.iter().fold(b_scale, |m, v| m.max(v.abs()));
-            let scale = if f_scale > 0.0 { f_scale } else { 1.0 };
             let row = match best {
                 Some(i) if best_step.abs() > tol * scale => i,
                 _ => {

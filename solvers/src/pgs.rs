@@ -15,14 +15,15 @@
 //!   left at its initial (projected) value; if that leaves it violated, the shared residual shows
 //!   it and the status is not `Converged`.
 //! * **Stopping rule**: the largest scaled update `max_i |Δf_i|` of a sweep (the natural-map
-//!   residual of the sweep's running iterate) falls below `tolerance · s`; the shared residual is
+//!   residual of the sweep's running iterate) falls below `tolerance · s`, with `s` the shared
+//!   [`residual_scale`]; the shared residual is
 //!   then recomputed and the sweeps continue if it is not yet within tolerance.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds.
 //!
 //! Reference: K. Erleben, *Numerical methods for linear complementarity problems in physics-based
 //! animation*, SIGGRAPH course notes 2013, §4; Cottle–Pang–Stone 1992, §5.2.
 
-use crate::metrics::residuals;
+use crate::metrics::{residual_scale, residuals};
 use crate::problem::{dot, Problem};
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
 
@@ -77,6 +78,7 @@ impl Solver for ProjectedSor {
             .map(|i| problem.a()[(i, i)] <= 1e-12 * amax)
             .collect();
         let d = problem.diagonal_scale();
+        let scale = residual_scale(problem, &d);
         let mut f = initial_impulse(problem, settings);
         let tol = settings.tolerance;
         let mut iterations = 0;
@@ -88,7 +90,6 @@ impl Solver for ProjectedSor {
                 break Outcome::TimeLimit;
             }
             let mut max_step: f64 = 0.0;
-            let mut scale: f64 = 0.0;
             for i in 0..n {
                 if skip[i] {
                     continue;
@@ -98,7 +99,6 @@ impl Solver for ProjectedSor {
                 let new = (f[i] - omega * wi / d[i]).max(lo).min(hi);
                 max_step = max_step.max((new - f[i]).abs());
                 f[i] = new;
-                scale = scale.max(new.abs()).max((b[i] / d[i]).abs());
             }
             iterations += 1;
             monitor.record(iterations, &f);
@@ -107,7 +107,6 @@ impl Solver for ProjectedSor {
                     "non-finite update in sweep {iterations}"
                 ));
             }
-            let scale = if scale > 0.0 { scale } else { 1.0 };
             if max_step <= tol * scale && residuals(problem, &f).natural_map_rel <= tol {
                 break Outcome::Stopped;
             }

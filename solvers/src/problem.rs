@@ -324,6 +324,16 @@ impl Problem {
         }
     }
 
+    /// Largest finite magnitude among the stored bounds of non-friction rows (0 if none): the
+    /// impulse scale that fixed bounds impose, used by the relative residual.
+    pub fn bound_scale(&self) -> f64 {
+        (0..self.n())
+            .filter(|&i| self.friction_of[i].is_none())
+            .flat_map(|i| [self.lo[i], self.hi[i]])
+            .filter(|v| v.is_finite())
+            .fold(0.0, |m, v| m.max(v.abs()))
+    }
+
     /// `w = A f + b`.
     pub fn velocity(&self, f: &[f64]) -> Vec<f64> {
         (0..self.n())
