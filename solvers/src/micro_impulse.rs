@@ -98,7 +98,6 @@ impl Solver for MicroImpulse {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
         let a = problem.a();
-        let b = problem.b();
         let amax = problem.max_abs_entry();
         let active: Vec<usize> = (0..n)
             .filter(|&i| a[(i, i)] > self.diagonal_floor * amax)
