@@ -79,7 +79,6 @@ pub fn residuals_with_velocity(problem: &Problem, f: &[f64], w: &[f64], d: &[f64
     if f.iter().chain(w).any(|v| !v.is_finite()) {
         return Residuals::INFINITE;
     }
-    let b = problem.b();
     let mut r = Residuals {
         natural_map: 0.0,
         natural_map_rel: 0.0,
