@@ -1,8 +1,21 @@
 //! Rigid-body state (Baraff–Witkin): mass, body-frame inertia, position of the centre of mass,
 //! orientation as a unit quaternion, linear and angular momentum.
+//!
+//! Reference: D. Baraff and A. Witkin, *Physically Based Modeling*, SIGGRAPH course notes
+//! (2001), "Rigid body simulation", section 2 (state `x, q, P, L`; `I = R I_body Rᵀ`).
 
-use crate::shape::Shape;
-use nalgebra::{Matrix3, Point3, UnitQuaternion, Vector3};
+use crate::shape::{Shape, ShapeError};
+use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+
+/// How the mass of a body is given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MassSpec {
+    /// Uniform density `ρ`: mass `ρ V`, inertia integrated over the shape.
+    Density(f64),
+    /// Total mass `m`, spread uniformly over the shape (the inertia is that of density
+    /// `m / V`).
+    Mass(f64),
+}
 
 /// One rigid body. A static body has infinite mass (`inv_mass = 0`, zero inverse inertia).
 #[derive(Debug, Clone)]
@@ -34,6 +47,97 @@ pub struct RigidBody {
 }
 
 impl RigidBody {
+    /// A body of shape `shape` whose centre of mass is at `position`, with velocity `velocity`
+    /// and angular velocity `angular_velocity` (world frame).
+    ///
+    /// A static body gets `mass = ∞`, `inv_mass = 0`, zero `inertia_body` and
+    /// `inv_inertia_body`, and zero momenta (its velocities are ignored); `mass` is then not
+    /// read. A plane must be static.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        name: impl Into<String>,
+        shape: Shape,
+        mass: MassSpec,
+        position: Point3<f64>,
+        orientation: UnitQuaternion<f64>,
+        velocity: Vector3<f64>,
+        angular_velocity: Vector3<f64>,
+        material: usize,
+        is_static: bool,
+    ) -> Result<Self, ShapeError> {
+        shape.validate()?;
+        let finite = |v: &[f64], field| {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(ShapeError::NotFinite {
+                    shape: "rigid body",
+                    field,
+                })
+            }
+        };
+        finite(position.coords.as_slice(), "position")?;
+        finite(orientation.coords.as_slice(), "orientation")?;
+        finite(velocity.as_slice(), "velocity")?;
+        finite(angular_velocity.as_slice(), "angular_velocity")?;
+        let mut body = RigidBody {
+            name: name.into(),
+            shape,
+            mass: f64::INFINITY,
+            inv_mass: 0.0,
+            inertia_body: Matrix3::zeros(),
+            inv_inertia_body: Matrix3::zeros(),
+            position,
+            orientation,
+            linear_momentum: Vector3::zeros(),
+            angular_momentum: Vector3::zeros(),
+            material,
+            is_static,
+        };
+        if is_static {
+            return Ok(body);
+        }
+        let mp = match mass {
+            MassSpec::Density(rho) => body.shape.mass_properties(rho)?,
+            MassSpec::Mass(m) => {
+                if !(m.is_finite() && m > 0.0) {
+                    return Err(ShapeError::BadMass {
+                        field: "mass",
+                        value: m,
+                    });
+                }
+                let unit = body.shape.mass_properties(1.0)?;
+                body.shape.mass_properties(m / unit.volume)?
+            }
+        };
+        let inv_inertia = mp.inertia.try_inverse().ok_or(ShapeError::BadMass {
+            field: "mass",
+            value: mp.mass,
+        })?;
+        body.mass = mp.mass;
+        body.inv_mass = 1.0 / mp.mass;
+        body.inertia_body = mp.inertia;
+        body.inv_inertia_body = inv_inertia;
+        body.linear_momentum = mp.mass * velocity;
+        body.angular_momentum = body.inertia_world() * angular_velocity;
+        Ok(body)
+    }
+
+    /// Pose of the body frame in the world (translation to the centre of mass, then rotation),
+    /// as parry uses it.
+    pub fn iso(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(Translation3::from(self.position.coords), self.orientation)
+    }
+
+    /// Kinetic energy `½ P·v + ½ L·ω` (0 for a static body).
+    pub fn kinetic_energy(&self) -> f64 {
+        if self.is_static {
+            return 0.0;
+        }
+        0.5 * self.linear_momentum.dot(&self.velocity())
+            + 0.5 * self.angular_momentum.dot(&self.angular_velocity())
+    }
+
     /// World-frame inverse inertia `R I⁻¹ Rᵀ`.
     pub fn inv_inertia_world(&self) -> Matrix3<f64> {
         let r = self.orientation.to_rotation_matrix();

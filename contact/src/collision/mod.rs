@@ -1,6 +1,23 @@
 //! Collision detection: broad phase, narrow phase (contact manifolds), time of impact.
+//!
+//! [`CollisionPipeline::detect`] runs the phases in order: the [`broad_phase`] (sweep and
+//! prune over world bounding boxes, planes paired separately) proposes body pairs, the
+//! [`narrow_phase`] turns each pair into contact points with parry's persistent contact
+//! manifolds. [`toi`] finds the first time of contact of a fast body during a step
+//! (bisection and conservative advancement).
+//!
+//! References: D. Baraff and A. Witkin, *Physically Based Modeling*, SIGGRAPH 2001 course
+//! notes ("Rigid body simulation II: nonpenetration constraints"); C. Ericson, *Real-Time
+//! Collision Detection*, Morgan Kaufmann 2005; B. Mirtich, *Impulse-based dynamic simulation
+//! of rigid body systems*, PhD thesis, UC Berkeley 1996; parry, <https://parry.rs/docs/>.
 
+pub mod broad_phase;
+pub mod narrow_phase;
+pub mod toi;
+
+use crate::body::RigidBody;
 use nalgebra::{Point3, Vector3};
+use narrow_phase::NarrowPhase;
 
 /// One contact point between two bodies, as the narrow phase reports it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,4 +34,41 @@ pub struct Contact {
     pub dist: f64,
     /// Identifier stable across steps for the same pair and feature, for warm starting.
     pub key: u64,
+}
+
+/// Candidate body pairs `(i, j)` with `i < j`, sorted, from the broad phase with no margin
+/// (touching or overlapping bounding boxes; planes against every dynamic body reaching them).
+pub fn candidate_pairs(bodies: &[RigidBody]) -> Vec<(usize, usize)> {
+    broad_phase::candidate_pairs_with_margin(bodies, 0.0)
+}
+
+/// Broad plus narrow phase, with the contact manifolds kept between calls.
+///
+/// The cache is indexed by body position in the slice: keep the body list in the same order
+/// from step to step, or call [`CollisionPipeline::clear`] after reordering it.
+#[derive(Debug, Default)]
+pub struct CollisionPipeline {
+    narrow: NarrowPhase,
+}
+
+impl CollisionPipeline {
+    /// Pipeline with an empty manifold cache.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Contacts between all bodies whose surfaces are closer than `prediction` (a distance,
+    /// `>= 0`; contacts with `0 < dist <= prediction` are speculative and keep resting contacts
+    /// alive across steps). For each pair, `body_a < body_b` and the normal points from `a` to
+    /// `b`. Contacts come out grouped by pair, pairs in increasing order.
+    pub fn detect(&mut self, bodies: &[RigidBody], prediction: f64) -> Vec<Contact> {
+        let prediction = prediction.max(0.0);
+        let pairs = broad_phase::candidate_pairs_with_margin(bodies, prediction);
+        self.narrow.contacts(bodies, &pairs, prediction)
+    }
+
+    /// Forgets cached manifolds.
+    pub fn clear(&mut self) {
+        self.narrow.clear();
+    }
 }

@@ -1,0 +1,158 @@
+//! Narrow phase: contact manifolds from parry for each candidate pair.
+//!
+//! Each pair's manifolds and workspace are kept between calls and handed back to
+//! `PersistentQueryDispatcher::contact_manifolds` (parry's `DefaultQueryDispatcher`), so the
+//! generators can reuse the previous separating features and a triangle mesh's list of
+//! overlapping triangles. A manifold point becomes one [`Contact`]: the two surface points
+//! (parry gives each in its own shape's, or sub-shape's, local frame) are taken to the world and
+//! averaged, the normal is the manifold normal of the first shape in world coordinates, and the
+//! key mixes the body indices, sub-shape indices and feature ids, which parry keeps stable while
+//! the same features touch (used for warm starting).
+//!
+//! Points closer than the prediction distance are reported with `dist > 0`, so resting contacts
+//! that separate slightly between steps are not lost.
+
+use super::Contact;
+use crate::body::RigidBody;
+use nalgebra::{Isometry3, Point3, Unit};
+use parry3d_f64::query::{
+    ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, PersistentQueryDispatcher,
+};
+use parry3d_f64::shape::SharedShape;
+use std::collections::HashMap;
+
+/// Manifolds and generator workspace of one body pair, kept between calls.
+#[derive(Default)]
+struct PairCache {
+    manifolds: Vec<ContactManifold<(), ()>>,
+    workspace: Option<ContactManifoldsWorkspace>,
+}
+
+/// Persistent narrow phase: one cache entry per body pair seen in the last call.
+#[derive(Default)]
+pub struct NarrowPhase {
+    pairs: HashMap<(usize, usize), PairCache>,
+}
+
+impl std::fmt::Debug for NarrowPhase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NarrowPhase")
+            .field("cached_pairs", &self.pairs.len())
+            .finish()
+    }
+}
+
+impl NarrowPhase {
+    /// Empty cache.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of body pairs with cached manifolds.
+    pub fn cached_pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Forgets every cached manifold (call when the body list is rebuilt or reordered).
+    pub fn clear(&mut self) {
+        self.pairs.clear();
+    }
+
+    /// Contacts of the given candidate `pairs` with gap below `prediction`. Cache entries of
+    /// pairs not in `pairs` are dropped.
+    pub fn contacts(
+        &mut self,
+        bodies: &[RigidBody],
+        pairs: &[(usize, usize)],
+        prediction: f64,
+    ) -> Vec<Contact> {
+        let dispatcher = DefaultQueryDispatcher;
+        let mut shapes: Vec<Option<SharedShape>> = vec![None; bodies.len()];
+        let mut out = Vec::new();
+        let mut kept = HashMap::with_capacity(pairs.len());
+        for &(a, b) in pairs {
+            let mut cache = self.pairs.remove(&(a, b)).unwrap_or_default();
+            let sa = shapes[a]
+                .get_or_insert_with(|| bodies[a].shape.to_parry())
+                .clone();
+            let sb = shapes[b]
+                .get_or_insert_with(|| bodies[b].shape.to_parry())
+                .clone();
+            let (iso_a, iso_b) = (bodies[a].iso(), bodies[b].iso());
+            let pos12 = iso_a.inv_mul(&iso_b);
+            // Every pair of `Shape` kinds is supported except plane–plane, which the broad
+            // phase never emits (planes are static).
+            let supported = dispatcher.contact_manifolds(
+                &pos12,
+                &*sa,
+                &*sb,
+                prediction,
+                &mut cache.manifolds,
+                &mut cache.workspace,
+            );
+            debug_assert!(
+                supported.is_ok(),
+                "parry has no manifold generator for {} vs {}",
+                bodies[a].shape.kind(),
+                bodies[b].shape.kind()
+            );
+            for m in &cache.manifolds {
+                push_manifold(&mut out, a, b, &iso_a, &iso_b, m, prediction);
+            }
+            kept.insert((a, b), cache);
+        }
+        self.pairs = kept;
+        out
+    }
+}
+
+fn push_manifold(
+    out: &mut Vec<Contact>,
+    a: usize,
+    b: usize,
+    iso_a: &Isometry3<f64>,
+    iso_b: &Isometry3<f64>,
+    m: &ContactManifold<(), ()>,
+    prediction: f64,
+) {
+    let frame_a = m.subshape_pos1.map_or(*iso_a, |p| iso_a * p);
+    let frame_b = m.subshape_pos2.map_or(*iso_b, |p| iso_b * p);
+    let Some(normal) = Unit::try_new(frame_a * m.local_n1, 1e-12) else {
+        return;
+    };
+    for c in &m.points {
+        if c.dist > prediction {
+            continue;
+        }
+        let pa: Point3<f64> = frame_a * c.local_p1;
+        let pb: Point3<f64> = frame_b * c.local_p2;
+        out.push(Contact {
+            body_a: a,
+            body_b: b,
+            point: nalgebra::center(&pa, &pb),
+            normal: normal.into_inner(),
+            dist: c.dist,
+            key: contact_key(a, b, m.subshape1, m.subshape2, c.fid1.0, c.fid2.0),
+        });
+    }
+}
+
+/// Stable 64-bit key of a contact from its body pair, sub-shapes and features (SplitMix64
+/// finaliser over the fields, so the value does not depend on the standard library's hasher).
+pub fn contact_key(a: usize, b: usize, sub_a: u32, sub_b: u32, fid_a: u32, fid_b: u32) -> u64 {
+    fn mix(mut z: u64) -> u64 {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    let mut h = 0x9e37_79b9_7f4a_7c15_u64;
+    for x in [
+        a as u64,
+        b as u64,
+        u64::from(sub_a) << 32 | u64::from(sub_b),
+        u64::from(fid_a) << 32 | u64::from(fid_b),
+    ] {
+        h = mix(h ^ mix(x.wrapping_add(0x9e37_79b9_7f4a_7c15)));
+    }
+    h
+}

@@ -1,0 +1,427 @@
+//! Geometry seen from outside the crate: mass properties against closed forms, OBJ meshes,
+//! broad-phase pair counts, contact counts of resting configurations, time of impact.
+
+use lcpbench_contact::collision::broad_phase::{
+    brute_force_pairs, candidate_pairs_with_margin, sweep_and_prune, world_aabb,
+};
+use lcpbench_contact::{
+    candidate_pairs, CollisionPipeline, MassSpec, RigidBody, Shape, ShapeError,
+};
+use nalgebra::{Matrix3, Point3, UnitQuaternion, Vector3};
+use std::path::PathBuf;
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn rel_err(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(1e-300)
+}
+
+fn body(shape: Shape, pos: [f64; 3], is_static: bool) -> RigidBody {
+    RigidBody::new(
+        "b",
+        shape,
+        MassSpec::Density(1.0),
+        Point3::from(pos),
+        UnitQuaternion::identity(),
+        Vector3::zeros(),
+        Vector3::zeros(),
+        0,
+        is_static,
+    )
+    .expect("valid body")
+}
+
+fn ground() -> RigidBody {
+    body(Shape::plane(Vector3::z()).unwrap(), [0.0; 3], true)
+}
+
+/// Largest relative deviation between two inertia tensors (scaled by the largest entry).
+fn tensor_err(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    (a - b).abs().max() / b.abs().max()
+}
+
+#[test]
+fn box_inertia_matches_closed_form() {
+    let (a, b, c) = (0.3, 0.7, 1.1); // half extents
+    let rho = 2.5;
+    let mp = Shape::cuboid(Vector3::new(a, b, c))
+        .unwrap()
+        .mass_properties(rho)
+        .unwrap();
+    let m = rho * 8.0 * a * b * c;
+    let (w, h, d) = (2.0 * a, 2.0 * b, 2.0 * c);
+    let expect = Matrix3::from_diagonal(&Vector3::new(
+        m * (h * h + d * d) / 12.0,
+        m * (w * w + d * d) / 12.0,
+        m * (w * w + h * h) / 12.0,
+    ));
+    let (em, ei) = (rel_err(mp.mass, m), tensor_err(&mp.inertia, &expect));
+    println!("box: mass rel err {em:.2e}, inertia rel err {ei:.2e}");
+    assert!(em < 1e-12 && ei < 1e-12);
+    assert!(mp.com.coords.norm() < 1e-12);
+}
+
+#[test]
+fn sphere_inertia_matches_closed_form() {
+    let (r, rho) = (0.4, 3.0);
+    let mp = Shape::sphere(r).unwrap().mass_properties(rho).unwrap();
+    let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let expect = Matrix3::from_diagonal_element(0.4 * m * r * r);
+    let (em, ei) = (rel_err(mp.mass, m), tensor_err(&mp.inertia, &expect));
+    println!("sphere: mass rel err {em:.2e}, inertia rel err {ei:.2e}");
+    assert!(em < 1e-12 && ei < 1e-12);
+}
+
+#[test]
+fn capsule_inertia_matches_closed_form() {
+    // Cylinder of radius r and length h = 2 half_height along z, plus two hemispheres.
+    let (hh, r, rho) = (0.6, 0.25, 1.7);
+    let h = 2.0 * hh;
+    let pi = std::f64::consts::PI;
+    let mc = rho * pi * r * r * h;
+    let ms = rho * 4.0 / 3.0 * pi * r.powi(3); // both caps together
+    let i_axial = mc * r * r / 2.0 + ms * 2.0 * r * r / 5.0;
+    // Each hemisphere about its own centre of mass (3r/8 from the flat face), moved to the
+    // capsule centre at distance h/2 + 3r/8 (parallel-axis theorem).
+    let i_cyl = mc * (3.0 * r * r + h * h) / 12.0;
+    let i_caps = ms * (2.0 * r * r / 5.0 + h * h / 4.0 + 3.0 * h * r / 8.0);
+    let expect = Matrix3::from_diagonal(&Vector3::new(i_cyl + i_caps, i_cyl + i_caps, i_axial));
+    let mp = Shape::capsule(hh, r).unwrap().mass_properties(rho).unwrap();
+    let (em, ei) = (rel_err(mp.mass, mc + ms), tensor_err(&mp.inertia, &expect));
+    println!("capsule: mass rel err {em:.2e}, inertia rel err {ei:.2e}");
+    assert!(em < 1e-12 && ei < 1e-10, "{} vs {}", mp.inertia, expect);
+}
+
+#[test]
+fn particle_is_a_small_sphere() {
+    let r = 1e-3;
+    let b = RigidBody::new(
+        "p",
+        Shape::particle(r).unwrap(),
+        MassSpec::Mass(0.5),
+        Point3::origin(),
+        UnitQuaternion::identity(),
+        Vector3::new(1.0, 0.0, 0.0),
+        Vector3::zeros(),
+        0,
+        false,
+    )
+    .unwrap();
+    assert!(rel_err(b.mass, 0.5) < 1e-12);
+    assert!(rel_err(b.inertia_body[(0, 0)], 0.4 * 0.5 * r * r) < 1e-10);
+    assert!(rel_err(b.kinetic_energy(), 0.25) < 1e-12);
+}
+
+#[test]
+fn unit_cube_obj_volume_and_recentring() {
+    let shape = Shape::from_obj(data("unit_cube.obj")).unwrap();
+    let mp = shape.mass_properties(1.0).unwrap();
+    let Shape::TriMesh { com_offset, .. } = &shape else {
+        panic!("expected a mesh")
+    };
+    println!(
+        "unit cube OBJ: volume error {:.2e}",
+        (mp.volume - 1.0).abs()
+    );
+    assert!((mp.volume - 1.0).abs() < 1e-12);
+    assert!((com_offset - Vector3::repeat(0.5)).norm() < 1e-12);
+    assert!(mp.com.coords.norm() < 1e-12);
+    let expect = Matrix3::from_diagonal_element(1.0 / 6.0);
+    let ei = tensor_err(&mp.inertia, &expect);
+    println!("unit cube OBJ: inertia rel err {ei:.2e}");
+    assert!(ei < 1e-12);
+}
+
+#[test]
+fn l_block_obj_matches_composite_boxes() {
+    // Three unit squares extruded to z = 0.5: [0,1]x[0,1], [1,2]x[0,1], [0,1]x[1,2].
+    let shape = Shape::from_obj(data("l_block.obj")).unwrap();
+    let mp = shape.mass_properties(2.0).unwrap();
+    let t = 0.5;
+    let centres = [
+        Vector3::new(0.5, 0.5, 0.25),
+        Vector3::new(1.5, 0.5, 0.25),
+        Vector3::new(0.5, 1.5, 0.25),
+    ];
+    let m_each = 2.0 * t;
+    let com = centres.iter().sum::<Vector3<f64>>() / 3.0;
+    let mut inertia = Matrix3::zeros();
+    for c in &centres {
+        let own = Matrix3::from_diagonal(&Vector3::new(
+            m_each * (1.0 + t * t) / 12.0,
+            m_each * (1.0 + t * t) / 12.0,
+            m_each * 2.0 / 12.0,
+        ));
+        let d = c - com;
+        inertia += own + m_each * (Matrix3::identity() * d.dot(&d) - d * d.transpose());
+    }
+    let Shape::TriMesh { com_offset, .. } = &shape else {
+        panic!("expected a mesh")
+    };
+    let ei = tensor_err(&mp.inertia, &inertia);
+    println!(
+        "L block OBJ: mass rel err {:.2e}, com err {:.2e}, inertia rel err {ei:.2e}",
+        rel_err(mp.mass, 3.0 * m_each),
+        (com_offset - com).norm()
+    );
+    assert!(rel_err(mp.mass, 3.0 * m_each) < 1e-12);
+    assert!((com_offset - com).norm() < 1e-12);
+    assert!(ei < 1e-12, "{} vs {}", mp.inertia, inertia);
+}
+
+#[test]
+fn mesh_errors_name_the_file() {
+    let missing = data("no_such_mesh.obj");
+    let err = Shape::from_obj(&missing).unwrap_err();
+    assert!(matches!(err, ShapeError::MeshFile { .. }));
+    assert!(err.to_string().contains("no_such_mesh.obj"), "{err}");
+
+    let dir = std::env::temp_dir().join(format!("lcpbench-empty-{}.obj", std::process::id()));
+    std::fs::write(&dir, "# nothing here\nv 0 0 0\n").unwrap();
+    let err = Shape::from_obj(&dir).unwrap_err();
+    assert!(err.to_string().contains("lcpbench-empty"), "{err}");
+    let _ = std::fs::remove_file(&dir);
+}
+
+#[test]
+fn sap_pair_count_grows_with_overlaps_on_sparse_grid() {
+    // 10 x 10 x 10 grid of spheres, spacing 3r; every tenth sphere along x in the first row
+    // is moved to touch its neighbour.
+    let r = 0.5;
+    let mut bodies = Vec::new();
+    let mut touching = 0;
+    for i in 0..10 {
+        for j in 0..10 {
+            for k in 0..10 {
+                let mut x = 3.0 * r * i as f64;
+                if j == 0 && k == 0 && i % 2 == 1 {
+                    x -= r + 1e-3; // centre distance 2r - 1e-3 to the left neighbour
+                    touching += 1;
+                }
+                bodies.push(body(
+                    Shape::sphere(r).unwrap(),
+                    [x, 3.0 * r * j as f64, 3.0 * r * k as f64],
+                    false,
+                ));
+            }
+        }
+    }
+    assert_eq!(bodies.len(), 1000);
+    let pairs = candidate_pairs(&bodies);
+    println!(
+        "1000 spheres: {} candidate pairs, {} touching (n² / 2 = 499500)",
+        pairs.len(),
+        touching
+    );
+    assert_eq!(pairs.len(), touching);
+    let contacts = CollisionPipeline::new().detect(&bodies, 0.0);
+    assert_eq!(contacts.len(), touching);
+}
+
+#[test]
+fn sap_agrees_with_brute_force_on_random_scenes() {
+    // Small deterministic generator (xorshift) so the test needs no extra crates.
+    let mut s = 0x2545_f491_4f6c_dd1d_u64;
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for scene in 0..20 {
+        let n = 50 + 10 * scene;
+        let side = 4.0 + scene as f64;
+        let mut bodies = Vec::new();
+        for i in 0..n {
+            let pos = [side * rnd(), side * rnd(), 0.3 * side * rnd()];
+            let shape = match i % 3 {
+                0 => Shape::sphere(0.2 + 0.5 * rnd()).unwrap(),
+                1 => Shape::cuboid(Vector3::new(0.1 + rnd(), 0.1 + rnd(), 0.1 + rnd())).unwrap(),
+                _ => Shape::capsule(0.1 + rnd(), 0.1 + 0.3 * rnd()).unwrap(),
+            };
+            bodies.push(body(shape, pos, rnd() < 0.2));
+        }
+        let aabbs: Vec<_> = bodies.iter().map(|b| world_aabb(b, 0.0)).collect();
+        let skip = |i: usize, j: usize| bodies[i].is_static && bodies[j].is_static;
+        let sap = sweep_and_prune(&aabbs, skip);
+        let brute = brute_force_pairs(&aabbs, skip);
+        assert_eq!(sap, brute, "scene {scene}");
+        assert_eq!(candidate_pairs_with_margin(&bodies, 0.0), brute);
+    }
+}
+
+#[test]
+fn planes_pair_with_dynamic_bodies_reaching_them() {
+    let bodies = vec![
+        ground(),
+        body(Shape::sphere(0.5).unwrap(), [0.0, 0.0, 0.5], false),
+        body(Shape::sphere(0.5).unwrap(), [5.0, 0.0, 3.0], false),
+        body(Shape::sphere(0.5).unwrap(), [9.0, 0.0, 0.2], true),
+    ];
+    assert_eq!(candidate_pairs(&bodies), vec![(0, 1)]);
+}
+
+fn count(bodies: &[RigidBody]) -> usize {
+    CollisionPipeline::new().detect(bodies, 1e-3).len()
+}
+
+#[test]
+fn box_on_plane_gives_four_contacts() {
+    let bodies = vec![
+        ground(),
+        body(
+            Shape::cuboid(Vector3::new(0.5, 0.4, 0.3)).unwrap(),
+            [0.0, 0.0, 0.3 - 1e-4],
+            false,
+        ),
+    ];
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    assert_eq!(contacts.len(), 4, "{contacts:#?}");
+    for c in &contacts {
+        assert!((c.dist + 1e-4).abs() < 1e-9);
+        assert!((c.normal - Vector3::z()).norm() < 1e-12);
+        assert!(c.point.z.abs() < 1e-4);
+        assert_eq!((c.body_a, c.body_b), (0, 1));
+    }
+    let mut keys: Vec<u64> = contacts.iter().map(|c| c.key).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    assert_eq!(keys.len(), 4);
+}
+
+#[test]
+fn box_on_box_gives_four_contacts() {
+    let bodies = vec![
+        body(
+            Shape::cuboid(Vector3::new(1.0, 1.0, 0.5)).unwrap(),
+            [0.0; 3],
+            true,
+        ),
+        body(
+            Shape::cuboid(Vector3::new(0.3, 0.3, 0.3)).unwrap(),
+            [0.1, -0.2, 0.8],
+            false,
+        ),
+    ];
+    assert_eq!(count(&bodies), 4);
+}
+
+#[test]
+fn sphere_on_plane_gives_one_contact() {
+    let bodies = vec![
+        ground(),
+        body(Shape::sphere(0.5).unwrap(), [1.0, 2.0, 0.4999], false),
+    ];
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    assert_eq!(contacts.len(), 1);
+    let c = contacts[0];
+    assert!((c.dist + 1e-4).abs() < 1e-12);
+    assert!((c.point - Point3::new(1.0, 2.0, -0.5e-4)).norm() < 1e-12);
+}
+
+#[test]
+fn mesh_on_plane_gives_several_contacts() {
+    let shape = Shape::from_obj(data("l_block.obj")).unwrap();
+    let Shape::TriMesh { com_offset, .. } = &shape else {
+        panic!()
+    };
+    let z = com_offset.z - 1e-4;
+    let bodies = vec![ground(), body(shape.clone(), [0.0, 0.0, z], false)];
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    println!("L block on plane: {} contacts", contacts.len());
+    assert!(contacts.len() >= 4, "{contacts:#?}");
+    for c in &contacts {
+        assert!((c.normal - Vector3::z()).norm() < 1e-9);
+        assert!(c.dist < 0.0 && c.dist > -2e-4);
+    }
+}
+
+#[test]
+fn resting_contacts_persist_with_prediction_and_keep_keys() {
+    let mut bodies = vec![
+        ground(),
+        body(
+            Shape::cuboid(Vector3::new(0.5, 0.5, 0.5)).unwrap(),
+            [0.0, 0.0, 0.5],
+            false,
+        ),
+    ];
+    let mut pipeline = CollisionPipeline::new();
+    let first = pipeline.detect(&bodies, 1e-2);
+    // Lift the box slightly: still within the prediction distance.
+    bodies[1].position.z += 5e-3;
+    let second = pipeline.detect(&bodies, 1e-2);
+    assert_eq!(first.len(), 4);
+    assert_eq!(second.len(), 4);
+    let mut k1: Vec<u64> = first.iter().map(|c| c.key).collect();
+    let mut k2: Vec<u64> = second.iter().map(|c| c.key).collect();
+    k1.sort_unstable();
+    k2.sort_unstable();
+    assert_eq!(k1, k2);
+    assert!(second.iter().all(|c| (c.dist - 5e-3).abs() < 1e-9));
+}
+
+mod time_of_impact {
+    use super::*;
+    use lcpbench_contact::collision::toi::{
+        time_of_impact_bisection, time_of_impact_conservative, Motion, ToiSettings,
+    };
+    use nalgebra::Isometry3;
+
+    /// A sphere of radius 0.01 at 300 m/s towards a 0.02-thick wall, one step of 0.01 s.
+    #[test]
+    fn fast_sphere_through_thin_box() {
+        let (r, speed, dt) = (0.01, 300.0, 0.01);
+        let ball = Shape::sphere(r).unwrap();
+        let wall = Shape::cuboid(Vector3::new(0.01, 0.5, 0.5)).unwrap();
+        let x0 = -1.0;
+        let ma = Motion::new(
+            Isometry3::translation(x0, 0.0, 0.0),
+            Vector3::new(speed, 0.0, 0.0),
+            Vector3::zeros(),
+        );
+        let mb = Motion::stationary(Isometry3::identity());
+        // The ball's surface reaches the wall face x = -0.01 when its centre is at -0.02.
+        let t_exact = (-0.01 - r - x0) / speed;
+
+        // The end-of-step test sees nothing: the ball is 2 m past the wall.
+        let end = parry3d_f64::query::intersection_test(
+            &ma.at(dt),
+            &*ball.to_parry(),
+            &mb.at(dt),
+            &*wall.to_parry(),
+        )
+        .unwrap();
+        assert!(!end, "end-of-step overlap should miss the impact");
+
+        let settings = ToiSettings {
+            tolerance: 1e-5,
+            ..Default::default()
+        };
+        let time_tol = settings.tolerance / speed;
+        for (name, toi) in [
+            (
+                "bisection",
+                time_of_impact_bisection(&ball, &ma, &wall, &mb, dt, &settings),
+            ),
+            (
+                "conservative advancement",
+                time_of_impact_conservative(&ball, &ma, &wall, &mb, dt, &settings),
+            ),
+        ] {
+            let toi = toi.unwrap_or_else(|| panic!("{name}: missed the impact"));
+            let err = t_exact - toi.time;
+            println!(
+                "{name}: t = {:.9e}, exact {t_exact:.9e}, early by {err:.2e} s \
+                 (tolerance {time_tol:.2e} s), gap {:.2e} m, {} distance queries",
+                toi.time, toi.distance, toi.iterations
+            );
+            assert!(err >= -1e-12 && err <= time_tol + 1e-12, "{name}: {toi:?}");
+            assert!(toi.distance <= settings.tolerance);
+        }
+    }
+}
