@@ -8,6 +8,7 @@ use lcpbench::harness::isolate::write_protocol;
 use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::{cross_product, run_sweep, Case, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::SolverKind;
 use std::path::PathBuf;
 
@@ -21,7 +22,9 @@ pub struct BenchArgs {
     /// `matrix` for the generated families of the report. Default: `matrix` when no `--scenes`.
     #[arg(long, value_delimiter = ',')]
     pub lcps: Vec<String>,
-    /// Solvers, comma-separated: names (`pgs`, `lemke`, …), `sor@OMEGA`, `NAME+warm`, or `all`.
+    /// Solvers, comma-separated: names (`pgs`, `lemke`, …, and for scenes `si`, `body-micro`,
+    /// `penalty`), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers) or `body` (the
+    /// body-level ones).
     #[arg(long, value_delimiter = ',', default_value = "all")]
     pub solvers: Vec<String>,
     /// Budgets, comma-separated: presets (loose, default, tight, realtime) or TOL:ITER:SECONDS.
@@ -89,6 +92,8 @@ fn parse_solvers(list: &[String]) -> Result<Vec<SolverSpec>> {
     for s in list {
         if s == "all" {
             out.extend(SolverKind::ALL.into_iter().map(SolverSpec::plain));
+        } else if s == "body" {
+            out.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
         } else {
             out.push(s.parse()?);
         }
@@ -124,7 +129,7 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
         if scenes.is_empty() {
             bail!("--scenes `{pattern}` matches no files");
         }
-        cases.extend(scenes.into_iter().map(Case::Scene));
+        cases.extend(scenes.into_iter().map(|p| Case::scene(p, None)));
     }
     if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {
         bail!("nothing to run: need at least one case, solver and budget");
@@ -152,7 +157,11 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
     let scenes = report::scenes_matching(&args.scenes)?;
-    let exported = lcpbench::harness::scene::export_suite_lcps(&scenes, &args.out.join("lcps"))?;
+    let exported = lcpbench::harness::scene::export_suite_lcps(
+        &scenes,
+        &args.out.join("lcps"),
+        if args.quick { 60 } else { 400 },
+    )?;
     let mut sweep = SweepConfig::new(args.out.join("data"))?;
     sweep.jobs = args.jobs;
     sweep.progress = !args.no_progress;

@@ -1,6 +1,7 @@
 //! Budgets (tolerance, iteration cap, time budget) and solver specifications (a solver kind with
 //! its variant: SOR relaxation, warm or cold start).
 
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::{ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
 use std::time::Duration;
@@ -29,9 +30,9 @@ pub struct Budget {
     pub tolerance: f64,
     /// Iteration or pivot cap (per step for scenes).
     pub max_iterations: usize,
-    /// Time budget in seconds: per solve for LCP cases, for the whole run for scenes. The child
-    /// process is killed (and the run recorded as `timeout`) when it exceeds
-    /// [`Budget::kill_after`].
+    /// Time budget in seconds: per solve for LCP cases, for the whole run for scenes (see
+    /// [`Budget::scene_time_limit`]). The child process is killed (and the run recorded as
+    /// `timeout`) when it exceeds [`Budget::kill_after`].
     pub time_s: f64,
 }
 
@@ -91,10 +92,22 @@ impl Budget {
         }
     }
 
-    /// Wall time after which the isolated child is killed: twice the budget plus two seconds
-    /// (process start, problem generation and scene loading are outside the solver's clock).
-    pub fn kill_after(&self) -> Duration {
-        Duration::from_secs_f64(2.0 * self.time_s + 2.0)
+    /// Wall time after which the isolated child is killed: for an LCP twice the budget plus two
+    /// seconds (process start and problem generation are outside the solver's clock); for a
+    /// scene, which stops stepping by itself after [`Budget::scene_time_limit`], that limit
+    /// plus half of it plus five seconds.
+    pub fn kill_after(&self, scene: bool) -> Duration {
+        if scene {
+            Duration::from_secs_f64(1.5 * self.scene_time_limit() + 5.0)
+        } else {
+            Duration::from_secs_f64(2.0 * self.time_s + 2.0)
+        }
+    }
+
+    /// Wall time after which a scene run stops stepping and records `time_limit` with the steps
+    /// it took: the budget's time.
+    pub fn scene_time_limit(&self) -> f64 {
+        self.time_s
     }
 }
 
@@ -186,11 +199,15 @@ impl Fault {
     }
 }
 
-/// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`.
+/// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
+/// `si+warm`. Names are the matrix solvers of `lcpbench-solvers` and the body-level solvers of
+/// `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverSpec {
-    /// The solver, or `None` for a fault-injection pseudo-solver.
+    /// The matrix solver, or `None` for a body-level solver or a fault-injection pseudo-solver.
     pub kind: Option<SolverKind>,
+    /// The body-level solver (scenes only).
+    pub body: Option<BodySolverKind>,
     /// SOR relaxation (only for `sor`).
     pub omega: Option<f64>,
     /// Warm start (iterative solvers): from a nearby solution for LCP cases, from the previous
@@ -205,22 +222,44 @@ impl SolverSpec {
     pub fn plain(kind: SolverKind) -> Self {
         Self {
             kind: Some(kind),
+            body: None,
             omega: None,
             warm: false,
             fault: None,
         }
     }
 
-    /// The solver kind's name, or `fault-…`.
-    pub fn base_name(&self) -> String {
-        match (self.kind, self.fault) {
-            (Some(kind), _) => kind.name().to_owned(),
-            (None, Some(f)) => format!("fault-{}", f.name()),
-            (None, None) => "none".to_owned(),
+    /// Plain body-level solver, cold start.
+    pub fn body(kind: BodySolverKind) -> Self {
+        Self {
+            kind: None,
+            body: Some(kind),
+            omega: None,
+            warm: false,
+            fault: None,
         }
     }
 
-    /// Create the solver.
+    /// True when the solver iterates from a starting impulse (so `+warm` means something).
+    pub fn is_iterative(&self) -> bool {
+        self.kind.is_some_and(SolverKind::is_iterative)
+            || matches!(
+                self.body,
+                Some(BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses)
+            )
+    }
+
+    /// The solver kind's name, or `fault-…`.
+    pub fn base_name(&self) -> String {
+        match (self.kind, self.body, self.fault) {
+            (Some(kind), _, _) => kind.name().to_owned(),
+            (None, Some(body), _) => body.name().to_owned(),
+            (None, None, Some(f)) => format!("fault-{}", f.name()),
+            (None, None, None) => "none".to_owned(),
+        }
+    }
+
+    /// Create the matrix solver (`None` for body-level and fault pseudo-solvers).
     pub fn create(&self) -> Option<Box<dyn Solver + Send>> {
         match (self.kind?, self.omega) {
             (SolverKind::Sor, Some(w)) => Some(Box::new(ProjectedSor::sor(w))),
@@ -268,27 +307,29 @@ impl std::str::FromStr for SolverSpec {
                 .ok_or_else(|| err("fault must be panic, hang or abort".into()))?;
             return Ok(Self {
                 kind: None,
+                body: None,
                 omega: None,
                 warm: false,
                 fault: Some(fault),
             });
         }
-        let kind: SolverKind = name.parse().map_err(err)?;
-        if omega.is_some() && kind != SolverKind::Sor {
+        let mut out = match BodySolverKind::from_name(name) {
+            Some(body) => Self::body(body),
+            None => Self::plain(name.parse().map_err(|e: String| {
+                err(format!("{e}; body-level solvers: si, body-micro, penalty"))
+            })?),
+        };
+        if omega.is_some() && out.kind != Some(SolverKind::Sor) {
             return Err(err("@omega applies only to sor".into()));
         }
-        if warm && !kind.is_iterative() {
+        if warm && !out.is_iterative() {
             return Err(err(format!(
-                "+warm applies only to iterative solvers, not {}",
-                kind.name()
+                "+warm applies only to iterative solvers, not {name}"
             )));
         }
-        Ok(Self {
-            kind: Some(kind),
-            omega,
-            warm,
-            fault: None,
-        })
+        out.omega = omega;
+        out.warm = warm;
+        Ok(out)
     }
 }
 
@@ -310,6 +351,7 @@ mod tests {
             assert_eq!(spec.to_string(), s);
         }
         assert!("lemke+warm".parse::<SolverSpec>().is_err());
+        assert!("penalty+warm".parse::<SolverSpec>().is_err());
         assert!("pgs@1.2".parse::<SolverSpec>().is_err());
         assert!("nope".parse::<SolverSpec>().is_err());
     }

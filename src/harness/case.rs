@@ -16,6 +16,7 @@
 //! | `infeasible:n=50:seed=1`              | PSD with no solution                                   |
 //! | `file:PATH`                           | a problem file (JSON; e.g. from `lcpbench export`)     |
 //! | `scene:PATH`                          | a scene file, stepped with the chosen solver           |
+//! | `scene:PATH?steps=N`                  | the same, at most `N` steps                            |
 
 use lcpbench_solvers::generate::{self, generate, Family, Generated};
 use lcpbench_solvers::{read_problem, Problem};
@@ -137,7 +138,12 @@ pub enum Case {
     /// A problem file.
     File(PathBuf),
     /// A scene file.
-    Scene(PathBuf),
+    Scene {
+        /// The scene file.
+        path: PathBuf,
+        /// Cap on the steps taken (the scene's own step count when `None`).
+        steps: Option<usize>,
+    },
 }
 
 /// A loaded LCP case: the problem and, when known, a solution.
@@ -173,7 +179,11 @@ impl fmt::Display for Case {
                 GenFamily::Infeasible => write!(out, "infeasible:n={n}:seed={seed}"),
             },
             Case::File(p) => write!(out, "file:{}", p.display()),
-            Case::Scene(p) => write!(out, "scene:{}", p.display()),
+            Case::Scene { path, steps: None } => write!(out, "scene:{}", path.display()),
+            Case::Scene {
+                path,
+                steps: Some(n),
+            } => write!(out, "scene:{}?steps={n}", path.display()),
         }
     }
 }
@@ -189,8 +199,21 @@ impl std::str::FromStr for Case {
         if let Some(path) = key.strip_prefix("file:") {
             return Ok(Case::File(PathBuf::from(path)));
         }
-        if let Some(path) = key.strip_prefix("scene:") {
-            return Ok(Case::Scene(PathBuf::from(path)));
+        if let Some(rest) = key.strip_prefix("scene:") {
+            let (path, steps) = match rest.rsplit_once("?steps=") {
+                Some((p, n)) => (
+                    p,
+                    Some(
+                        n.parse::<usize>()
+                            .map_err(|_| err(format!("`{n}` is not a step count")))?,
+                    ),
+                ),
+                None => (rest, None),
+            };
+            return Ok(Case::Scene {
+                path: PathBuf::from(path),
+                steps,
+            });
         }
         let mut parts = key.split(':');
         let kind = parts.next().unwrap_or_default();
@@ -263,7 +286,7 @@ impl Case {
                 GenFamily::Infeasible => ProblemClass::Infeasible,
             },
             Case::File(_) => ProblemClass::Friction,
-            Case::Scene(_) => ProblemClass::Scene,
+            Case::Scene { .. } => ProblemClass::Scene,
         }
     }
 
@@ -296,7 +319,26 @@ impl Case {
 
     /// True for a scene case.
     pub fn is_scene(&self) -> bool {
-        matches!(self, Case::Scene(_))
+        matches!(self, Case::Scene { .. })
+    }
+
+    /// A scene case.
+    pub fn scene(path: impl Into<PathBuf>, steps: Option<usize>) -> Self {
+        Case::Scene {
+            path: path.into(),
+            steps,
+        }
+    }
+
+    /// Short display name: the file stem for scenes and files, the key otherwise.
+    pub fn short_name(&self) -> String {
+        match self {
+            Case::Scene { path, .. } | Case::File(path) => path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| self.to_string()),
+            _ => self.to_string(),
+        }
     }
 
     /// Build (or read) the LCP of a non-scene case.
@@ -309,7 +351,7 @@ impl Case {
                     solution: None,
                 })
                 .map_err(|e| e.to_string()),
-            Case::Scene(path) => Err(format!("{} is a scene, not an LCP", path.display())),
+            Case::Scene { path, .. } => Err(format!("{} is a scene, not an LCP", path.display())),
         }
     }
 }
@@ -401,6 +443,7 @@ mod tests {
             "infeasible:n=9:seed=1",
             "file:reports/lcps/tower.json",
             "scene:bench_scenes/tower_10.toml",
+            "scene:bench_scenes/tower_10.toml?steps=50",
         ] {
             let case: Case = key.parse().unwrap();
             assert_eq!(case.to_string(), key);

@@ -127,7 +127,7 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
         let _ = stderr.read_to_string(&mut s);
         s
     });
-    let limit = b.kill_after();
+    let limit = b.kill_after(case.is_scene());
     let mut poll = Duration::from_millis(1);
     let exit = loop {
         match child.try_wait() {

@@ -106,6 +106,13 @@ pub struct RunRecord {
     pub analytic_metric: String,
     /// Scene: error against the analytic answer.
     pub analytic_error: Option<f64>,
+    /// Scene: V-groove symmetry error `|F_left − F_right| / F_expected` at the last step.
+    pub symmetry_error: Option<f64>,
+    /// Scene (resting scenes): `|Σ support force − total weight| / total weight` at the last
+    /// step, from the impulses on contacts with static bodies.
+    pub support_error: Option<f64>,
+    /// Scene: largest body speed over the run, m/s.
+    pub max_speed: Option<f64>,
     /// Scene: largest contact slip speed over bodies that should stick, m/s.
     pub creep_speed: Option<f64>,
     /// Scene: kinetic energy in the final second (scenes that should come to rest), J.

@@ -10,13 +10,21 @@
 //!   time against the number of rows.
 //! * **omega**: SOR with `omega` from 0.2 to 1.9 on three problems.
 //! * **warm**: the iterative solvers warm and cold on four problems.
-//! * **scenes**: every scene file × every solver × budgets `realtime`, `loose`, `default`,
-//!   `tight`, plus `+warm` for the iterative solvers (budget `default`); and the LCPs exported
-//!   from the scenes (`file:` cases) × every solver × budgets `default`, `tight`.
+//! * **scenes**: every scene file (at most [`SCENE_STEPS`] steps) × every matrix and body-level
+//!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
+//!   (budget `default`); and the LCPs exported from the scenes (`file:` cases) × every matrix
+//!   solver × budgets `default`, `tight`.
 
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::SolverKind;
 use std::path::PathBuf;
+
+/// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
+pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
+
+/// Steps of each scene run in the full suite (the scene's own count when smaller).
+pub const SCENE_STEPS: usize = 300;
 
 /// A suite: jobs plus the case lists the report groups them by.
 #[derive(Debug, Clone, Default)]
@@ -49,9 +57,16 @@ fn case(key: &str) -> Case {
     key.parse().expect("valid suite key")
 }
 
-/// Every solver with default parameters, cold start.
+/// Every matrix solver with default parameters, cold start.
 pub fn all_solvers() -> Vec<SolverSpec> {
     SolverKind::ALL.into_iter().map(SolverSpec::plain).collect()
+}
+
+/// Every solver a scene can use: the matrix solvers and the body-level ones, cold start.
+pub fn scene_solvers() -> Vec<SolverSpec> {
+    let mut v = all_solvers();
+    v.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+    v
 }
 
 /// Build the default suite (`quick`: a much smaller one for tests). `scenes` are scene files and
@@ -116,7 +131,8 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         case(&format!("psd:n={mid}:seed=4")),
         case(&format!("dup:n={mid}:seed=4")),
     ];
-    suite.scene_cases = scenes.iter().cloned().map(Case::Scene).collect();
+    let steps = if quick { Some(20) } else { Some(SCENE_STEPS) };
+    suite.scene_cases = scenes.iter().map(|p| Case::scene(p, steps)).collect();
     suite.exported_cases = exported.iter().cloned().map(Case::File).collect();
     suite
         .warm_cases
@@ -146,30 +162,28 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         })
         .collect();
     push(&suite.omega_cases, &omega_specs, &[budget("default")]);
-    let iterative: Vec<SolverSpec> = SolverKind::ALL
-        .into_iter()
-        .filter(|k| k.is_iterative())
-        .flat_map(|k| {
-            [
-                SolverSpec::plain(k),
-                SolverSpec {
-                    warm: true,
-                    ..SolverSpec::plain(k)
-                },
-            ]
-        })
+    let warm = |s: &SolverSpec| SolverSpec {
+        warm: true,
+        ..s.clone()
+    };
+    let iterative: Vec<SolverSpec> = all_solvers()
+        .iter()
+        .filter(|s| s.is_iterative())
+        .flat_map(|s| [s.clone(), warm(s)])
         .collect();
     push(&suite.warm_cases, &iterative, &[budget("default")]);
     let scene_budgets: Vec<NamedBudget> = if quick {
         vec![budget("default")]
     } else {
-        ["realtime", "loose", "default", "tight"]
-            .into_iter()
-            .map(budget)
-            .collect()
+        SCENE_BUDGETS.into_iter().map(budget).collect()
     };
-    push(&suite.scene_cases, &solvers, &scene_budgets);
-    let warm_only: Vec<SolverSpec> = iterative.iter().filter(|s| s.warm).cloned().collect();
+    let scene_solvers = scene_solvers();
+    push(&suite.scene_cases, &scene_solvers, &scene_budgets);
+    let warm_only: Vec<SolverSpec> = scene_solvers
+        .iter()
+        .filter(|s| s.is_iterative())
+        .map(warm)
+        .collect();
     push(&suite.scene_cases, &warm_only, &[budget("default")]);
     suite
 }

@@ -7,6 +7,7 @@ use super::suite::Suite;
 use crate::harness::sweep::{read_histories, read_results};
 use crate::harness::{Budget, Case, HistoryRow, ProblemClass, RunRecord, TTA_LEVELS};
 use anyhow::Result;
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::SolverKind;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
@@ -77,6 +78,12 @@ fn fmt_sci(v: Option<f64>) -> String {
 
 fn solver_names() -> Vec<&'static str> {
     SolverKind::ALL.iter().map(|k| k.name()).collect()
+}
+
+fn scene_solver_names() -> Vec<&'static str> {
+    let mut v = solver_names();
+    v.extend(BodySolverKind::ALL.iter().map(|k| k.name()));
+    v
 }
 
 fn geo_mean(v: &[f64]) -> Option<f64> {
@@ -556,7 +563,7 @@ pub fn write_report(
     let mut scene_slope: HashMap<String, String> = HashMap::new();
     if !suite.scene_cases.is_empty() {
         let mut series = Vec::new();
-        for solver in solver_names() {
+        for solver in scene_solver_names() {
             let pts: Vec<(f64, f64)> = suite
                 .scene_cases
                 .iter()
@@ -596,7 +603,7 @@ pub fn write_report(
             .collect();
         push_fit(&mut scaling_series, solver, pts, &mut lcp_slope);
     }
-    for solver in solver_names() {
+    for solver in scene_solver_names() {
         slopes.rows.push(vec![
             solver.to_owned(),
             lcp_slope.get(solver).cloned().unwrap_or("–".into()),
@@ -789,7 +796,7 @@ fn scene_section(
             &all.header.iter().map(|s| s.as_str()).collect::<Vec<_>>()[1..],
         );
         let mut pareto = Vec::new();
-        for solver in solver_names() {
+        for solver in scene_solver_names() {
             if let Some(r) = data.get(case, solver, "default") {
                 let cells = scene_cells(r);
                 t.rows.push(cells.clone());
@@ -811,17 +818,11 @@ fn scene_section(
                 });
             }
         }
-        let name = match case {
-            Case::Scene(p) => p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default(),
-            _ => case.to_string(),
-        };
+        let name = case.short_name();
         let _ = writeln!(md, "### {name}\n\n{}", t.markdown());
         let mut row = vec![name.clone()];
         for budget in ["loose", "default"] {
-            let best = solver_names()
+            let best = scene_solver_names()
                 .into_iter()
                 .filter_map(|s| data.get(case, s, budget))
                 .filter(|r| r.converged && r.blow_up != Some(true))
