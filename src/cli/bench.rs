@@ -161,6 +161,7 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         &scenes,
         &args.out.join("lcps"),
         if args.quick { 60 } else { 400 },
+        suite::LARGE_SCENE_BODIES,
     )?;
     let mut sweep = SweepConfig::new(args.out.join("data"))?;
     sweep.jobs = args.jobs;

@@ -92,22 +92,23 @@ impl Budget {
         }
     }
 
-    /// Wall time after which the isolated child is killed: for an LCP twice the budget plus two
-    /// seconds (process start and problem generation are outside the solver's clock); for a
+    /// Wall time after which the isolated child is killed: for an LCP three times the budget plus
+    /// five seconds (process start, problem generation and the residual measurements of the
+    /// convergence history are outside the solver's clock); for a
     /// scene, which stops stepping by itself after [`Budget::scene_time_limit`], that limit
     /// plus half of it plus five seconds.
     pub fn kill_after(&self, scene: bool) -> Duration {
         if scene {
             Duration::from_secs_f64(1.5 * self.scene_time_limit() + 5.0)
         } else {
-            Duration::from_secs_f64(2.0 * self.time_s + 2.0)
+            Duration::from_secs_f64(3.0 * self.time_s + 5.0)
         }
     }
 
     /// Wall time after which a scene run stops stepping and records `time_limit` with the steps
-    /// it took: the budget's time.
+    /// it took: half the budget's time.
     pub fn scene_time_limit(&self) -> f64 {
-        self.time_s
+        0.5 * self.time_s
     }
 }
 

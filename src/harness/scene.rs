@@ -523,13 +523,15 @@ fn analytic(
     }
 }
 
-/// Export one LCP per scene into `dir` (the step halfway through the run, at most step 50,
-/// simulated with the scene's own solver), skipping scenes without contacts at that step and
-/// LCPs above `max_rows` rows. Returns the files written.
+/// Export one LCP per scene into `dir` (the step halfway through the run, at most step 30,
+/// simulated with the scene's own solver), skipping scenes with more than `max_bodies` dynamic
+/// bodies, scenes without contacts at that step and LCPs above `max_rows` rows. Returns the
+/// files written.
 pub fn export_suite_lcps(
     scenes: &[PathBuf],
     dir: &Path,
     max_rows: usize,
+    max_bodies: usize,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     if scenes.is_empty() {
@@ -540,7 +542,10 @@ pub fn export_suite_lcps(
         let Ok(scene) = Scene::load(path) else {
             continue;
         };
-        let k = (scene.settings.steps / 2).min(50);
+        if scene.bodies.iter().filter(|b| !b.is_static).count() > max_bodies {
+            continue;
+        }
+        let k = (scene.settings.steps / 2).min(30);
         let mut world = scene.world();
         for _ in 0..k {
             world.step();

@@ -206,13 +206,17 @@ pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
 
+    // Children run a private copy of the executable: a build in a shared target directory must
+    // not swap the binary under a running sweep.
+    let runner = private_copy(&config.exe, &config.out_dir);
+    let exe_for_children = runner.clone().unwrap_or_else(|| config.exe.clone());
     let queue = Arc::new(Mutex::new(todo));
     let (tx, rx) = mpsc::channel::<RunOutput>();
     let mut workers = Vec::new();
     for _ in 0..config.jobs.max(1) {
         let queue = Arc::clone(&queue);
         let tx = tx.clone();
-        let exe = config.exe.clone();
+        let exe = exe_for_children.clone();
         workers.push(std::thread::spawn(move || loop {
             let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
             let Some(job) = job else { break };
@@ -253,6 +257,17 @@ pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
     for w in workers {
         let _ = w.join();
     }
+    if let Some(runner) = runner {
+        let _ = std::fs::remove_file(runner);
+    }
     bar.finish_and_clear();
     Ok(summary)
+}
+
+/// Copy `exe` into `dir` under a name private to this process; `None` when copying fails (the
+/// sweep then runs `exe` itself).
+fn private_copy(exe: &Path, dir: &Path) -> Option<PathBuf> {
+    let dest = dir.join(format!(".lcpbench-runner-{}", std::process::id()));
+    std::fs::copy(exe, &dest).ok()?;
+    Some(dest)
 }

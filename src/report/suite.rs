@@ -12,7 +12,8 @@
 //! * **warm**: the iterative solvers warm and cold on four problems.
 //! * **scenes**: every scene file (at most [`SCENE_STEPS`] steps) × every matrix and body-level
 //!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
-//!   (budget `default`); and the LCPs exported from the scenes (`file:` cases) × every matrix
+//!   (budget `default`); large scenes run cold under `default` only, at most
+//!   [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
 //!   solver × budgets `default`, `tight`.
 
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
@@ -23,8 +24,23 @@ use std::path::PathBuf;
 /// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
 pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
 
+/// Scenes with more dynamic bodies than this are *large*: one budget (`default`) and
+/// [`LARGE_SCENE_STEPS`] steps in the full suite.
+pub const LARGE_SCENE_BODIES: usize = 30;
+
+/// Steps of a large scene's runs in the full suite.
+pub const LARGE_SCENE_STEPS: usize = 50;
+
+/// True when the scene has more than [`LARGE_SCENE_BODIES`] dynamic bodies (false when it does
+/// not load; its runs then record the error).
+pub fn is_large_scene(path: &std::path::Path) -> bool {
+    lcpbench_contact::scene::Scene::load(path)
+        .map(|s| s.bodies.iter().filter(|b| !b.is_static).count() > LARGE_SCENE_BODIES)
+        .unwrap_or(false)
+}
+
 /// Steps of each scene run in the full suite (the scene's own count when smaller).
-pub const SCENE_STEPS: usize = 300;
+pub const SCENE_STEPS: usize = 100;
 
 /// A suite: jobs plus the case lists the report groups them by.
 #[derive(Debug, Clone, Default)]
@@ -131,8 +147,22 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         case(&format!("psd:n={mid}:seed=4")),
         case(&format!("dup:n={mid}:seed=4")),
     ];
-    let steps = if quick { Some(20) } else { Some(SCENE_STEPS) };
-    suite.scene_cases = scenes.iter().map(|p| Case::scene(p, steps)).collect();
+    let mut large_scenes = Vec::new();
+    for path in scenes {
+        let large = is_large_scene(path);
+        let steps = if quick {
+            20
+        } else if large {
+            LARGE_SCENE_STEPS
+        } else {
+            SCENE_STEPS
+        };
+        let case = Case::scene(path, Some(steps));
+        if large {
+            large_scenes.push(case.clone());
+        }
+        suite.scene_cases.push(case);
+    }
     suite.exported_cases = exported.iter().cloned().map(Case::File).collect();
     suite
         .warm_cases
@@ -178,13 +208,20 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         SCENE_BUDGETS.into_iter().map(budget).collect()
     };
     let scene_solvers = scene_solvers();
-    push(&suite.scene_cases, &scene_solvers, &scene_budgets);
+    let small: Vec<Case> = suite
+        .scene_cases
+        .iter()
+        .filter(|c| !large_scenes.contains(c))
+        .cloned()
+        .collect();
+    push(&small, &scene_solvers, &scene_budgets);
+    push(&large_scenes, &scene_solvers, &[budget("default")]);
     let warm_only: Vec<SolverSpec> = scene_solvers
         .iter()
         .filter(|s| s.is_iterative())
         .map(warm)
         .collect();
-    push(&suite.scene_cases, &warm_only, &[budget("default")]);
+    push(&small, &warm_only, &[budget("default")]);
     suite
 }
 

@@ -763,6 +763,33 @@ fn scene_section(
          largest depth; drift the relative change of total energy; failures count \
          non-converged steps / NaN steps / blow-up.\n"
     );
+    // At a glance: scene × solver.
+    let mut header = vec!["scene".to_owned()];
+    header.extend(scene_solver_names().iter().map(|s| s.to_string()));
+    let mut glance = Table {
+        name: "scenes_at_a_glance",
+        header,
+        rows: Vec::new(),
+    };
+    for case in &suite.scene_cases {
+        let mut row = vec![case.short_name()];
+        for solver in scene_solver_names() {
+            row.push(match data.get(case, solver, "default") {
+                None => "–".into(),
+                Some(r) => glance_cell(r),
+            });
+        }
+        glance.rows.push(row);
+    }
+    glance.write_csv(tables_dir)?;
+    let _ = writeln!(
+        md,
+        "### At a glance\n\nSolver time per step under budget `default`, cold start. ✓ every \
+         step converged; ~ some steps did not (count in brackets); ✗ none did or the solver \
+         declined the problem; `blow-up`, `time limit` (steps done in brackets: the run stops \
+         after half the budget's time), `timeout`, `crash` and `panic` as recorded.\n\n{}",
+        glance.markdown()
+    );
     let mut all = Table::new(
         "scenes",
         &[
@@ -888,6 +915,21 @@ fn scene_section(
         fastest.markdown()
     );
     Ok(())
+}
+
+fn glance_cell(r: &RunRecord) -> String {
+    let t = fmt_time(r.time_per_step_s);
+    let steps = r.steps.unwrap_or(0);
+    let nc = r.nonconverged_steps.unwrap_or(0);
+    match r.status.as_str() {
+        _ if r.is_isolation_failure() => r.status.clone(),
+        "blow_up" => format!("blow-up ({steps} steps)"),
+        "time_limit" => format!("time limit ({steps} steps, {t})"),
+        "unsupported" if steps == 0 => "✗ unsupported".into(),
+        _ if nc == 0 => format!("✓ {t}"),
+        _ if nc >= steps => format!("✗ {t} ({})", r.status),
+        _ => format!("~ {t} ({nc} nc)"),
+    }
 }
 
 fn scene_cells(r: &RunRecord) -> Vec<String> {
