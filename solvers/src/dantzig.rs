@@ -1,14 +1,79 @@
-//! Dantzig: not implemented yet.
+//! Dantzig-style principal pivoting for the boxed LCP with friction rows, in the manner of ODE's
+//! `dSolveLCP` (Baraff 1994).
+//!
+//! Rows are added one at a time. Every row already added is in one of three sets:
+//!
+//! * the **clamped set** `C`: `w_j = 0` with `f_j` free inside its box;
+//! * the **bound set** `N`: `f_j` at `lo_j` with `w_j >= 0`, or at `hi_j` with `w_j <= 0`;
+//! * the **dependent set** `D`: `f_j` strictly inside its box with `w_j = 0`, but row `j`'s pivot
+//!   against `C` (its Schur complement `A_jj − A_jC A_CC⁻¹ A_Cj`) is below
+//!   `pivot_tol · A_jj`, so it is kept out of `C` to keep `A_CC` well conditioned (redundant
+//!   contacts). A later drive that would move `w_j` off zero moves `j` into `C` if its pivot has
+//!   become large enough.
+//!
+//! Adding row `i` starts from `f_i = mid(lo_i, hi_i, 0)`. If row `i`'s sign conditions already
+//! hold, it joins `N` (or `C`/`D` when `w_i = 0` inside the box). Otherwise it is *driven*: `f_i`
+//! moves in the direction that brings `w_i` towards zero, `f_C` moves to keep `w_C = 0`
+//! (`Δf_C = −A_CC⁻¹ A_Ci Δf_i`) and `f_N` stays. The step is the largest one allowed by the ratio
+//! tests: `w_i` reaching zero (`i` joins `C`), `f_i` reaching a bound (`i` joins `N`), some
+//! `f_j`, `j ∈ C`, reaching a bound (`j` moves to `N`, drive again), or some `w_j`, `j ∈ N`,
+//! reaching zero (`j` moves to `C`, drive again). `A_CC` is kept as an LU factorisation without
+//! row exchanges (for symmetric positive semidefinite `A` it is the `LDLᵀ` factorisation),
+//! extended by one bordered row and column when a row joins `C`, and updated by a rank-one
+//! (Bennett) update of the trailing block when a row leaves `C`.
+//!
+//! * **Problem class**: standard and boxed LCP (any bounds, infinite allowed) with friction rows,
+//!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant
+//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot that is
+//!   negative beyond round-off proves `A` is neither and gives `Unsupported`.
+//! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
+//!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
+//!   the normals still move after that, the solve is repeated with the friction bounds frozen at
+//!   the previous pass's normals, up to [`Dantzig::friction_passes`] passes, until the bounds
+//!   stop changing (a fixed point). The shared residual decides whether the returned `f` meets
+//!   the bounds at its own normals.
+//! * **Cost**: `O(n·|C|)` per pivot (a triangular solve with the factorisation and the rates
+//!   `Δw` of the rows in `N` and `D`), `O(|C|²)` per change of `C`; about `n` pivots for a
+//!   well-behaved problem, so `O(n³)` per pass. After each row, `f_C` is recomputed from the
+//!   factorisation and `w` refreshed, so round-off does not accumulate across rows.
+//! * **Failure modes**: a drive that no ratio test blocks is a ray and gives `NoSolution` (for PSD
+//!   `A` it proves that no solution exists); the pivot cap ([`Settings::max_iterations`] counts
+//!   drive steps) gives `IterationLimit`; the time budget gives `TimeLimit`; a breakdown of the
+//!   factorisation update or a non-finite direction gives `NumericalFailure`. There is no
+//!   anti-cycling rule: on degenerate problems ties are broken in a fixed order (the row being
+//!   added first, then rows leaving `C`, then rows joining it), and the pivot cap ends a cycle.
+//! * **Warm start**: ignored; every pass starts from `f = mid(lo, hi, 0)`.
+//!
+//! References: D. Baraff, *Fast contact force computation for nonpenetrating rigid bodies*,
+//! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
+//! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
 use crate::problem::Problem;
 use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
 
 /// Problem classes handled.
-pub(crate) const PROBLEM_CLASSES: &str = "not implemented yet";
+pub(crate) const PROBLEM_CLASSES: &str =
+    "LCP, boxed LCP, friction rows (bound fixed point); PSD (also rank-deficient) or P-matrix A";
 
-/// Dantzig solver.
-#[derive(Debug, Clone, Default)]
-pub struct Dantzig {}
+/// Dantzig-style principal pivoting. See the module documentation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dantzig {
+    /// Largest number of passes of the friction-bound fixed point (ignored without friction
+    /// rows). Default `50`.
+    pub friction_passes: usize,
+    /// A row joins the clamped set only if its pivot (Schur complement against the clamped set)
+    /// exceeds `pivot_tol · A_ii`. Default `1e-10`.
+    pub pivot_tol: f64,
+}
+
+impl Default for Dantzig {
+    fn default() -> Self {
+        Self {
+            friction_passes: 50,
+            pivot_tol: 1e-10,
+        }
+    }
+}
 
 impl Solver for Dantzig {
     fn name(&self) -> &'static str {
@@ -16,10 +81,752 @@ impl Solver for Dantzig {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
-        Monitor::new(problem, settings).finish(
-            Vec::new(),
-            0,
-            Outcome::Unsupported("not implemented yet".into()),
-        )
+        let mut monitor = Monitor::new(problem, settings);
+        if !(self.pivot_tol.is_finite() && self.pivot_tol > 0.0) {
+            let reason = format!("pivot_tol = {} must be finite and > 0", self.pivot_tol);
+            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+        }
+        let n = problem.n();
+        // Normal (and plain) rows first, then friction rows, each in index order.
+        let order: Vec<usize> = (0..n)
+            .filter(|&i| problem.friction_of(i).is_none())
+            .chain(problem.friction().iter().map(|fr| fr.row))
+            .collect();
+        let d = problem.diagonal_scale();
+        let scale = (0..n)
+            .map(|i| (problem.b()[i] / d[i]).abs())
+            .fold(0.0, f64::max);
+        let scale = if scale > 0.0 { scale } else { 1.0 };
+        let mut pivots = 0;
+        let mut frozen: Option<Vec<f64>> = None;
+        let passes = if problem.friction().is_empty() {
+            1
+        } else {
+            self.friction_passes.max(1)
+        };
+        let mut f = vec![0.0; n];
+        let mut outcome = Outcome::Stopped;
+        for _ in 0..passes {
+            let mut pass = Pass::new(problem, self.pivot_tol, &d, scale, frozen.as_deref());
+            let result = pass.run(&order, &mut pivots, settings, &mut monitor);
+            f = pass.x;
+            if let Err(o) = result {
+                outcome = o;
+                break;
+            }
+            // Fixed point of the friction bounds: stop when the normals that set them moved
+            // by less than round-off.
+            let normals: Vec<f64> = (0..n).map(|k| f[k].max(0.0)).collect();
+            let moved = match &frozen {
+                None => problem
+                    .friction()
+                    .iter()
+                    .map(|fr| (pass.friction_bound_used[fr.row] - fr.mu * normals[fr.normal]).abs())
+                    .fold(0.0, f64::max),
+                Some(prev) => problem
+                    .friction()
+                    .iter()
+                    .map(|fr| fr.mu * (prev[fr.normal] - normals[fr.normal]).abs())
+                    .fold(0.0, f64::max),
+            };
+            if moved <= 1e-13 * scale {
+                break;
+            }
+            frozen = Some(normals);
+        }
+        monitor.finish(f, pivots, outcome)
+    }
+}
+
+/// Where an added row is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Set {
+    /// Not added yet: `f` at its initial value, `w` not tracked.
+    Pending,
+    /// `w = 0`, `f` inside its box, in the factorisation.
+    Clamped,
+    /// `f = lo`, `w >= 0`.
+    AtLo,
+    /// `f = hi`, `w <= 0`.
+    AtHi,
+    /// `w = 0`, `f` inside its box, left out of the factorisation (pivot too small).
+    Dependent,
+}
+
+/// What limits a drive step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Event {
+    /// `w_i` of the driven row reaches zero.
+    RowClamps,
+    /// `f_i` of the driven row reaches the bound (`true` for `hi`).
+    RowAtBound(bool),
+    /// The clamped row at factor position `p` reaches a bound (`true` for `hi`).
+    Leaves(usize, bool),
+    /// The row `j` of `N` or `D` must join `C`.
+    Joins(usize),
+}
+
+/// One principal-pivoting pass with fixed bounds for every row.
+struct Pass<'a> {
+    problem: &'a Problem,
+    pivot_tol: f64,
+    d: &'a [f64],
+    /// Scale of `f` (`max |b_i| / d_i`), for tolerances.
+    scale: f64,
+    /// Normals that fix the friction bounds (`None`: take them when the row is added).
+    frozen: Option<&'a [f64]>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    x: Vec<f64>,
+    w: Vec<f64>,
+    set: Vec<Set>,
+    lu: ClampedLu,
+    /// The half-width `mu f_k` each friction row was given.
+    friction_bound_used: Vec<f64>,
+}
+
+impl<'a> Pass<'a> {
+    fn new(
+        problem: &'a Problem,
+        pivot_tol: f64,
+        d: &'a [f64],
+        scale: f64,
+        frozen: Option<&'a [f64]>,
+    ) -> Self {
+        let n = problem.n();
+        let (mut lo, mut hi) = (problem.lo().to_vec(), problem.hi().to_vec());
+        for fr in problem.friction() {
+            lo[fr.row] = 0.0;
+            hi[fr.row] = 0.0;
+        }
+        let x = (0..n).map(|i| 0.0_f64.max(lo[i]).min(hi[i])).collect();
+        Self {
+            problem,
+            pivot_tol,
+            d,
+            scale,
+            frozen,
+            lo,
+            hi,
+            x,
+            w: vec![0.0; n],
+            set: vec![Set::Pending; n],
+            lu: ClampedLu::new(n),
+            friction_bound_used: vec![0.0; n],
+        }
+    }
+
+    fn run(
+        &mut self,
+        order: &[usize],
+        pivots: &mut usize,
+        settings: &Settings,
+        monitor: &mut Monitor<'_>,
+    ) -> Result<(), Outcome> {
+        for &i in order {
+            if let Some((k, mu)) = self.problem.friction_of(i) {
+                let normal = self.frozen.map_or(self.x[k], |f| f[k]);
+                let c = mu * normal.max(0.0);
+                self.friction_bound_used[i] = c;
+                self.lo[i] = -c;
+                self.hi[i] = c;
+                self.x[i] = 0.0;
+            }
+            self.add_row(i, pivots, settings, monitor)?;
+            self.refresh()?;
+        }
+        Ok(())
+    }
+
+    fn w_tol(&self, j: usize) -> f64 {
+        1e-12 * self.d[j] * self.scale
+    }
+
+    /// Put row `i` into `C` if its pivot is large enough, else into `D`.
+    fn clamp_or_depend(&mut self, i: usize) -> Result<(), Outcome> {
+        self.w[i] = 0.0;
+        match self.lu.try_add(self.problem, i, self.pivot_tol * self.d[i]) {
+            Ok(()) => self.set[i] = Set::Clamped,
+            Err(s) if s < -self.pivot_tol * self.d[i] => return Err(negative_pivot(i, s)),
+            Err(_) => self.set[i] = Set::Dependent,
+        }
+        Ok(())
+    }
+
+    /// Add row `i`, driving it until its complementarity conditions hold.
+    fn add_row(
+        &mut self,
+        i: usize,
+        pivots: &mut usize,
+        settings: &Settings,
+        monitor: &mut Monitor<'_>,
+    ) -> Result<(), Outcome> {
+        let n = self.problem.n();
+        let (lo_i, hi_i) = (self.lo[i], self.hi[i]);
+        self.w[i] = crate::problem::dot(self.problem.a_row(i), &self.x) + self.problem.b()[i];
+        // Rows that may not block this row's drive again (their pivot was too small to join C).
+        let mut ignored = vec![false; n];
+        let mut dx_c: Vec<f64> = Vec::new();
+        let mut dw = vec![0.0; n];
+        loop {
+            let (xi, wi, tol) = (self.x[i], self.w[i], self.w_tol(i));
+            let at_lo = xi <= lo_i;
+            let at_hi = xi >= hi_i;
+            if at_lo && wi >= -tol {
+                self.set[i] = Set::AtLo;
+                return Ok(());
+            }
+            if at_hi && wi <= tol {
+                self.set[i] = Set::AtHi;
+                return Ok(());
+            }
+            if !at_lo && !at_hi && wi.abs() <= tol {
+                return self.clamp_or_depend(i);
+            }
+            if *pivots >= settings.max_iterations {
+                return Err(Outcome::IterationLimit);
+            }
+            if monitor.out_of_time() {
+                return Err(Outcome::TimeLimit);
+            }
+            *pivots += 1;
+            let dir = if wi < 0.0 { 1.0 } else { -1.0 };
+
+            // Direction: Δf_i = dir, Δf_C = −A_CC⁻¹ A_Ci dir, Δf_N = 0.
+            let rows = self.lu.rows.clone();
+            dx_c.clear();
+            dx_c.extend(rows.iter().map(|&c| -self.problem.a_row(c)[i] * dir));
+            self.lu.solve(&mut dx_c);
+            let dx_max = dx_c.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+            if !dx_max.is_finite() {
+                return Err(Outcome::NumericalFailure(format!(
+                    "non-finite direction while adding row {i} (pivot {pivots})"
+                )));
+            }
+            let rate = |j: usize| -> f64 {
+                let row = self.problem.a_row(j);
+                rows.iter()
+                    .zip(&dx_c)
+                    .map(|(&c, v)| row[c] * v)
+                    .sum::<f64>()
+                    + row[i] * dir
+            };
+            for (j, (dwj, set)) in dw.iter_mut().zip(&self.set).enumerate() {
+                *dwj = match set {
+                    Set::AtLo | Set::AtHi | Set::Dependent => rate(j),
+                    _ => 0.0,
+                };
+            }
+            dw[i] = rate(i);
+            let pivot = dw[i] * dir;
+            let tol_i = self.pivot_tol * self.d[i];
+            if pivot < -tol_i {
+                return Err(negative_pivot(i, pivot));
+            }
+
+            // Ratio tests, in tie-break order.
+            let mut best: Option<(f64, Event)> = None;
+            let mut offer = |s: f64, e: Event| {
+                let s = s.max(0.0);
+                if best.is_none_or(|(b, _)| s < b) {
+                    best = Some((s, e));
+                }
+            };
+            if pivot > tol_i {
+                offer(-wi / dw[i], Event::RowClamps);
+            }
+            if dir > 0.0 && hi_i.is_finite() {
+                offer(hi_i - xi, Event::RowAtBound(true));
+            }
+            if dir < 0.0 && lo_i.is_finite() {
+                offer(xi - lo_i, Event::RowAtBound(false));
+            }
+            let x_tol = 1e-13 * dx_max;
+            for (p, (&c, &v)) in rows.iter().zip(&dx_c).enumerate() {
+                if v < -x_tol && self.lo[c].is_finite() {
+                    offer((self.lo[c] - self.x[c]) / v, Event::Leaves(p, false));
+                } else if v > x_tol && self.hi[c].is_finite() {
+                    offer((self.hi[c] - self.x[c]) / v, Event::Leaves(p, true));
+                }
+            }
+            for j in 0..n {
+                if ignored[j] || j == i {
+                    continue;
+                }
+                let rate_tol = 1e-11 * self.d[j] * dx_max;
+                match self.set[j] {
+                    Set::AtLo if self.lo[j] < self.hi[j] && dw[j] < -rate_tol => {
+                        offer(-self.w[j] / dw[j], Event::Joins(j))
+                    }
+                    Set::AtHi if self.lo[j] < self.hi[j] && dw[j] > rate_tol => {
+                        offer(-self.w[j] / dw[j], Event::Joins(j))
+                    }
+                    Set::Dependent if dw[j].abs() > rate_tol => offer(0.0, Event::Joins(j)),
+                    _ => {}
+                }
+            }
+            let Some((s, event)) = best else {
+                return Err(ray(self.problem, i, *pivots));
+            };
+
+            // Step.
+            self.x[i] += s * dir;
+            for (&c, &v) in rows.iter().zip(&dx_c) {
+                self.x[c] += s * v;
+            }
+            for ((wj, dwj), set) in self.w.iter_mut().zip(&dw).zip(&self.set) {
+                if matches!(set, Set::AtLo | Set::AtHi | Set::Dependent) {
+                    *wj += s * dwj;
+                }
+            }
+            self.w[i] += s * dw[i];
+            monitor.record(*pivots, &self.x);
+
+            match event {
+                Event::RowClamps => return self.clamp_or_depend(i),
+                Event::RowAtBound(upper) => {
+                    self.x[i] = if upper { hi_i } else { lo_i };
+                    self.set[i] = if upper { Set::AtHi } else { Set::AtLo };
+                    return Ok(());
+                }
+                Event::Leaves(p, upper) => {
+                    let c = rows[p];
+                    self.lu.remove(p).map_err(|reason| {
+                        Outcome::NumericalFailure(format!(
+                            "{reason} (row {c} leaving the clamped set, pivot {pivots})"
+                        ))
+                    })?;
+                    self.x[c] = if upper { self.hi[c] } else { self.lo[c] };
+                    self.w[c] = 0.0;
+                    self.set[c] = if upper { Set::AtHi } else { Set::AtLo };
+                }
+                Event::Joins(j) => {
+                    self.w[j] = 0.0;
+                    match self.lu.try_add(self.problem, j, self.pivot_tol * self.d[j]) {
+                        Ok(()) => self.set[j] = Set::Clamped,
+                        Err(_) => ignored[j] = true,
+                    }
+                }
+            }
+        }
+    }
+
+    /// Recompute `f_C` from the factorisation so that `w_C = 0` to round-off, and `w` of every
+    /// added row.
+    fn refresh(&mut self) -> Result<(), Outcome> {
+        let n = self.problem.n();
+        let b = self.problem.b();
+        let rows = &self.lu.rows;
+        let in_c = |j: usize| self.set[j] == Set::Clamped;
+        let mut rhs: Vec<f64> = rows
+            .iter()
+            .map(|&c| {
+                let row = self.problem.a_row(c);
+                -b[c]
+                    - (0..n)
+                        .filter(|&k| !in_c(k))
+                        .map(|k| row[k] * self.x[k])
+                        .sum::<f64>()
+            })
+            .collect();
+        self.lu.solve(&mut rhs);
+        if rhs.iter().any(|v| !v.is_finite()) {
+            return Err(Outcome::NumericalFailure(
+                "non-finite clamped impulses after a factorisation solve".into(),
+            ));
+        }
+        for (&c, v) in rows.iter().zip(rhs) {
+            self.x[c] = v;
+        }
+        for (j, (wj, set)) in self.w.iter_mut().zip(&self.set).enumerate() {
+            *wj = match set {
+                Set::Pending | Set::Clamped => 0.0,
+                _ => crate::problem::dot(self.problem.a_row(j), &self.x) + b[j],
+            };
+        }
+        Ok(())
+    }
+}
+
+/// An unblocked drive: a proof that no solution exists when `A` is symmetric positive
+/// semidefinite; otherwise the problem is outside the class the method handles (a P-matrix
+/// problem always has a solution, so it never ends here).
+fn ray(problem: &Problem, i: usize, pivots: usize) -> Outcome {
+    let what = format!("the drive of row {i} at pivot {pivots} is not blocked");
+    let n = problem.n();
+    let amax = problem.max_abs_entry();
+    let psd = problem.is_symmetric(1e-12)
+        && problem
+            .a()
+            .self_adjoint_eigenvalues(faer::Side::Lower)
+            .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * amax * n as f64));
+    if psd {
+        Outcome::NoSolution(format!("ray: {what}; A is PSD, so there is no solution"))
+    } else {
+        Outcome::Unsupported(format!(
+            "ray: {what}, and A is not symmetric positive semidefinite, so this proves nothing"
+        ))
+    }
+}
+
+fn negative_pivot(i: usize, pivot: f64) -> Outcome {
+    Outcome::Unsupported(format!(
+        "row {i} has a negative pivot {pivot:.3e}: A is neither positive semidefinite nor a \
+         P-matrix"
+    ))
+}
+
+/// `A_CC = L U` (unit lower `L`, no row exchanges) for the clamped rows in factor order, stored
+/// row-major with stride `cap`.
+struct ClampedLu {
+    cap: usize,
+    rows: Vec<usize>,
+    l: Vec<f64>,
+    u: Vec<f64>,
+}
+
+impl ClampedLu {
+    fn new(cap: usize) -> Self {
+        Self {
+            cap,
+            rows: Vec::with_capacity(cap),
+            l: vec![0.0; cap * cap],
+            u: vec![0.0; cap * cap],
+        }
+    }
+
+    /// Solve `A_CC v = rhs` in place.
+    fn solve(&self, rhs: &mut [f64]) {
+        let (m, cap) = (self.rows.len(), self.cap);
+        for r in 0..m {
+            let s: f64 = (0..r).map(|c| self.l[r * cap + c] * rhs[c]).sum();
+            rhs[r] -= s;
+        }
+        for r in (0..m).rev() {
+            let s: f64 = (r + 1..m).map(|c| self.u[r * cap + c] * rhs[c]).sum();
+            rhs[r] = (rhs[r] - s) / self.u[r * cap + r];
+        }
+    }
+
+    /// Border the factorisation with row and column `i`. Fails, leaving it unchanged, with the
+    /// pivot `A_ii − A_iC A_CC⁻¹ A_Ci` when that is not above `tol`.
+    fn try_add(&mut self, problem: &Problem, i: usize, tol: f64) -> Result<(), f64> {
+        let (m, cap) = (self.rows.len(), self.cap);
+        let row_i = problem.a_row(i);
+        // l: Uᵀ l = A_iC; u: L u = A_Ci.
+        let mut l: Vec<f64> = self.rows.iter().map(|&c| row_i[c]).collect();
+        let mut u: Vec<f64> = self.rows.iter().map(|&c| problem.a_row(c)[i]).collect();
+        for k in 0..m {
+            let s: f64 = (0..k).map(|j| l[j] * self.u[j * cap + k]).sum();
+            l[k] = (l[k] - s) / self.u[k * cap + k];
+            let s: f64 = (0..k).map(|j| self.l[k * cap + j] * u[j]).sum();
+            u[k] -= s;
+        }
+        let pivot = row_i[i] - l.iter().zip(&u).map(|(a, b)| a * b).sum::<f64>();
+        if pivot.is_nan() || pivot <= tol {
+            return Err(pivot);
+        }
+        for k in 0..m {
+            self.l[m * cap + k] = l[k];
+            self.u[k * cap + m] = u[k];
+        }
+        self.u[m * cap + m] = pivot;
+        self.rows.push(i);
+        Ok(())
+    }
+
+    /// Remove the row and column at factor position `p`: the trailing block takes the rank-one
+    /// update `L₃₃U₃₃ + l₃ₚ uₚ₃ᵀ` (Bennett), then position `p` is deleted.
+    fn remove(&mut self, p: usize) -> Result<(), String> {
+        let (m, cap) = (self.rows.len(), self.cap);
+        let mut x: Vec<f64> = (0..m)
+            .map(|r| if r > p { self.l[r * cap + p] } else { 0.0 })
+            .collect();
+        let mut y: Vec<f64> = (0..m)
+            .map(|c| if c > p { self.u[p * cap + c] } else { 0.0 })
+            .collect();
+        for j in p + 1..m {
+            let ujj = self.u[j * cap + j];
+            let new = ujj + x[j] * y[j];
+            if new.is_nan() || new.abs() <= 1e-14 * ujj.abs() {
+                return Err(format!(
+                    "singular pivot {new:.3e} in the factorisation update"
+                ));
+            }
+            for c in j + 1..m {
+                let ujc = self.u[j * cap + c];
+                self.u[j * cap + c] = ujc + x[j] * y[c];
+                y[c] = (ujj * y[c] - y[j] * ujc) / new;
+            }
+            for r in j + 1..m {
+                let lrj = self.l[r * cap + j];
+                let xr = x[r];
+                x[r] = xr - x[j] * lrj;
+                self.l[r * cap + j] = (lrj * ujj + xr * y[j]) / new;
+            }
+            self.u[j * cap + j] = new;
+        }
+        // Delete row and column p from both factors.
+        for r in 0..m {
+            for c in 0..m {
+                if r == p || c == p {
+                    continue;
+                }
+                let (r2, c2) = (r - usize::from(r > p), c - usize::from(c > p));
+                self.l[r2 * cap + c2] = self.l[r * cap + c];
+                self.u[r2 * cap + c2] = self.u[r * cap + c];
+            }
+        }
+        self.rows.remove(p);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{generate, Family};
+    use crate::problem::FrictionRow;
+    use crate::ProjectedSor;
+    use crate::Status;
+    use faer::Mat;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn lcp(rows: &[&[f64]], b: &[f64]) -> Problem {
+        let n = b.len();
+        Problem::lcp(Mat::from_fn(n, n, |i, j| rows[i][j]), b.to_vec()).unwrap()
+    }
+
+    #[test]
+    fn solves_small_lcps() {
+        let p = lcp(&[&[2.0, 1.0], &[1.0, 2.0]], &[-1.0, 1.0]);
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert!((r.f[0] - 0.5).abs() < 1e-12 && r.f[1] == 0.0, "{:?}", r.f);
+        // f = (1, 0, 0.5): w = (0, 1.5, 0).
+        let a: [&[f64]; 3] = [&[2.0, 1.0, 0.0], &[1.0, 2.0, 1.0], &[0.0, 1.0, 2.0]];
+        let r = Dantzig::default().solve(&lcp(&a, &[-2.0, 0.0, -1.0]), &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        for (x, y) in r.f.iter().zip([1.0, 0.0, 0.5]) {
+            assert!((x - y).abs() < 1e-12, "{:?}", r.f);
+        }
+    }
+
+    #[test]
+    fn planted_families_converge() {
+        for (family, n) in [
+            (Family::Spd { cond: 1e3 }, 50),
+            (Family::PMatrix, 40),
+            (Family::PsdRankDeficient { rank: 15 }, 30),
+        ] {
+            for seed in 0..3 {
+                let g = generate(family, n, seed);
+                let r = Dantzig::default().solve(&g.problem, &Settings::default());
+                assert_eq!(r.status, Status::Converged, "{family:?} seed {seed}");
+                assert!(r.residuals.natural_map_rel <= 1e-8);
+            }
+        }
+    }
+
+    #[test]
+    fn boxed_problems_match_pgs() {
+        // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
+        let n = 10;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
+        let inf = f64::INFINITY;
+        let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0];
+        let hi = vec![inf, 0.3, 0.4, inf, 0.1, inf, 0.3, 0.4, inf, inf];
+        let p = Problem::boxed(a, b, lo, hi, vec![]).unwrap();
+        let reference = ProjectedSor::pgs().solve(&p, &tight());
+        assert_eq!(reference.status, Status::Converged);
+        let r = Dantzig::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert_close(&r.f, &reference.f, 1e-8);
+    }
+
+    fn tight() -> Settings {
+        Settings {
+            tolerance: 1e-12,
+            max_iterations: 200_000,
+            ..Settings::default()
+        }
+    }
+
+    fn assert_close(x: &[f64], y: &[f64], tol: f64) {
+        for (a, b) in x.iter().zip(y) {
+            assert!((a - b).abs() <= tol, "{x:?}\nvs\n{y:?}");
+        }
+    }
+
+    /// Contacts with random Jacobians: each contact has a normal row and two friction rows, and
+    /// `A = J Jᵀ + eps I` (unit masses).
+    fn random_contacts(contacts: usize, dofs: usize, mu: f64, eps: f64, seed: u64) -> Problem {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = 3 * contacts;
+        let j = Mat::from_fn(n, dofs, |_, _| crate::generate::gaussian(&mut rng));
+        let v: Vec<f64> = (0..dofs)
+            .map(|_| crate::generate::gaussian(&mut rng))
+            .collect();
+        let a = Mat::from_fn(n, n, |r, c| {
+            (0..dofs).map(|k| j[(r, k)] * j[(c, k)]).sum::<f64>() + if r == c { eps } else { 0.0 }
+        });
+        let b: Vec<f64> = (0..n)
+            .map(|r| (0..dofs).map(|k| j[(r, k)] * v[k]).sum::<f64>() - rng.random_range(0.0..0.5))
+            .collect();
+        let inf = f64::INFINITY;
+        let lo = vec![0.0; n];
+        let hi = (0..n).map(|r| if r % 3 == 0 { inf } else { 0.0 }).collect();
+        let friction = (0..contacts)
+            .flat_map(|c| {
+                [1, 2].map(|t| FrictionRow {
+                    row: 3 * c + t,
+                    normal: 3 * c,
+                    mu,
+                })
+            })
+            .collect();
+        Problem::boxed(a, b, lo, hi, friction).unwrap()
+    }
+
+    #[test]
+    fn friction_problems_match_pgs() {
+        let mut sticking_and_sliding = (false, false);
+        for seed in 0..4 {
+            // 4 contacts on 18 degrees of freedom (three bodies): A is positive definite.
+            let p = random_contacts(4, 18, 0.4, 1e-3, seed);
+            let reference = ProjectedSor::pgs().solve(&p, &tight());
+            assert_eq!(reference.status, Status::Converged, "seed {seed}");
+            let r = Dantzig::default().solve(&p, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "seed {seed}");
+            assert_close(&r.f, &reference.f, 1e-7);
+            for fr in p.friction() {
+                let (lo, hi) = p.bounds_at(fr.row, &r.f);
+                let f = r.f[fr.row];
+                if hi > 0.0 && (f - lo).min(hi - f) > 1e-9 {
+                    sticking_and_sliding.0 = true;
+                } else if hi > 0.0 {
+                    sticking_and_sliding.1 = true;
+                }
+            }
+        }
+        assert_eq!(sticking_and_sliding, (true, true));
+    }
+
+    /// A unit box resting on the ground on its four bottom corners, with velocity `v`
+    /// (linear, angular): 12 rows (normal, x and y friction per corner) of rank 6.
+    fn box_on_ground(v: [f64; 6], mu: f64, friction: bool) -> Problem {
+        let corners = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+        let dirs: &[[f64; 3]] = if friction {
+            &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+        } else {
+            &[[0.0, 0.0, 1.0]]
+        };
+        let mut jac: Vec<[f64; 6]> = Vec::new();
+        for c in corners {
+            let r = [c[0], c[1], -1.0];
+            for d in dirs {
+                let rxd = [
+                    r[1] * d[2] - r[2] * d[1],
+                    r[2] * d[0] - r[0] * d[2],
+                    r[0] * d[1] - r[1] * d[0],
+                ];
+                jac.push([d[0], d[1], d[2], rxd[0], rxd[1], rxd[2]]);
+            }
+        }
+        // Mass 1, inertia (2/3) I of a cube of side 2 and mass 1.
+        let inv_mass = [1.0, 1.0, 1.0, 1.5, 1.5, 1.5];
+        let n = jac.len();
+        let a = Mat::from_fn(n, n, |i, j| {
+            (0..6).map(|k| jac[i][k] * inv_mass[k] * jac[j][k]).sum()
+        });
+        let b = (0..n)
+            .map(|i| (0..6).map(|k| jac[i][k] * v[k]).sum())
+            .collect();
+        let k = dirs.len();
+        let inf = f64::INFINITY;
+        let hi = (0..n).map(|i| if i % k == 0 { inf } else { 0.0 }).collect();
+        let fr = (0..n)
+            .filter(|i| i % k != 0)
+            .map(|i| FrictionRow {
+                row: i,
+                normal: i - i % k,
+                mu,
+            })
+            .collect();
+        Problem::boxed(a, b, vec![0.0; n], hi, fr).unwrap()
+    }
+
+    #[test]
+    fn redundant_contacts_are_handled() {
+        // Falling, then falling while sliding (slips) and while drifting slowly (sticks).
+        for (v, friction) in [
+            ([0.0, 0.0, -1.0, 0.0, 0.0, 0.0], false),
+            ([0.0, 0.0, -1.0, 0.1, -0.2, 0.0], false),
+            ([2.0, 0.0, -1.0, 0.0, 0.0, 0.0], true),
+            ([0.1, 0.05, -1.0, 0.0, 0.0, 0.3], true),
+        ] {
+            let p = box_on_ground(v, 0.5, friction);
+            let r = Dantzig::default().solve(&p, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "v = {v:?}: {:?}", r.f);
+            // Whatever the split between corners, the total normal impulse stops the fall.
+            let k = if friction { 3 } else { 1 };
+            let total: f64 = (0..4).map(|c| r.f[k * c]).sum();
+            assert!(total >= 1.0 - 1e-9, "v = {v:?}: {:?}", r.f);
+        }
+        // Four identical rows: any split summing to 1 solves it, and none may blow up.
+        let ones = vec![1.0; 4];
+        let a: Vec<&[f64]> = vec![&ones; 4];
+        let r = Dantzig::default().solve(&lcp(&a, &[-1.0; 4]), &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert!((r.f.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn degenerate_problems_do_not_cycle() {
+        let a: [&[f64]; 2] = [&[1.0, -1.0], &[-1.0, 1.0]];
+        let r = Dantzig::default().solve(&lcp(&a, &[0.0, 0.0]), &Settings::default());
+        assert_eq!((r.status.clone(), r.iterations), (Status::Converged, 0));
+        let a: [&[f64]; 4] = [
+            &[2.0, 1.0, 1.0, 2.0],
+            &[1.0, 2.0, 2.0, 1.0],
+            &[1.0, 2.0, 2.0, 1.0],
+            &[2.0, 1.0, 1.0, 2.0],
+        ];
+        for b in [[-1.0; 4], [-1.0, 0.0, -1.0, 0.0], [0.0, -1.0, -1.0, 0.0]] {
+            let r = Dantzig::default().solve(&lcp(&a, &b), &Settings::default());
+            assert_eq!(r.status, Status::Converged, "b = {b:?}");
+            assert!(r.iterations <= 8, "b = {b:?}: {} pivots", r.iterations);
+        }
+    }
+
+    #[test]
+    fn failures_are_reported() {
+        let g = generate(Family::Infeasible, 20, 5);
+        let r = Dantzig::default().solve(&g.problem, &Settings::default());
+        assert_eq!(r.status.name(), "no_solution", "{}", r.status);
+        // Indefinite: [[0, 1], [1, 0]] has the solution (1, 1), but the drive of row 0 is a ray.
+        let r = Dantzig::default().solve(
+            &lcp(&[&[0.0, 1.0], &[1.0, 0.0]], &[-1.0, -1.0]),
+            &Settings::default(),
+        );
+        assert_eq!(r.status.name(), "unsupported", "{}", r.status);
+        let r = Dantzig::default().solve(&lcp(&[&[-1.0]], &[-1.0]), &Settings::default());
+        assert_eq!(r.status.name(), "unsupported", "{}", r.status);
+        let g = generate(Family::Spd { cond: 1e3 }, 50, 1);
+        let capped = Settings {
+            max_iterations: 5,
+            ..Settings::default()
+        };
+        let r = Dantzig::default().solve(&g.problem, &capped);
+        assert_eq!((r.status, r.iterations), (Status::IterationLimit, 5));
+        let timed = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let r = Dantzig::default().solve(&g.problem, &timed);
+        assert_eq!(r.status, Status::TimeLimit);
     }
 }

@@ -36,9 +36,13 @@ pub enum Family {
     },
     /// Non-symmetric positive definite (hence P-matrix): `A = LLᵀ/n + I/2 + K`, `K` skew-symmetric.
     PMatrix,
-    /// Murty's example on which Lemke's method with covering vector `e` takes `2ⁿ − 1` pivots
+    /// Murty's example on which Lemke's method with covering vector `e` takes `2ⁿ` pivots
     /// (K. G. Murty, *Computational complexity of complementary pivot methods*, Math. Prog. Study
-    /// 7, 1978): `A` upper triangular with 1 on the diagonal and 2 above, `b = −e`.
+    /// 7, 1978): `A` lower triangular with 1 on the diagonal and 2 below, `b = −e`; the unique
+    /// solution is `f = e₁`. The first pivot is a tie between all rows; the lexicographic rule
+    /// (equivalently `b_i = −1 + εⁱ`) breaks it towards the last row, and the path then visits
+    /// every one of the `2ⁿ` complementary bases (the z0 pivot and the final pivot included).
+    /// The transpose (upper triangular, 2 above) is solved in 2 pivots by the same rule.
     Murty,
     /// A PSD problem with no solution: `A = Y (I − eeᵀ/n)` Gram matrix, so `eᵀ A = 0`, and
     /// `eᵀ b < 0`; then `eᵀ w = eᵀ b < 0` for every `f`.
@@ -77,13 +81,13 @@ pub fn generate(family: Family, n: usize, seed: u64) -> Generated {
         Family::Murty => {
             let a = Mat::from_fn(n, n, |i, j| match i.cmp(&j) {
                 std::cmp::Ordering::Equal => 1.0,
-                std::cmp::Ordering::Less => 2.0,
-                std::cmp::Ordering::Greater => 0.0,
+                std::cmp::Ordering::Greater => 2.0,
+                std::cmp::Ordering::Less => 0.0,
             });
-            // The unique solution is f = e_n (last component 1): w_i = 2 - 1 = 1 above it.
+            // The unique solution (A is a P-matrix) is f = e_1: w_i = 2 - 1 = 1 below it.
             let mut f = vec![0.0; n];
             if n > 0 {
-                f[n - 1] = 1.0;
+                f[0] = 1.0;
             }
             let problem = Problem::lcp(a, vec![-1.0; n])
                 .expect("finite")

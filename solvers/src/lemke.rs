@@ -1,14 +1,85 @@
-//! Lemke: not implemented yet.
+//! Lemke's complementary pivoting method with a covering vector.
+//!
+//! Lemke pivots on the standard LCP `w = M z + q`, `0 <= z ⟂ w >= 0`, augmented by an artificial
+//! variable `z0 >= 0` and a covering vector `d > 0`:
+//!
+//! ```text
+//! w = q + M z + d z0,   w, z, z0 >= 0,   w_i z_i = 0.
+//! ```
+//!
+//! It starts from `z = 0`, `z0 = max_i(−q_i / d_i)`, and follows the path of almost
+//! complementary basic solutions: after each pivot, the complement of the variable that just
+//! left the basis enters, until `z0` leaves (a solution) or the entering column has no positive
+//! entry (ray termination). The leaving row comes from a lexicographic minimum-ratio test on
+//! `[x_B | B⁻¹]`, so degenerate problems (`q = 0`, duplicated rows) do not cycle; on a tie with
+//! `z0`'s row, `z0` leaves.
+//!
+//! * **Problem class**: the standard LCP; boxed problems with fixed bounds through the reduction
+//!   below. Lemke *processes* copositive-plus matrices (symmetric positive semidefinite, positive
+//!   definite, non-symmetric P-matrices…): it either finds a solution or ends in a ray, and for
+//!   a copositive-plus `M` a ray proves that no solution exists (Cottle–Pang–Stone, Thm 4.4.13).
+//!   On other matrices a ray proves nothing, but it is still reported as `NoSolution` with the
+//!   pivot at which it happened. Friction rows are `Unsupported`: their bounds `±mu f_k` move with
+//!   the solution and have no fixed-bound reduction.
+//! * **Boxed reduction** (row `i`, with `w = A f + b`):
+//!   `lo_i` finite, `hi_i = ∞`: `f_i = lo_i + x`, `x ⟂ w_i`;
+//!   `lo_i = −∞`, `hi_i` finite: `f_i = hi_i − x`, `x ⟂ −w_i`;
+//!   both finite: `f_i = lo_i + x` and a slack `y`, with `x ⟂ w_i + y` and
+//!   `y ⟂ (hi_i − lo_i) − x` (the `[[A, I], [−I, 0]]` augmentation);
+//!   both infinite (free): `f_i = x⁺ − x⁻` with `x⁺ ⟂ w_i` and `x⁻ ⟂ −w_i`, which together force
+//!   `w_i = 0`. Every block keeps `M` positive semidefinite when `A` is, so the guarantee above
+//!   carries over. The standard LCP maps to itself (`M = A`, `q = b`).
+//! * **Cost**: revised form with an explicit `B⁻¹`: `O(m²)` per pivot (`m` the size of the
+//!   reduced LCP), plus an `O(m³)` refactorisation of the basis every `max(50, m)` pivots and at
+//!   the end (followed by one step of iterative refinement). The number of pivots is usually a
+//!   small multiple of `m`, but is `2ⁿ` on Murty's example (below).
+//! * **Failure modes**: ray termination (`NoSolution`, reason `ray termination at pivot k …`);
+//!   pivot cap ([`Settings::max_iterations`] counts pivots, the first `z0` pivot included) gives
+//!   `IterationLimit`; the time budget gives `TimeLimit`; a singular basis at a refactorisation
+//!   or a non-finite column gives `NumericalFailure`. Entries below `1e-11 · max(1, max|y|)` in
+//!   the entering column `y` are never pivoted on. In every case the returned impulse is the
+//!   current basic solution's `z` mapped back to `f`, and the shared residual decides the status.
+//! * **Trivial case**: `q >= 0` returns `z = 0` after zero pivots.
+//! * **Warm start**: ignored; Lemke always starts from `z = 0`.
+//!
+//! The data are scaled before pivoting (`M / max|M|`, `q / max|q|`, `d / max d`) so the pivot
+//! and tie tolerances are relative; the solution is scaled back.
+//!
+//! Measured on Murty's example ([`crate::generate::Family::Murty`]: `M` lower triangular, 1 on
+//! the diagonal and 2 below, `q = −e`, `d = e`): exactly `2ⁿ` pivots, the first `z0` pivot and
+//! the last included, for every `n = 2..=10` (4, 8, 16, …, 1024; the unit tests check it). The
+//! first pivot is a tie between all rows, which the lexicographic rule breaks towards the last
+//! row; the transposed matrix (upper triangular) is solved in 2 pivots by the same rule.
+//!
+//! References: C. E. Lemke, *Bimatrix equilibrium points and mathematical programming*,
+//! Management Science 11, 1965; R. W. Cottle, J.-S. Pang, R. E. Stone, *The Linear
+//! Complementarity Problem*, 1992, §4.4; K. G. Murty, *Linear Complementarity, Linear and
+//! Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the exponential example).
 
 use crate::problem::Problem;
 use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+use std::fmt;
 
 /// Problem classes handled.
-pub(crate) const PROBLEM_CLASSES: &str = "not implemented yet";
+pub(crate) const PROBLEM_CLASSES: &str =
+    "LCP and boxed LCP with fixed bounds (reduced to an LCP); processes PSD and P-matrix A; no friction rows";
 
-/// Lemke solver.
-#[derive(Debug, Clone, Default)]
-pub struct Lemke {}
+/// Lemke's complementary pivoting method. See the module documentation.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Lemke {
+    /// Covering vector `d > 0` of the standard LCP that Lemke pivots on. Its length must be that
+    /// LCP's size: `n` for a standard problem; for a boxed problem `n` plus one per row with both
+    /// bounds finite and one per free row (see the reduction in the module doc). Default `None`:
+    /// all ones.
+    pub covering: Option<Vec<f64>>,
+}
+
+impl Lemke {
+    /// Lemke with the covering vector `d` (all entries finite and `> 0`).
+    pub fn with_covering(d: Vec<f64>) -> Self {
+        Self { covering: Some(d) }
+    }
+}
 
 impl Solver for Lemke {
     fn name(&self) -> &'static str {
@@ -16,10 +87,604 @@ impl Solver for Lemke {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
-        Monitor::new(problem, settings).finish(
-            Vec::new(),
-            0,
-            Outcome::Unsupported("not implemented yet".into()),
+        let mut monitor = Monitor::new(problem, settings);
+        let reduction = match Reduction::new(problem) {
+            Ok(r) => r,
+            Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason)),
+        };
+        let m = reduction.q.len();
+        let d = match &self.covering {
+            None => vec![1.0; m],
+            Some(d) if d.len() != m => {
+                let reason = format!(
+                    "covering vector has length {}, but the reduced LCP has {m} rows",
+                    d.len()
+                );
+                return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+            }
+            Some(d) => match d.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+                Some(i) => {
+                    let reason = format!("covering vector entry d[{i}] = {} is not > 0", d[i]);
+                    return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+                }
+                None => d.clone(),
+            },
+        };
+        let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
+        monitor.finish(reduction.impulse(&z), pivots, outcome)
+    }
+}
+
+/// The standard LCP `w' = M z + q` that a boxed problem reduces to, and the map back
+/// `f_i = c_i + Σ_v s_v z_v` over the variables `v` of row `i`.
+struct Reduction {
+    /// `M`, row-major, `m × m`.
+    m: Vec<f64>,
+    q: Vec<f64>,
+    /// Offset of each original row.
+    c: Vec<f64>,
+    /// For each LCP variable: `Some((row, sign))` when it is (a signed part of) `f_row − c_row`,
+    /// `None` for a box slack.
+    var_row: Vec<Option<(usize, f64)>>,
+}
+
+impl Reduction {
+    fn new(problem: &Problem) -> Result<Self, String> {
+        if !problem.friction().is_empty() {
+            return Err(format!(
+                "{} friction rows: their bounds ±mu·f_normal move with the solution, and Lemke \
+                 handles fixed bounds only",
+                problem.friction().len()
+            ));
+        }
+        let n = problem.n();
+        let (lo, hi) = (problem.lo(), problem.hi());
+        let mut c = vec![0.0; n];
+        let mut vars: Vec<(usize, f64)> = Vec::with_capacity(n);
+        // (index of the variable x in `vars`, hi − lo) for every box row.
+        let mut slacks: Vec<(usize, f64)> = Vec::new();
+        for i in 0..n {
+            match (lo[i].is_finite(), hi[i].is_finite()) {
+                (true, false) => {
+                    c[i] = lo[i];
+                    vars.push((i, 1.0));
+                }
+                (false, true) => {
+                    c[i] = hi[i];
+                    vars.push((i, -1.0));
+                }
+                (true, true) => {
+                    c[i] = lo[i];
+                    slacks.push((vars.len(), hi[i] - lo[i]));
+                    vars.push((i, 1.0));
+                }
+                (false, false) => {
+                    vars.push((i, 1.0));
+                    vars.push((i, -1.0));
+                }
+            }
+        }
+        let w0 = problem.velocity(&c);
+        let nv = vars.len();
+        let m = nv + slacks.len();
+        let mut mat = vec![0.0; m * m];
+        let mut q = vec![0.0; m];
+        let a = problem.a();
+        for (v, &(i, s)) in vars.iter().enumerate() {
+            q[v] = s * w0[i];
+            for (u, &(j, t)) in vars.iter().enumerate() {
+                mat[v * m + u] = s * t * a[(i, j)];
+            }
+        }
+        for (k, &(v, width)) in slacks.iter().enumerate() {
+            let y = nv + k;
+            mat[v * m + y] = 1.0;
+            mat[y * m + v] = -1.0;
+            q[y] = width;
+        }
+        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "the reduced LCP has a non-finite constant term q[{i}] (bounds too large)"
+            ));
+        }
+        let mut var_row: Vec<Option<(usize, f64)>> = vars.into_iter().map(Some).collect();
+        var_row.resize(m, None);
+        Ok(Self {
+            m: mat,
+            q,
+            c,
+            var_row,
+        })
+    }
+
+    /// `f = c + T z`.
+    fn impulse(&self, z: &[f64]) -> Vec<f64> {
+        let mut f = self.c.clone();
+        if z.len() == self.var_row.len() {
+            for (v, &zv) in z.iter().enumerate() {
+                if let Some((i, s)) = self.var_row[v] {
+                    f[i] += s * zv;
+                }
+            }
+        }
+        f
+    }
+}
+
+/// A variable of the augmented system `I w − M z − d z0 = q`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Var {
+    W(usize),
+    Z(usize),
+    Z0,
+}
+
+impl fmt::Display for Var {
+    fn fmt(&self, fmt: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Var::W(j) => write!(fmt, "w[{j}]"),
+            Var::Z(j) => write!(fmt, "z[{j}]"),
+            Var::Z0 => write!(fmt, "z0"),
+        }
+    }
+}
+
+/// Entries of the entering column below `PIVOT_TOL · max(1, max|y|)` are never pivoted on.
+const PIVOT_TOL: f64 = 1e-11;
+/// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
+const TIE_TOL: f64 = 1e-10;
+
+/// The revised tableau: the basis, `B⁻¹` (row-major) and the basic values `x_B = B⁻¹ q`, all on
+/// the scaled data.
+struct Tableau<'a> {
+    k: usize,
+    mat: &'a [f64],
+    q: &'a [f64],
+    d: &'a [f64],
+    basis: Vec<Var>,
+    binv: Vec<f64>,
+    xb: Vec<f64>,
+}
+
+impl Tableau<'_> {
+    /// Column of `var` in the augmented system.
+    fn column(&self, var: Var) -> Vec<f64> {
+        let k = self.k;
+        match var {
+            Var::W(j) => (0..k).map(|i| if i == j { 1.0 } else { 0.0 }).collect(),
+            Var::Z(j) => (0..k).map(|i| -self.mat[i * k + j]).collect(),
+            Var::Z0 => self.d.iter().map(|v| -v).collect(),
+        }
+    }
+
+    /// `B⁻¹ a` for the column `a` of `var`.
+    fn entering_column(&self, var: Var) -> Vec<f64> {
+        let k = self.k;
+        match var {
+            Var::W(j) => (0..k).map(|r| self.binv[r * k + j]).collect(),
+            _ => {
+                let a = self.column(var);
+                (0..k)
+                    .map(|r| {
+                        let row = &self.binv[r * k..(r + 1) * k];
+                        row.iter().zip(&a).map(|(x, y)| x * y).sum()
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Pivot `entering` (with column `y = B⁻¹ a`) into row `r`.
+    fn pivot(&mut self, r: usize, y: &[f64], entering: Var) {
+        let k = self.k;
+        let p = y[r];
+        let theta = self.xb[r] / p;
+        for c in 0..k {
+            self.binv[r * k + c] /= p;
+        }
+        let (before, rest) = self.binv.split_at_mut(r * k);
+        let (prow, after) = rest.split_at_mut(k);
+        for (i, row) in before
+            .chunks_exact_mut(k)
+            .chain(after.chunks_exact_mut(k))
+            .enumerate()
+        {
+            let i = if i < r { i } else { i + 1 };
+            let yi = y[i];
+            if yi != 0.0 {
+                for (x, pr) in row.iter_mut().zip(prow.iter()) {
+                    *x -= yi * pr;
+                }
+                self.xb[i] -= yi * theta;
+            }
+        }
+        self.xb[r] = theta;
+        self.basis[r] = entering;
+    }
+
+    /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with one step of iterative refinement.
+    fn refactor(&mut self) -> Result<(), String> {
+        let k = self.k;
+        let mut b = vec![0.0; k * k];
+        for (r, &var) in self.basis.iter().enumerate() {
+            for (i, v) in self.column(var).into_iter().enumerate() {
+                b[i * k + r] = v;
+            }
+        }
+        self.binv = invert(&b, k).ok_or_else(|| "singular basis at refactorisation".to_string())?;
+        let apply = |binv: &[f64], v: &[f64]| -> Vec<f64> {
+            (0..k)
+                .map(|r| (0..k).map(|c| binv[r * k + c] * v[c]).sum())
+                .collect()
+        };
+        let mut x = apply(&self.binv, self.q);
+        let resid: Vec<f64> = (0..k)
+            .map(|i| self.q[i] - (0..k).map(|c| b[i * k + c] * x[c]).sum::<f64>())
+            .collect();
+        for (xi, dx) in x.iter_mut().zip(apply(&self.binv, &resid)) {
+            *xi += dx;
+        }
+        self.xb = x;
+        Ok(())
+    }
+
+    /// The `z` part of the current basic solution (negative round-off clipped to 0).
+    fn z(&self) -> Vec<f64> {
+        let mut z = vec![0.0; self.k];
+        for (r, &var) in self.basis.iter().enumerate() {
+            if let Var::Z(j) = var {
+                z[j] = self.xb[r].max(0.0);
+            }
+        }
+        z
+    }
+
+    /// Lexicographic minimum of the rows `(x_B_r, B⁻¹_r) / y_r` over `cands`; `z0`'s row wins a
+    /// tie in the first (ratio) level.
+    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64]) -> usize {
+        let k = self.k;
+        let keep_min = |cands: &mut Vec<usize>, value: &dyn Fn(usize) -> f64| {
+            let min = cands
+                .iter()
+                .map(|&r| value(r))
+                .fold(f64::INFINITY, f64::min);
+            let tol = TIE_TOL * min.abs().max(1.0);
+            cands.retain(|&r| value(r) <= min + tol);
+        };
+        keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+        if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
+            return r;
+        }
+        for c in 0..k {
+            if cands.len() <= 1 {
+                break;
+            }
+            keep_min(&mut cands, &|r| self.binv[r * k + c] / y[r]);
+        }
+        // Still tied only through round-off: take the largest pivot.
+        cands
+            .into_iter()
+            .max_by(|&a, &b| y[a].abs().total_cmp(&y[b].abs()))
+            .expect("at least one candidate")
+    }
+}
+
+/// Run Lemke on the reduced LCP with covering vector `d`. Returns the unscaled `z`, the pivot
+/// count and the outcome.
+fn pivot(
+    red: &Reduction,
+    d: &[f64],
+    settings: &Settings,
+    monitor: &mut Monitor<'_>,
+) -> (Vec<f64>, usize, Outcome) {
+    let k = red.q.len();
+    if red.q.iter().all(|&v| v >= 0.0) {
+        return (vec![0.0; k], 0, Outcome::Stopped);
+    }
+    let scale = |v: &[f64]| {
+        let s = v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        if s > 0.0 {
+            s
+        } else {
+            1.0
+        }
+    };
+    let (sm, sq, sd) = (scale(&red.m), scale(&red.q), scale(d));
+    let mat: Vec<f64> = red.m.iter().map(|v| v / sm).collect();
+    let q: Vec<f64> = red.q.iter().map(|v| v / sq).collect();
+    let dn: Vec<f64> = d.iter().map(|v| v / sd).collect();
+    // z = z_scaled · sq / sm.
+    let unscale = |z: Vec<f64>| -> Vec<f64> { z.into_iter().map(|v| v * sq / sm).collect() };
+    let mut identity = vec![0.0; k * k];
+    for i in 0..k {
+        identity[i * k + i] = 1.0;
+    }
+    let mut tab = Tableau {
+        k,
+        mat: &mat,
+        q: &q,
+        d: &dn,
+        basis: (0..k).map(Var::W).collect(),
+        binv: identity,
+        xb: q.clone(),
+    };
+    let refactor_every = k.max(50);
+    let record = |tab: &Tableau<'_>, monitor: &mut Monitor<'_>, pivots: usize| {
+        if settings.record_history {
+            monitor.record(pivots, &red.impulse(&unscale(tab.z())));
+        }
+    };
+
+    // First pivot: z0 enters, the row with the lexicographically smallest (q_r, e_r) / d_r leaves.
+    let y = tab.entering_column(Var::Z0);
+    let neg_y: Vec<f64> = y.iter().map(|v| -v).collect();
+    let r = {
+        // Minimising x_B / (−y) picks the most negative q_r / d_r; the lexicographic levels
+        // then use the same denominators.
+        let min = (0..k)
+            .map(|r| tab.xb[r] / neg_y[r])
+            .fold(f64::INFINITY, f64::min);
+        let cands: Vec<usize> = (0..k)
+            .filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0))
+            .collect();
+        tab.lexicographic_min(cands, &neg_y)
+    };
+    let mut leaving = tab.basis[r];
+    tab.pivot(r, &y, Var::Z0);
+    let mut pivots = 1;
+    record(&tab, monitor, pivots);
+
+    let outcome = loop {
+        let entering = match leaving {
+            Var::W(j) => Var::Z(j),
+            Var::Z(j) => Var::W(j),
+            Var::Z0 => break Outcome::Stopped,
+        };
+        if pivots >= settings.max_iterations {
+            break Outcome::IterationLimit;
+        }
+        if monitor.out_of_time() {
+            break Outcome::TimeLimit;
+        }
+        let y = tab.entering_column(entering);
+        if y.iter().any(|v| !v.is_finite()) {
+            break Outcome::NumericalFailure(format!(
+                "non-finite entering column for {entering} at pivot {}",
+                pivots + 1
+            ));
+        }
+        let ymax = y.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let tol = PIVOT_TOL * ymax.max(1.0);
+        let cands: Vec<usize> = (0..k).filter(|&r| y[r] > tol).collect();
+        if cands.is_empty() {
+            break Outcome::NoSolution(format!(
+                "ray termination at pivot {}: entering {entering} is not blocked (for PSD or \
+                 copositive-plus A this proves there is no solution)",
+                pivots + 1
+            ));
+        }
+        let r = tab.lexicographic_min(cands, &y);
+        leaving = tab.basis[r];
+        tab.pivot(r, &y, entering);
+        pivots += 1;
+        if pivots % refactor_every == 0 && leaving != Var::Z0 {
+            if let Err(reason) = tab.refactor() {
+                break Outcome::NumericalFailure(format!("{reason} after pivot {pivots}"));
+            }
+        }
+        record(&tab, monitor, pivots);
+    };
+    let outcome = match (outcome, tab.refactor()) {
+        (Outcome::Stopped, Err(reason)) => {
+            Outcome::NumericalFailure(format!("{reason} at the final basis"))
+        }
+        (outcome, _) => outcome,
+    };
+    (unscale(tab.z()), pivots, outcome)
+}
+
+/// Inverse of the row-major `k × k` matrix `b` by Gauss–Jordan elimination with partial
+/// pivoting; `None` when a pivot falls below `1e-13` times the largest entry.
+fn invert(b: &[f64], k: usize) -> Option<Vec<f64>> {
+    let mut a = b.to_vec();
+    let mut inv = vec![0.0; k * k];
+    for i in 0..k {
+        inv[i * k + i] = 1.0;
+    }
+    let amax = a.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let tol = 1e-13 * amax.max(f64::MIN_POSITIVE);
+    for col in 0..k {
+        let p = (col..k).max_by(|&x, &y| a[x * k + col].abs().total_cmp(&a[y * k + col].abs()))?;
+        // `<=` and not `>`: a NaN pivot must fail too.
+        if a[p * k + col].abs().is_nan() || a[p * k + col].abs() <= tol {
+            return None;
+        }
+        if p != col {
+            for c in 0..k {
+                a.swap(p * k + c, col * k + c);
+                inv.swap(p * k + c, col * k + c);
+            }
+        }
+        let piv = a[col * k + col];
+        for c in 0..k {
+            a[col * k + c] /= piv;
+            inv[col * k + c] /= piv;
+        }
+        for r in 0..k {
+            if r == col {
+                continue;
+            }
+            let factor = a[r * k + col];
+            if factor != 0.0 {
+                for c in 0..k {
+                    a[r * k + c] -= factor * a[col * k + c];
+                    inv[r * k + c] -= factor * inv[col * k + c];
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{generate, Family};
+    use crate::Status;
+    use faer::Mat;
+
+    fn lcp(rows: &[&[f64]], b: &[f64]) -> Problem {
+        let n = b.len();
+        Problem::lcp(Mat::from_fn(n, n, |i, j| rows[i][j]), b.to_vec()).unwrap()
+    }
+
+    #[test]
+    fn solves_a_two_by_two_lcp() {
+        let p = lcp(&[&[2.0, 1.0], &[1.0, 2.0]], &[-1.0, 1.0]);
+        let r = Lemke::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert!((r.f[0] - 0.5).abs() < 1e-12 && r.f[1] == 0.0, "{:?}", r.f);
+    }
+
+    #[test]
+    fn planted_families_converge() {
+        for (family, n) in [
+            (Family::Spd { cond: 1e3 }, 50),
+            (Family::PMatrix, 40),
+            (Family::PsdRankDeficient { rank: 15 }, 30),
+        ] {
+            let g = generate(family, n, 11);
+            let r = Lemke::default().solve(&g.problem, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "{family:?}");
+            assert!(r.residuals.natural_map_rel <= 1e-8, "{family:?}");
+            assert!(r.iterations <= 4 * n, "{family:?}: {} pivots", r.iterations);
+        }
+    }
+
+    #[test]
+    fn solves_a_three_by_three_lcp() {
+        // f = (1, 0, 0.5): w = (0, 1.5, 0).
+        let a: [&[f64]; 3] = [&[2.0, 1.0, 0.0], &[1.0, 2.0, 1.0], &[0.0, 1.0, 2.0]];
+        let b = [-2.0, 0.0, -1.0];
+        let r = Lemke::default().solve(&lcp(&a, &b), &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        for (x, y) in r.f.iter().zip([1.0, 0.0, 0.5]) {
+            assert!((x - y).abs() < 1e-12, "{:?}", r.f);
+        }
+    }
+
+    #[test]
+    fn trivial_and_degenerate_problems_do_not_cycle() {
+        // b = 0: f = 0 without a pivot.
+        let a: [&[f64]; 2] = [&[1.0, -1.0], &[-1.0, 1.0]];
+        let r = Lemke::default().solve(&lcp(&a, &[0.0, 0.0]), &Settings::default());
+        assert_eq!((r.status.clone(), r.iterations), (Status::Converged, 0));
+        // Duplicated rows (PSD, rank 2) and ties in every ratio test.
+        let a: [&[f64]; 4] = [
+            &[2.0, 1.0, 1.0, 2.0],
+            &[1.0, 2.0, 2.0, 1.0],
+            &[1.0, 2.0, 2.0, 1.0],
+            &[2.0, 1.0, 1.0, 2.0],
+        ];
+        for b in [[-1.0; 4], [-1.0, 0.0, -1.0, 0.0], [0.0, -1.0, -1.0, 0.0]] {
+            let r = Lemke::default().solve(&lcp(&a, &b), &Settings::default());
+            assert_eq!(r.status, Status::Converged, "b = {b:?}");
+            assert!(r.iterations <= 8, "b = {b:?}: {} pivots", r.iterations);
+        }
+        // A degenerate zero block with a strictly negative row.
+        let a: [&[f64]; 3] = [&[1.0, 0.0, 0.0], &[0.0, 0.0, 0.0], &[0.0, 0.0, 1.0]];
+        let r = Lemke::default().solve(&lcp(&a, &[-1.0, 0.0, -1.0]), &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+    }
+
+    #[test]
+    fn infeasible_problems_end_in_a_ray() {
+        let g = generate(Family::Infeasible, 20, 5);
+        let r = Lemke::default().solve(&g.problem, &Settings::default());
+        match &r.status {
+            Status::NoSolution { reason } => {
+                assert!(reason.starts_with("ray termination at pivot"), "{reason}")
+            }
+            s => panic!("expected no_solution, got {s}"),
+        }
+        // A zero row with a negative constant: ray at the second pivot.
+        let a: [&[f64]; 2] = [&[0.0, 0.0], &[0.0, 1.0]];
+        let r = Lemke::default().solve(&lcp(&a, &[-1.0, 1.0]), &Settings::default());
+        assert_eq!(r.status.name(), "no_solution");
+        assert_eq!(r.iterations, 1);
+    }
+
+    #[test]
+    fn murty_takes_two_to_the_n_pivots() {
+        for n in 2..=10 {
+            let g = generate(Family::Murty, n, 0);
+            let r = Lemke::default().solve(&g.problem, &Settings::default());
+            assert_eq!(r.status, Status::Converged, "n = {n}");
+            assert_eq!(r.iterations, 1 << n, "n = {n}");
+            assert_eq!(&r.f, g.solution.as_ref().unwrap());
+        }
+        let g = generate(Family::Murty, 10, 0);
+        let capped = Settings {
+            max_iterations: 100,
+            ..Settings::default()
+        };
+        let r = Lemke::default().solve(&g.problem, &capped);
+        assert_eq!((r.status, r.iterations), (Status::IterationLimit, 100));
+        let timed = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let r = Lemke::default().solve(&g.problem, &timed);
+        assert_eq!(r.status, Status::TimeLimit);
+    }
+
+    #[test]
+    fn boxed_problems_match_pgs() {
+        // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
+        let n = 10;
+        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
+        let inf = f64::INFINITY;
+        let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0];
+        let hi = vec![inf, 0.3, 0.4, inf, 0.1, inf, 0.3, 0.4, inf, inf];
+        let p = Problem::boxed(a, b, lo, hi, vec![]).unwrap();
+        let tight = Settings {
+            tolerance: 1e-12,
+            max_iterations: 100_000,
+            ..Settings::default()
+        };
+        let reference = crate::ProjectedSor::pgs().solve(&p, &tight);
+        assert_eq!(reference.status, Status::Converged);
+        let r = Lemke::default().solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        for (x, y) in r.f.iter().zip(&reference.f) {
+            assert!((x - y).abs() < 1e-8, "{:?} vs {:?}", r.f, reference.f);
+        }
+    }
+
+    #[test]
+    fn friction_and_bad_covering_vectors_are_unsupported() {
+        let p = Problem::boxed(
+            Mat::identity(2, 2),
+            vec![-1.0, -0.1],
+            vec![0.0, 0.0],
+            vec![f64::INFINITY, 0.0],
+            vec![crate::FrictionRow {
+                row: 1,
+                normal: 0,
+                mu: 0.5,
+            }],
         )
+        .unwrap();
+        let r = Lemke::default().solve(&p, &Settings::default());
+        assert_eq!(r.status.name(), "unsupported");
+        let p = lcp(&[&[2.0, 1.0], &[1.0, 2.0]], &[-1.0, 1.0]);
+        for d in [vec![1.0], vec![1.0, 0.0]] {
+            let r = Lemke::with_covering(d).solve(&p, &Settings::default());
+            assert_eq!(r.status.name(), "unsupported");
+        }
+        let r = Lemke::with_covering(vec![0.5, 3.0]).solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
     }
 }
