@@ -11,6 +11,18 @@
 //!
 //! Points closer than the prediction distance are reported with `dist > 0`, so resting contacts
 //! that separate slightly between steps are not lost.
+//!
+//! A triangle mesh yields one manifold per triangle near the other shape, so a mesh vertex shared
+//! by several triangles shows up once per triangle. Contacts of the same pair at the same point
+//! (within [`NarrowPhase::merge_distance`]) with the same normal are merged into one, keeping
+//! the smallest key (stable across steps) and the smallest gap: duplicates would only add
+//! linearly dependent rows to the contact Jacobian.
+//!
+//! Limitation: a triangle mesh is a surface, and mesh–mesh contact is computed triangle against
+//! triangle. When two meshes touch along coplanar faces *and* have coplanar side walls (two
+//! identical blocks stacked flush), wall triangles can produce spurious deep contacts along the
+//! wall normal. Model such stacks with convex hulls, or offset them; mesh against primitives,
+//! hulls and planes is not affected.
 
 use super::Contact;
 use crate::body::RigidBody;
@@ -29,9 +41,20 @@ struct PairCache {
 }
 
 /// Persistent narrow phase: one cache entry per body pair seen in the last call.
-#[derive(Default)]
 pub struct NarrowPhase {
     pairs: HashMap<(usize, usize), PairCache>,
+    /// Contacts of one pair closer than this (with normals within `1e-6` rad) are merged.
+    /// Default `1e-7` (length units of the scene).
+    pub merge_distance: f64,
+}
+
+impl Default for NarrowPhase {
+    fn default() -> Self {
+        Self {
+            pairs: HashMap::new(),
+            merge_distance: 1e-7,
+        }
+    }
 }
 
 impl std::fmt::Debug for NarrowPhase {
@@ -96,9 +119,11 @@ impl NarrowPhase {
                 bodies[a].shape.kind(),
                 bodies[b].shape.kind()
             );
+            let first = out.len();
             for m in &cache.manifolds {
                 push_manifold(&mut out, a, b, &iso_a, &iso_b, m, prediction);
             }
+            merge_duplicates(&mut out, first, self.merge_distance);
             kept.insert((a, b), cache);
         }
         self.pairs = kept;
@@ -135,6 +160,27 @@ fn push_manifold(
             key: contact_key(a, b, m.subshape1, m.subshape2, c.fid1.0, c.fid2.0),
         });
     }
+}
+
+/// Merges the contacts `out[first..]` (one body pair) that share a point and a normal.
+fn merge_duplicates(out: &mut Vec<Contact>, first: usize, merge_distance: f64) {
+    if out.len() - first < 2 {
+        return;
+    }
+    let d2 = merge_distance * merge_distance;
+    let mut merged: Vec<Contact> = Vec::with_capacity(out.len() - first);
+    for c in out.drain(first..) {
+        match merged.iter_mut().find(|m| {
+            (m.point - c.point).norm_squared() <= d2 && m.normal.dot(&c.normal) >= 1.0 - 5e-13
+        }) {
+            Some(m) => {
+                m.dist = m.dist.min(c.dist);
+                m.key = m.key.min(c.key);
+            }
+            None => merged.push(c),
+        }
+    }
+    out.extend(merged);
 }
 
 /// Stable 64-bit key of a contact from its body pair, sub-shapes and features (SplitMix64
