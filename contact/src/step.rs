@@ -357,13 +357,10 @@ impl World {
                 }
                 let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
                 let result = solver.solve(&problem, &settings);
-                let usable = matches!(
-                    result.status,
-                    Status::Converged
-                        | Status::IterationLimit
-                        | Status::TimeLimit
-                        | Status::Stalled { .. }
-                ) && result.f.len() == n
+                // Every finite answer is applied (its status is reported); an unsupported
+                // problem or a non-finite answer applies no impulse.
+                let usable = !matches!(result.status, Status::Unsupported { .. })
+                    && result.f.len() == n
                     && result.f.iter().all(|v| v.is_finite());
                 let f = if usable { result.f } else { vec![0.0; n] };
                 self.warm.store(system, &f);

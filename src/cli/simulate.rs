@@ -82,9 +82,7 @@ fn record_line(report: &StepReport, world: &World) -> serde_json::Value {
         .collect();
     let mut line = serde_json::to_value(report).unwrap_or_else(|_| json!({}));
     if let Some(obj) = line.as_object_mut() {
-        let contacts = obj.remove("contact_records").unwrap_or(json!([]));
         obj.insert("bodies".into(), json!(bodies));
-        obj.insert("contacts".into(), contacts);
     }
     line
 }
@@ -114,6 +112,20 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let mut last_energy = energy0;
     for _ in 0..steps {
         let report = world.step();
+        if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
+            bail!(
+                "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+                args.scene.display(),
+                report.solver,
+                report.step,
+                report.rows,
+                if reason.contains("friction") {
+                    " (try friction_model = \"pyramid\" or \"none\")"
+                } else {
+                    ""
+                }
+            );
+        }
         if let Some(w) = record.as_mut() {
             serde_json::to_writer(&mut *w, &record_line(&report, &world))?;
             w.write_all(b"\n")?;
