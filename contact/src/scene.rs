@@ -79,12 +79,12 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum SceneError {
     /// The file cannot be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// TOML syntax error, unknown key or wrong type.
     #[error("{path}:{line}:{column}: {context}{message}")]
@@ -280,6 +280,18 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// The key of a `key = value` line when `column` points into the value.
+fn key_at(text: &str, line: usize, column: usize) -> Option<String> {
+    let l = text.lines().nth(line.checked_sub(1)?)?;
+    let eq = l.find('=')?;
+    let key = l[..eq].trim();
+    let simple = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    (column > eq && simple).then(|| key.to_owned())
+}
+
 /// `in [[bodies]] #3: ` for an offset inside the third `[[bodies]]` table (or empty).
 fn table_context(text: &str, offset: usize) -> String {
     let offset = offset.min(text.len());
@@ -306,9 +318,9 @@ impl Scene {
     /// Load a scene file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
             path: path.to_owned(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }
@@ -318,12 +330,19 @@ impl Scene {
         let file: SceneFile = toml::from_str(text).map_err(|e| {
             let offset = e.span().map_or(0, |s| s.start);
             let (line, column) = line_column(text, offset);
+            let mut context = table_context(text, offset);
+            let message = e.message().trim().to_owned();
+            if !message.contains("field") {
+                if let Some(key) = key_at(text, line, column) {
+                    context.push_str(&format!("field `{key}`: "));
+                }
+            }
             SceneError::Parse {
                 path: path.to_owned(),
                 line,
                 column,
-                context: table_context(text, offset),
-                message: e.message().trim().to_owned(),
+                context,
+                message,
             }
         })?;
         let invalid = |field: String, message: String| SceneError::Invalid {
