@@ -562,6 +562,21 @@ mod more_detection {
             c.iter().all(|c| c.normal.z > 0.99 && c.dist < 0.0),
             "{c:#?}"
         );
+
+        // Flush stack of identical blocks: the coplanar side walls must not produce the
+        // wall-long penetrations parry's triangle pairs report (2 m here). Vertical contacts
+        // remain at (at least) five of the six footprint corners; parry reports the sixth only
+        // with a sideways normal.
+        let bodies = vec![
+            body(block.clone(), [0.0; 3], true),
+            body(block.clone(), [0.0, 0.0, 0.5 - 1e-4], false),
+        ];
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let deepest = c.iter().map(|c| c.dist).fold(0.0, f64::min);
+        println!("flush L stack: {} contacts, deepest {deepest:.2e}", c.len());
+        assert!(deepest > -1e-3, "{c:#?}");
+        let vertical = c.iter().filter(|c| c.normal.z > 0.99).count();
+        assert!(vertical >= 5, "{c:#?}");
     }
 
     #[test]
@@ -595,5 +610,135 @@ mod more_detection {
         second.sort_unstable();
         assert_eq!(first.len(), 4);
         assert_eq!(first, second);
+    }
+}
+
+mod first_impact_in_scene {
+    use super::*;
+    use lcpbench_contact::collision::toi::{first_impact, ToiMethod, ToiSettings};
+
+    #[test]
+    fn bullet_through_wall_among_other_bodies() {
+        let (r, speed, dt) = (0.01, 300.0, 0.01);
+        let mut bodies = vec![ground()];
+        // Resting boxes (touching the ground: contacts, not impacts) away from the path.
+        for i in 0..20 {
+            bodies.push(body(
+                Shape::cuboid(Vector3::new(0.1, 0.1, 0.1)).unwrap(),
+                [-5.0 + 0.5 * i as f64, 3.0, 0.1],
+                false,
+            ));
+        }
+        bodies.push(body(
+            Shape::cuboid(Vector3::new(0.01, 0.5, 0.5)).unwrap(),
+            [0.0, 0.0, 1.0],
+            true,
+        ));
+        let mut bullet = body(Shape::sphere(r).unwrap(), [-1.0, 0.0, 1.0], false);
+        bullet.linear_momentum = bullet.mass * Vector3::new(speed, 0.0, 0.0);
+        bodies.push(bullet);
+        let (wall, bullet) = (bodies.len() - 2, bodies.len() - 1);
+        let t_exact = (-0.01 - r + 1.0) / speed;
+        let settings = ToiSettings {
+            tolerance: 1e-5,
+            ..Default::default()
+        };
+        for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
+            let hit = first_impact(&bodies, dt, method, &settings).expect("impact");
+            assert_eq!((hit.body_a, hit.body_b), (wall, bullet), "{method:?}");
+            let err = t_exact - hit.toi.time;
+            println!("first_impact {method:?}: early by {err:.2e} s");
+            assert!(err >= -1e-12 && err <= settings.tolerance / speed + 1e-12);
+        }
+        // Without the bullet's speed nothing happens within the step.
+        bodies[bullet].linear_momentum = Vector3::zeros();
+        assert!(first_impact(&bodies, dt, ToiMethod::default(), &settings).is_none());
+    }
+
+    #[test]
+    fn fast_fall_onto_the_ground() {
+        // A spinning box falling at 50 m/s, 0.3 m above the ground at the start of a 0.01 s step.
+        let mut b = body(
+            Shape::cuboid(Vector3::new(0.1, 0.2, 0.05)).unwrap(),
+            [0.0, 0.0, 0.35],
+            false,
+        );
+        b.linear_momentum = b.mass * Vector3::new(0.0, 0.0, -50.0);
+        b.angular_momentum = b.inertia_world() * Vector3::new(0.0, 0.0, 3.0);
+        let bodies = vec![ground(), b];
+        let settings = ToiSettings::default();
+        let t_exact = 0.3 / 50.0; // spin about z keeps the bottom face horizontal
+        for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
+            let hit = first_impact(&bodies, 0.01, method, &settings).expect("impact");
+            let err = t_exact - hit.toi.time;
+            println!(
+                "fall {method:?}: early by {err:.2e} s, {} queries",
+                hit.toi.iterations
+            );
+            assert!(
+                err >= -1e-12 && err <= settings.tolerance / 50.0 + 1e-12,
+                "{hit:?}"
+            );
+        }
+    }
+}
+
+mod properties {
+    use super::*;
+    use parry3d_f64::bounding_volume::Aabb;
+    use proptest::prelude::*;
+
+    /// A box with centre in `[0, 10]³` and half extents in `[0.05, 1.5]`.
+    fn aabb() -> impl Strategy<Value = Aabb> {
+        (
+            prop::array::uniform3(0.0..10.0f64),
+            prop::array::uniform3(0.05..1.5f64),
+        )
+            .prop_map(|(c, h)| {
+                let (c, h) = (Vector3::from(c), Vector3::from(h));
+                Aabb::new((c - h).into(), (c + h).into())
+            })
+    }
+
+    /// Two spheres with radii in `[0.1, 1]`, the second placed at a planted gap in
+    /// `[-0.05, 0.05]` along a random direction.
+    fn sphere_pair() -> impl Strategy<Value = (f64, f64, Vector3<f64>, f64)> {
+        (
+            0.1..1.0f64,
+            0.1..1.0f64,
+            prop::array::uniform3(-1.0..1.0f64),
+            -0.05..0.05f64,
+        )
+            .prop_filter("direction", |(_, _, d, _)| Vector3::from(*d).norm() > 0.1)
+            .prop_map(|(r1, r2, d, gap)| (r1, r2, Vector3::from(d).normalize(), gap))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, rng_seed: proptest::test_runner::RngSeed::Fixed(7), ..ProptestConfig::default() })]
+
+        #[test]
+        fn sweep_and_prune_equals_brute_force(
+            boxes in prop::collection::vec(aabb(), 0..120),
+            statics in prop::collection::vec(any::<bool>(), 120),
+        ) {
+            let skip = |i: usize, j: usize| statics[i] && statics[j];
+            prop_assert_eq!(sweep_and_prune(&boxes, skip), brute_force_pairs(&boxes, skip));
+        }
+
+        #[test]
+        fn sphere_pair_gap_is_planted((r1, r2, dir, gap) in sphere_pair()) {
+            let c2 = dir * (r1 + r2 + gap);
+            let bodies = vec![
+                body(Shape::sphere(r1).unwrap(), [0.0; 3], false),
+                body(Shape::sphere(r2).unwrap(), c2.into(), false),
+            ];
+            let contacts = CollisionPipeline::new().detect(&bodies, 0.1);
+            prop_assert_eq!(contacts.len(), 1);
+            let c = contacts[0];
+            prop_assert!((c.dist - gap).abs() < 1e-12);
+            prop_assert!((c.normal - dir).norm() < 1e-12);
+            let mid = dir * (r1 + 0.5 * gap);
+            prop_assert!((c.point.coords - mid).norm() < 1e-12);
+        }
     }
 }

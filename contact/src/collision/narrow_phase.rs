@@ -18,19 +18,26 @@
 //! the smallest key (stable across steps) and the smallest gap: duplicates would only add
 //! linearly dependent rows to the contact Jacobian.
 //!
-//! Limitation: a triangle mesh is a surface, and mesh–mesh contact is computed triangle against
-//! triangle. When two meshes touch along coplanar faces *and* have coplanar side walls (two
-//! identical blocks stacked flush), wall triangles can produce spurious deep contacts along the
-//! wall normal. Model such stacks with convex hulls, or offset them; mesh against primitives,
-//! hulls and planes is not affected.
+//! Mesh against mesh is computed triangle against triangle, and a triangle has no inside: when
+//! two meshes touch along coplanar faces and also have side walls meeting at the contact
+//! (two identical blocks stacked flush), parry's triangle pairs report spurious contacts with
+//! the wall normals and penetrations as deep as the walls are long. A penetrating mesh–mesh
+//! contact is therefore kept only if its depth does not exceed the true depth of its points
+//! inside the other (closed) mesh by more than [`NarrowPhase::mesh_depth_slack`]; a genuine
+//! contact always passes, because the distance along the contact normal to the other surface
+//! is at least the distance to its nearest point. Shallow spurious contacts with sideways
+//! normals can remain in the flush case: model such stacks with convex hulls, or offset them.
+//! Mesh against primitives, hulls and planes is not affected.
 
 use super::Contact;
 use crate::body::RigidBody;
+use crate::shape::Shape;
 use nalgebra::{Isometry3, Point3, Unit};
+use parry3d_f64::query::PointQueryWithLocation;
 use parry3d_f64::query::{
     ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, PersistentQueryDispatcher,
 };
-use parry3d_f64::shape::SharedShape;
+use parry3d_f64::shape::{SharedShape, TriMesh};
 use std::collections::HashMap;
 
 /// Manifolds and generator workspace of one body pair, kept between calls.
@@ -46,6 +53,9 @@ pub struct NarrowPhase {
     /// Contacts of one pair closer than this (with normals within `1e-6` rad) are merged.
     /// Default `1e-7` (length units of the scene).
     pub merge_distance: f64,
+    /// Mesh–mesh contacts whose penetration exceeds the true depth of their points inside the
+    /// other mesh by more than this are dropped. Default `1e-3` (length units of the scene).
+    pub mesh_depth_slack: f64,
 }
 
 impl Default for NarrowPhase {
@@ -53,6 +63,7 @@ impl Default for NarrowPhase {
         Self {
             pairs: HashMap::new(),
             merge_distance: 1e-7,
+            mesh_depth_slack: 1e-3,
         }
     }
 }
@@ -120,8 +131,27 @@ impl NarrowPhase {
                 bodies[b].shape.kind()
             );
             let first = out.len();
+            let meshes = match (&bodies[a].shape, &bodies[b].shape) {
+                (Shape::TriMesh { mesh: ma, .. }, Shape::TriMesh { mesh: mb, .. }) => {
+                    Some(MeshPair {
+                        a: ma,
+                        b: mb,
+                        slack: self.mesh_depth_slack,
+                    })
+                }
+                _ => None,
+            };
             for m in &cache.manifolds {
-                push_manifold(&mut out, a, b, &iso_a, &iso_b, m, prediction);
+                push_manifold(
+                    &mut out,
+                    a,
+                    b,
+                    &iso_a,
+                    &iso_b,
+                    m,
+                    prediction,
+                    meshes.as_ref(),
+                );
             }
             merge_duplicates(&mut out, first, self.merge_distance);
             kept.insert((a, b), cache);
@@ -131,6 +161,14 @@ impl NarrowPhase {
     }
 }
 
+/// Both shapes of a mesh–mesh pair, for the depth check.
+struct MeshPair<'a> {
+    a: &'a TriMesh,
+    b: &'a TriMesh,
+    slack: f64,
+}
+
+#[allow(clippy::too_many_arguments)]
 fn push_manifold(
     out: &mut Vec<Contact>,
     a: usize,
@@ -139,6 +177,7 @@ fn push_manifold(
     iso_b: &Isometry3<f64>,
     m: &ContactManifold<(), ()>,
     prediction: f64,
+    meshes: Option<&MeshPair>,
 ) {
     let frame_a = m.subshape_pos1.map_or(*iso_a, |p| iso_a * p);
     let frame_b = m.subshape_pos2.map_or(*iso_b, |p| iso_b * p);
@@ -151,6 +190,12 @@ fn push_manifold(
         }
         let pa: Point3<f64> = frame_a * c.local_p1;
         let pb: Point3<f64> = frame_b * c.local_p2;
+        if let (Some(pair), true) = (meshes, c.dist < 0.0) {
+            let depth = depth_in_mesh(pair.a, iso_a, &pb).max(depth_in_mesh(pair.b, iso_b, &pa));
+            if -c.dist > depth + pair.slack {
+                continue;
+            }
+        }
         out.push(Contact {
             body_a: a,
             body_b: b,
@@ -159,6 +204,18 @@ fn push_manifold(
             dist: c.dist,
             key: contact_key(a, b, m.subshape1, m.subshape2, c.fid1.0, c.fid2.0),
         });
+    }
+}
+
+/// Depth of the world point `p` inside the closed mesh `mesh` at pose `iso` (0 outside), from
+/// the projection on the mesh with its pseudo-normals deciding inside and outside.
+fn depth_in_mesh(mesh: &TriMesh, iso: &Isometry3<f64>, p: &Point3<f64>) -> f64 {
+    let local = iso.inverse_transform_point(p);
+    let (proj, _) = mesh.project_local_point_and_get_location(&local, false);
+    if proj.is_inside {
+        (proj.point - local).norm()
+    } else {
+        0.0
     }
 }
 
