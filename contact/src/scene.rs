@@ -23,6 +23,8 @@
 //! penalty_omega_h = 0.3          # penalty: spring frequency × dt
 //! penalty_damping_ratio = 0.7    # penalty: damping ratio
 //! # penalty_stiffness = 1e5      # penalty: fixed stiffness, N/m (default: from the mass)
+//! ccd = "none"                   # "none" | "bisection" | "conservative": stop each step at
+//!                                # the first time of impact so fast bodies cannot tunnel
 //!
 //! [[materials]]                  # optional; bodies without `material` use the first
 //! name = "wood"
@@ -68,6 +70,7 @@
 use crate::body::{MassSpec, RigidBody};
 use crate::body_solvers::BodySolverSettings;
 use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection};
+use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
 use crate::step::{Event, SimSettings, SolverChoice, World};
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
@@ -151,6 +154,7 @@ struct SettingsFile {
     penalty_omega_h: f64,
     penalty_damping_ratio: f64,
     penalty_stiffness: Option<f64>,
+    ccd: String,
 }
 
 impl Default for SettingsFile {
@@ -176,6 +180,7 @@ impl Default for SettingsFile {
             penalty_omega_h: b.penalty_omega_h,
             penalty_damping_ratio: b.penalty_damping_ratio,
             penalty_stiffness: None,
+            ccd: "none".into(),
         }
     }
 }
@@ -537,6 +542,17 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
     if let Some(k) = s.penalty_stiffness {
         positive("penalty_stiffness", k)?;
     }
+    let ccd = match s.ccd.as_str() {
+        "none" => None,
+        "bisection" => Some(ToiMethod::Bisection),
+        "conservative" => Some(ToiMethod::ConservativeAdvancement),
+        other => return Err(err(
+            "ccd",
+            format!(
+                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
+            ),
+        )),
+    };
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }
@@ -562,6 +578,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             penalty_stiffness: s.penalty_stiffness,
             ..BodySolverSettings::default()
         },
+        ccd,
         keep_problem: false,
         residuals: true,
     })
