@@ -13,6 +13,34 @@
 //!    flight), moving by the split-impulse pseudo-velocity too when that correction is chosen;
 //! 5. **measure**: a [`StepReport`] with contacts, rows, solver status and residuals,
 //!    penetration, energy, momenta and friction-cone violation.
+//!
+//! ```
+//! use lcpbench_contact::{Scene, SolverChoice};
+//! use std::path::Path;
+//!
+//! let scene = Scene::parse(
+//!     r#"
+//!     [settings]
+//!     dt = 0.01
+//!     [[bodies]]
+//!     name = "ground"
+//!     shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+//!     static = true
+//!     [[bodies]]
+//!     name = "box"
+//!     shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
+//!     position = [0.0, 0.0, 0.5]
+//!     "#,
+//!     Path::new("example.toml"),
+//! )
+//! .unwrap();
+//! let mut world = scene.world();
+//! world.set_solver(SolverChoice::from_name("si").unwrap());
+//! let report = world.step();
+//! assert_eq!(report.contacts, 4); // one face on the ground: four contact points
+//! assert!(report.status.is_converged());
+//! assert!((world.bodies[1].position.z - 0.5).abs() < 1e-9); // it rests
+//! ```
 
 use crate::body::RigidBody;
 use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
@@ -343,7 +371,7 @@ impl World {
             .settings
             .warm_start
             .then(|| system.warm_start(&self.warm));
-        let solved = match self.settings.solver {
+        match self.settings.solver {
             SolverChoice::Matrix(kind) => {
                 let problem = match system.problem() {
                     Ok(p) => p,
@@ -421,8 +449,7 @@ impl World {
                     problem,
                 }
             }
-        };
-        solved
+        }
     }
 
     /// Split impulses: pseudo-velocities from a projected Gauss–Seidel solve of the normal rows
