@@ -30,7 +30,7 @@ fn check_honest(kind: SolverKind, p: &Problem, r: &SolveResult) -> Result<(), Te
         );
     } else if !matches!(r.status, Status::Unsupported { .. }) {
         prop_assert!(
-            !(recomputed.natural_map_rel <= TOL),
+            recomputed.natural_map_rel > TOL,
             "{} reports {} although the residual {:e} is within tolerance",
             kind.name(),
             r.status,

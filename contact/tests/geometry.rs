@@ -742,3 +742,17 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn convex_hull_of_obj_fills_the_notch() {
+    // Hull of the L block: the footprint pentagon (0,0) (2,0) (2,1) (1,2) (0,2) of area 3.5,
+    // extruded to 0.5.
+    let hull = Shape::convex_hull_from_obj(data("l_block.obj")).unwrap();
+    let mp = hull.mass_properties(1.0).unwrap();
+    println!(
+        "L block hull: volume error {:.2e}",
+        (mp.volume - 1.75).abs()
+    );
+    assert!((mp.volume - 1.75).abs() < 1e-12);
+    assert!(Shape::convex_hull_from_obj(data("missing.obj")).is_err());
+}

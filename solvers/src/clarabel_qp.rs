@@ -343,7 +343,7 @@ fn project_onto_bounds(problem: &Problem, f: &mut [f64]) {
 
 impl Solver for ClarabelQp {
     fn name(&self) -> &'static str {
-        "clarabel_qp"
+        "clarabel"
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
@@ -694,5 +694,9 @@ mod tests {
         assert_eq!(r.status, Status::TimeLimit);
         let p = Problem::lcp(Mat::zeros(0, 0), vec![]).unwrap();
         assert_eq!(solve(&p).status, Status::Converged);
+        assert_eq!(
+            ClarabelQp::default().name(),
+            crate::SolverKind::Clarabel.name()
+        );
     }
 }

@@ -90,7 +90,7 @@ fn actionable_step(problem: &Problem, i: usize, f: &[f64], w: &[f64], d: &[f64])
 
 impl Solver for MicroImpulse {
     fn name(&self) -> &'static str {
-        "micro_impulse"
+        "micro"
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
@@ -284,6 +284,10 @@ mod tests {
 
     #[test]
     fn spent_time_budget_stops_before_the_first_impulse() {
+        assert_eq!(
+            MicroImpulse::default().name(),
+            crate::SolverKind::MicroImpulse.name()
+        );
         let p = Problem::lcp(mat(&[&[2.0]]), vec![-3.0]).unwrap();
         let settings = Settings {
             time_budget: Some(std::time::Duration::ZERO),

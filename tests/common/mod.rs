@@ -28,7 +28,13 @@ pub struct Planted {
 /// Planted SPD problems, `n ∈ [2, max_n]`, condition number up to `1e4`.
 pub fn planted_spd(max_n: usize) -> impl Strategy<Value = Planted> {
     (2..=max_n, any::<u64>(), 0.0..4.0f64).prop_map(|(n, seed, log_cond)| {
-        let g = generate(Family::Spd { cond: 10f64.powf(log_cond) }, n, seed);
+        let g = generate(
+            Family::Spd {
+                cond: 10f64.powf(log_cond),
+            },
+            n,
+            seed,
+        );
         Planted {
             solution: g.solution.unwrap(),
             problem: g.problem,
