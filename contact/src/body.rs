@@ -165,3 +165,86 @@ impl RigidBody {
         self.velocity() + self.angular_velocity().cross(&(p - self.position))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn make(shape: Shape, mass: MassSpec, is_static: bool) -> Result<RigidBody, ShapeError> {
+        RigidBody::new(
+            "t",
+            shape,
+            mass,
+            Point3::new(1.0, 2.0, 3.0),
+            UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1),
+            Vector3::new(1.0, -2.0, 0.5),
+            Vector3::new(0.2, 0.4, -0.3),
+            0,
+            is_static,
+        )
+    }
+
+    #[test]
+    fn mass_spec_scales_inertia() {
+        let shape = Shape::cuboid(Vector3::new(0.5, 1.0, 1.5)).unwrap();
+        let by_density = make(shape.clone(), MassSpec::Density(2.0), false).unwrap();
+        let by_mass = make(shape, MassSpec::Mass(by_density.mass), false).unwrap();
+        assert!((by_density.mass - 2.0 * 6.0).abs() < 1e-12);
+        assert!((by_density.inertia_body - by_mass.inertia_body).norm() < 1e-12);
+        assert!(
+            (by_density.inertia_body * by_density.inv_inertia_body - Matrix3::identity()).norm()
+                < 1e-12
+        );
+    }
+
+    #[test]
+    fn momenta_reproduce_velocities_and_energy() {
+        let b = make(
+            Shape::capsule(0.5, 0.2).unwrap(),
+            MassSpec::Density(900.0),
+            false,
+        )
+        .unwrap();
+        assert!((b.velocity() - Vector3::new(1.0, -2.0, 0.5)).norm() < 1e-12);
+        assert!((b.angular_velocity() - Vector3::new(0.2, 0.4, -0.3)).norm() < 1e-12);
+        let w = Vector3::new(0.2, 0.4, -0.3);
+        let expect = 0.5 * b.mass * 5.25 + 0.5 * w.dot(&(b.inertia_world() * w));
+        assert!((b.kinetic_energy() - expect).abs() < 1e-9 * expect);
+        let p = b.iso() * Point3::origin();
+        assert_eq!(p, Point3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn static_bodies_and_planes() {
+        let plane = Shape::plane(Vector3::z()).unwrap();
+        assert!(matches!(
+            make(plane.clone(), MassSpec::Density(1.0), false),
+            Err(ShapeError::Unbounded { .. })
+        ));
+        let ground = make(plane, MassSpec::Density(1.0), true).unwrap();
+        assert_eq!(ground.inv_mass, 0.0);
+        assert_eq!(ground.velocity(), Vector3::zeros());
+        assert_eq!(ground.kinetic_energy(), 0.0);
+        assert_eq!(ground.inv_inertia_world(), Matrix3::zeros());
+    }
+
+    #[test]
+    fn rejects_bad_mass_and_state() {
+        let s = Shape::sphere(1.0).unwrap();
+        assert!(make(s.clone(), MassSpec::Mass(0.0), false).is_err());
+        assert!(make(s.clone(), MassSpec::Density(-1.0), false).is_err());
+        assert!(make(Shape::Sphere { radius: -1.0 }, MassSpec::Mass(1.0), false).is_err());
+        let nan = RigidBody::new(
+            "t",
+            s,
+            MassSpec::Mass(1.0),
+            Point3::new(f64::NAN, 0.0, 0.0),
+            UnitQuaternion::identity(),
+            Vector3::zeros(),
+            Vector3::zeros(),
+            0,
+            false,
+        );
+        assert!(matches!(nan, Err(ShapeError::NotFinite { .. })));
+    }
+}

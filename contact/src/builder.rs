@@ -252,6 +252,9 @@ pub struct ContactInfo {
     pub friction_rows: std::ops::Range<usize>,
     /// Slack row (pyramid model).
     pub slack_row: Option<usize>,
+    /// Scale `s` of the slack row and column (pyramid model): `A_nn` of the contact, so that the
+    /// coupling entries are of the size of the Delassus entries (see [`ContactSystem::delassus`]).
+    pub slack_scale: f64,
     /// Friction coefficient of the contact.
     pub mu: f64,
     /// Restitution coefficient of the contact.
@@ -373,7 +376,10 @@ impl ContactSystem {
     }
 
     /// The dense LCP matrix: `A = J M⁻¹ Jᵀ`, assembled body block by body block (cost
-    /// `Σ_bodies rows(body)²`), plus the pyramid coupling entries.
+    /// `Σ_bodies rows(body)²`), plus the pyramid coupling entries. The slack row and column of
+    /// a pyramid contact are scaled by `s = A_nn` (entries `s`, `s mu`, `−s`): the variable is
+    /// `γ / s` and its row `s (mu f_n − Σ β)`, the same complementarity problem with entries of
+    /// one magnitude, which pivoting solvers need.
     pub fn delassus(&self) -> Mat<f64> {
         let n = self.n();
         let mut a = Mat::zeros(n, n);
@@ -396,14 +402,14 @@ impl ContactSystem {
                 }
             }
         }
-        for (c, info) in self.info.iter().enumerate() {
+        for info in &self.info {
             if let Some(s) = info.slack_row {
-                a[(s, info.normal_row)] = info.mu;
+                let scale = info.slack_scale;
+                a[(s, info.normal_row)] = scale * info.mu;
                 for d in info.friction_rows.clone() {
-                    a[(d, s)] = 1.0;
-                    a[(s, d)] = -1.0;
+                    a[(d, s)] = scale;
+                    a[(s, d)] = -scale;
                 }
-                let _ = c;
             }
         }
         a
@@ -735,6 +741,7 @@ pub fn build(
             normal_row,
             friction_rows: first..friction_end,
             slack_row,
+            slack_scale: sys.operator().diagonal(normal_row),
             mu,
             restitution,
             bouncing,

@@ -26,6 +26,38 @@ fn omega_at(body: &RigidBody, q: &Quaternion<f64>, l: &Vector3<f64>) -> Vector3<
     r.matrix() * (body.inv_inertia_body * (r.matrix().transpose() * l))
 }
 
+/// Momentum half of the semi-implicit Euler step: `P += h m g + dp`, `L += dl`.
+pub fn apply_momentum(
+    body: &mut RigidBody,
+    h: f64,
+    gravity: &Vector3<f64>,
+    dp: &Vector3<f64>,
+    dl: &Vector3<f64>,
+) {
+    if body.is_static {
+        return;
+    }
+    body.linear_momentum += gravity * (body.mass * h) + dp;
+    body.angular_momentum += dl;
+}
+
+/// Pose half of the semi-implicit Euler step over a time `h` with the current velocities (plus
+/// a split-impulse pseudo-velocity): `x += h v`, `q ← normalise(q + h/2 ω ⊗ q)`.
+pub fn advance_pose(body: &mut RigidBody, h: f64, pseudo: Option<&BodyVelocity>) {
+    if body.is_static {
+        return;
+    }
+    let mut v = body.velocity();
+    let mut w = body.angular_velocity();
+    if let Some(p) = pseudo {
+        v += p.linear;
+        w += p.angular;
+    }
+    body.position += v * h;
+    let q = add_spin(body.orientation.quaternion(), &w, 0.5 * h);
+    body.orientation = UnitQuaternion::from_quaternion(q);
+}
+
 /// Semi-implicit Euler step of a body in contact. `dp`/`dl` are the contact impulses (linear and
 /// angular about the centre of mass); `pseudo` a split-impulse velocity that moves the body
 /// without adding momentum.
@@ -37,20 +69,8 @@ pub fn symplectic_euler(
     dl: &Vector3<f64>,
     pseudo: Option<&BodyVelocity>,
 ) {
-    if body.is_static {
-        return;
-    }
-    body.linear_momentum += gravity * (body.mass * h) + dp;
-    body.angular_momentum += dl;
-    let mut v = body.velocity();
-    let mut w = body.angular_velocity();
-    if let Some(p) = pseudo {
-        v += p.linear;
-        w += p.angular;
-    }
-    body.position += v * h;
-    let q = add_spin(body.orientation.quaternion(), &w, 0.5 * h);
-    body.orientation = UnitQuaternion::from_quaternion(q);
+    apply_momentum(body, h, gravity, dp, dl);
+    advance_pose(body, h, pseudo);
 }
 
 /// RK4 step of a body in free flight under gravity.

@@ -8,7 +8,8 @@
 //! contact-matrix builder → solver → impulses → integrator.
 #![warn(missing_docs)]
 
-// Geometry and detection.
+// Geometry and detection: shapes and mass properties (`shape`), rigid-body state (`body`),
+// broad phase, narrow phase and time of impact (`collision`).
 pub mod body;
 pub mod collision;
 pub mod shape;

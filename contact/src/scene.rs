@@ -23,6 +23,8 @@
 //! penalty_omega_h = 0.3          # penalty: spring frequency × dt
 //! penalty_damping_ratio = 0.7    # penalty: damping ratio
 //! # penalty_stiffness = 1e5      # penalty: fixed stiffness, N/m (default: from the mass)
+//! ccd = "none"                   # "none" | "bisection" | "conservative": stop each step at
+//!                                # the first time of impact so fast bodies cannot tunnel
 //!
 //! [[materials]]                  # optional; bodies without `material` use the first
 //! name = "wood"
@@ -68,6 +70,7 @@
 use crate::body::{MassSpec, RigidBody};
 use crate::body_solvers::BodySolverSettings;
 use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection};
+use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
 use crate::step::{Event, SimSettings, SolverChoice, World};
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
@@ -79,12 +82,12 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum SceneError {
     /// The file cannot be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// TOML syntax error, unknown key or wrong type.
     #[error("{path}:{line}:{column}: {context}{message}")]
@@ -151,6 +154,7 @@ struct SettingsFile {
     penalty_omega_h: f64,
     penalty_damping_ratio: f64,
     penalty_stiffness: Option<f64>,
+    ccd: String,
 }
 
 impl Default for SettingsFile {
@@ -176,6 +180,7 @@ impl Default for SettingsFile {
             penalty_omega_h: b.penalty_omega_h,
             penalty_damping_ratio: b.penalty_damping_ratio,
             penalty_stiffness: None,
+            ccd: "none".into(),
         }
     }
 }
@@ -280,6 +285,18 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// The key of a `key = value` line when `column` points into the value.
+fn key_at(text: &str, line: usize, column: usize) -> Option<String> {
+    let l = text.lines().nth(line.checked_sub(1)?)?;
+    let eq = l.find('=')?;
+    let key = l[..eq].trim();
+    let simple = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    (column > eq && simple).then(|| key.to_owned())
+}
+
 /// `in [[bodies]] #3: ` for an offset inside the third `[[bodies]]` table (or empty).
 fn table_context(text: &str, offset: usize) -> String {
     let offset = offset.min(text.len());
@@ -306,9 +323,9 @@ impl Scene {
     /// Load a scene file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
             path: path.to_owned(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }
@@ -318,12 +335,19 @@ impl Scene {
         let file: SceneFile = toml::from_str(text).map_err(|e| {
             let offset = e.span().map_or(0, |s| s.start);
             let (line, column) = line_column(text, offset);
+            let mut context = table_context(text, offset);
+            let message = e.message().trim().to_owned();
+            if !message.contains("field") {
+                if let Some(key) = key_at(text, line, column) {
+                    context.push_str(&format!("field `{key}`: "));
+                }
+            }
             SceneError::Parse {
                 path: path.to_owned(),
                 line,
                 column,
-                context: table_context(text, offset),
-                message: e.message().trim().to_owned(),
+                context,
+                message,
             }
         })?;
         let invalid = |field: String, message: String| SceneError::Invalid {
@@ -518,6 +542,17 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
     if let Some(k) = s.penalty_stiffness {
         positive("penalty_stiffness", k)?;
     }
+    let ccd = match s.ccd.as_str() {
+        "none" => None,
+        "bisection" => Some(ToiMethod::Bisection),
+        "conservative" => Some(ToiMethod::ConservativeAdvancement),
+        other => return Err(err(
+            "ccd",
+            format!(
+                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
+            ),
+        )),
+    };
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }
@@ -543,6 +578,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             penalty_stiffness: s.penalty_stiffness,
             ..BodySolverSettings::default()
         },
+        ccd,
         keep_problem: false,
         residuals: true,
     })

@@ -11,10 +11,13 @@
 //! Mass properties come from parry's closed forms for the primitives and from the exact
 //! volume integral over a closed triangle mesh for hulls and meshes: the solid is split into
 //! signed tetrahedra with a common apex and the polynomial moments of each tetrahedron are
-//! summed, which is the divergence-theorem integral of Mirtich (1996) and Eberly
-//! ("Polyhedral mass properties (revisited)", 2002) written per tetrahedron
-//! (`parry::mass_properties::MassProperties::from_trimesh`). It is exact for a closed,
-//! consistently oriented mesh; an open mesh gives a meaningless volume.
+//! summed (`parry::mass_properties::MassProperties::from_trimesh`). This is the same exact
+//! volume integral that B. Mirtich, "Fast and accurate computation of polyhedral mass
+//! properties", *Journal of Graphics Tools* 1(2), 1996, and D. Eberly, "Polyhedral mass
+//! properties (revisited)", Geometric Tools 2002, obtain with the divergence theorem, organised
+//! per tetrahedron instead of per face. It is exact for a closed, consistently oriented mesh
+//! (an inside-out mesh is flipped on construction); an open mesh has no meaningful volume and
+//! is rejected when its signed volume is negligible.
 
 use nalgebra::{Isometry3, Matrix3, Point3, Unit, Vector3};
 use parry3d_f64::bounding_volume::Aabb;
@@ -307,36 +310,26 @@ impl Shape {
             path: path.to_path_buf(),
             reason,
         };
-        let options = tobj::LoadOptions {
-            triangulate: true,
-            single_index: false,
-            ..Default::default()
-        };
-        let (models, _materials) =
-            tobj::load_obj(path, &options).map_err(|e| file_err(e.to_string()))?;
-        let mut vertices = Vec::new();
-        let mut indices = Vec::new();
-        for model in &models {
-            let base = vertices.len() as u32;
-            vertices.extend(
-                model
-                    .mesh
-                    .positions
-                    .chunks_exact(3)
-                    .map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
-            );
-            indices.extend(
-                model
-                    .mesh
-                    .indices
-                    .chunks_exact(3)
-                    .map(|t| [base + t[0], base + t[1], base + t[2]]),
-            );
-        }
+        let (vertices, indices) = read_obj(path)?;
         if indices.is_empty() {
             return Err(file_err("no triangles in the file".into()));
         }
         Self::trimesh(vertices, indices, &path.display().to_string())
+    }
+
+    /// Convex hull of the vertices of a Wavefront OBJ file (all objects merged), re-centred on
+    /// its centre of mass. The robust choice for stacked blocks, see
+    /// [`crate::collision::narrow_phase`].
+    pub fn convex_hull_from_obj(path: impl AsRef<Path>) -> Result<Self, ShapeError> {
+        let path = path.as_ref();
+        let (vertices, _) = read_obj(path)?;
+        if vertices.is_empty() {
+            return Err(ShapeError::MeshFile {
+                path: path.to_path_buf(),
+                reason: "no vertices in the file".into(),
+            });
+        }
+        Self::convex_hull(&vertices)
     }
 
     /// Short name of the shape kind (`"sphere"`, `"box"`, …).
@@ -463,6 +456,43 @@ impl Shape {
     }
 }
 
+/// Vertex positions and triangles (indices into the positions) of a mesh.
+type MeshBuffers = (Vec<Point3<f64>>, Vec<[u32; 3]>);
+
+/// Vertex positions and triangles of every object in an OBJ file.
+fn read_obj(path: &Path) -> Result<MeshBuffers, ShapeError> {
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ..Default::default()
+    };
+    let (models, _materials) =
+        tobj::load_obj(path, &options).map_err(|e| ShapeError::MeshFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    for model in &models {
+        let base = vertices.len() as u32;
+        vertices.extend(
+            model
+                .mesh
+                .positions
+                .chunks_exact(3)
+                .map(|p| Point3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))),
+        );
+        indices.extend(
+            model
+                .mesh
+                .indices
+                .chunks_exact(3)
+                .map(|t| [base + t[0], base + t[1], base + t[2]]),
+        );
+    }
+    Ok((vertices, indices))
+}
+
 fn max_norm(points: &[Point3<f64>]) -> f64 {
     points.iter().map(|p| p.coords.norm()).fold(0.0, f64::max)
 }
@@ -495,6 +525,12 @@ pub fn signed_volume(vertices: &[Point3<f64>], indices: &[[u32; 3]]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shapes_can_cross_threads() {
+        fn send_sync<T: Send + Sync>() {}
+        send_sync::<Shape>();
+    }
 
     #[test]
     fn rejects_bad_sizes() {

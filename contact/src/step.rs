@@ -13,11 +13,40 @@
 //!    flight), moving by the split-impulse pseudo-velocity too when that correction is chosen;
 //! 5. **measure**: a [`StepReport`] with contacts, rows, solver status and residuals,
 //!    penetration, energy, momenta and friction-cone violation.
+//!
+//! ```
+//! use lcpbench_contact::{Scene, SolverChoice};
+//! use std::path::Path;
+//!
+//! let scene = Scene::parse(
+//!     r#"
+//!     [settings]
+//!     dt = 0.01
+//!     [[bodies]]
+//!     name = "ground"
+//!     shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+//!     static = true
+//!     [[bodies]]
+//!     name = "box"
+//!     shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
+//!     position = [0.0, 0.0, 0.5]
+//!     "#,
+//!     Path::new("example.toml"),
+//! )
+//! .unwrap();
+//! let mut world = scene.world();
+//! world.set_solver(SolverChoice::from_name("si").unwrap());
+//! let report = world.step();
+//! assert_eq!(report.contacts, 4); // one face on the ground: four contact points
+//! assert!(report.status.is_converged());
+//! assert!((world.bodies[1].position.z - 0.5).abs() < 1e-9); // it rests
+//! ```
 
 use crate::body::RigidBody;
 use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
 use crate::builder::PositionCorrection;
 use crate::builder::{self, BodyVelocity, BuilderParams, ContactSystem, Material, WarmStartCache};
+use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
@@ -94,6 +123,11 @@ pub struct SimSettings {
     pub builder: BuilderParams,
     /// Penalty parameters (the other fields are copied from above).
     pub body: BodySolverSettings,
+    /// Continuous collision detection: `None` \[default\], or a time-of-impact method. With
+    /// one, every step moves the bodies only up to the first time of impact among pairs not yet
+    /// touching (backtracking, Baraff–Witkin), so fast bodies cannot tunnel; the rest of that
+    /// step's motion is dropped and the new contact enters the next step's problem.
+    pub ccd: Option<ToiMethod>,
     /// Keep each step's [`Problem`] in its report (for export) \[`false`\].
     pub keep_problem: bool,
     /// Measure the shared residual for body-level solvers too (assembles `A`) \[`true`\].
@@ -113,6 +147,7 @@ impl Default for SimSettings {
             prediction_distance: 0.01,
             builder: BuilderParams::default(),
             body: BodySolverSettings::default(),
+            ccd: None,
             keep_problem: false,
             residuals: true,
         }
@@ -180,6 +215,8 @@ pub struct StepReport {
     pub angular_momentum: [f64; 3],
     /// Largest `‖f_t‖ − mu f_n` over contacts (`>= 0`), impulse units.
     pub friction_cone_violation: f64,
+    /// With continuous collision detection: the time of impact the step was cut to, s.
+    pub time_of_impact: Option<f64>,
     /// Contacts with their impulses.
     pub contact_records: Vec<ContactRecord>,
     /// The step's LCP, when [`SimSettings::keep_problem`] is set.
@@ -273,10 +310,10 @@ impl World {
         );
         let solved = self.solve(&system);
         let pseudo = self.split_impulse_velocities(&system);
-        self.integrate(&system, &solved.f, pseudo.as_deref());
+        let toi = self.integrate(&system, &solved.f, pseudo.as_deref());
         self.step_index += 1;
         self.time += h;
-        self.report(&system, solved, start)
+        self.report(&system, solved, toi, start)
     }
 
     /// Run `n` steps, returning their reports.
@@ -334,7 +371,7 @@ impl World {
             .settings
             .warm_start
             .then(|| system.warm_start(&self.warm));
-        let solved = match self.settings.solver {
+        match self.settings.solver {
             SolverChoice::Matrix(kind) => {
                 let problem = match system.problem() {
                     Ok(p) => p,
@@ -357,13 +394,10 @@ impl World {
                 }
                 let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
                 let result = solver.solve(&problem, &settings);
-                let usable = matches!(
-                    result.status,
-                    Status::Converged
-                        | Status::IterationLimit
-                        | Status::TimeLimit
-                        | Status::Stalled { .. }
-                ) && result.f.len() == n
+                // Every finite answer is applied (its status is reported); an unsupported
+                // problem or a non-finite answer applies no impulse.
+                let usable = !matches!(result.status, Status::Unsupported { .. })
+                    && result.f.len() == n
                     && result.f.iter().all(|v| v.is_finite());
                 let f = if usable { result.f } else { vec![0.0; n] };
                 self.warm.store(system, &f);
@@ -415,8 +449,7 @@ impl World {
                     problem,
                 }
             }
-        };
-        solved
+        }
     }
 
     /// Split impulses: pseudo-velocities from a projected Gauss–Seidel solve of the normal rows
@@ -437,9 +470,27 @@ impl World {
         Some(system.velocity_change(&f))
     }
 
-    fn integrate(&mut self, system: &ContactSystem, f: &[f64], pseudo: Option<&[BodyVelocity]>) {
+    /// Apply the impulses and move the bodies; returns the time of impact the motion was cut to
+    /// when continuous collision detection found one.
+    fn integrate(
+        &mut self,
+        system: &ContactSystem,
+        f: &[f64],
+        pseudo: Option<&[BodyVelocity]>,
+    ) -> Option<f64> {
         let (h, gravity) = (self.settings.dt, self.settings.gravity);
         let dp = system.momentum_change(f);
+        if let Some(method) = self.settings.ccd {
+            for (body, (dl_lin, dl_ang)) in self.bodies.iter_mut().zip(&dp) {
+                integrate::apply_momentum(body, h, &gravity, dl_lin, dl_ang);
+            }
+            let impact = first_impact(&self.bodies, h, method, &ToiSettings::default());
+            let h_pose = impact.map_or(h, |i| i.toi.time);
+            for (k, body) in self.bodies.iter_mut().enumerate() {
+                integrate::advance_pose(body, h_pose, pseudo.map(|p| &p[k]));
+            }
+            return impact.map(|i| i.toi.time);
+        }
         for (k, body) in self.bodies.iter_mut().enumerate() {
             let (dl_lin, dl_ang) = &dp[k];
             let moved = pseudo
@@ -457,9 +508,16 @@ impl World {
                 integrate::rk4_free_flight(body, h, &gravity);
             }
         }
+        None
     }
 
-    fn report(&self, system: &ContactSystem, solved: Solved, start: Instant) -> StepReport {
+    fn report(
+        &self,
+        system: &ContactSystem,
+        solved: Solved,
+        time_of_impact: Option<f64>,
+        start: Instant,
+    ) -> StepReport {
         let gravity = self.settings.gravity;
         let pen: Vec<f64> = system.contacts.iter().map(|c| (-c.dist).max(0.0)).collect();
         let max_penetration = pen.iter().copied().fold(0.0, f64::max);
@@ -527,6 +585,7 @@ impl World {
                 0.0
             },
             contact_records,
+            time_of_impact,
             problem: if self.settings.keep_problem {
                 solved.problem
             } else {

@@ -74,7 +74,7 @@ impl Solver for ProjectedSor {
         let b = problem.b();
         let amax = problem.max_abs_entry();
         let skip: Vec<bool> = (0..n)
-            .map(|i| !(problem.a()[(i, i)] > 1e-12 * amax))
+            .map(|i| problem.a()[(i, i)] <= 1e-12 * amax)
             .collect();
         let d = problem.diagonal_scale();
         let mut f = initial_impulse(problem, settings);

@@ -288,9 +288,9 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
         Some(ws) if ws.len() == n && ws.iter().all(|v| v.is_finite()) => ws.clone(),
         _ => vec![0.0; n],
     };
-    for i in 0..n {
+    for (i, fi) in f.iter_mut().enumerate() {
         if problem.friction_of(i).is_none() {
-            f[i] = f[i].max(problem.lo()[i]).min(problem.hi()[i]);
+            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
         }
     }
     for fr in problem.friction() {

@@ -4,6 +4,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::{SolverChoice, StepReport, World};
+use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::write_problem;
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -19,6 +20,9 @@ pub struct SimulateArgs {
     /// body-level one (si, body-micro, penalty).
     #[arg(long, short)]
     pub solver: Option<String>,
+    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    #[arg(long)]
+    pub friction_model: Option<String>,
     /// Number of steps (overrides the scene's).
     #[arg(long)]
     pub steps: Option<usize>,
@@ -41,14 +45,29 @@ pub struct ExportArgs {
     /// Solver used for the steps before `--step` (overrides the scene's).
     #[arg(long, short)]
     pub solver: Option<String>,
+    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    #[arg(long)]
+    pub friction_model: Option<String>,
     /// Output problem file (JSON, the `lcpbench solve` format).
     #[arg(long, short)]
     pub output: PathBuf,
 }
 
-/// Load a scene and build its world, applying a solver override.
-fn load_world(path: &Path, solver: Option<&str>) -> Result<(Scene, World)> {
+/// Load a scene and build its world, applying solver and friction-model overrides.
+fn load_world(
+    path: &Path,
+    solver: Option<&str>,
+    friction_model: Option<&str>,
+) -> Result<(Scene, World)> {
     let mut scene = Scene::load(path)?;
+    if let Some(model) = friction_model {
+        scene.settings.builder.friction_model = match model {
+            "none" => FrictionModel::None,
+            "box" => FrictionModel::Box,
+            "pyramid" => FrictionModel::Pyramid { directions: 4 },
+            other => bail!("unknown friction model `{other}` (known: none, box, pyramid)"),
+        };
+    }
     if let Some(name) = solver {
         let choice = SolverChoice::from_name(name).with_context(|| {
             format!(
@@ -56,10 +75,10 @@ fn load_world(path: &Path, solver: Option<&str>) -> Result<(Scene, World)> {
                 SolverChoice::all_names()
             )
         })?;
-        check_solver(choice, scene.settings.builder.friction_model)
-            .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
         scene.settings.solver = choice;
     }
+    check_solver(scene.settings.solver, scene.settings.builder.friction_model)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
     let world = scene.world();
     Ok((scene, world))
 }
@@ -82,16 +101,18 @@ fn record_line(report: &StepReport, world: &World) -> serde_json::Value {
         .collect();
     let mut line = serde_json::to_value(report).unwrap_or_else(|_| json!({}));
     if let Some(obj) = line.as_object_mut() {
-        let contacts = obj.remove("contact_records").unwrap_or(json!([]));
         obj.insert("bodies".into(), json!(bodies));
-        obj.insert("contacts".into(), contacts);
     }
     line
 }
 
 /// Run `lcpbench simulate`.
 pub fn run_simulate(args: SimulateArgs) -> Result<()> {
-    let (scene, mut world) = load_world(&args.scene, args.solver.as_deref())?;
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+    )?;
     let steps = args.steps.unwrap_or(scene.settings.steps);
     let mut record = match &args.record {
         Some(p) => Some(BufWriter::new(
@@ -114,6 +135,20 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let mut last_energy = energy0;
     for _ in 0..steps {
         let report = world.step();
+        if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
+            bail!(
+                "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+                args.scene.display(),
+                report.solver,
+                report.step,
+                report.rows,
+                if reason.contains("friction") {
+                    " (try friction_model = \"pyramid\" or \"none\")"
+                } else {
+                    ""
+                }
+            );
+        }
         if let Some(w) = record.as_mut() {
             serde_json::to_writer(&mut *w, &record_line(&report, &world))?;
             w.write_all(b"\n")?;
@@ -199,7 +234,11 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
 
 /// Run `lcpbench export`.
 pub fn run_export(args: ExportArgs) -> Result<()> {
-    let (scene, mut world) = load_world(&args.scene, args.solver.as_deref())?;
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+    )?;
     for _ in 0..args.step {
         world.step();
     }

@@ -100,13 +100,21 @@ fn sweep_axis(aabbs: &[Aabb]) -> usize {
 /// `margin` overlap (sweep and prune), plus every plane paired with each dynamic body whose
 /// box reaches within `margin` of it. Static–static pairs are skipped.
 pub fn candidate_pairs_with_margin(bodies: &[RigidBody], margin: f64) -> Vec<(usize, usize)> {
+    candidate_pairs_with_boxes(bodies, |b| world_aabb(b, 0.5 * margin), 0.5 * margin)
+}
+
+/// Candidate pairs as [`candidate_pairs_with_margin`], with the bounding box of each bounded
+/// (non-plane) body given by `aabb` (for instance a box swept over a step); a plane is paired
+/// with a dynamic body whose box reaches within `plane_margin` of it.
+pub fn candidate_pairs_with_boxes(
+    bodies: &[RigidBody],
+    aabb: impl Fn(&RigidBody) -> Aabb,
+    plane_margin: f64,
+) -> Vec<(usize, usize)> {
     let bounded: Vec<usize> = (0..bodies.len())
         .filter(|&i| !matches!(bodies[i].shape, Shape::Plane { .. }))
         .collect();
-    let aabbs: Vec<Aabb> = bounded
-        .iter()
-        .map(|&i| world_aabb(&bodies[i], 0.5 * margin))
-        .collect();
+    let aabbs: Vec<Aabb> = bounded.iter().map(|&i| aabb(&bodies[i])).collect();
     let mut pairs: Vec<(usize, usize)> = sweep_and_prune(&aabbs, |a, b| {
         bodies[bounded[a]].is_static && bodies[bounded[b]].is_static
     })
@@ -136,7 +144,7 @@ pub fn candidate_pairs_with_margin(bodies: &[RigidBody], margin: f64) -> Vec<(us
                     b.maxs[r]
                 }
             }));
-            if n.dot(&corner.coords) - offset <= 0.5 * margin {
+            if n.dot(&corner.coords) - offset <= plane_margin {
                 pairs.push((p.min(i), p.max(i)));
             }
         }

@@ -6,6 +6,25 @@
 //! manifolds. [`toi`] finds the first time of contact of a fast body during a step
 //! (bisection and conservative advancement).
 //!
+//! ```
+//! use lcpbench_contact::{CollisionPipeline, MassSpec, RigidBody, Shape};
+//! use nalgebra::{Point3, UnitQuaternion, Vector3};
+//!
+//! let body = |shape, z, is_static| {
+//!     RigidBody::new("b", shape, MassSpec::Density(1000.0), Point3::new(0.0, 0.0, z),
+//!         UnitQuaternion::identity(), Vector3::zeros(), Vector3::zeros(), 0, is_static)
+//! };
+//! let bodies = vec![
+//!     body(Shape::plane(Vector3::z())?, 0.0, true)?,
+//!     body(Shape::cuboid(Vector3::new(0.5, 0.5, 0.5))?, 0.5, false)?,
+//! ];
+//! let mut pipeline = CollisionPipeline::new();
+//! let contacts = pipeline.detect(&bodies, 1e-3);
+//! assert_eq!(contacts.len(), 4); // the four bottom corners
+//! assert!(contacts.iter().all(|c| c.normal == Vector3::z() && c.dist.abs() < 1e-12));
+//! # Ok::<(), lcpbench_contact::ShapeError>(())
+//! ```
+//!
 //! References: D. Baraff and A. Witkin, *Physically Based Modeling*, SIGGRAPH 2001 course
 //! notes ("Rigid body simulation II: nonpenetration constraints"); C. Ericson, *Real-Time
 //! Collision Detection*, Morgan Kaufmann 2005; B. Mirtich, *Impulse-based dynamic simulation
@@ -65,6 +84,11 @@ impl CollisionPipeline {
         let prediction = prediction.max(0.0);
         let pairs = broad_phase::candidate_pairs_with_margin(bodies, prediction);
         self.narrow.contacts(bodies, &pairs, prediction)
+    }
+
+    /// The narrow phase, for its settings ([`NarrowPhase::merge_distance`]).
+    pub fn narrow_phase_mut(&mut self) -> &mut NarrowPhase {
+        &mut self.narrow
     }
 
     /// Forgets cached manifolds.

@@ -11,14 +11,33 @@
 //!
 //! Points closer than the prediction distance are reported with `dist > 0`, so resting contacts
 //! that separate slightly between steps are not lost.
+//!
+//! A triangle mesh yields one manifold per triangle near the other shape, so a mesh vertex shared
+//! by several triangles shows up once per triangle. Contacts of the same pair at the same point
+//! (within [`NarrowPhase::merge_distance`]) with the same normal are merged into one, keeping
+//! the smallest key (stable across steps) and the smallest gap: duplicates would only add
+//! linearly dependent rows to the contact Jacobian.
+//!
+//! Mesh against mesh is computed triangle against triangle, and a triangle has no inside: when
+//! two meshes touch along coplanar faces and also have side walls meeting at the contact
+//! (two identical blocks stacked flush), parry's triangle pairs report spurious contacts with
+//! the wall normals and penetrations as deep as the walls are long. A penetrating mesh–mesh
+//! contact is therefore kept only if its depth does not exceed the true depth of its points
+//! inside the other (closed) mesh by more than [`NarrowPhase::mesh_depth_slack`]; a genuine
+//! contact always passes, because the distance along the contact normal to the other surface
+//! is at least the distance to its nearest point. Shallow spurious contacts with sideways
+//! normals can remain in the flush case: model such stacks with convex hulls, or offset them.
+//! Mesh against primitives, hulls and planes is not affected.
 
 use super::Contact;
 use crate::body::RigidBody;
+use crate::shape::Shape;
 use nalgebra::{Isometry3, Point3, Unit};
+use parry3d_f64::query::PointQueryWithLocation;
 use parry3d_f64::query::{
     ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, PersistentQueryDispatcher,
 };
-use parry3d_f64::shape::SharedShape;
+use parry3d_f64::shape::{SharedShape, TriMesh};
 use std::collections::HashMap;
 
 /// Manifolds and generator workspace of one body pair, kept between calls.
@@ -29,9 +48,24 @@ struct PairCache {
 }
 
 /// Persistent narrow phase: one cache entry per body pair seen in the last call.
-#[derive(Default)]
 pub struct NarrowPhase {
     pairs: HashMap<(usize, usize), PairCache>,
+    /// Contacts of one pair closer than this (with normals within `1e-6` rad) are merged.
+    /// Default `1e-7` (length units of the scene).
+    pub merge_distance: f64,
+    /// Mesh–mesh contacts whose penetration exceeds the true depth of their points inside the
+    /// other mesh by more than this are dropped. Default `1e-3` (length units of the scene).
+    pub mesh_depth_slack: f64,
+}
+
+impl Default for NarrowPhase {
+    fn default() -> Self {
+        Self {
+            pairs: HashMap::new(),
+            merge_distance: 1e-7,
+            mesh_depth_slack: 1e-3,
+        }
+    }
 }
 
 impl std::fmt::Debug for NarrowPhase {
@@ -96,9 +130,30 @@ impl NarrowPhase {
                 bodies[a].shape.kind(),
                 bodies[b].shape.kind()
             );
+            let first = out.len();
+            let meshes = match (&bodies[a].shape, &bodies[b].shape) {
+                (Shape::TriMesh { mesh: ma, .. }, Shape::TriMesh { mesh: mb, .. }) => {
+                    Some(MeshPair {
+                        a: ma,
+                        b: mb,
+                        slack: self.mesh_depth_slack,
+                    })
+                }
+                _ => None,
+            };
             for m in &cache.manifolds {
-                push_manifold(&mut out, a, b, &iso_a, &iso_b, m, prediction);
+                push_manifold(
+                    &mut out,
+                    a,
+                    b,
+                    &iso_a,
+                    &iso_b,
+                    m,
+                    prediction,
+                    meshes.as_ref(),
+                );
             }
+            merge_duplicates(&mut out, first, self.merge_distance);
             kept.insert((a, b), cache);
         }
         self.pairs = kept;
@@ -106,6 +161,14 @@ impl NarrowPhase {
     }
 }
 
+/// Both shapes of a mesh–mesh pair, for the depth check.
+struct MeshPair<'a> {
+    a: &'a TriMesh,
+    b: &'a TriMesh,
+    slack: f64,
+}
+
+#[allow(clippy::too_many_arguments)]
 fn push_manifold(
     out: &mut Vec<Contact>,
     a: usize,
@@ -114,6 +177,7 @@ fn push_manifold(
     iso_b: &Isometry3<f64>,
     m: &ContactManifold<(), ()>,
     prediction: f64,
+    meshes: Option<&MeshPair>,
 ) {
     let frame_a = m.subshape_pos1.map_or(*iso_a, |p| iso_a * p);
     let frame_b = m.subshape_pos2.map_or(*iso_b, |p| iso_b * p);
@@ -126,6 +190,12 @@ fn push_manifold(
         }
         let pa: Point3<f64> = frame_a * c.local_p1;
         let pb: Point3<f64> = frame_b * c.local_p2;
+        if let (Some(pair), true) = (meshes, c.dist < 0.0) {
+            let depth = depth_in_mesh(pair.a, iso_a, &pb).max(depth_in_mesh(pair.b, iso_b, &pa));
+            if -c.dist > depth + pair.slack {
+                continue;
+            }
+        }
         out.push(Contact {
             body_a: a,
             body_b: b,
@@ -135,6 +205,39 @@ fn push_manifold(
             key: contact_key(a, b, m.subshape1, m.subshape2, c.fid1.0, c.fid2.0),
         });
     }
+}
+
+/// Depth of the world point `p` inside the closed mesh `mesh` at pose `iso` (0 outside), from
+/// the projection on the mesh with its pseudo-normals deciding inside and outside.
+fn depth_in_mesh(mesh: &TriMesh, iso: &Isometry3<f64>, p: &Point3<f64>) -> f64 {
+    let local = iso.inverse_transform_point(p);
+    let (proj, _) = mesh.project_local_point_and_get_location(&local, false);
+    if proj.is_inside {
+        (proj.point - local).norm()
+    } else {
+        0.0
+    }
+}
+
+/// Merges the contacts `out[first..]` (one body pair) that share a point and a normal.
+fn merge_duplicates(out: &mut Vec<Contact>, first: usize, merge_distance: f64) {
+    if out.len() - first < 2 {
+        return;
+    }
+    let d2 = merge_distance * merge_distance;
+    let mut merged: Vec<Contact> = Vec::with_capacity(out.len() - first);
+    for c in out.drain(first..) {
+        match merged.iter_mut().find(|m| {
+            (m.point - c.point).norm_squared() <= d2 && m.normal.dot(&c.normal) >= 1.0 - 5e-13
+        }) {
+            Some(m) => {
+                m.dist = m.dist.min(c.dist);
+                m.key = m.key.min(c.key);
+            }
+            None => merged.push(c),
+        }
+    }
+    out.extend(merged);
 }
 
 /// Stable 64-bit key of a contact from its body pair, sub-shapes and features (SplitMix64

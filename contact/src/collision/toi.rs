@@ -17,14 +17,20 @@
 //!   contact can happen before `t + d / μ`, so advance to it and repeat until `d <= tolerance`.
 //!   It never steps past the first contact, whatever the shapes' thickness.
 //!
+//! [`first_impact`] applies either method to a whole body list: the broad phase runs on the
+//! boxes swept by the bodies over the step, and the earliest impact among pairs that are apart
+//! at the start of the step is returned.
+//!
 //! Distances come from parry (`parry::query::distance`, 0 when the shapes overlap). For a
 //! triangle mesh it is the distance to the mesh surface, so the bisection sampling assumes the
 //! other shape does not fit inside the mesh between two samples; conservative advancement has
 //! no such assumption.
 
+use super::broad_phase::candidate_pairs_with_boxes;
 use crate::body::RigidBody;
 use crate::shape::Shape;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::shape::SharedShape;
 
 /// Rigid motion of a body during a step.
@@ -244,6 +250,80 @@ pub fn time_of_impact_conservative(
         }
     }
     None
+}
+
+/// Which time-of-impact method [`first_impact`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ToiMethod {
+    /// [`time_of_impact_bisection`].
+    Bisection,
+    /// [`time_of_impact_conservative`] (the default).
+    #[default]
+    ConservativeAdvancement,
+}
+
+/// The first impact of a step between two bodies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairImpact {
+    /// First body (index into the body list), `body_a < body_b`.
+    pub body_a: usize,
+    /// Second body.
+    pub body_b: usize,
+    /// When and how close.
+    pub toi: Toi,
+}
+
+/// World bounding box of everything `body` covers while it follows [`Motion::of_body`] for
+/// `dt`: the box of the start and end poses, and for a rotating body the box of the ball of
+/// radius [`Shape::bounding_radius`] swept along the path of its centre of mass.
+pub fn swept_aabb(body: &RigidBody, dt: f64) -> Aabb {
+    let motion = Motion::of_body(body);
+    let end = motion.at(dt);
+    if motion.angvel == Vector3::zeros() {
+        body.shape
+            .aabb(&motion.start)
+            .merged(&body.shape.aabb(&end))
+    } else {
+        let r = Vector3::repeat(body.shape.bounding_radius());
+        let (p0, p1) = (motion.start.translation.vector, end.translation.vector);
+        Aabb::new((p0.inf(&p1) - r).into(), (p0.sup(&p1) + r).into())
+    }
+}
+
+/// The earliest impact during a step of length `dt` among body pairs whose surfaces are more
+/// than `settings.tolerance` apart at its start, each body moving with its current velocities.
+/// `None` if no such pair touches during the step. Candidate pairs come from the broad phase on
+/// [`swept_aabb`] boxes, so a body is only tested against bodies near its path.
+pub fn first_impact(
+    bodies: &[RigidBody],
+    dt: f64,
+    method: ToiMethod,
+    settings: &ToiSettings,
+) -> Option<PairImpact> {
+    let pairs = candidate_pairs_with_boxes(bodies, |b| swept_aabb(b, dt), 0.0);
+    let mut best: Option<PairImpact> = None;
+    for (a, b) in pairs {
+        let (ma, mb) = (Motion::of_body(&bodies[a]), Motion::of_body(&bodies[b]));
+        let (sa, sb) = (&bodies[a].shape, &bodies[b].shape);
+        let horizon = best.map_or(dt, |p| p.toi.time);
+        let toi = match method {
+            ToiMethod::Bisection => time_of_impact_bisection(sa, &ma, sb, &mb, horizon, settings),
+            ToiMethod::ConservativeAdvancement => {
+                time_of_impact_conservative(sa, &ma, sb, &mb, horizon, settings)
+            }
+        };
+        if let Some(toi) = toi {
+            // Pairs already touching at the start are contacts, not impacts.
+            if toi.time > 0.0 && best.is_none_or(|p| toi.time < p.toi.time) {
+                best = Some(PairImpact {
+                    body_a: a,
+                    body_b: b,
+                    toi,
+                });
+            }
+        }
+    }
+    best
 }
 
 #[cfg(test)]

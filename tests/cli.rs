@@ -1,0 +1,161 @@
+//! The command line seen from outside: `solve`, `solvers`, `gen`, and clear errors.
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lcpbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_owned()
+}
+
+#[test]
+fn solvers_lists_every_solver() {
+    let o = lcpbench(&["solvers"]);
+    assert!(o.status.success());
+    let text = String::from_utf8(o.stdout).unwrap();
+    for name in ["pgs", "sor", "lemke", "dantzig", "clarabel", "micro"] {
+        assert!(
+            text.lines().any(|l| l.starts_with(name)),
+            "{name} missing from:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn gen_then_solve_json_with_every_solver() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("spd.json");
+    let file = file.to_str().unwrap();
+    let o = lcpbench(&[
+        "gen", "spd", "--n", "20", "--seed", "3", "--cond", "100", "-o", file,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for solver in ["pgs", "sor", "lemke", "dantzig", "clarabel", "micro"] {
+        let o = lcpbench(&["solve", file, "--solver", solver, "--json"]);
+        assert!(o.status.success(), "{solver}: {}", stderr(&o));
+        let v: Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        assert_eq!(v["solver"], solver);
+        for key in [
+            "status",
+            "iterations",
+            "time_s",
+            "f",
+            "w",
+            "residual",
+            "residual_rel",
+        ] {
+            assert!(!v[key].is_null(), "{solver}: `{key}` missing in {v}");
+        }
+        assert_eq!(v["f"].as_array().unwrap().len(), 20);
+        if solver != "micro" {
+            assert_eq!(v["status"], "converged", "{solver}: {v}");
+            assert!(v["residual_rel"].as_f64().unwrap() <= 1e-8);
+        }
+    }
+}
+
+#[test]
+fn solve_prints_a_human_summary_and_honours_omega() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "p.json",
+        r#"{"A": [[2, 1], [1, 2]], "b": [-1, 1]}"#,
+    );
+    let o = lcpbench(&["solve", &file, "--solver", "sor", "--omega", "1.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("status      converged"), "{text}");
+    let o = lcpbench(&["solve", &file, "--solver", "pgs", "--omega", "1.5"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--omega applies only to --solver sor"));
+}
+
+#[test]
+fn infeasible_problem_completes_with_no_solution() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("inf.json");
+    let file = file.to_str().unwrap();
+    assert!(lcpbench(&["gen", "infeasible", "--n", "8", "-o", file])
+        .status
+        .success());
+    let o = lcpbench(&["solve", file, "--solver", "lemke", "--json"]);
+    assert!(
+        o.status.success(),
+        "a completed run exits 0 whatever its status"
+    );
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "no_solution");
+}
+
+#[test]
+fn bad_input_gets_one_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("missing.json", None, "missing.json"),
+        (
+            "syntax.json",
+            Some("{\"A\": [[1]],\n \"b\": [1,]}"),
+            "syntax.json:2:",
+        ),
+        (
+            "ragged.json",
+            Some(r#"{"A": [[1, 2], [3]], "b": [1, 2]}"#),
+            "field `A`: row 1 has 1 entries",
+        ),
+        (
+            "nan.json",
+            Some(r#"{"A": [[NaN]], "b": [1]}"#),
+            "nan.json:1:",
+        ),
+        (
+            "bounds.json",
+            Some(r#"{"A": [[1]], "b": [1], "lo": [2], "hi": [1]}"#),
+            "row 0: bounds [2, 1]",
+        ),
+        (
+            "self.json",
+            Some(r#"{"A": [[1, 0], [0, 1]], "b": [1, 1], "friction": [[1, 1, 0.5]]}"#),
+            "names itself",
+        ),
+        (
+            "blen.json",
+            Some(r#"{"A": [[1, 0], [0, 1]], "b": [1]}"#),
+            "b has length 1",
+        ),
+    ];
+    for (name, text, expected) in cases {
+        let path = match text {
+            Some(t) => write(dir.path(), name, t),
+            None => dir.path().join(name).to_str().unwrap().to_owned(),
+        };
+        let o = lcpbench(&["solve", &path, "--solver", "pgs"]);
+        assert!(!o.status.success(), "{name} should fail");
+        let err = stderr(&o);
+        assert!(err.contains(expected), "{name}: `{err}` lacks `{expected}`");
+        assert_eq!(
+            err.trim().lines().count(),
+            1,
+            "{name}: one line expected, got `{err}`"
+        );
+    }
+    let o = lcpbench(&["solve", "x.json", "--solver", "newton"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("unknown solver `newton`"));
+    let o = lcpbench(&["gen", "banana", "--n", "3", "-o", "/dev/null"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("unknown instance kind `banana`"));
+}

@@ -1,0 +1,164 @@
+//! Property tests on complementarity: planted problems, every solver, honest statuses.
+
+mod common;
+
+use common::*;
+use lcpbench_solvers::{residuals, Problem, Settings, SolveResult, SolverKind, Status};
+use proptest::prelude::*;
+
+const TOL: f64 = 1e-8;
+
+fn solve(kind: SolverKind, p: &Problem) -> SolveResult {
+    let settings = Settings {
+        tolerance: TOL,
+        max_iterations: 5_000,
+        ..Settings::default()
+    };
+    kind.create().solve(p, &settings)
+}
+
+/// The status must agree with the shared residual recomputed here from the returned `f`.
+fn check_honest(kind: SolverKind, p: &Problem, r: &SolveResult) -> Result<(), TestCaseError> {
+    let recomputed = residuals(p, &r.f);
+    prop_assert_eq!(r.f.len(), p.n(), "{}: f has the wrong length", kind.name());
+    if r.status == Status::Converged {
+        prop_assert!(
+            recomputed.natural_map_rel <= TOL,
+            "{} claims convergence at residual {:e}",
+            kind.name(),
+            recomputed.natural_map_rel
+        );
+    } else if !matches!(r.status, Status::Unsupported { .. }) {
+        prop_assert!(
+            recomputed.natural_map_rel > TOL,
+            "{} reports {} although the residual {:e} is within tolerance",
+            kind.name(),
+            r.status,
+            recomputed.natural_map_rel
+        );
+    }
+    Ok(())
+}
+
+fn max_diff(x: &[f64], y: &[f64]) -> f64 {
+    x.iter().zip(y).fold(0.0, |m, (a, b)| m.max((a - b).abs()))
+}
+
+fn norm_inf(x: &[f64]) -> f64 {
+    x.iter().fold(0.0, |m, a| m.max(a.abs()))
+}
+
+proptest! {
+    #![proptest_config(config(24))]
+
+    #[test]
+    fn every_solver_is_honest_on_spd(planted in planted_spd(12)) {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, &planted.problem);
+            check_honest(kind, &planted.problem, &r)?;
+        }
+    }
+
+    #[test]
+    fn every_solver_is_honest_on_rank_deficient_psd(planted in planted_psd(12)) {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, &planted.problem);
+            check_honest(kind, &planted.problem, &r)?;
+        }
+    }
+
+    #[test]
+    fn every_solver_is_honest_on_p_matrices(planted in planted_p_matrix(12)) {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, &planted.problem);
+            check_honest(kind, &planted.problem, &r)?;
+        }
+    }
+
+    #[test]
+    fn pivoting_and_clarabel_solve_spd(planted in planted_spd(12)) {
+        for kind in [SolverKind::Lemke, SolverKind::Dantzig, SolverKind::Clarabel] {
+            let r = solve(kind, &planted.problem);
+            prop_assert_eq!(&r.status, &Status::Converged, "{}", kind.name());
+            // SPD: the solution is unique, so it is the planted one.
+            let scale = 1.0 + norm_inf(&planted.solution);
+            prop_assert!(max_diff(&r.f, &planted.solution) <= 1e-5 * scale,
+                "{}: f differs from the planted solution by {:e}",
+                kind.name(), max_diff(&r.f, &planted.solution));
+        }
+    }
+
+    #[test]
+    fn pivoting_solvers_solve_p_matrices(planted in planted_p_matrix(12)) {
+        for kind in [SolverKind::Lemke, SolverKind::Dantzig] {
+            let r = solve(kind, &planted.problem);
+            prop_assert_eq!(&r.status, &Status::Converged, "{}", kind.name());
+            // P-matrix: unique solution.
+            prop_assert!(max_diff(&r.f, &planted.solution) <= 1e-6 * (1.0 + norm_inf(&planted.solution)));
+        }
+        let r = solve(SolverKind::Clarabel, &planted.problem);
+        prop_assert!(matches!(r.status, Status::Unsupported { .. }), "clarabel: {}", r.status);
+    }
+
+    #[test]
+    fn lemke_and_clarabel_agree_on_spd(planted in planted_spd(12)) {
+        let lemke = solve(SolverKind::Lemke, &planted.problem);
+        let qp = solve(SolverKind::Clarabel, &planted.problem);
+        prop_assert!(lemke.status.is_converged() && qp.status.is_converged());
+        let scale = 1.0 + norm_inf(&lemke.f);
+        prop_assert!(max_diff(&lemke.f, &qp.f) <= 1e-6 * scale,
+            "lemke and clarabel differ by {:e}", max_diff(&lemke.f, &qp.f));
+    }
+
+    #[test]
+    fn solutions_are_invariant_under_symmetric_permutation(
+        planted in planted_spd(12),
+        seed in any::<u64>(),
+    ) {
+        let perm = permutation(planted.problem.n(), seed);
+        let permuted = planted.problem.permuted(&perm);
+        for kind in [SolverKind::Lemke, SolverKind::Dantzig, SolverKind::Clarabel, SolverKind::Pgs] {
+            let r0 = solve(kind, &planted.problem);
+            let r1 = solve(kind, &permuted);
+            if !(r0.status.is_converged() && r1.status.is_converged()) {
+                prop_assert!(kind == SolverKind::Pgs, "{}: {} / {}", kind.name(), r0.status, r1.status);
+                continue;
+            }
+            let back: Vec<f64> = perm.iter().map(|&p| r0.f[p]).collect();
+            let scale = 1.0 + norm_inf(&r0.f);
+            prop_assert!(max_diff(&back, &r1.f) <= 1e-5 * scale, "{}", kind.name());
+        }
+    }
+
+    #[test]
+    fn boxed_results_respect_their_bounds(problem in boxed_spd(12)) {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, &problem);
+            check_honest(kind, &problem, &r)?;
+            if r.status.is_converged() {
+                for i in 0..problem.n() {
+                    prop_assert!(r.f[i] >= problem.lo()[i] - 1e-9 && r.f[i] <= problem.hi()[i] + 1e-9,
+                        "{}: f[{i}] = {} outside [{}, {}]", kind.name(), r.f[i], problem.lo()[i], problem.hi()[i]);
+                }
+            }
+        }
+        // SPD boxed problems have a unique solution: Dantzig and PGS must find it.
+        for kind in [SolverKind::Dantzig, SolverKind::Pgs] {
+            prop_assert!(solve(kind, &problem).status.is_converged(), "{}", kind.name());
+        }
+    }
+
+    #[test]
+    fn friction_results_lie_in_the_cone(problem in friction_contacts(4)) {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, &problem);
+            check_honest(kind, &problem, &r)?;
+            if r.status.is_converged() {
+                for fr in problem.friction() {
+                    let limit = fr.mu * r.f[fr.normal].max(0.0);
+                    prop_assert!(r.f[fr.row].abs() <= limit + 1e-8 * (1.0 + limit), "{}", kind.name());
+                }
+            }
+        }
+    }
+}
