@@ -349,7 +349,10 @@ impl Tableau<'_> {
                 .map(|&r| value(r))
                 .fold(f64::INFINITY, f64::min);
             let tol = TIE_TOL * min.abs().max(1.0);
-            cands.retain(|&r| value(r) <= min + tol);
+            // Non-finite values (a breakdown the caller reports) must not empty the set.
+            if min.is_finite() {
+                cands.retain(|&r| value(r) <= min + tol);
+            }
         };
         keep_min(&mut cands, &|r| self.xb[r] / y[r]);
         if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
@@ -447,9 +450,9 @@ fn pivot(
             break Outcome::TimeLimit;
         }
         let y = tab.entering_column(entering);
-        if y.iter().any(|v| !v.is_finite()) {
+        if y.iter().chain(&tab.xb).any(|v| !v.is_finite()) {
             break Outcome::NumericalFailure(format!(
-                "non-finite entering column for {entering} at pivot {}",
+                "non-finite entering column or basic values for {entering} at pivot {}",
                 pivots + 1
             ));
         }
@@ -686,5 +689,21 @@ mod tests {
         }
         let r = Lemke::with_covering(vec![0.5, 3.0]).solve(&p, &Settings::default());
         assert_eq!(r.status, Status::Converged);
+    }
+
+    #[test]
+    fn scale_invariant() {
+        // A and b scaled independently by 1e-9 and 1e9: the solution scales by sb / sa.
+        let g = generate(Family::Spd { cond: 1e3 }, 20, 4);
+        let (a0, b0) = (g.problem.a(), g.problem.b());
+        for (sa, sb) in [(1e-9, 1e9), (1e9, 1e-9), (1e-9, 1e-9)] {
+            let a = Mat::from_fn(20, 20, |i, j| sa * a0[(i, j)]);
+            let b = b0.iter().map(|v| sb * v).collect();
+            let r = Lemke::default().solve(&Problem::lcp(a, b).unwrap(), &Settings::default());
+            assert_eq!(r.status, Status::Converged, "sa = {sa}, sb = {sb}");
+            for (x, y) in r.f.iter().zip(g.solution.as_ref().unwrap()) {
+                assert!((x * sa / sb - y).abs() < 1e-9, "sa = {sa}, sb = {sb}");
+            }
+        }
     }
 }
