@@ -157,12 +157,21 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
     let scenes = report::scenes_matching(&args.scenes)?;
-    let exported = lcpbench::harness::scene::export_suite_lcps(
-        &scenes,
-        &args.out.join("lcps"),
-        if args.quick { 60 } else { 400 },
-        suite::LARGE_SCENE_BODIES,
-    )?;
+    let lcp_dir = args.out.join("lcps");
+    let exported = if args.no_run {
+        // Tables from existing data: the LCPs exported by the run that produced it.
+        report::scenes_matching(&lcp_dir.join("*.json").to_string_lossy())?
+    } else {
+        if lcp_dir.exists() {
+            std::fs::remove_dir_all(&lcp_dir)?;
+        }
+        lcpbench::harness::scene::export_suite_lcps(
+            &scenes,
+            &lcp_dir,
+            if args.quick { 60 } else { 400 },
+            suite::LARGE_SCENE_BODIES,
+        )?
+    };
     let mut sweep = SweepConfig::new(args.out.join("data"))?;
     sweep.jobs = args.jobs;
     sweep.progress = !args.no_progress;

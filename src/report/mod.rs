@@ -85,7 +85,7 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     })
 }
 
-/// Scene files matching a glob pattern, sorted.
+/// Files matching a glob pattern, sorted.
 pub fn scenes_matching(pattern: &str) -> Result<Vec<PathBuf>> {
     let mut v: Vec<PathBuf> = glob::glob(pattern)
         .with_context(|| format!("bad glob `{pattern}`"))?

@@ -52,6 +52,20 @@ pub struct PlotSpec {
     pub log_y: bool,
     /// Fixed y range (in data units), if any.
     pub y_range: Option<(f64, f64)>,
+    /// Where the legend goes.
+    pub legend: LegendAt,
+}
+
+/// Legend placement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LegendAt {
+    /// Upper right corner (the default).
+    #[default]
+    UpperRight,
+    /// Lower left corner.
+    LowerLeft,
+    /// Lower right corner.
+    LowerRight,
 }
 
 const PALETTE: [RGBColor; 10] = [
@@ -67,10 +81,20 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-/// A stable colour per solver name (the six shipped solvers get fixed colours).
+/// A stable colour per solver name (the shipped solvers get fixed colours).
 pub fn color_for(key: &str) -> RGBColor {
     let base = key.split(['@', '+']).next().unwrap_or(key);
-    let fixed = ["pgs", "sor", "lemke", "dantzig", "clarabel", "micro"];
+    let fixed = [
+        "pgs",
+        "sor",
+        "lemke",
+        "dantzig",
+        "clarabel",
+        "micro",
+        "si",
+        "body-micro",
+        "penalty",
+    ];
     if let Some(i) = fixed.iter().position(|k| *k == base) {
         if key == base {
             return PALETTE[i];
@@ -199,7 +223,12 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
         };
         let style = ShapeStyle::from(&color).stroke_width(2);
         let legend_style = style;
-        let anno = match s.mark {
+        let mark = if pts.len() == 1 && matches!(s.mark, Mark::Line | Mark::Step) {
+            Mark::Points
+        } else {
+            s.mark
+        };
+        let anno = match mark {
             Mark::Line | Mark::Reference => chart
                 .draw_series(LineSeries::new(pts.clone(), style))
                 .map_err(|e| anyhow::anyhow!("{e:?}"))?,
@@ -234,15 +263,21 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
                     .map_err(|e| anyhow::anyhow!("{e:?}"))?
             }
         };
-        anno.label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
+        if !s.name.is_empty() {
+            anno.label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
+        }
     }
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 13))
-        .position(SeriesLabelPosition::UpperRight)
+        .position(match spec.legend {
+            LegendAt::UpperRight => SeriesLabelPosition::UpperRight,
+            LegendAt::LowerLeft => SeriesLabelPosition::LowerLeft,
+            LegendAt::LowerRight => SeriesLabelPosition::LowerRight,
+        })
         .draw()
         .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
@@ -302,6 +337,7 @@ mod tests {
             log_x: true,
             log_y: true,
             y_range: None,
+            legend: LegendAt::default(),
         };
         plot(&path, &spec, &series).unwrap();
         let svg = std::fs::read_to_string(&path).unwrap();

@@ -1,7 +1,7 @@
 //! From result rows to the report: tables (Markdown + CSV) and figures (SVG + CSV).
 
 use super::machine::Header;
-use super::plots::{loglog_fit, plot, Mark, PlotSpec, Series};
+use super::plots::{loglog_fit, plot, LegendAt, Mark, PlotSpec, Series};
 use super::rel;
 use super::suite::Suite;
 use crate::harness::sweep::{read_histories, read_results};
@@ -376,6 +376,7 @@ pub fn write_report(
                 log_x: true,
                 log_y: false,
                 y_range: Some((0.0, 1.02)),
+                legend: LegendAt::LowerRight,
             },
             &series,
         )?;
@@ -432,6 +433,7 @@ pub fn write_report(
                     log_x,
                     log_y: true,
                     y_range: None,
+                    legend: LegendAt::UpperRight,
                 },
                 &series,
             )?;
@@ -545,6 +547,7 @@ pub fn write_report(
             log_x: false,
             log_y: true,
             y_range: None,
+            legend: LegendAt::UpperRight,
         },
         &omega_series,
     )?;
@@ -568,7 +571,11 @@ pub fn write_report(
                 .scene_cases
                 .iter()
                 .filter_map(|c| data.get(c, solver, "default"))
-                .filter(|r| r.blow_up != Some(true) && !r.is_isolation_failure())
+                .filter(|r| {
+                    r.blow_up != Some(true)
+                        && !r.is_isolation_failure()
+                        && r.fallback_steps == Some(0)
+                })
                 .filter_map(|r| Some((r.contacts_mean?, r.time_per_step_s?)))
                 .filter(|(c, t)| *c > 0.0 && *t > 0.0)
                 .collect();
@@ -584,6 +591,7 @@ pub fn write_report(
                 log_x: true,
                 log_y: true,
                 y_range: None,
+                legend: LegendAt::LowerRight,
             },
             &series,
         )?;
@@ -620,6 +628,7 @@ pub fn write_report(
             log_x: true,
             log_y: true,
             y_range: None,
+            legend: LegendAt::LowerRight,
         },
         &scaling_series,
     )?;
@@ -688,7 +697,7 @@ fn push_fit(
     if let Some((k, c)) = fit {
         let (x0, x1) = (pts[0].0, pts[pts.len() - 1].0);
         series.push(Series {
-            name: format!("{solver} fit"),
+            name: String::new(),
             color_key: solver.to_owned(),
             points: vec![
                 (x0, 10f64.powf(c) * x0.powf(k)),
@@ -831,7 +840,7 @@ fn scene_section(
                 full.extend(cells);
                 all.rows.push(full);
             }
-            let pts: Vec<(f64, f64)> = ["realtime", "loose", "default", "tight"]
+            let pts: Vec<(f64, f64)> = ["realtime", "loose", "default"]
                 .iter()
                 .filter_map(|b| data.get(case, solver, b))
                 .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel_mean?)))
@@ -896,12 +905,13 @@ fn scene_section(
         plot(
             &path,
             &PlotSpec {
-                title: format!("{name}: speed against accuracy (budgets realtime … tight)"),
+                title: format!("{name}: speed against accuracy (budgets realtime, loose, default)"),
                 x_label: "solver time per step (s)".into(),
                 y_label: "mean relative residual per step".into(),
                 log_x: true,
                 log_y: true,
                 y_range: None,
+                legend: LegendAt::LowerLeft,
             },
             &pareto,
         )?;
