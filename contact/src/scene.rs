@@ -546,12 +546,14 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         "none" => None,
         "bisection" => Some(ToiMethod::Bisection),
         "conservative" => Some(ToiMethod::ConservativeAdvancement),
-        other => return Err(err(
-            "ccd",
-            format!(
+        other => {
+            return Err(err(
+                "ccd",
+                format!(
                 "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
             ),
-        )),
+            ))
+        }
     };
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
