@@ -430,7 +430,13 @@ impl World {
                     (Some(r), _) if r.natural_map_rel <= self.settings.tolerance => {
                         Status::Converged
                     }
-                    (None, true) => Status::Converged,
+                    // Without the shared residual, convergence cannot be claimed.
+                    (None, true) => Status::Stalled {
+                        reason: format!(
+                            "{} met its own stopping rule; the shared residual was not measured",
+                            kind.name()
+                        ),
+                    },
                     (_, false) => Status::IterationLimit,
                     (Some(r), true) => Status::Stalled {
                         reason: format!(
