@@ -29,6 +29,9 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
     Report(cli::bench::ReportArgs),
+    /// One isolated run of a sweep (used internally by `bench` and `report`).
+    #[command(hide = true, name = "bench-one")]
+    BenchOne(cli::bench::BenchOneArgs),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +44,7 @@ fn main() -> ExitCode {
         Command::Export(args) => cli::simulate::run_export(args),
         Command::Bench(args) => cli::bench::run_bench(args),
         Command::Report(args) => cli::bench::run_report(args),
+        Command::BenchOne(args) => cli::bench::run_bench_one(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,1 +1,394 @@
-//! (in progress)
+//! Contact solvers that work on bodies directly (matrix-free), selectable by name like the
+//! matrix solvers of `lcpbench-solvers`.
+//!
+//! All three read the step's [`ContactSystem`] through its [`DelassusOperator`] (apply `J`,
+//! `M⁻¹`, `Jᵀ` per body; cost per contact visit `O(1)`), never forming `A`. They support the
+//! frictionless and box friction models (the pyramid model is an LCP formulation for the matrix
+//! solvers) and return one impulse per row of the system, so the shared residual of the step's
+//! LCP can be measured for them too.
+//!
+//! * **`si`, sequential impulses** (Catto 2005, as in Box2D and Bullet): a *restitution phase*
+//!   first resolves each bouncing contact in turn with Newton's law on the current relative
+//!   velocity, repeating sweeps until no contact closes faster than the bounce threshold (the
+//!   sequential collision model of Guendelman et al. 2003, which propagates impulses through a
+//!   chain: Newton's cradle ends at `(0, …, 0, v)`, Smith et al. 2012); then a *contact phase*
+//!   of projected Gauss–Seidel sweeps on the accumulated impulse (accumulated clamping: the total
+//!   normal impulse stays `>= 0`, the friction impulse within `±mu f_n`), warm-started from the
+//!   previous step's contact-phase impulses. Failure mode: slow convergence on stiff stacks and
+//!   mass ratios (it is Gauss–Seidel).
+//! * **`body-micro`, micro-impulses** (Mirtich 1996): every closing contact is a collision,
+//!   resolved alone with a non-negative impulse (Newton's law above the bounce threshold, else
+//!   the velocity target of the bias) and Coulomb friction clamped to the circular cone of that
+//!   impulse; sweeps repeat until nothing closes. No impulse is ever taken back, so resting
+//!   contacts are a stream of small collisions and friction acts only during them (boxes creep on
+//!   slopes; stacks jitter). Failure mode: many sweeps for resting stacks.
+//! * **`penalty`, spring–damper** (the baseline): a penetrating contact gets the force
+//!   `f_n = max(0, k · (−dist) − c · v_n)` over the step, with `k = m_eff ω²`,
+//!   `c = 2 ζ m_eff ω`, `m_eff = 1/A_nn`, `ω = penalty_omega_h / h` (or a given stiffness), and a
+//!   friction impulse that stops sliding up to `mu f_n h` (regularised Coulomb). All contacts
+//!   use the velocities at the start of the step (one Jacobi pass). It ignores restitution and
+//!   position correction (its spring does both) and does not solve the LCP: its shared residual
+//!   is reported honestly and is large.
+
+use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
+use nalgebra::{Matrix2, Vector2};
+use std::time::{Duration, Instant};
+
+/// A body-level solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BodySolverKind {
+    /// Sequential impulses with accumulated clamping and warm starting.
+    SequentialImpulses,
+    /// Mirtich micro-impulses.
+    MicroImpulses,
+    /// Spring–damper penalty forces.
+    Penalty,
+}
+
+impl BodySolverKind {
+    /// Every body-level solver, in report order.
+    pub const ALL: [BodySolverKind; 3] = [
+        BodySolverKind::SequentialImpulses,
+        BodySolverKind::MicroImpulses,
+        BodySolverKind::Penalty,
+    ];
+
+    /// Name used on the command line and in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            BodySolverKind::SequentialImpulses => "si",
+            BodySolverKind::MicroImpulses => "body-micro",
+            BodySolverKind::Penalty => "penalty",
+        }
+    }
+
+    /// Look a solver up by name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
+/// Settings of the body-level solvers. Defaults in brackets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodySolverSettings {
+    /// Stop when the largest impulse change of a sweep is below `tolerance` times the impulse
+    /// scale \[`1e-8`\].
+    pub tolerance: f64,
+    /// Cap on sweeps \[`10_000`\].
+    pub max_iterations: usize,
+    /// Closing speeds below this get no restitution, m/s \[`0.1`\].
+    pub restitution_threshold: f64,
+    /// Penalty: `ω h`, the spring's natural frequency times the step \[`0.3`\].
+    pub penalty_omega_h: f64,
+    /// Penalty: fixed stiffness in N/m instead of `m_eff ω²` \[`None`\].
+    pub penalty_stiffness: Option<f64>,
+    /// Penalty: damping ratio `ζ` \[`0.7`\].
+    pub penalty_damping_ratio: f64,
+}
+
+impl Default for BodySolverSettings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            max_iterations: 10_000,
+            restitution_threshold: 0.1,
+            penalty_omega_h: 0.3,
+            penalty_stiffness: None,
+            penalty_damping_ratio: 0.7,
+        }
+    }
+}
+
+/// What a body-level solve returns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodySolveOutput {
+    /// Total impulse per row of the system.
+    pub f: Vec<f64>,
+    /// The part of `f` to keep for warm starting the next step.
+    pub warm: Vec<f64>,
+    /// Sweeps used.
+    pub iterations: usize,
+    /// Wall time.
+    pub time: Duration,
+    /// True when the solver's own stopping rule was met.
+    pub stopped: bool,
+}
+
+/// Solve the step's contact system on bodies. `warm` is the warm start (zeros for none).
+pub fn solve(
+    kind: BodySolverKind,
+    system: &ContactSystem,
+    warm: &[f64],
+    settings: &BodySolverSettings,
+) -> BodySolveOutput {
+    let start = Instant::now();
+    let (f, warm_out, iterations, stopped) = match kind {
+        BodySolverKind::SequentialImpulses => sequential_impulses(system, warm, settings),
+        BodySolverKind::MicroImpulses => micro_impulses(system, settings),
+        BodySolverKind::Penalty => {
+            let f = penalty(system, settings);
+            (f.clone(), f, 1, true)
+        }
+    };
+    BodySolveOutput {
+        f,
+        warm: warm_out,
+        iterations,
+        time: start.elapsed(),
+        stopped,
+    }
+}
+
+fn diagonals(op: &DelassusOperator<'_>, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| {
+            let d = op.diagonal(i);
+            if d > 0.0 {
+                d
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect()
+}
+
+/// The restitution phase shared by `si`: sequential Newton collisions until nothing bounces.
+/// Returns the number of sweeps.
+fn restitution_phase(
+    system: &ContactSystem,
+    op: &DelassusOperator<'_>,
+    k: &[f64],
+    u: &mut [BodyVelocity],
+    f: &mut [f64],
+    settings: &BodySolverSettings,
+) -> usize {
+    let bouncy: Vec<usize> = (0..system.contacts.len())
+        .filter(|&c| system.info[c].restitution > 0.0)
+        .collect();
+    if bouncy.is_empty() {
+        return 0;
+    }
+    let h = system.h;
+    for sweep in 1..=settings.max_iterations.max(1) {
+        let mut any = false;
+        for &c in &bouncy {
+            let i = system.info[c].normal_row;
+            let vn = op.row_dot(i, u);
+            let dist = system.contacts[c].dist;
+            let closes = dist <= 0.0 || dist + h * vn <= 0.0;
+            if closes && vn < -settings.restitution_threshold {
+                let e = system.info[c].restitution;
+                let d = -(1.0 + e) * vn / k[i];
+                op.apply_row(i, d, u);
+                f[i] += d;
+                any = true;
+            }
+        }
+        if !any {
+            return sweep;
+        }
+    }
+    settings.max_iterations
+}
+
+fn sequential_impulses(
+    system: &ContactSystem,
+    warm: &[f64],
+    settings: &BodySolverSettings,
+) -> (Vec<f64>, Vec<f64>, usize, bool) {
+    let n = system.n();
+    let op = system.operator();
+    let k = diagonals(&op, n);
+    let mut u = system.free_velocity.clone();
+    let mut f_rest = vec![0.0; n];
+    let mut sweeps = restitution_phase(system, &op, &k, &mut u, &mut f_rest, settings);
+
+    // Contact-phase bias: the builder's bias without the restitution term.
+    let mut bias = system.bias.clone();
+    for info in &system.info {
+        if info.bouncing {
+            bias[info.normal_row] = 0.0;
+        }
+    }
+    // Warm start, projected onto the bounds.
+    let mut lambda = vec![0.0; n];
+    if warm.len() == n {
+        for info in &system.info {
+            let i = info.normal_row;
+            lambda[i] = warm[i].max(0.0);
+            for r in info.friction_rows.clone() {
+                let c = info.mu * lambda[i];
+                lambda[r] = warm[r].clamp(-c, c);
+            }
+        }
+        op.add_response(&lambda, &mut u);
+    }
+    let scale_b = (0..n)
+        .map(|i| ((system.free_rate[i] + bias[i]) / k[i]).abs())
+        .fold(0.0, f64::max);
+    let mut stopped = false;
+    let mut iterations = 0;
+    while iterations < settings.max_iterations {
+        iterations += 1;
+        let mut max_change: f64 = 0.0;
+        for info in &system.info {
+            let i = info.normal_row;
+            let w = op.row_dot(i, &u) + bias[i];
+            let new = (lambda[i] - w / k[i]).max(0.0);
+            let d = new - lambda[i];
+            if d != 0.0 {
+                op.apply_row(i, d, &mut u);
+                lambda[i] = new;
+            }
+            max_change = max_change.max(d.abs());
+            let bound = info.mu * lambda[i];
+            for r in info.friction_rows.clone() {
+                let w = op.row_dot(r, &u);
+                let new = (lambda[r] - w / k[r]).clamp(-bound, bound);
+                let d = new - lambda[r];
+                if d != 0.0 {
+                    op.apply_row(r, d, &mut u);
+                    lambda[r] = new;
+                }
+                max_change = max_change.max(d.abs());
+            }
+        }
+        let scale = lambda.iter().fold(scale_b, |m, v| m.max(v.abs()));
+        if max_change <= settings.tolerance * scale.max(f64::MIN_POSITIVE) {
+            stopped = true;
+            break;
+        }
+    }
+    sweeps += iterations;
+    let f = f_rest.iter().zip(&lambda).map(|(a, b)| a + b).collect();
+    (f, lambda, sweeps, stopped)
+}
+
+fn micro_impulses(
+    system: &ContactSystem,
+    settings: &BodySolverSettings,
+) -> (Vec<f64>, Vec<f64>, usize, bool) {
+    let n = system.n();
+    let op = system.operator();
+    let k = diagonals(&op, n);
+    let mut u = system.free_velocity.clone();
+    let mut f = vec![0.0; n];
+    let h = system.h;
+    // Inverse tangent blocks for the sticking impulse of each contact.
+    let tangent_inv: Vec<Option<Matrix2<f64>>> = system
+        .info
+        .iter()
+        .map(|info| {
+            let r = info.friction_rows.clone();
+            if r.len() != 2 {
+                return None;
+            }
+            let (a, b) = (r.start, r.start + 1);
+            Matrix2::new(
+                op.entry(a, a),
+                op.entry(a, b),
+                op.entry(b, a),
+                op.entry(b, b),
+            )
+            .try_inverse()
+        })
+        .collect();
+    let scale_b = (0..n)
+        .map(|i| ((system.free_rate[i] + system.bias[i]) / k[i]).abs())
+        .fold(0.0, f64::max);
+    let mut iterations = 0;
+    let mut stopped = false;
+    while iterations < settings.max_iterations {
+        iterations += 1;
+        let mut max_impulse: f64 = 0.0;
+        for (c, info) in system.info.iter().enumerate() {
+            let i = info.normal_row;
+            let vn = op.row_dot(i, &u);
+            let dist = system.contacts[c].dist;
+            let closes = dist <= 0.0 || dist + h * vn <= 0.0;
+            let target = if info.restitution > 0.0 && closes && vn < -settings.restitution_threshold
+            {
+                -info.restitution * vn
+            } else if info.bouncing {
+                0.0
+            } else {
+                -system.bias[i]
+            };
+            if vn >= target {
+                continue;
+            }
+            let jn = (target - vn) / k[i];
+            op.apply_row(i, jn, &mut u);
+            f[i] += jn;
+            max_impulse = max_impulse.max(jn);
+            if let Some(kinv) = tangent_inv[c] {
+                let (a, b) = (info.friction_rows.start, info.friction_rows.start + 1);
+                let vt = Vector2::new(op.row_dot(a, &u), op.row_dot(b, &u));
+                let mut jt = -(kinv * vt);
+                let cap = info.mu * jn;
+                let norm = jt.norm();
+                if norm > cap {
+                    jt *= cap / norm;
+                }
+                op.apply_row(a, jt.x, &mut u);
+                op.apply_row(b, jt.y, &mut u);
+                f[a] += jt.x;
+                f[b] += jt.y;
+            }
+        }
+        let scale = f.iter().fold(scale_b, |m, v| m.max(v.abs()));
+        if max_impulse <= settings.tolerance * scale.max(f64::MIN_POSITIVE) {
+            stopped = true;
+            break;
+        }
+    }
+    (f.clone(), f, iterations, stopped)
+}
+
+fn penalty(system: &ContactSystem, settings: &BodySolverSettings) -> Vec<f64> {
+    let n = system.n();
+    let op = system.operator();
+    let u = &system.free_velocity;
+    let h = system.h;
+    let mut f = vec![0.0; n];
+    let omega = settings.penalty_omega_h / h;
+    for (c, info) in system.info.iter().enumerate() {
+        let dist = system.contacts[c].dist;
+        if dist >= 0.0 {
+            continue;
+        }
+        let i = info.normal_row;
+        let knn = op.diagonal(i);
+        if knn <= 0.0 {
+            continue;
+        }
+        let m_eff = 1.0 / knn;
+        let (stiffness, damping) = match settings.penalty_stiffness {
+            Some(s) => (s, 2.0 * settings.penalty_damping_ratio * (s * m_eff).sqrt()),
+            None => (
+                m_eff * omega * omega,
+                2.0 * settings.penalty_damping_ratio * m_eff * omega,
+            ),
+        };
+        let vn = op.row_dot(i, u);
+        let jn = h * (stiffness * -dist - damping * vn).max(0.0);
+        f[i] = jn;
+        let rows: Vec<usize> = info.friction_rows.clone().collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let mut jt: Vec<f64> = rows
+            .iter()
+            .map(|&r| -op.row_dot(r, u) / op.diagonal(r).max(f64::MIN_POSITIVE))
+            .collect();
+        let norm = jt.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let cap = info.mu * jn;
+        if norm > cap {
+            jt.iter_mut().for_each(|x| *x *= cap / norm);
+        }
+        for (&r, v) in rows.iter().zip(jt) {
+            f[r] = v;
+        }
+    }
+    f
+}

@@ -24,3 +24,10 @@ pub mod step;
 pub use body::{MassSpec, RigidBody};
 pub use collision::{candidate_pairs, CollisionPipeline, Contact};
 pub use shape::{MassProperties, Shape, ShapeError};
+
+pub use body_solvers::BodySolverKind;
+pub use builder::{
+    BuilderParams, ContactSystem, DelassusOperator, FrictionModel, Material, PositionCorrection,
+};
+pub use scene::{Scene, SceneError};
+pub use step::{SimSettings, SolverChoice, StepReport, World};

@@ -1,1 +1,710 @@
-//! (in progress)
+//! Scene files (TOML): bodies, materials, settings and events of a simulation, as data.
+//!
+//! ```toml
+//! name = "box_on_ground"
+//! description = "A unit box resting on the ground."
+//!
+//! [settings]                     # every key optional; defaults shown
+//! dt = 0.01                      # time step, s
+//! steps = 100                    # steps of a run
+//! gravity = [0.0, 0.0, -9.81]    # m/s²
+//! friction_model = "box"         # "none" | "box" | "pyramid"
+//! pyramid_directions = 4         # friction directions of the pyramid model (>= 3)
+//! solver = "pgs"                 # a matrix solver (pgs, sor, lemke, dantzig, clarabel, micro)
+//!                                # or a body-level one (si, body-micro, penalty)
+//! tolerance = 1e-6               # on the relative natural-map residual
+//! max_iterations = 1000          # sweeps / pivots / iterations per step
+//! warm_start = true              # start iterative solvers from last step's impulses
+//! restitution_threshold = 0.1    # closing speeds below this do not bounce, m/s
+//! position_correction = "baumgarte"  # "baumgarte" | "split" | "none"
+//! baumgarte = 0.2                # fraction of the penetration removed per step
+//! slop = 0.001                   # penetration left uncorrected, m
+//! prediction_distance = 0.01     # contacts closer than this enter the problem, m
+//! penalty_omega_h = 0.3          # penalty: spring frequency × dt
+//! penalty_damping_ratio = 0.7    # penalty: damping ratio
+//! # penalty_stiffness = 1e5      # penalty: fixed stiffness, N/m (default: from the mass)
+//! ccd = "none"                   # "none" | "bisection" | "conservative": stop each step at
+//!                                # the first time of impact so fast bodies cannot tunnel
+//!
+//! [[materials]]                  # optional; bodies without `material` use the first
+//! name = "wood"
+//! mu = 0.5                       # friction (a contact uses sqrt(mu_a mu_b))
+//! restitution = 0.0              # a contact uses max(e_a, e_b)
+//!
+//! [[bodies]]
+//! name = "ground"
+//! shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+//! static = true
+//!
+//! [[bodies]]
+//! name = "box"
+//! shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
+//! density = 1000.0               # or `mass = ...` (not both; default density 1000)
+//! position = [0.0, 0.0, 0.5]     # centre of mass, m
+//! orientation = [1.0, 0.0, 0.0, 0.0]          # unit quaternion [w, x, y, z], or instead
+//! # axis_angle = { axis = [0, 1, 0], degrees = 30 }
+//! velocity = [0.0, 0.0, 0.0]
+//! angular_velocity = [0.0, 0.0, 0.0]
+//! material = "wood"
+//! # repeat = { count = [nx, ny, nz], spacing = [dx, dy, dz] }   # a grid of copies
+//!
+//! [[events]]
+//! at_step = 300
+//! remove = "box"                 # a body, or every copy of a repeated body
+//!
+//! [metrics]                      # free-form; passed through untouched to the harness
+//! expected_rest_height = 0.5
+//! ```
+//!
+//! Shapes: `{ type = "sphere", radius }`, `{ type = "box", half_extents }`,
+//! `{ type = "capsule", half_height, radius }` (axis along body z),
+//! `{ type = "convex", points = [[x, y, z], ...] }` (convex hull),
+//! `{ type = "particle", radius = 0.01 }`, `{ type = "plane", normal }` (static only; the solid
+//! is the half-space below the plane through `position`), `{ type = "mesh", file = "m.obj" }`
+//! (Wavefront OBJ, path relative to the scene file).
+//!
+//! A repeated body named `n` yields bodies `n_0`, `n_1`, … at `position + (i dx, j dy, k dz)`,
+//! numbered with `i` fastest. Unknown keys are errors; every error names the file, the field
+//! and what is wrong (with the line for syntax and type errors).
+
+use crate::body::{MassSpec, RigidBody};
+use crate::body_solvers::BodySolverSettings;
+use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection};
+use crate::collision::toi::ToiMethod;
+use crate::shape::Shape;
+use crate::step::{Event, SimSettings, SolverChoice, World};
+use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// A scene file that cannot be used.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    /// The file cannot be read.
+    #[error("{path}: {error}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        error: std::io::Error,
+    },
+    /// TOML syntax error, unknown key or wrong type.
+    #[error("{path}:{line}:{column}: {context}{message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// `in [[bodies]] #3: ` or empty.
+        context: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value that parses but is not allowed.
+    #[error("{path}: {field}: {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Path of the field, e.g. `bodies[2] ("ball").shape.radius`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    settings: SettingsFile,
+    #[serde(default)]
+    materials: Vec<MaterialFile>,
+    #[serde(default)]
+    bodies: Vec<BodyFile>,
+    #[serde(default)]
+    events: Vec<EventFile>,
+    #[serde(default)]
+    metrics: toml::Table,
+}
+
+#[derive(Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct SettingsFile {
+    dt: f64,
+    steps: usize,
+    gravity: [f64; 3],
+    friction_model: String,
+    pyramid_directions: usize,
+    solver: String,
+    tolerance: f64,
+    max_iterations: usize,
+    warm_start: bool,
+    restitution_threshold: f64,
+    position_correction: String,
+    baumgarte: f64,
+    slop: f64,
+    prediction_distance: f64,
+    penalty_omega_h: f64,
+    penalty_damping_ratio: f64,
+    penalty_stiffness: Option<f64>,
+    ccd: String,
+}
+
+impl Default for SettingsFile {
+    fn default() -> Self {
+        let s = SimSettings::default();
+        let b = BodySolverSettings::default();
+        let p = BuilderParams::default();
+        Self {
+            dt: s.dt,
+            steps: s.steps,
+            gravity: s.gravity.into(),
+            friction_model: "box".into(),
+            pyramid_directions: 4,
+            solver: s.solver.name().into(),
+            tolerance: s.tolerance,
+            max_iterations: s.max_iterations,
+            warm_start: s.warm_start,
+            restitution_threshold: p.restitution_threshold,
+            position_correction: "baumgarte".into(),
+            baumgarte: p.baumgarte,
+            slop: p.slop,
+            prediction_distance: s.prediction_distance,
+            penalty_omega_h: b.penalty_omega_h,
+            penalty_damping_ratio: b.penalty_damping_ratio,
+            penalty_stiffness: None,
+            ccd: "none".into(),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    name: String,
+    #[serde(default = "default_mu")]
+    mu: f64,
+    #[serde(default)]
+    restitution: f64,
+}
+
+fn default_mu() -> f64 {
+    0.5
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+enum ShapeFile {
+    Sphere { radius: f64 },
+    Box { half_extents: [f64; 3] },
+    Capsule { half_height: f64, radius: f64 },
+    Convex { points: Vec<[f64; 3]> },
+    Particle { radius: Option<f64> },
+    Plane { normal: [f64; 3] },
+    Mesh { file: String },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisAngleFile {
+    axis: [f64; 3],
+    degrees: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RepeatFile {
+    count: [usize; 3],
+    spacing: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BodyFile {
+    name: String,
+    shape: ShapeFile,
+    density: Option<f64>,
+    mass: Option<f64>,
+    #[serde(default)]
+    position: [f64; 3],
+    orientation: Option<[f64; 4]>,
+    axis_angle: Option<AxisAngleFile>,
+    #[serde(default)]
+    velocity: [f64; 3],
+    #[serde(default)]
+    angular_velocity: [f64; 3],
+    #[serde(default, rename = "static")]
+    is_static: bool,
+    material: Option<String>,
+    repeat: Option<RepeatFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EventFile {
+    at_step: usize,
+    remove: String,
+}
+
+/// A loaded scene: ready-made bodies and settings, plus the pass-through metrics table.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The file it came from.
+    pub path: PathBuf,
+    /// Scene name (default: the file stem).
+    pub name: String,
+    /// Free text.
+    pub description: String,
+    /// Simulation settings.
+    pub settings: SimSettings,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Bodies, repeats expanded.
+    pub bodies: Vec<RigidBody>,
+    /// For each body, the name of the scene entry it came from.
+    pub groups: Vec<String>,
+    /// Events.
+    pub events: Vec<Event>,
+    /// The `[metrics]` table, untouched.
+    pub metrics: toml::Table,
+}
+
+/// 1-based line and column of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+    (line, column)
+}
+
+/// The key of a `key = value` line when `column` points into the value.
+fn key_at(text: &str, line: usize, column: usize) -> Option<String> {
+    let l = text.lines().nth(line.checked_sub(1)?)?;
+    let eq = l.find('=')?;
+    let key = l[..eq].trim();
+    let simple = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    (column > eq && simple).then(|| key.to_owned())
+}
+
+/// `in [[bodies]] #3: ` for an offset inside the third `[[bodies]]` table (or empty).
+fn table_context(text: &str, offset: usize) -> String {
+    let offset = offset.min(text.len());
+    let end = text[offset..].find('\n').map_or(text.len(), |p| offset + p);
+    let before = &text[..end];
+    let mut last: Option<&str> = None;
+    let mut counts: std::collections::HashMap<&str, usize> = Default::default();
+    for line in before.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            let header = t.split('#').next().unwrap_or(t).trim();
+            *counts.entry(header).or_default() += 1;
+            last = Some(header);
+        }
+    }
+    match last {
+        Some(h) if h.starts_with("[[") => format!("in {h} #{}: ", counts[h]),
+        Some(h) => format!("in {h}: "),
+        None => String::new(),
+    }
+}
+
+impl Scene {
+    /// Load a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parse scene text; `path` names the file in errors and anchors mesh paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
+        let file: SceneFile = toml::from_str(text).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            let (line, column) = line_column(text, offset);
+            let mut context = table_context(text, offset);
+            let message = e.message().trim().to_owned();
+            if !message.contains("field") {
+                if let Some(key) = key_at(text, line, column) {
+                    context.push_str(&format!("field `{key}`: "));
+                }
+            }
+            SceneError::Parse {
+                path: path.to_owned(),
+                line,
+                column,
+                context,
+                message,
+            }
+        })?;
+        let invalid = |field: String, message: String| SceneError::Invalid {
+            path: path.to_owned(),
+            field,
+            message,
+        };
+        let settings = convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
+
+        let mut materials = Vec::new();
+        for (i, m) in file.materials.iter().enumerate() {
+            let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
+            if !(m.mu.is_finite() && m.mu >= 0.0) {
+                return Err(invalid(field("mu"), format!("must be >= 0, got {}", m.mu)));
+            }
+            if !(0.0..=1.0).contains(&m.restitution) {
+                return Err(invalid(
+                    field("restitution"),
+                    format!("must be in [0, 1], got {}", m.restitution),
+                ));
+            }
+            if materials.iter().any(|x: &Material| x.name == m.name) {
+                return Err(invalid(field("name"), "is defined twice".into()));
+            }
+            materials.push(Material {
+                name: m.name.clone(),
+                mu: m.mu,
+                restitution: m.restitution,
+            });
+        }
+        if materials.is_empty() {
+            materials.push(Material::default());
+        }
+
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut bodies = Vec::new();
+        let mut groups = Vec::new();
+        for (i, b) in file.bodies.iter().enumerate() {
+            let at = |f: &str| {
+                if f.is_empty() {
+                    format!("bodies[{i}] (\"{}\")", b.name)
+                } else {
+                    format!("bodies[{i}] (\"{}\").{f}", b.name)
+                }
+            };
+            let made = convert_body(b, &materials, dir).map_err(|(f, m)| invalid(at(&f), m))?;
+            for body in made {
+                if bodies.iter().any(|x: &RigidBody| x.name == body.name) {
+                    return Err(invalid(
+                        at("name"),
+                        format!("body name \"{}\" is used twice", body.name),
+                    ));
+                }
+                bodies.push(body);
+                groups.push(b.name.clone());
+            }
+        }
+
+        let mut events = Vec::new();
+        for (i, e) in file.events.iter().enumerate() {
+            if !bodies
+                .iter()
+                .zip(&groups)
+                .any(|(b, g)| b.name == e.remove || *g == e.remove)
+            {
+                return Err(invalid(
+                    format!("events[{i}].remove"),
+                    format!("no body named \"{}\"", e.remove),
+                ));
+            }
+            events.push(Event {
+                at_step: e.at_step,
+                remove: e.remove.clone(),
+            });
+        }
+
+        let name = file.name.unwrap_or_else(|| {
+            path.file_stem()
+                .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+        });
+        Ok(Scene {
+            path: path.to_owned(),
+            name,
+            description: file.description,
+            settings,
+            materials,
+            bodies,
+            groups,
+            events,
+            metrics: file.metrics,
+        })
+    }
+
+    /// A world ready to step.
+    pub fn world(&self) -> World {
+        let mut world = World::new(
+            self.bodies.clone(),
+            self.materials.clone(),
+            self.settings.clone(),
+        );
+        world.groups = self.groups.clone();
+        world.events = self.events.clone();
+        world
+    }
+}
+
+/// Check that `solver` can run the scene's friction model.
+pub fn check_solver(solver: SolverChoice, friction: FrictionModel) -> Result<(), String> {
+    match (solver, friction) {
+        (SolverChoice::Body(k), FrictionModel::Pyramid { .. }) => Err(format!(
+            "body-level solver `{}` supports friction_model \"none\" or \"box\", not \"pyramid\"",
+            k.name()
+        )),
+        _ => Ok(()),
+    }
+}
+
+type FieldError = (String, String);
+
+fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
+    let err = |f: &str, m: String| (format!("settings.{f}"), m);
+    let positive = |f: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(err(f, format!("must be a positive number, got {v}")))
+        }
+    };
+    let non_negative = |f: &str, v: f64| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(err(f, format!("must be >= 0, got {v}")))
+        }
+    };
+    let dt = positive("dt", s.dt)?;
+    if !s.gravity.iter().all(|g| g.is_finite()) {
+        return Err(err("gravity", "must be finite".into()));
+    }
+    let friction_model = match s.friction_model.as_str() {
+        "none" => FrictionModel::None,
+        "box" => FrictionModel::Box,
+        "pyramid" => {
+            if s.pyramid_directions < 3 {
+                return Err(err(
+                    "pyramid_directions",
+                    format!("must be at least 3, got {}", s.pyramid_directions),
+                ));
+            }
+            FrictionModel::Pyramid {
+                directions: s.pyramid_directions,
+            }
+        }
+        other => {
+            return Err(err(
+                "friction_model",
+                format!("unknown model \"{other}\" (expected \"none\", \"box\" or \"pyramid\")"),
+            ))
+        }
+    };
+    let position_correction = match s.position_correction.as_str() {
+        "none" => PositionCorrection::None,
+        "baumgarte" => PositionCorrection::Baumgarte,
+        "split" => PositionCorrection::Split,
+        other => {
+            return Err(err(
+                "position_correction",
+                format!(
+                    "unknown method \"{other}\" (expected \"baumgarte\", \"split\" or \"none\")"
+                ),
+            ))
+        }
+    };
+    let solver = SolverChoice::from_name(&s.solver).ok_or_else(|| {
+        err(
+            "solver",
+            format!(
+                "unknown solver \"{}\" (known: {})",
+                s.solver,
+                SolverChoice::all_names()
+            ),
+        )
+    })?;
+    check_solver(solver, friction_model).map_err(|m| err("solver", m))?;
+    let baumgarte = non_negative("baumgarte", s.baumgarte)?;
+    if baumgarte > 1.0 {
+        return Err(err(
+            "baumgarte",
+            format!("must be in [0, 1], got {baumgarte}"),
+        ));
+    }
+    if let Some(k) = s.penalty_stiffness {
+        positive("penalty_stiffness", k)?;
+    }
+    let ccd = match s.ccd.as_str() {
+        "none" => None,
+        "bisection" => Some(ToiMethod::Bisection),
+        "conservative" => Some(ToiMethod::ConservativeAdvancement),
+        other => {
+            return Err(err(
+                "ccd",
+                format!(
+                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
+            ),
+            ))
+        }
+    };
+    if s.max_iterations == 0 {
+        return Err(err("max_iterations", "must be at least 1".into()));
+    }
+    Ok(SimSettings {
+        dt,
+        steps: s.steps,
+        gravity: s.gravity.into(),
+        solver,
+        tolerance: positive("tolerance", s.tolerance)?,
+        max_iterations: s.max_iterations,
+        warm_start: s.warm_start,
+        prediction_distance: non_negative("prediction_distance", s.prediction_distance)?,
+        builder: BuilderParams {
+            friction_model,
+            restitution_threshold: non_negative("restitution_threshold", s.restitution_threshold)?,
+            position_correction,
+            baumgarte,
+            slop: non_negative("slop", s.slop)?,
+        },
+        body: BodySolverSettings {
+            penalty_omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
+            penalty_damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
+            penalty_stiffness: s.penalty_stiffness,
+            ..BodySolverSettings::default()
+        },
+        ccd,
+        keep_problem: false,
+        residuals: true,
+    })
+}
+
+fn vec3(v: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(v[0], v[1], v[2])
+}
+
+fn convert_shape(s: &ShapeFile, dir: &Path) -> Result<Shape, FieldError> {
+    let e = |e: crate::shape::ShapeError| ("shape".to_owned(), e.to_string());
+    match s {
+        ShapeFile::Sphere { radius } => Shape::sphere(*radius).map_err(e),
+        ShapeFile::Box { half_extents } => Shape::cuboid(vec3(*half_extents)).map_err(e),
+        ShapeFile::Capsule {
+            half_height,
+            radius,
+        } => Shape::capsule(*half_height, *radius).map_err(e),
+        ShapeFile::Convex { points } => {
+            let pts: Vec<Point3<f64>> = points.iter().map(|p| Point3::from(vec3(*p))).collect();
+            Shape::convex_hull(&pts).map_err(e)
+        }
+        ShapeFile::Particle { radius } => Shape::particle(radius.unwrap_or(0.01)).map_err(e),
+        ShapeFile::Plane { normal } => Shape::plane(vec3(*normal)).map_err(e),
+        ShapeFile::Mesh { file } => Shape::from_obj(dir.join(file)).map_err(e),
+    }
+}
+
+fn convert_body(
+    b: &BodyFile,
+    materials: &[Material],
+    dir: &Path,
+) -> Result<Vec<RigidBody>, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
+    let shape = convert_shape(&b.shape, dir)?;
+    let mass = match (b.density, b.mass) {
+        (Some(_), Some(_)) => {
+            return Err(err("mass", "give `density` or `mass`, not both".into()));
+        }
+        (Some(d), None) => MassSpec::Density(d),
+        (None, Some(m)) => MassSpec::Mass(m),
+        (None, None) => MassSpec::Density(1000.0),
+    };
+    let orientation = match (&b.orientation, &b.axis_angle) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                "orientation",
+                "give `orientation` or `axis_angle`, not both".into(),
+            ))
+        }
+        (Some(q), None) => {
+            let q = Quaternion::new(q[0], q[1], q[2], q[3]);
+            if !(q.norm().is_finite() && q.norm() > 1e-12) {
+                return Err(err(
+                    "orientation",
+                    "must be a non-zero quaternion [w, x, y, z]".into(),
+                ));
+            }
+            UnitQuaternion::from_quaternion(q)
+        }
+        (None, Some(aa)) => {
+            let axis = Unit::try_new(vec3(aa.axis), 1e-12)
+                .ok_or_else(|| err("axis_angle.axis", "must be a non-zero vector".into()))?;
+            if !aa.degrees.is_finite() {
+                return Err(err("axis_angle.degrees", "must be finite".into()));
+            }
+            UnitQuaternion::from_axis_angle(&axis, aa.degrees.to_radians())
+        }
+        (None, None) => UnitQuaternion::identity(),
+    };
+    let material = match &b.material {
+        None => 0,
+        Some(name) => materials
+            .iter()
+            .position(|m| &m.name == name)
+            .ok_or_else(|| {
+                let known: Vec<_> = materials.iter().map(|m| m.name.as_str()).collect();
+                err(
+                    "material",
+                    format!("no material named \"{name}\" (known: {})", known.join(", ")),
+                )
+            })?,
+    };
+    let (count, spacing) = match &b.repeat {
+        None => ([1, 1, 1], [0.0; 3]),
+        Some(r) => {
+            if r.count.contains(&0) {
+                return Err(err("repeat.count", "every count must be at least 1".into()));
+            }
+            (r.count, r.spacing)
+        }
+    };
+    let repeated = b.repeat.is_some();
+    let mut out = Vec::new();
+    let mut index = 0;
+    for k in 0..count[2] {
+        for j in 0..count[1] {
+            for i in 0..count[0] {
+                let offset = Vector3::new(
+                    i as f64 * spacing[0],
+                    j as f64 * spacing[1],
+                    k as f64 * spacing[2],
+                );
+                let name = if repeated {
+                    format!("{}_{index}", b.name)
+                } else {
+                    b.name.clone()
+                };
+                index += 1;
+                let body = RigidBody::new(
+                    name,
+                    shape.clone(),
+                    mass,
+                    Point3::from(vec3(b.position) + offset),
+                    orientation,
+                    vec3(b.velocity),
+                    vec3(b.angular_velocity),
+                    material,
+                    b.is_static,
+                )
+                .map_err(|e| err("", e.to_string()))?;
+                out.push(body);
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,1 +1,602 @@
-//! (in progress)
+//! Velocity-level time stepping (Stewart–Trinkle 1996, Anitescu–Potra 1997).
+//!
+//! One step of size `h`, in [`World::step`]:
+//!
+//! 1. **detect** contacts at the current positions (with a prediction distance, so resting and
+//!    approaching contacts are in the problem before they touch);
+//! 2. **build** the contact system at the free velocity `u* = u + h M⁻¹ f_ext`
+//!    ([`builder::build`]);
+//! 3. **solve** it for the impulse `f` with the chosen solver (a matrix solver on
+//!    `A = J M⁻¹ Jᵀ`, or a body-level solver on the matrix-free operator);
+//! 4. **apply** the impulses to the momenta and **integrate** the positions
+//!    ([`integrate`]: symplectic Euler for bodies that received an impulse, RK4 for free
+//!    flight), moving by the split-impulse pseudo-velocity too when that correction is chosen;
+//! 5. **measure**: a [`StepReport`] with contacts, rows, solver status and residuals,
+//!    penetration, energy, momenta and friction-cone violation.
+//!
+//! ```
+//! use lcpbench_contact::{Scene, SolverChoice};
+//! use std::path::Path;
+//!
+//! let scene = Scene::parse(
+//!     r#"
+//!     [settings]
+//!     dt = 0.01
+//!     [[bodies]]
+//!     name = "ground"
+//!     shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+//!     static = true
+//!     [[bodies]]
+//!     name = "box"
+//!     shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
+//!     position = [0.0, 0.0, 0.5]
+//!     "#,
+//!     Path::new("example.toml"),
+//! )
+//! .unwrap();
+//! let mut world = scene.world();
+//! world.set_solver(SolverChoice::from_name("si").unwrap());
+//! let report = world.step();
+//! assert_eq!(report.contacts, 4); // one face on the ground: four contact points
+//! assert!(report.status.is_converged());
+//! assert!((world.bodies[1].position.z - 0.5).abs() < 1e-9); // it rests
+//! ```
+
+use crate::body::RigidBody;
+use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
+use crate::builder::PositionCorrection;
+use crate::builder::{self, BodyVelocity, BuilderParams, ContactSystem, Material, WarmStartCache};
+use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
+use crate::collision::CollisionPipeline;
+use crate::integrate;
+use lcpbench_solvers::{
+    residuals, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind, Status,
+};
+use nalgebra::Vector3;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A contact solver for a scene: a matrix solver of `lcpbench-solvers` or a body-level one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SolverChoice {
+    /// A solver on the assembled LCP.
+    Matrix(SolverKind),
+    /// A solver on bodies (matrix-free).
+    Body(BodySolverKind),
+}
+
+impl SolverChoice {
+    /// Look a solver up by name: the matrix solvers' names, then `si`, `body-micro`, `penalty`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        SolverKind::from_name(name)
+            .map(SolverChoice::Matrix)
+            .or_else(|| BodySolverKind::from_name(name).map(SolverChoice::Body))
+    }
+
+    /// The solver's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverChoice::Matrix(k) => k.name(),
+            SolverChoice::Body(k) => k.name(),
+        }
+    }
+
+    /// Every solver a scene can use.
+    pub fn all() -> Vec<SolverChoice> {
+        SolverKind::ALL
+            .into_iter()
+            .map(SolverChoice::Matrix)
+            .chain(BodySolverKind::ALL.into_iter().map(SolverChoice::Body))
+            .collect()
+    }
+
+    /// Comma-separated names of every solver.
+    pub fn all_names() -> String {
+        Self::all()
+            .iter()
+            .map(|s| s.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// Simulation settings. Scene-file defaults in brackets (see `docs/scenes.md`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSettings {
+    /// Time step `h`, s \[`0.01`\].
+    pub dt: f64,
+    /// Number of steps a run takes \[`100`\].
+    pub steps: usize,
+    /// Gravity, m/s² \[`[0, 0, -9.81]`\].
+    pub gravity: Vector3<f64>,
+    /// Contact solver \[`pgs`\].
+    pub solver: SolverChoice,
+    /// Solver tolerance on the relative natural-map residual \[`1e-6`\].
+    pub tolerance: f64,
+    /// Solver iteration / pivot / sweep cap \[`1000`\].
+    pub max_iterations: usize,
+    /// Warm-start iterative solvers from the previous step's impulses \[`true`\].
+    pub warm_start: bool,
+    /// Contacts closer than this are in the problem, m \[`0.01`\].
+    pub prediction_distance: f64,
+    /// Friction model, restitution threshold and position correction.
+    pub builder: BuilderParams,
+    /// Penalty parameters (the other fields are copied from above).
+    pub body: BodySolverSettings,
+    /// Continuous collision detection: `None` \[default\], or a time-of-impact method. With
+    /// one, every step moves the bodies only up to the first time of impact among pairs not yet
+    /// touching (backtracking, Baraff–Witkin), so fast bodies cannot tunnel; the rest of that
+    /// step's motion is dropped and the new contact enters the next step's problem.
+    pub ccd: Option<ToiMethod>,
+    /// Keep each step's [`Problem`] in its report (for export) \[`false`\].
+    pub keep_problem: bool,
+    /// Measure the shared residual for body-level solvers too (assembles `A`) \[`true`\].
+    pub residuals: bool,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        Self {
+            dt: 0.01,
+            steps: 100,
+            gravity: Vector3::new(0.0, 0.0, -9.81),
+            solver: SolverChoice::Matrix(SolverKind::Pgs),
+            tolerance: 1e-6,
+            max_iterations: 1000,
+            warm_start: true,
+            prediction_distance: 0.01,
+            builder: BuilderParams::default(),
+            body: BodySolverSettings::default(),
+            ccd: None,
+            keep_problem: false,
+            residuals: true,
+        }
+    }
+}
+
+/// A scheduled change to the scene.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Event {
+    /// Applied before step `at_step` (0-based).
+    pub at_step: usize,
+    /// Remove the body of this name (or every copy of a repeated body of this name).
+    pub remove: String,
+}
+
+/// A contact and its impulse, for recording.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ContactRecord {
+    /// Names of the two bodies.
+    pub bodies: [String; 2],
+    /// World contact point.
+    pub point: [f64; 3],
+    /// Unit normal from the first body to the second.
+    pub normal: [f64; 3],
+    /// Signed gap at detection (negative: penetration).
+    pub dist: f64,
+    /// Total impulse on the second body (normal plus friction), world frame.
+    pub impulse: [f64; 3],
+}
+
+/// What one step did and measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct StepReport {
+    /// Step index (0-based).
+    pub step: usize,
+    /// Simulated time at the end of the step, s.
+    pub time: f64,
+    /// Contacts detected.
+    pub contacts: usize,
+    /// Rows of the contact system.
+    pub rows: usize,
+    /// Solver name.
+    pub solver: &'static str,
+    /// Solver outcome (decided by the shared residual when one was measured).
+    pub status: Status,
+    /// Iterations, pivots or sweeps.
+    pub iterations: usize,
+    /// Solver wall time, s.
+    pub solve_time_s: f64,
+    /// Whole step wall time, s.
+    pub step_time_s: f64,
+    /// Shared residuals of the impulse for the step's LCP (when measured).
+    pub residuals: Option<Residuals>,
+    /// Deepest penetration at detection, m (`>= 0`).
+    pub max_penetration: f64,
+    /// Mean penetration over contacts, m.
+    pub mean_penetration: f64,
+    /// Kinetic energy after the step, J.
+    pub kinetic_energy: f64,
+    /// Potential energy after the step, J.
+    pub potential_energy: f64,
+    /// Total linear momentum after the step.
+    pub linear_momentum: [f64; 3],
+    /// Total angular momentum about the origin after the step.
+    pub angular_momentum: [f64; 3],
+    /// Largest `‖f_t‖ − mu f_n` over contacts (`>= 0`), impulse units.
+    pub friction_cone_violation: f64,
+    /// With continuous collision detection: the time of impact the step was cut to, s.
+    pub time_of_impact: Option<f64>,
+    /// Contacts with their impulses.
+    pub contact_records: Vec<ContactRecord>,
+    /// The step's LCP, when [`SimSettings::keep_problem`] is set.
+    #[serde(skip)]
+    pub problem: Option<Problem>,
+}
+
+/// The solved impulse of one step.
+struct Solved {
+    f: Vec<f64>,
+    status: Status,
+    iterations: usize,
+    time_s: f64,
+    residuals: Option<Residuals>,
+    problem: Option<Problem>,
+}
+
+/// Bodies, materials, settings and the state carried between steps.
+pub struct World {
+    /// The bodies.
+    pub bodies: Vec<RigidBody>,
+    /// For each body, the scene entry it came from (the name events refer to).
+    pub groups: Vec<String>,
+    /// Materials, indexed by [`RigidBody::material`].
+    pub materials: Vec<Material>,
+    /// Settings.
+    pub settings: SimSettings,
+    /// Scheduled events.
+    pub events: Vec<Event>,
+    /// Collision detection with its manifold cache.
+    pub pipeline: CollisionPipeline,
+    /// Impulses of the last step, by contact key.
+    pub warm: WarmStartCache,
+    /// Steps taken.
+    pub step_index: usize,
+    /// Simulated time, s.
+    pub time: f64,
+    matrix_solver: Option<Box<dyn Solver + Send>>,
+}
+
+impl World {
+    /// A world at time 0.
+    pub fn new(bodies: Vec<RigidBody>, materials: Vec<Material>, settings: SimSettings) -> Self {
+        let groups = bodies.iter().map(|b| b.name.clone()).collect();
+        let mut world = Self {
+            bodies,
+            groups,
+            materials,
+            settings,
+            events: Vec::new(),
+            pipeline: CollisionPipeline::new(),
+            warm: WarmStartCache::default(),
+            step_index: 0,
+            time: 0.0,
+            matrix_solver: None,
+        };
+        world.set_solver(world.settings.solver);
+        world
+    }
+
+    /// Switch the contact solver (keeps the warm-start cache).
+    pub fn set_solver(&mut self, solver: SolverChoice) {
+        self.settings.solver = solver;
+        self.matrix_solver = match solver {
+            SolverChoice::Matrix(kind) => Some(kind.create()),
+            SolverChoice::Body(_) => None,
+        };
+    }
+
+    /// Index of the body named `name`.
+    pub fn body_index(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// One time step: detect, build, solve, apply and integrate, measure.
+    pub fn step(&mut self) -> StepReport {
+        let start = Instant::now();
+        self.apply_events();
+        let (h, gravity) = (self.settings.dt, self.settings.gravity);
+        let contacts = self
+            .pipeline
+            .detect(&self.bodies, self.settings.prediction_distance);
+        let free = builder::free_velocities(&self.bodies, &gravity, h);
+        let system = builder::build(
+            &self.bodies,
+            &self.materials,
+            &contacts,
+            free,
+            &self.settings.builder,
+            h,
+        );
+        let solved = self.solve(&system);
+        let pseudo = self.split_impulse_velocities(&system);
+        let toi = self.integrate(&system, &solved.f, pseudo.as_deref());
+        self.step_index += 1;
+        self.time += h;
+        self.report(&system, solved, toi, start)
+    }
+
+    /// Run `n` steps, returning their reports.
+    pub fn run(&mut self, n: usize) -> Vec<StepReport> {
+        (0..n).map(|_| self.step()).collect()
+    }
+
+    fn apply_events(&mut self) {
+        let now = self.step_index;
+        let due: Vec<String> = self
+            .events
+            .iter()
+            .filter(|e| e.at_step == now)
+            .map(|e| e.remove.clone())
+            .collect();
+        if due.is_empty() {
+            return;
+        }
+        for name in due {
+            let keep: Vec<bool> = (0..self.bodies.len())
+                .map(|i| self.bodies[i].name != name && self.groups[i] != name)
+                .collect();
+            let mut it = keep.iter();
+            self.bodies.retain(|_| *it.next().unwrap_or(&true));
+            let mut it = keep.iter();
+            self.groups.retain(|_| *it.next().unwrap_or(&true));
+        }
+        // Body indices changed: cached manifolds and contact keys no longer match.
+        self.pipeline.clear();
+        self.warm.clear();
+    }
+
+    fn solver_settings(&self) -> Settings {
+        Settings {
+            tolerance: self.settings.tolerance,
+            max_iterations: self.settings.max_iterations,
+            ..Settings::default()
+        }
+    }
+
+    fn solve(&mut self, system: &ContactSystem) -> Solved {
+        let n = system.n();
+        if n == 0 {
+            self.warm.clear();
+            return Solved {
+                f: Vec::new(),
+                status: Status::Converged,
+                iterations: 0,
+                time_s: 0.0,
+                residuals: None,
+                problem: None,
+            };
+        }
+        let warm_start = self
+            .settings
+            .warm_start
+            .then(|| system.warm_start(&self.warm));
+        match self.settings.solver {
+            SolverChoice::Matrix(kind) => {
+                let problem = match system.problem() {
+                    Ok(p) => p,
+                    Err(e) => {
+                        return Solved {
+                            f: vec![0.0; n],
+                            status: Status::NumericalFailure {
+                                reason: format!("contact system is invalid: {e}"),
+                            },
+                            iterations: 0,
+                            time_s: 0.0,
+                            residuals: None,
+                            problem: None,
+                        }
+                    }
+                };
+                let mut settings = self.solver_settings();
+                if kind.is_iterative() {
+                    settings.warm_start = warm_start;
+                }
+                let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
+                let result = solver.solve(&problem, &settings);
+                // Every finite answer is applied (its status is reported); an unsupported
+                // problem or a non-finite answer applies no impulse.
+                let usable = !matches!(result.status, Status::Unsupported { .. })
+                    && result.f.len() == n
+                    && result.f.iter().all(|v| v.is_finite());
+                let f = if usable { result.f } else { vec![0.0; n] };
+                self.warm.store(system, &f);
+                Solved {
+                    f,
+                    status: result.status,
+                    iterations: result.iterations,
+                    time_s: result.time.as_secs_f64(),
+                    residuals: Some(result.residuals),
+                    problem: Some(problem),
+                }
+            }
+            SolverChoice::Body(kind) => {
+                let settings = BodySolverSettings {
+                    tolerance: self.settings.tolerance,
+                    max_iterations: self.settings.max_iterations,
+                    restitution_threshold: self.settings.builder.restitution_threshold,
+                    ..self.settings.body.clone()
+                };
+                let warm = warm_start.unwrap_or_default();
+                let out = body_solvers::solve(kind, system, &warm, &settings);
+                self.warm.store(system, &out.warm);
+                let problem = if self.settings.residuals || self.settings.keep_problem {
+                    system.problem().ok()
+                } else {
+                    None
+                };
+                let res = problem.as_ref().map(|p| residuals(p, &out.f));
+                let status = match (&res, out.stopped) {
+                    (Some(r), _) if r.natural_map_rel <= self.settings.tolerance => {
+                        Status::Converged
+                    }
+                    // Without the shared residual, convergence cannot be claimed.
+                    (None, true) => Status::Stalled {
+                        reason: format!(
+                            "{} met its own stopping rule; the shared residual was not measured",
+                            kind.name()
+                        ),
+                    },
+                    (_, false) => Status::IterationLimit,
+                    (Some(r), true) => Status::Stalled {
+                        reason: format!(
+                            "{} stopped at relative residual {:.3e} of the step's LCP",
+                            kind.name(),
+                            r.natural_map_rel
+                        ),
+                    },
+                };
+                Solved {
+                    f: out.f,
+                    status,
+                    iterations: out.iterations,
+                    time_s: out.time.as_secs_f64(),
+                    residuals: res,
+                    problem,
+                }
+            }
+        }
+    }
+
+    /// Split impulses: pseudo-velocities from a projected Gauss–Seidel solve of the normal rows
+    /// with `b = position error term`, the same for every contact solver.
+    fn split_impulse_velocities(&self, system: &ContactSystem) -> Option<Vec<BodyVelocity>> {
+        if self.settings.builder.position_correction != PositionCorrection::Split {
+            return None;
+        }
+        let zero = vec![BodyVelocity::default(); system.inv_mass.len()];
+        let (problem, normals) = system.position_problem(&zero)?;
+        let result = ProjectedSor::pgs().solve(&problem, &self.solver_settings());
+        let mut f = vec![0.0; system.n()];
+        for (&row, &v) in normals.iter().zip(&result.f) {
+            if v.is_finite() {
+                f[row] = v;
+            }
+        }
+        Some(system.velocity_change(&f))
+    }
+
+    /// Apply the impulses and move the bodies; returns the time of impact the motion was cut to
+    /// when continuous collision detection found one.
+    fn integrate(
+        &mut self,
+        system: &ContactSystem,
+        f: &[f64],
+        pseudo: Option<&[BodyVelocity]>,
+    ) -> Option<f64> {
+        let (h, gravity) = (self.settings.dt, self.settings.gravity);
+        let dp = system.momentum_change(f);
+        if let Some(method) = self.settings.ccd {
+            for (body, (dl_lin, dl_ang)) in self.bodies.iter_mut().zip(&dp) {
+                integrate::apply_momentum(body, h, &gravity, dl_lin, dl_ang);
+            }
+            let impact = first_impact(&self.bodies, h, method, &ToiSettings::default());
+            let h_pose = impact.map_or(h, |i| i.toi.time);
+            for (k, body) in self.bodies.iter_mut().enumerate() {
+                integrate::advance_pose(body, h_pose, pseudo.map(|p| &p[k]));
+            }
+            return impact.map(|i| i.toi.time);
+        }
+        for (k, body) in self.bodies.iter_mut().enumerate() {
+            let (dl_lin, dl_ang) = &dp[k];
+            let moved = pseudo
+                .is_some_and(|p| p[k].linear.norm_squared() + p[k].angular.norm_squared() > 0.0);
+            if dl_lin.norm_squared() + dl_ang.norm_squared() > 0.0 || moved {
+                integrate::symplectic_euler(
+                    body,
+                    h,
+                    &gravity,
+                    dl_lin,
+                    dl_ang,
+                    pseudo.map(|p| &p[k]),
+                );
+            } else {
+                integrate::rk4_free_flight(body, h, &gravity);
+            }
+        }
+        None
+    }
+
+    fn report(
+        &self,
+        system: &ContactSystem,
+        solved: Solved,
+        time_of_impact: Option<f64>,
+        start: Instant,
+    ) -> StepReport {
+        let gravity = self.settings.gravity;
+        let pen: Vec<f64> = system.contacts.iter().map(|c| (-c.dist).max(0.0)).collect();
+        let max_penetration = pen.iter().copied().fold(0.0, f64::max);
+        let mean_penetration = if pen.is_empty() {
+            0.0
+        } else {
+            pen.iter().sum::<f64>() / pen.len() as f64
+        };
+        let mut lin = Vector3::zeros();
+        let mut ang = Vector3::zeros();
+        let (mut ke, mut pe) = (0.0, 0.0);
+        for b in self.bodies.iter().filter(|b| !b.is_static) {
+            lin += b.linear_momentum;
+            ang += b.position.coords.cross(&b.linear_momentum) + b.angular_momentum;
+            ke += integrate::kinetic_energy(b);
+            pe += integrate::potential_energy(b, &gravity);
+        }
+        let f = &solved.f;
+        let contact_records = if f.len() == system.n() {
+            system
+                .contacts
+                .iter()
+                .enumerate()
+                .map(|(c, ct)| {
+                    let imp = system.contact_impulse(c, f);
+                    let total = ct.normal * imp.normal + imp.tangent;
+                    let name = |i: usize| {
+                        self.bodies
+                            .get(i)
+                            .map(|b| b.name.clone())
+                            .unwrap_or_default()
+                    };
+                    ContactRecord {
+                        bodies: [name(ct.body_a), name(ct.body_b)],
+                        point: ct.point.coords.into(),
+                        normal: ct.normal.into(),
+                        dist: ct.dist,
+                        impulse: total.into(),
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        StepReport {
+            step: self.step_index - 1,
+            time: self.time,
+            contacts: system.contacts.len(),
+            rows: system.n(),
+            solver: self.settings.solver.name(),
+            status: solved.status,
+            iterations: solved.iterations,
+            solve_time_s: solved.time_s,
+            step_time_s: start.elapsed().as_secs_f64(),
+            residuals: solved.residuals,
+            max_penetration,
+            mean_penetration,
+            kinetic_energy: ke,
+            potential_energy: pe,
+            linear_momentum: lin.into(),
+            angular_momentum: ang.into(),
+            friction_cone_violation: if f.len() == system.n() {
+                system.friction_cone_violation(f)
+            } else {
+                0.0
+            },
+            contact_records,
+            time_of_impact,
+            problem: if self.settings.keep_problem {
+                solved.problem
+            } else {
+                None
+            },
+        }
+    }
+}

@@ -1,20 +1,224 @@
-//! `lcpbench bench` and `lcpbench report`.
+//! `lcpbench bench`, `lcpbench report` and the hidden `lcpbench bench-one` that runs one
+//! isolated run in a child process.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
+use lcpbench::harness::budget::Fault;
+use lcpbench::harness::isolate::write_protocol;
+use lcpbench::harness::run::run_in_process;
+use lcpbench::harness::{cross_product, run_sweep, Case, NamedBudget, SolverSpec, SweepConfig};
+use lcpbench::report::{self, suite};
+use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_solvers::SolverKind;
+use std::path::PathBuf;
 
 /// Arguments of `lcpbench bench`.
 #[derive(Args)]
-pub struct BenchArgs {}
+pub struct BenchArgs {
+    /// Scene files to run (glob, e.g. `bench_scenes/tower_*.toml`).
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// LCP cases, comma-separated case keys (`spd:n=100:cond=1e4:seed=1`, `file:PATH`, …) or
+    /// `matrix` for the generated families of the report. Default: `matrix` when no `--scenes`.
+    #[arg(long, value_delimiter = ',')]
+    pub lcps: Vec<String>,
+    /// Solvers, comma-separated: names (`pgs`, `lemke`, …, and for scenes `si`, `body-micro`,
+    /// `penalty`), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers) or `body` (the
+    /// body-level ones).
+    #[arg(long, value_delimiter = ',', default_value = "all")]
+    pub solvers: Vec<String>,
+    /// Budgets, comma-separated: presets (loose, default, tight, realtime) or TOL:ITER:SECONDS.
+    #[arg(long, value_delimiter = ',', default_value = "default")]
+    pub budgets: Vec<String>,
+    /// Output directory (results.csv, histories.csv). An existing results.csv is resumed.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Worker threads (each drives one child process).
+    #[arg(long, default_value_t = 2)]
+    pub jobs: usize,
+    /// Do not draw a progress bar.
+    #[arg(long)]
+    pub no_progress: bool,
+}
 
 /// Arguments of `lcpbench report`.
 #[derive(Args)]
-pub struct ReportArgs {}
-
-pub fn run_bench(_args: BenchArgs) -> Result<()> {
-    bail!("bench is not available yet")
+pub struct ReportArgs {
+    /// Output directory.
+    #[arg(long, default_value = "reports")]
+    pub out: PathBuf,
+    /// Run a much smaller suite (seconds instead of minutes).
+    #[arg(long)]
+    pub quick: bool,
+    /// Scene files of the suite (glob).
+    #[arg(long, default_value = "bench_scenes/*.toml")]
+    pub scenes: String,
+    /// Keep the rows of an interrupted earlier run instead of starting fresh.
+    #[arg(long)]
+    pub resume: bool,
+    /// Only rewrite tables and figures from the existing data (no runs).
+    #[arg(long)]
+    pub no_run: bool,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    pub jobs: usize,
+    /// Do not draw a progress bar.
+    #[arg(long)]
+    pub no_progress: bool,
 }
 
-pub fn run_report(_args: ReportArgs) -> Result<()> {
-    bail!("report is not available yet")
+/// Arguments of the hidden `lcpbench bench-one` (one isolated run; prints the child protocol).
+#[derive(Args)]
+pub struct BenchOneArgs {
+    /// Case key.
+    #[arg(long)]
+    pub case: String,
+    /// Solver specification.
+    #[arg(long)]
+    pub solver: String,
+    /// Budget as TOL:ITER:SECONDS or a preset name.
+    #[arg(long)]
+    pub budget: String,
+    /// Name of the budget written to the row.
+    #[arg(long)]
+    pub budget_name: Option<String>,
+    /// Inject a fault instead of running (panic, hang, abort); for testing the isolation.
+    #[arg(long)]
+    pub fault: Option<String>,
+}
+
+fn parse_solvers(list: &[String]) -> Result<Vec<SolverSpec>> {
+    let mut out = Vec::new();
+    for s in list {
+        if s == "all" {
+            out.extend(SolverKind::ALL.into_iter().map(SolverSpec::plain));
+        } else if s == "body" {
+            out.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+        } else {
+            out.push(s.parse()?);
+        }
+    }
+    Ok(out)
+}
+
+fn parse_budgets(list: &[String]) -> Result<Vec<NamedBudget>> {
+    list.iter()
+        .map(|b| b.parse().map_err(anyhow::Error::from))
+        .collect()
+}
+
+/// Run `lcpbench bench`.
+pub fn run_bench(args: BenchArgs) -> Result<()> {
+    let solvers = parse_solvers(&args.solvers)?;
+    let budgets = parse_budgets(&args.budgets)?;
+    let mut cases: Vec<Case> = Vec::new();
+    let lcps = if args.lcps.is_empty() && args.scenes.is_none() {
+        vec!["matrix".to_owned()]
+    } else {
+        args.lcps.clone()
+    };
+    for key in &lcps {
+        if key == "matrix" {
+            cases.extend(suite::default_suite(false, &[], &[]).matrix_cases);
+        } else {
+            cases.push(key.parse()?);
+        }
+    }
+    if let Some(pattern) = &args.scenes {
+        let scenes = report::scenes_matching(pattern)?;
+        if scenes.is_empty() {
+            bail!("--scenes `{pattern}` matches no files");
+        }
+        cases.extend(scenes.into_iter().map(|p| Case::scene(p, None)));
+    }
+    if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {
+        bail!("nothing to run: need at least one case, solver and budget");
+    }
+    let jobs = cross_product(&cases, &solvers, &budgets);
+    let mut config = SweepConfig::new(&args.out)?;
+    config.jobs = args.jobs;
+    config.progress = !args.no_progress;
+    eprintln!(
+        "{} runs ({} cases × {} solvers × {} budgets) → {}",
+        jobs.len(),
+        cases.len(),
+        solvers.len(),
+        budgets.len(),
+        config.results_path().display()
+    );
+    let summary = run_sweep(&config, jobs)?;
+    eprintln!(
+        "ran {}, skipped {} already present, {} isolation failures",
+        summary.ran, summary.skipped, summary.failed
+    );
+    Ok(())
+}
+
+/// Run `lcpbench report`.
+pub fn run_report(args: ReportArgs) -> Result<()> {
+    let scenes = report::scenes_matching(&args.scenes)?;
+    let lcp_dir = args.out.join("lcps");
+    let exported = if args.no_run {
+        // Tables from existing data: the LCPs exported by the run that produced it.
+        report::scenes_matching(&lcp_dir.join("*.json").to_string_lossy())?
+    } else {
+        if lcp_dir.exists() {
+            std::fs::remove_dir_all(&lcp_dir)?;
+        }
+        lcpbench::harness::scene::export_suite_lcps(
+            &scenes,
+            &lcp_dir,
+            if args.quick { 60 } else { 400 },
+            suite::LARGE_SCENE_BODIES,
+        )?
+    };
+    let mut sweep = SweepConfig::new(args.out.join("data"))?;
+    sweep.jobs = args.jobs;
+    sweep.progress = !args.no_progress;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let options = report::ReportOptions {
+        out_dir: args.out.clone(),
+        quick: args.quick,
+        resume: args.resume,
+        scenes,
+        exported,
+        sweep,
+        command,
+    };
+    if args.no_run {
+        let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
+        let header = report::Header::collect(&options.command);
+        let readme = report::write_report(&options.out_dir, &suite, &header, 0.0)?;
+        eprintln!("wrote {}", readme.display());
+        return Ok(());
+    }
+    let summary = report::run(&options)?;
+    eprintln!(
+        "ran {} runs in {:.0} s ({} isolation failures); wrote {}",
+        summary.sweep.ran,
+        summary.sweep_seconds,
+        summary.sweep.failed,
+        summary.readme.display()
+    );
+    Ok(())
+}
+
+/// Run `lcpbench bench-one` (the child side of the isolation).
+pub fn run_bench_one(args: BenchOneArgs) -> Result<()> {
+    if let Some(fault) = &args.fault {
+        let fault = Fault::from_name(fault)
+            .with_context(|| format!("--fault must be panic, hang or abort, got `{fault}`"))?;
+        fault.trigger();
+    }
+    let case: Case = args.case.parse()?;
+    let solver: SolverSpec = args.solver.parse()?;
+    let mut budget: NamedBudget = args.budget.parse()?;
+    if let Some(name) = args.budget_name {
+        budget.name = name;
+    }
+    let output = run_in_process(&case, &solver, &budget);
+    let stdout = std::io::stdout();
+    let mut lock = stdout.lock();
+    write_protocol(&mut lock, &output).context("writing the run's row")?;
+    Ok(())
 }

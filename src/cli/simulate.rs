@@ -1,14 +1,47 @@
 //! `lcpbench simulate` and `lcpbench export`.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
-use std::path::PathBuf;
+use lcpbench_contact::scene::{check_solver, Scene};
+use lcpbench_contact::step::{SolverChoice, StepReport, World};
+use lcpbench_contact::FrictionModel;
+use lcpbench_solvers::write_problem;
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
 
 /// Arguments of `lcpbench simulate`.
 #[derive(Args)]
 pub struct SimulateArgs {
-    /// Scene file (TOML).
+    /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
+    /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`) or a
+    /// body-level one (si, body-micro, penalty).
+    #[arg(long, short)]
+    pub solver: Option<String>,
+    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    #[arg(long)]
+    pub friction_model: Option<String>,
+    /// Number of steps (overrides the scene's).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Solver tolerance (overrides the scene's).
+    #[arg(long)]
+    pub tol: Option<f64>,
+    /// Solver iteration / pivot / sweep cap per step (overrides the scene's).
+    #[arg(long)]
+    pub max_iter: Option<usize>,
+    /// Skip the shared residual for body-level solvers (it needs the assembled `A`, which they
+    /// do not use), so the step time is theirs alone.
+    #[arg(long)]
+    pub no_residuals: bool,
+    /// Write per-step body states and contacts (point, normal, impulse) as JSON lines.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Print the run's figures as one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `lcpbench export`.
@@ -16,12 +49,246 @@ pub struct SimulateArgs {
 pub struct ExportArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
+    /// The step whose LCP is written (0-based; earlier steps are simulated first).
+    #[arg(long, default_value_t = 0)]
+    pub step: usize,
+    /// Solver used for the steps before `--step` (overrides the scene's).
+    #[arg(long, short)]
+    pub solver: Option<String>,
+    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    #[arg(long)]
+    pub friction_model: Option<String>,
+    /// Output problem file (JSON, the `lcpbench solve` format).
+    #[arg(long, short)]
+    pub output: PathBuf,
 }
 
-pub fn run_simulate(_args: SimulateArgs) -> Result<()> {
-    bail!("simulate is not available yet")
+/// Load a scene and build its world, applying solver and friction-model overrides.
+fn load_world(
+    path: &Path,
+    solver: Option<&str>,
+    friction_model: Option<&str>,
+) -> Result<(Scene, World)> {
+    let mut scene = Scene::load(path)?;
+    if let Some(model) = friction_model {
+        scene.settings.builder.friction_model = match model {
+            "none" => FrictionModel::None,
+            "box" => FrictionModel::Box,
+            "pyramid" => FrictionModel::Pyramid { directions: 4 },
+            other => bail!("unknown friction model `{other}` (known: none, box, pyramid)"),
+        };
+    }
+    if let Some(name) = solver {
+        let choice = SolverChoice::from_name(name).with_context(|| {
+            format!(
+                "unknown solver `{name}` (known: {})",
+                SolverChoice::all_names()
+            )
+        })?;
+        scene.settings.solver = choice;
+    }
+    check_solver(scene.settings.solver, scene.settings.builder.friction_model)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+    let world = scene.world();
+    Ok((scene, world))
 }
 
-pub fn run_export(_args: ExportArgs) -> Result<()> {
-    bail!("export is not available yet")
+/// One JSON line of a recording: the step's figures, body states and contacts.
+fn record_line(report: &StepReport, world: &World) -> serde_json::Value {
+    let bodies: Vec<_> = world
+        .bodies
+        .iter()
+        .map(|b| {
+            let q = b.orientation.quaternion();
+            json!({
+                "name": b.name,
+                "position": [b.position.x, b.position.y, b.position.z],
+                "orientation": [q.w, q.i, q.j, q.k],
+                "velocity": <[f64; 3]>::from(b.velocity()),
+                "angular_velocity": <[f64; 3]>::from(b.angular_velocity()),
+            })
+        })
+        .collect();
+    let mut line = serde_json::to_value(report).unwrap_or_else(|_| json!({}));
+    if let Some(obj) = line.as_object_mut() {
+        obj.insert("bodies".into(), json!(bodies));
+    }
+    line
+}
+
+/// Run `lcpbench simulate`.
+pub fn run_simulate(args: SimulateArgs) -> Result<()> {
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+    )?;
+    let steps = args.steps.unwrap_or(scene.settings.steps);
+    if let Some(tol) = args.tol {
+        if !(tol.is_finite() && tol > 0.0) {
+            bail!("--tol must be a positive number, got {tol}");
+        }
+        world.settings.tolerance = tol;
+    }
+    if args.no_residuals {
+        world.settings.residuals = false;
+    }
+    if let Some(max_iter) = args.max_iter {
+        if max_iter == 0 {
+            bail!("--max-iter must be at least 1");
+        }
+        world.settings.max_iterations = max_iter;
+    }
+    let mut record = match &args.record {
+        Some(p) => Some(BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?,
+        )),
+        None => None,
+    };
+    let energy0: f64 = world
+        .bodies
+        .iter()
+        .map(|b| {
+            lcpbench_contact::integrate::kinetic_energy(b)
+                + lcpbench_contact::integrate::potential_energy(b, &world.settings.gravity)
+        })
+        .sum();
+    let mut statuses: BTreeMap<&'static str, usize> = BTreeMap::new();
+    let (mut step_time, mut solve_time, mut max_step_time) = (0.0, 0.0, 0.0f64);
+    let (mut iters, mut max_iters, mut contacts, mut rows) = (0usize, 0usize, 0usize, 0usize);
+    let (mut max_pen, mut max_cone) = (0.0f64, 0.0f64);
+    let mut max_res: Option<f64> = None;
+    let mut last_energy = energy0;
+    for _ in 0..steps {
+        let report = world.step();
+        if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
+            bail!(
+                "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+                args.scene.display(),
+                report.solver,
+                report.step,
+                report.rows,
+                if reason.contains("friction") {
+                    " (try friction_model = \"pyramid\" or \"none\")"
+                } else {
+                    ""
+                }
+            );
+        }
+        if let Some(w) = record.as_mut() {
+            serde_json::to_writer(&mut *w, &record_line(&report, &world))?;
+            w.write_all(b"\n")?;
+        }
+        *statuses.entry(report.status.name()).or_default() += 1;
+        step_time += report.step_time_s;
+        max_step_time = max_step_time.max(report.step_time_s);
+        solve_time += report.solve_time_s;
+        iters += report.iterations;
+        max_iters = max_iters.max(report.iterations);
+        contacts += report.contacts;
+        rows += report.rows;
+        max_pen = max_pen.max(report.max_penetration);
+        max_cone = max_cone.max(report.friction_cone_violation);
+        if let Some(r) = report.residuals {
+            if report.rows > 0 {
+                max_res = Some(max_res.unwrap_or(0.0).max(r.natural_map_rel));
+            }
+        }
+        last_energy = report.kinetic_energy + report.potential_energy;
+    }
+    if let Some(mut w) = record {
+        w.flush()?;
+    }
+    let n = steps.max(1) as f64;
+    if args.json {
+        let out = json!({
+            "scene": scene.name,
+            "solver": world.settings.solver.name(),
+            "bodies": world.bodies.len(),
+            "steps": steps,
+            "dt": world.settings.dt,
+            "time_per_step_s": step_time / n,
+            "max_step_time_s": max_step_time,
+            "solver_time_per_step_s": solve_time / n,
+            "mean_iterations": iters as f64 / n,
+            "max_iterations": max_iters,
+            "mean_contacts": contacts as f64 / n,
+            "mean_rows": rows as f64 / n,
+            "statuses": statuses,
+            "max_penetration": max_pen,
+            "max_relative_residual": max_res,
+            "max_friction_cone_violation": max_cone,
+            "initial_energy": energy0,
+            "final_energy": last_energy,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    let statuses: Vec<String> = statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
+    println!(
+        "scene {} ({} bodies), solver {}, {steps} steps of {} s",
+        scene.name,
+        world.bodies.len(),
+        world.settings.solver.name(),
+        world.settings.dt
+    );
+    println!(
+        "time per step     {:.3} ms (max {:.3} ms)",
+        1e3 * step_time / n,
+        1e3 * max_step_time
+    );
+    println!("solver time/step  {:.3} ms", 1e3 * solve_time / n);
+    println!(
+        "iterations        mean {:.1}, max {max_iters}",
+        iters as f64 / n
+    );
+    println!(
+        "contacts, rows    mean {:.1}, {:.1}",
+        contacts as f64 / n,
+        rows as f64 / n
+    );
+    println!("status            {}", statuses.join(", "));
+    match max_res {
+        Some(r) => println!("max residual      {r:.3e} (relative natural map)"),
+        None => println!("max residual      not measured"),
+    }
+    println!("max penetration   {max_pen:.3e} m");
+    println!("cone violation    {max_cone:.3e} N s");
+    println!(
+        "energy            {energy0:.6} J -> {last_energy:.6} J ({:+.3e} J)",
+        last_energy - energy0
+    );
+    Ok(())
+}
+
+/// Run `lcpbench export`.
+pub fn run_export(args: ExportArgs) -> Result<()> {
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+    )?;
+    for _ in 0..args.step {
+        world.step();
+    }
+    world.settings.keep_problem = true;
+    let report = world.step();
+    let Some(problem) = report.problem else {
+        bail!(
+            "step {} of {} has no contacts, so there is no LCP to export",
+            args.step,
+            args.scene.display()
+        );
+    };
+    let problem = problem.with_name(format!("{} step {}", scene.name, args.step));
+    write_problem(&problem, &args.output)?;
+    println!(
+        "wrote {}: {} rows ({} contacts) of step {} of {}",
+        args.output.display(),
+        problem.n(),
+        report.contacts,
+        args.step,
+        scene.name
+    );
+    Ok(())
 }

@@ -1,0 +1,127 @@
+//! Stepping behaviour beyond the analytic scenes: continuous collision detection against
+//! tunnelling, split impulses, the penalty baseline and warm starting.
+
+use lcpbench_contact::{Scene, SolverChoice};
+use std::path::Path;
+
+fn bullet(ccd: &str) -> Scene {
+    // A 2 cm sphere at 50 m/s toward a 2 cm thick wall: 0.5 m per step, and no end-of-step
+    // position (0.13, 0.63, 1.13, ...) overlaps the wall.
+    let text = format!(
+        r#"
+        [settings]
+        dt = 0.01
+        steps = 20
+        gravity = [0.0, 0.0, 0.0]
+        friction_model = "none"
+        ccd = "{ccd}"
+        [[bodies]]
+        name = "wall"
+        shape = {{ type = "box", half_extents = [0.01, 0.5, 0.5] }}
+        position = [1.0, 0.0, 0.0]
+        static = true
+        [[bodies]]
+        name = "bullet"
+        shape = {{ type = "sphere", radius = 0.02 }}
+        position = [0.13, 0.0, 0.0]
+        velocity = [50.0, 0.0, 0.0]
+        "#
+    );
+    Scene::parse(&text, Path::new("bullet.toml")).unwrap()
+}
+
+#[test]
+fn fast_sphere_tunnels_without_ccd_and_stops_with_it() {
+    let face = 1.0 - 0.01 - 0.02;
+    let mut w = bullet("none").world();
+    w.run(20);
+    let x = w.bodies[1].position.x;
+    println!("no ccd: bullet at x = {x:.3} (wall at 1.0)");
+    assert!(x > 1.5, "expected tunnelling, bullet at {x}");
+
+    for method in ["bisection", "conservative"] {
+        let mut w = bullet(method).world();
+        let reports = w.run(20);
+        let x = w.bodies[1].position.x;
+        let toi = reports.iter().find_map(|r| r.time_of_impact);
+        println!("ccd {method}: bullet at x = {x:.6}, centre face at {face}, first toi {toi:?}");
+        assert!(toi.is_some());
+        assert!(
+            x <= face + 1e-9 && x > face - 1e-3,
+            "{method}: bullet at {x}"
+        );
+        assert!(
+            w.bodies[1].velocity().x <= 1e-9,
+            "{method}: still moving into the wall"
+        );
+    }
+}
+
+#[test]
+fn split_impulses_remove_penetration_without_adding_momentum() {
+    let text = r#"
+        [settings]
+        dt = 0.01
+        gravity = [0.0, 0.0, -9.81]
+        friction_model = "none"
+        position_correction = "split"
+        baumgarte = 0.5
+        slop = 0.0
+        [[bodies]]
+        name = "ground"
+        shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+        static = true
+        [[bodies]]
+        name = "ball"
+        shape = { type = "sphere", radius = 0.1 }
+        position = [0.0, 0.0, 0.08]
+    "#;
+    let s = Scene::parse(text, Path::new("split.toml")).unwrap();
+    let mut w = s.world();
+    let reports = w.run(30);
+    let z = w.bodies[1].position.z;
+    let vz = w.bodies[1].velocity().z;
+    println!(
+        "split: penetration {:.3e} -> {:.3e}, final velocity {vz:.3e}",
+        reports[0].max_penetration,
+        0.1 - z
+    );
+    assert!((0.1 - z).abs() < 1e-6, "penetration left: {}", 0.1 - z);
+    assert!(
+        vz.abs() < 1e-9,
+        "split impulses must not add momentum: v = {vz}"
+    );
+}
+
+#[test]
+fn penalty_baseline_holds_a_box_with_small_penetration() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes/box_on_ground.toml");
+    let s = Scene::load(path).unwrap();
+    let mut w = s.world();
+    w.set_solver(SolverChoice::from_name("penalty").unwrap());
+    let reports = w.run(300);
+    let pen = reports.last().unwrap().max_penetration;
+    let z = w.bodies[1].position.z;
+    println!("penalty: box at z = {z:.5} (rest 0.5), penetration {pen:.3e} m");
+    // Static penetration m g / Σk with k = m_eff ω², ω = 0.3/h: of the order of g/ω² = 1 cm.
+    assert!(pen > 0.0 && pen < 1.5e-2, "penetration {pen}");
+    assert!((z - 0.5).abs() < 1.5e-2);
+    assert!(w.bodies[1].velocity().norm() < 1e-3);
+}
+
+#[test]
+fn warm_starting_cuts_sequential_impulse_sweeps() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes/box_on_ground.toml");
+    let s = Scene::load(path).unwrap();
+    let mut sweeps = Vec::new();
+    for warm in [false, true] {
+        let mut w = s.world();
+        w.set_solver(SolverChoice::from_name("si").unwrap());
+        w.settings.warm_start = warm;
+        let reports = w.run(100);
+        let mean = reports[50..].iter().map(|r| r.iterations).sum::<usize>() as f64 / 50.0;
+        println!("si on box_on_ground, warm start {warm}: {mean:.1} sweeps per step");
+        sweeps.push(mean);
+    }
+    assert!(sweeps[1] < 0.5 * sweeps[0], "{sweeps:?}");
+}

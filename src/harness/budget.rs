@@ -1,0 +1,370 @@
+//! Budgets (tolerance, iteration cap, time budget) and solver specifications (a solver kind with
+//! its variant: SOR relaxation, warm or cold start).
+
+use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_solvers::{ProjectedSor, Settings, Solver, SolverKind};
+use std::fmt;
+use std::time::Duration;
+use thiserror::Error;
+
+/// A malformed budget or solver specification.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SpecError {
+    /// A budget that is neither a preset nor `TOL:ITER:SECONDS`.
+    #[error("budget `{0}`: expected a preset (loose, default, tight, realtime) or TOL:ITER:SECONDS such as 1e-6:500:2")]
+    Budget(String),
+    /// A solver specification that does not parse.
+    #[error("solver `{spec}`: {message}")]
+    Solver {
+        /// The specification as given.
+        spec: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Tolerance, iteration cap and time budget of one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Budget {
+    /// Tolerance on the relative natural-map residual.
+    pub tolerance: f64,
+    /// Iteration or pivot cap (per step for scenes).
+    pub max_iterations: usize,
+    /// Time budget in seconds: per solve for LCP cases, for the whole run for scenes (see
+    /// [`Budget::scene_time_limit`]). The child process is killed (and the run recorded as
+    /// `timeout`) when it exceeds [`Budget::kill_after`].
+    pub time_s: f64,
+}
+
+impl Budget {
+    /// The named presets.
+    pub const PRESETS: [(&'static str, Budget); 4] = [
+        (
+            "loose",
+            Budget {
+                tolerance: 1e-4,
+                max_iterations: 1_000,
+                time_s: 2.0,
+            },
+        ),
+        (
+            "default",
+            Budget {
+                tolerance: 1e-8,
+                max_iterations: 10_000,
+                time_s: 5.0,
+            },
+        ),
+        (
+            "tight",
+            Budget {
+                tolerance: 1e-10,
+                max_iterations: 100_000,
+                time_s: 10.0,
+            },
+        ),
+        (
+            "realtime",
+            Budget {
+                tolerance: 1e-6,
+                max_iterations: 20,
+                time_s: 2.0,
+            },
+        ),
+    ];
+
+    /// The preset called `name`.
+    pub fn preset(name: &str) -> Option<Budget> {
+        Self::PRESETS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, b)| b.clone())
+    }
+
+    /// Solver settings for this budget.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            time_budget: Some(Duration::from_secs_f64(self.time_s)),
+            warm_start: None,
+            record_history: false,
+        }
+    }
+
+    /// Wall time after which the isolated child is killed: for an LCP three times the budget plus
+    /// five seconds (process start, problem generation and the residual measurements of the
+    /// convergence history are outside the solver's clock); for a
+    /// scene, which stops stepping by itself after [`Budget::scene_time_limit`], that limit
+    /// plus half of it plus five seconds.
+    pub fn kill_after(&self, scene: bool) -> Duration {
+        if scene {
+            Duration::from_secs_f64(1.5 * self.scene_time_limit() + 5.0)
+        } else {
+            Duration::from_secs_f64(3.0 * self.time_s + 5.0)
+        }
+    }
+
+    /// Wall time after which a scene run stops stepping and records `time_limit` with the steps
+    /// it took: half the budget's time.
+    pub fn scene_time_limit(&self) -> f64 {
+        0.5 * self.time_s
+    }
+}
+
+/// A budget with the name it was given on the command line (a preset name or the spec itself).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedBudget {
+    /// The name written to CSV rows.
+    pub name: String,
+    /// The budget.
+    pub budget: Budget,
+}
+
+impl std::str::FromStr for NamedBudget {
+    type Err = SpecError;
+
+    fn from_str(s: &str) -> Result<Self, SpecError> {
+        if let Some(budget) = Budget::preset(s) {
+            return Ok(Self {
+                name: s.to_owned(),
+                budget,
+            });
+        }
+        let parts: Vec<&str> = s.split(':').collect();
+        let bad = || SpecError::Budget(s.to_owned());
+        if parts.len() != 3 {
+            return Err(bad());
+        }
+        let tolerance: f64 = parts[0].parse().map_err(|_| bad())?;
+        let max_iterations: usize = parts[1].parse().map_err(|_| bad())?;
+        let time_s: f64 = parts[2].trim_end_matches('s').parse().map_err(|_| bad())?;
+        if !(tolerance > 0.0 && tolerance.is_finite() && time_s > 0.0 && time_s.is_finite()) {
+            return Err(bad());
+        }
+        Ok(Self {
+            name: s.to_owned(),
+            budget: Budget {
+                tolerance,
+                max_iterations,
+                time_s,
+            },
+        })
+    }
+}
+
+impl fmt::Display for NamedBudget {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.write_str(&self.name)
+    }
+}
+
+/// A deliberate failure injected into the child process, to test that the sweep records it and
+/// carries on. Selected with the hidden solver names `fault-panic`, `fault-hang`, `fault-abort`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// Panic inside the run.
+    Panic,
+    /// Sleep forever (the parent must kill the child).
+    Hang,
+    /// Abort the process (no unwinding).
+    Abort,
+}
+
+impl Fault {
+    /// Name used in `fault-NAME` and `--fault NAME`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fault::Panic => "panic",
+            Fault::Hang => "hang",
+            Fault::Abort => "abort",
+        }
+    }
+
+    /// Inverse of [`Fault::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Fault::Panic, Fault::Hang, Fault::Abort]
+            .into_iter()
+            .find(|f| f.name() == name)
+    }
+
+    /// Make the fault happen.
+    pub fn trigger(self) -> ! {
+        match self {
+            Fault::Panic => panic!("injected fault: panic"),
+            Fault::Hang => loop {
+                std::thread::sleep(Duration::from_secs(3600));
+            },
+            Fault::Abort => std::process::abort(),
+        }
+    }
+}
+
+/// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
+/// `si+warm`. Names are the matrix solvers of `lcpbench-solvers` and the body-level solvers of
+/// `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverSpec {
+    /// The matrix solver, or `None` for a body-level solver or a fault-injection pseudo-solver.
+    pub kind: Option<SolverKind>,
+    /// The body-level solver (scenes only).
+    pub body: Option<BodySolverKind>,
+    /// SOR relaxation (only for `sor`).
+    pub omega: Option<f64>,
+    /// Warm start (iterative solvers): from a nearby solution for LCP cases, from the previous
+    /// step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step cold.
+    pub warm: bool,
+    /// Fault to inject instead of solving.
+    pub fault: Option<Fault>,
+}
+
+impl SolverSpec {
+    /// Plain solver with default parameters, cold start.
+    pub fn plain(kind: SolverKind) -> Self {
+        Self {
+            kind: Some(kind),
+            body: None,
+            omega: None,
+            warm: false,
+            fault: None,
+        }
+    }
+
+    /// Plain body-level solver, cold start.
+    pub fn body(kind: BodySolverKind) -> Self {
+        Self {
+            kind: None,
+            body: Some(kind),
+            omega: None,
+            warm: false,
+            fault: None,
+        }
+    }
+
+    /// True when the solver iterates from a starting impulse (so `+warm` means something).
+    pub fn is_iterative(&self) -> bool {
+        self.kind.is_some_and(SolverKind::is_iterative)
+            || matches!(
+                self.body,
+                Some(BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses)
+            )
+    }
+
+    /// The solver kind's name, or `fault-…`.
+    pub fn base_name(&self) -> String {
+        match (self.kind, self.body, self.fault) {
+            (Some(kind), _, _) => kind.name().to_owned(),
+            (None, Some(body), _) => body.name().to_owned(),
+            (None, None, Some(f)) => format!("fault-{}", f.name()),
+            (None, None, None) => "none".to_owned(),
+        }
+    }
+
+    /// Create the matrix solver (`None` for body-level and fault pseudo-solvers).
+    pub fn create(&self) -> Option<Box<dyn Solver + Send>> {
+        match (self.kind?, self.omega) {
+            (SolverKind::Sor, Some(w)) => Some(Box::new(ProjectedSor::sor(w))),
+            (kind, _) => Some(kind.create()),
+        }
+    }
+}
+
+impl fmt::Display for SolverSpec {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.write_str(&self.base_name())?;
+        if let Some(w) = self.omega {
+            write!(out, "@{w}")?;
+        }
+        if self.warm {
+            out.write_str("+warm")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::str::FromStr for SolverSpec {
+    type Err = SpecError;
+
+    fn from_str(spec: &str) -> Result<Self, SpecError> {
+        let err = |message: String| SpecError::Solver {
+            spec: spec.to_owned(),
+            message,
+        };
+        let (rest, warm) = match spec.strip_suffix("+warm") {
+            Some(r) => (r, true),
+            None => (spec, false),
+        };
+        let (name, omega) = match rest.split_once('@') {
+            Some((n, w)) => {
+                let w: f64 = w
+                    .parse()
+                    .map_err(|_| err(format!("`{w}` is not a number")))?;
+                (n, Some(w))
+            }
+            None => (rest, None),
+        };
+        if let Some(fault) = name.strip_prefix("fault-") {
+            let fault = Fault::from_name(fault)
+                .ok_or_else(|| err("fault must be panic, hang or abort".into()))?;
+            return Ok(Self {
+                kind: None,
+                body: None,
+                omega: None,
+                warm: false,
+                fault: Some(fault),
+            });
+        }
+        let mut out = match BodySolverKind::from_name(name) {
+            Some(body) => Self::body(body),
+            None => Self::plain(name.parse().map_err(|e: String| {
+                err(format!("{e}; body-level solvers: si, body-micro, penalty"))
+            })?),
+        };
+        if omega.is_some() && out.kind != Some(SolverKind::Sor) {
+            return Err(err("@omega applies only to sor".into()));
+        }
+        if warm && !out.is_iterative() {
+            return Err(err(format!(
+                "+warm applies only to iterative solvers, not {name}"
+            )));
+        }
+        out.omega = omega;
+        out.warm = warm;
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn specs_round_trip() {
+        for s in [
+            "pgs",
+            "sor@1.7",
+            "pgs+warm",
+            "sor@0.9+warm",
+            "fault-hang",
+            "lemke",
+        ] {
+            let spec: SolverSpec = s.parse().unwrap();
+            assert_eq!(spec.to_string(), s);
+        }
+        assert!("lemke+warm".parse::<SolverSpec>().is_err());
+        assert!("penalty+warm".parse::<SolverSpec>().is_err());
+        assert!("pgs@1.2".parse::<SolverSpec>().is_err());
+        assert!("nope".parse::<SolverSpec>().is_err());
+    }
+
+    #[test]
+    fn budgets_parse() {
+        let b: NamedBudget = "default".parse().unwrap();
+        assert_eq!(b.budget.tolerance, 1e-8);
+        let b: NamedBudget = "1e-6:500:2s".parse().unwrap();
+        assert_eq!(b.budget.max_iterations, 500);
+        assert_eq!(b.budget.time_s, 2.0);
+        assert!("fast".parse::<NamedBudget>().is_err());
+        assert!("1e-6:500".parse::<NamedBudget>().is_err());
+    }
+}

@@ -1,0 +1,466 @@
+//! Cases: what a run solves. A case is either one LCP (a generated family instance or a problem
+//! file, for example one exported from a scene) or a scene run through the stepping loop.
+//!
+//! Every case has a stable text *key* that names it in CSV rows, on the command line of the
+//! isolated child process, and on resume:
+//!
+//! | key                                   | case                                                   |
+//! |---------------------------------------|--------------------------------------------------------|
+//! | `spd:n=100:cond=1e4:seed=1`           | SPD, condition number `cond` (planted solution)        |
+//! | `psd:n=100:rank=50:seed=1`            | PSD of rank `rank` (redundant contacts)                |
+//! | `pmatrix:n=100:seed=1`                | non-symmetric P-matrix                                 |
+//! | `murty:n=12`                          | Murty's exponential example for Lemke                  |
+//! | `dup:n=100:seed=1`                    | degenerate: every row duplicated (identical contacts)  |
+//! | `weak:n=100:seed=1`                   | degenerate: a third of the rows have `f_i = w_i = 0`   |
+//! | `zerob:n=100:seed=1`                  | degenerate: PSD `A`, `b = 0`                           |
+//! | `infeasible:n=50:seed=1`              | PSD with no solution                                   |
+//! | `file:PATH`                           | a problem file (JSON; e.g. from `lcpbench export`)     |
+//! | `scene:PATH`                          | a scene file, stepped with the chosen solver           |
+//! | `scene:PATH?steps=N`                  | the same, at most `N` steps                            |
+
+use lcpbench_solvers::generate::{self, generate, Family, Generated};
+use lcpbench_solvers::{read_problem, Problem};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::fmt;
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// A malformed case key.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("case `{key}`: {message}")]
+pub struct CaseError {
+    /// The key as given.
+    pub key: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// The problem class a case belongs to, as used by the robustness matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ProblemClass {
+    /// Symmetric positive definite `A`.
+    Spd,
+    /// Symmetric positive semidefinite, rank-deficient `A`.
+    RankDeficient,
+    /// Non-symmetric `A` (P-matrix).
+    NonSymmetric,
+    /// Degenerate: duplicated rows, weakly complementary solutions, `b = 0`.
+    Degenerate,
+    /// No solution exists.
+    Infeasible,
+    /// A boxed LCP with friction rows (exported from a scene).
+    Friction,
+    /// A scene (stepping loop).
+    Scene,
+}
+
+impl ProblemClass {
+    /// Classes of the robustness matrix, in report order.
+    pub const MATRIX: [ProblemClass; 6] = [
+        ProblemClass::Spd,
+        ProblemClass::RankDeficient,
+        ProblemClass::NonSymmetric,
+        ProblemClass::Degenerate,
+        ProblemClass::Infeasible,
+        ProblemClass::Friction,
+    ];
+
+    /// Short name used in CSV files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ProblemClass::Spd => "spd",
+            ProblemClass::RankDeficient => "rank_deficient",
+            ProblemClass::NonSymmetric => "non_symmetric",
+            ProblemClass::Degenerate => "degenerate",
+            ProblemClass::Infeasible => "infeasible",
+            ProblemClass::Friction => "friction",
+            ProblemClass::Scene => "scene",
+        }
+    }
+
+    /// Inverse of [`ProblemClass::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            ProblemClass::Spd,
+            ProblemClass::RankDeficient,
+            ProblemClass::NonSymmetric,
+            ProblemClass::Degenerate,
+            ProblemClass::Infeasible,
+            ProblemClass::Friction,
+            ProblemClass::Scene,
+        ]
+        .into_iter()
+        .find(|c| c.name() == name)
+    }
+}
+
+/// A generated LCP family, including the degenerate families the harness adds to the solver
+/// core's generators.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GenFamily {
+    /// SPD with condition number `cond`.
+    Spd {
+        /// Condition number.
+        cond: f64,
+    },
+    /// PSD of the given rank.
+    Psd {
+        /// Rank of `A`.
+        rank: usize,
+    },
+    /// Non-symmetric P-matrix.
+    PMatrix,
+    /// Murty's example.
+    Murty,
+    /// Every row and column of an SPD matrix duplicated (identical redundant contacts).
+    Duplicated,
+    /// SPD with a planted solution where a third of the rows have `f_i = w_i = 0`.
+    Weak,
+    /// PSD `A` of half rank and `b = 0`.
+    ZeroB,
+    /// No solution.
+    Infeasible,
+}
+
+/// What a run solves.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Case {
+    /// A generated instance.
+    Generated {
+        /// The family.
+        family: GenFamily,
+        /// Rows.
+        n: usize,
+        /// Seed.
+        seed: u64,
+    },
+    /// A problem file.
+    File(PathBuf),
+    /// A scene file.
+    Scene {
+        /// The scene file.
+        path: PathBuf,
+        /// Cap on the steps taken (the scene's own step count when `None`).
+        steps: Option<usize>,
+    },
+}
+
+/// A loaded LCP case: the problem and, when known, a solution.
+#[derive(Debug, Clone)]
+pub struct LoadedLcp {
+    /// The problem.
+    pub problem: Problem,
+    /// A known solution (planted), if any.
+    pub solution: Option<Vec<f64>>,
+}
+
+fn fmt_num(v: f64) -> String {
+    if v >= 1.0 && v.log10().fract() == 0.0 {
+        format!("1e{}", v.log10() as i32)
+    } else {
+        format!("{v}")
+    }
+}
+
+impl fmt::Display for Case {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Case::Generated { family, n, seed } => match family {
+                GenFamily::Spd { cond } => {
+                    write!(out, "spd:n={n}:cond={}:seed={seed}", fmt_num(*cond))
+                }
+                GenFamily::Psd { rank } => write!(out, "psd:n={n}:rank={rank}:seed={seed}"),
+                GenFamily::PMatrix => write!(out, "pmatrix:n={n}:seed={seed}"),
+                GenFamily::Murty => write!(out, "murty:n={n}"),
+                GenFamily::Duplicated => write!(out, "dup:n={n}:seed={seed}"),
+                GenFamily::Weak => write!(out, "weak:n={n}:seed={seed}"),
+                GenFamily::ZeroB => write!(out, "zerob:n={n}:seed={seed}"),
+                GenFamily::Infeasible => write!(out, "infeasible:n={n}:seed={seed}"),
+            },
+            Case::File(p) => write!(out, "file:{}", p.display()),
+            Case::Scene { path, steps: None } => write!(out, "scene:{}", path.display()),
+            Case::Scene {
+                path,
+                steps: Some(n),
+            } => write!(out, "scene:{}?steps={n}", path.display()),
+        }
+    }
+}
+
+impl std::str::FromStr for Case {
+    type Err = CaseError;
+
+    fn from_str(key: &str) -> Result<Self, CaseError> {
+        let err = |message: String| CaseError {
+            key: key.to_owned(),
+            message,
+        };
+        if let Some(path) = key.strip_prefix("file:") {
+            return Ok(Case::File(PathBuf::from(path)));
+        }
+        if let Some(rest) = key.strip_prefix("scene:") {
+            let (path, steps) = match rest.rsplit_once("?steps=") {
+                Some((p, n)) => (
+                    p,
+                    Some(
+                        n.parse::<usize>()
+                            .map_err(|_| err(format!("`{n}` is not a step count")))?,
+                    ),
+                ),
+                None => (rest, None),
+            };
+            return Ok(Case::Scene {
+                path: PathBuf::from(path),
+                steps,
+            });
+        }
+        let mut parts = key.split(':');
+        let kind = parts.next().unwrap_or_default();
+        let (mut n, mut seed, mut cond, mut rank) = (None, 0u64, None, None);
+        for part in parts {
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| err(format!("`{part}` is not key=value")))?;
+            let bad = |_| err(format!("`{v}` is not a valid value for `{k}`"));
+            match k {
+                "n" => n = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
+                "seed" => {
+                    seed = v
+                        .parse()
+                        .map_err(|e: std::num::ParseIntError| bad(e.to_string()))?
+                }
+                "cond" => cond = Some(v.parse::<f64>().map_err(|e| bad(e.to_string()))?),
+                "rank" => rank = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
+                _ => return Err(err(format!("unknown parameter `{k}`"))),
+            }
+        }
+        let n = n.ok_or_else(|| err("missing `n=`".into()))?;
+        if n == 0 {
+            return Err(err("n must be at least 1".into()));
+        }
+        let family = match kind {
+            "spd" => {
+                let cond = cond.unwrap_or(1e3);
+                if !(cond.is_finite() && cond >= 1.0) {
+                    return Err(err(format!("cond = {cond} must be finite and >= 1")));
+                }
+                GenFamily::Spd { cond }
+            }
+            "psd" => {
+                let rank = rank.unwrap_or((n / 2).max(1));
+                if rank == 0 || rank > n {
+                    return Err(err(format!("rank = {rank} must be in 1..={n}")));
+                }
+                GenFamily::Psd { rank }
+            }
+            "pmatrix" => GenFamily::PMatrix,
+            "murty" => GenFamily::Murty,
+            "dup" => GenFamily::Duplicated,
+            "weak" => GenFamily::Weak,
+            "zerob" => GenFamily::ZeroB,
+            "infeasible" => GenFamily::Infeasible,
+            _ => {
+                return Err(err(format!(
+                    "unknown kind `{kind}` (known: spd, psd, pmatrix, murty, dup, weak, zerob, \
+                     infeasible, file:PATH, scene:PATH)"
+                )))
+            }
+        };
+        Ok(Case::Generated { family, n, seed })
+    }
+}
+
+impl Case {
+    /// The class used by the robustness matrix. For a problem file it is decided from the data
+    /// (friction rows, symmetry), which needs the file; [`Case::class_of_problem`] does that.
+    pub fn class(&self) -> ProblemClass {
+        match self {
+            Case::Generated { family, .. } => match family {
+                GenFamily::Spd { .. } => ProblemClass::Spd,
+                GenFamily::Psd { .. } => ProblemClass::RankDeficient,
+                GenFamily::PMatrix | GenFamily::Murty => ProblemClass::NonSymmetric,
+                GenFamily::Duplicated | GenFamily::Weak | GenFamily::ZeroB => {
+                    ProblemClass::Degenerate
+                }
+                GenFamily::Infeasible => ProblemClass::Infeasible,
+            },
+            Case::File(_) => ProblemClass::Friction,
+            Case::Scene { .. } => ProblemClass::Scene,
+        }
+    }
+
+    /// Class of a problem read from a file: friction rows or bounds make it a friction problem,
+    /// otherwise symmetric problems count as rank-deficient (contact Delassus matrices usually
+    /// are) and the rest as non-symmetric.
+    pub fn class_of_problem(problem: &Problem) -> ProblemClass {
+        if !problem.is_standard() {
+            ProblemClass::Friction
+        } else if problem.is_symmetric(1e-10) {
+            ProblemClass::RankDeficient
+        } else {
+            ProblemClass::NonSymmetric
+        }
+    }
+
+    /// Short family label for grouping (`spd`, `psd`, `file`, `scene`, ...).
+    pub fn family_label(&self) -> String {
+        let key = self.to_string();
+        key.split(':').next().unwrap_or_default().to_owned()
+    }
+
+    /// Size: rows for generated problems, `None` for files and scenes until loaded.
+    pub fn size(&self) -> Option<usize> {
+        match self {
+            Case::Generated { n, .. } => Some(*n),
+            _ => None,
+        }
+    }
+
+    /// True for a scene case.
+    pub fn is_scene(&self) -> bool {
+        matches!(self, Case::Scene { .. })
+    }
+
+    /// A scene case.
+    pub fn scene(path: impl Into<PathBuf>, steps: Option<usize>) -> Self {
+        Case::Scene {
+            path: path.into(),
+            steps,
+        }
+    }
+
+    /// Short display name: the file stem for scenes and files, the key otherwise.
+    pub fn short_name(&self) -> String {
+        match self {
+            Case::Scene { path, .. } | Case::File(path) => path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| self.to_string()),
+            _ => self.to_string(),
+        }
+    }
+
+    /// Build (or read) the LCP of a non-scene case.
+    pub fn load_lcp(&self) -> Result<LoadedLcp, String> {
+        match self {
+            Case::Generated { family, n, seed } => Ok(generate_case(*family, *n, *seed)),
+            Case::File(path) => read_problem(path)
+                .map(|problem| LoadedLcp {
+                    problem,
+                    solution: None,
+                })
+                .map_err(|e| e.to_string()),
+            Case::Scene { path, .. } => Err(format!("{} is a scene, not an LCP", path.display())),
+        }
+    }
+}
+
+fn from_generated(g: Generated) -> LoadedLcp {
+    LoadedLcp {
+        problem: g.problem,
+        solution: g.solution,
+    }
+}
+
+/// Generate the instance of a family.
+pub fn generate_case(family: GenFamily, n: usize, seed: u64) -> LoadedLcp {
+    match family {
+        GenFamily::Spd { cond } => from_generated(generate(Family::Spd { cond }, n, seed)),
+        GenFamily::Psd { rank } => {
+            from_generated(generate(Family::PsdRankDeficient { rank }, n, seed))
+        }
+        GenFamily::PMatrix => from_generated(generate(Family::PMatrix, n, seed)),
+        GenFamily::Murty => from_generated(generate(Family::Murty, n, seed)),
+        GenFamily::Infeasible => from_generated(generate(Family::Infeasible, n, seed)),
+        GenFamily::Duplicated => {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xD0B1);
+            let m = n.div_ceil(2);
+            let base = generate::spd_matrix(m, 1e2, &mut rng);
+            let a = faer::Mat::from_fn(n, n, |i, j| base[(i % m, j % m)]);
+            let (f, b) = generate::plant(&a, &mut rng);
+            let problem = Problem::lcp(a, b)
+                .expect("finite")
+                .with_name(format!("dup n={n}"));
+            LoadedLcp {
+                problem,
+                solution: Some(f),
+            }
+        }
+        GenFamily::Weak => {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x3EA);
+            let a = generate::spd_matrix(n, 1e2, &mut rng);
+            let mut f = vec![0.0; n];
+            let mut w = vec![0.0; n];
+            for i in 0..n {
+                match rng.random_range(0..3) {
+                    0 => f[i] = rng.random_range(0.5..1.5),
+                    1 => w[i] = rng.random_range(0.5..1.5),
+                    _ => {} // degenerate: f_i = w_i = 0
+                }
+            }
+            let b = (0..n)
+                .map(|i| w[i] - (0..n).map(|j| a[(i, j)] * f[j]).sum::<f64>())
+                .collect();
+            let problem = Problem::lcp(a, b)
+                .expect("finite")
+                .with_name(format!("weak n={n}"));
+            LoadedLcp {
+                problem,
+                solution: Some(f),
+            }
+        }
+        GenFamily::ZeroB => {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x2E0);
+            let a = generate::psd_matrix(n, (n / 2).max(1), &mut rng);
+            let problem = Problem::lcp(a, vec![0.0; n])
+                .expect("finite")
+                .with_name(format!("zerob n={n}"));
+            LoadedLcp {
+                problem,
+                solution: Some(vec![0.0; n]),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lcpbench_solvers::residuals;
+
+    #[test]
+    fn keys_round_trip() {
+        for key in [
+            "spd:n=100:cond=1e4:seed=1",
+            "spd:n=10:cond=3.5:seed=0",
+            "psd:n=20:rank=5:seed=2",
+            "pmatrix:n=7:seed=3",
+            "murty:n=12",
+            "dup:n=9:seed=1",
+            "weak:n=9:seed=1",
+            "zerob:n=9:seed=1",
+            "infeasible:n=9:seed=1",
+            "file:reports/lcps/tower.json",
+            "scene:bench_scenes/tower_10.toml",
+            "scene:bench_scenes/tower_10.toml?steps=50",
+        ] {
+            let case: Case = key.parse().unwrap();
+            assert_eq!(case.to_string(), key);
+        }
+        assert!("spd:n=0".parse::<Case>().is_err());
+        assert!("spd:cond=1e3".parse::<Case>().is_err());
+        assert!("cube:n=3".parse::<Case>().is_err());
+    }
+
+    #[test]
+    fn planted_degenerate_solutions_solve_their_problems() {
+        for key in ["dup:n=11:seed=1", "weak:n=12:seed=2", "zerob:n=8:seed=3"] {
+            let case: Case = key.parse().unwrap();
+            let lcp = case.load_lcp().unwrap();
+            let r = residuals(&lcp.problem, lcp.solution.as_ref().unwrap());
+            assert!(r.natural_map_rel < 1e-12, "{key}: {r:?}");
+            assert_eq!(case.class(), ProblemClass::Degenerate);
+        }
+    }
+}

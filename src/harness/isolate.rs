@@ -1,0 +1,215 @@
+//! Process isolation: each run executes in a child process (`lcpbench bench-one …`, a hidden
+//! subcommand), which prints its row and history on stdout in a small CSV-based protocol. A
+//! child that panics, aborts, exits with an error or produces no row becomes a failure row; one
+//! that outlives [`Budget::kill_after`](crate::harness::budget::Budget::kill_after) is killed and
+//! recorded as `timeout`.
+//!
+//! The protocol (stdout of the child):
+//!
+//! ```text
+//! #record
+//! <CSV header of RunRecord>
+//! <one CSV row>
+//! #history
+//! iteration,time_s,residual
+//! …
+//! ```
+//!
+//! CSV rather than JSON so infinite and NaN residuals survive the trip.
+
+use crate::harness::budget::{NamedBudget, SolverSpec};
+use crate::harness::case::Case;
+use crate::harness::record::RunRecord;
+use crate::harness::run::{base_record, RunOutput};
+use lcpbench_solvers::HistoryPoint;
+use std::io::{Read, Write};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Name of the hidden subcommand the child runs.
+pub const CHILD_SUBCOMMAND: &str = "bench-one";
+
+/// Write a run's output in the child protocol.
+pub fn write_protocol(out: &mut impl Write, output: &RunOutput) -> std::io::Result<()> {
+    writeln!(out, "#record")?;
+    {
+        let mut w = csv::Writer::from_writer(&mut *out);
+        w.serialize(&output.record).map_err(std::io::Error::other)?;
+        w.flush()?;
+    }
+    writeln!(out, "#history")?;
+    writeln!(out, "iteration,time_s,residual")?;
+    for h in &output.history {
+        writeln!(out, "{},{:e},{:e}", h.iteration, h.time_s, h.residual)?;
+    }
+    out.flush()
+}
+
+/// Parse the child protocol.
+pub fn parse_protocol(text: &str) -> Result<RunOutput, String> {
+    let rec_start = text
+        .find("#record\n")
+        .ok_or("child printed no #record section")?;
+    let body = &text[rec_start + "#record\n".len()..];
+    let (rec_text, hist_text) = match body.find("#history\n") {
+        Some(i) => (&body[..i], &body[i + "#history\n".len()..]),
+        None => (body, ""),
+    };
+    let mut reader = csv::Reader::from_reader(rec_text.as_bytes());
+    let record: RunRecord = reader
+        .deserialize()
+        .next()
+        .ok_or("empty #record section")?
+        .map_err(|e| format!("bad #record row: {e}"))?;
+    let mut history = Vec::new();
+    for line in hist_text.lines().skip(1) {
+        let mut parts = line.split(',');
+        let (Some(i), Some(t), Some(r)) = (parts.next(), parts.next(), parts.next()) else {
+            continue;
+        };
+        if let (Ok(iteration), Ok(time_s), Ok(residual)) = (i.parse(), t.parse(), r.parse()) {
+            history.push(HistoryPoint {
+                iteration,
+                time_s,
+                residual,
+            });
+        }
+    }
+    Ok(RunOutput { record, history })
+}
+
+/// Run one (case, solver, budget) in a child process of `exe` and return its output, or a
+/// failure row (`panic`, `crash`, `timeout`, `error`).
+pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
+    let start = Instant::now();
+    let b = &budget.budget;
+    let budget_spec = format!("{:e}:{}:{}", b.tolerance, b.max_iterations, b.time_s);
+    let child = Command::new(exe)
+        .arg(CHILD_SUBCOMMAND)
+        .arg("--case")
+        .arg(case.to_string())
+        .arg("--solver")
+        .arg(spec.to_string())
+        .arg("--budget")
+        .arg(&budget_spec)
+        .arg("--budget-name")
+        .arg(&budget.name)
+        .env("RUST_BACKTRACE", "0")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn();
+    let failure = |status: &str, reason: String, wall: f64| {
+        let mut record = base_record(case, spec, budget);
+        record.status = status.to_owned();
+        record.reason = reason;
+        record.wall_time_s = wall;
+        RunOutput {
+            record,
+            history: Vec::new(),
+        }
+    };
+    let mut child = match child {
+        Ok(c) => c,
+        Err(e) => return failure("error", format!("cannot start {}: {e}", exe.display()), 0.0),
+    };
+    // Drain both pipes on threads so a chatty child never blocks on a full pipe.
+    let mut stdout = child.stdout.take().expect("piped");
+    let mut stderr = child.stderr.take().expect("piped");
+    let out_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let err_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr.read_to_string(&mut s);
+        s
+    });
+    let limit = b.kill_after(case.is_scene());
+    let mut poll = Duration::from_millis(1);
+    let exit = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break Some(status),
+            Ok(None) if start.elapsed() >= limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            Ok(None) => {
+                std::thread::sleep(poll);
+                poll = (poll * 2).min(Duration::from_millis(20));
+            }
+            Err(_) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+        }
+    };
+    let wall = start.elapsed().as_secs_f64();
+    let out = out_thread.join().unwrap_or_default();
+    let err = err_thread.join().unwrap_or_default();
+    let Some(exit) = exit else {
+        return failure(
+            "timeout",
+            format!("killed after {:.1} s (budget {} s)", wall, b.time_s),
+            wall,
+        );
+    };
+    let last_err = err
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.contains("RUST_BACKTRACE"))
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(" | ");
+    if exit.success() {
+        return match parse_protocol(&out) {
+            Ok(mut output) => {
+                output.record.wall_time_s = wall;
+                output
+            }
+            Err(e) => failure("error", e, wall),
+        };
+    }
+    if err.contains("panicked") {
+        return failure("panic", last_err, wall);
+    }
+    match exit.code() {
+        Some(code) => failure("error", format!("exit code {code}: {last_err}"), wall),
+        None => {
+            #[cfg(unix)]
+            let signal = std::os::unix::process::ExitStatusExt::signal(&exit);
+            #[cfg(not(unix))]
+            let signal: Option<i32> = None;
+            failure(
+                "crash",
+                format!("terminated by signal {}", signal.unwrap_or(-1)),
+                wall,
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::run::run_in_process;
+
+    #[test]
+    fn protocol_round_trips_infinite_residuals() {
+        let case: Case = "spd:n=6:cond=1e2:seed=1".parse().unwrap();
+        let spec: SolverSpec = "pgs".parse().unwrap();
+        let budget: NamedBudget = "default".parse().unwrap();
+        let mut output = run_in_process(&case, &spec, &budget);
+        output.record.residual_abs = Some(f64::INFINITY);
+        output.record.reason = "a, \"quoted\"\nreason".into();
+        let mut buf = Vec::new();
+        write_protocol(&mut buf, &output).unwrap();
+        let back = parse_protocol(std::str::from_utf8(&buf).unwrap()).unwrap();
+        assert_eq!(back.record.residual_abs, Some(f64::INFINITY));
+        assert_eq!(back.record.reason, output.record.reason);
+        assert_eq!(back.history.len(), output.history.len());
+    }
+}

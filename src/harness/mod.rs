@@ -1,0 +1,19 @@
+//! The comparison harness: a *run* is one (case, solver, budget). Runs execute in isolated
+//! child processes driven by worker threads, and each finished run becomes one CSV row.
+//!
+//! Flow: [`case`] (what to solve) × [`budget`] (solver variant and budget) → [`sweep`]
+//! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
+//! solve an LCP or step a scene via [`scene`]) → [`record`] (the CSV row).
+
+pub mod budget;
+pub mod case;
+pub mod isolate;
+pub mod record;
+pub mod run;
+pub mod scene;
+pub mod sweep;
+
+pub use budget::{Budget, Fault, NamedBudget, SolverSpec};
+pub use case::{Case, ProblemClass};
+pub use record::{HistoryRow, RunRecord, TTA_LEVELS};
+pub use sweep::{cross_product, run_sweep, Job, SweepConfig, SweepSummary};

@@ -1,0 +1,104 @@
+//! Reports: run the default [`suite`], then turn `results.csv` and `histories.csv` into
+//! Markdown tables (each also written as CSV under `tables/`) and SVG plots (each with the CSV of
+//! its points under `plots/`), under a header that records the machine, the commit, the date
+//! and the command.
+//!
+//! Layout of the output directory (default `reports/`):
+//!
+//! ```text
+//! README.md            the report
+//! data/results.csv     one row per run (see RunRecord)
+//! data/histories.csv   convergence histories of the LCP runs
+//! tables/*.csv         the data of every table
+//! plots/*.svg, *.csv   every figure and its points
+//! lcps/*.json          LCPs exported from the scenes (when scenes are available)
+//! ```
+
+pub mod machine;
+pub mod plots;
+pub mod suite;
+mod tables;
+
+pub use machine::Header;
+pub use tables::write_report;
+
+use crate::harness::{run_sweep, SweepConfig, SweepSummary};
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options of `lcpbench report`.
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// Output directory. Default `reports`.
+    pub out_dir: PathBuf,
+    /// Run the small suite (tests). Default `false`.
+    pub quick: bool,
+    /// Keep rows of an earlier, interrupted run of the same suite. Default `false`: start fresh.
+    pub resume: bool,
+    /// Scene files of the suite.
+    pub scenes: Vec<PathBuf>,
+    /// Problem files exported from scenes.
+    pub exported: Vec<PathBuf>,
+    /// Sweep settings (executable, worker count, progress bar).
+    pub sweep: SweepConfig,
+    /// The command line, for the header.
+    pub command: String,
+}
+
+/// What `run` did.
+#[derive(Debug, Clone)]
+pub struct ReportSummary {
+    /// The sweep.
+    pub sweep: SweepSummary,
+    /// Seconds spent running the suite.
+    pub sweep_seconds: f64,
+    /// The README path.
+    pub readme: PathBuf,
+}
+
+/// Run the default suite into `out_dir/data` and write the report.
+pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
+    let data = options.out_dir.join("data");
+    std::fs::create_dir_all(&data).with_context(|| format!("creating {}", data.display()))?;
+    if !options.resume {
+        for f in ["results.csv", "histories.csv"] {
+            let p = data.join(f);
+            if p.exists() {
+                std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+            }
+        }
+    }
+    let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
+    let mut config = options.sweep.clone();
+    config.out_dir = data;
+    config.keep_histories = true;
+    let start = Instant::now();
+    let sweep = run_sweep(&config, suite.jobs.clone())?;
+    let sweep_seconds = start.elapsed().as_secs_f64();
+    let header = Header::collect(&options.command);
+    let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
+    Ok(ReportSummary {
+        sweep,
+        sweep_seconds,
+        readme,
+    })
+}
+
+/// Files matching a glob pattern, sorted.
+pub fn scenes_matching(pattern: &str) -> Result<Vec<PathBuf>> {
+    let mut v: Vec<PathBuf> = glob::glob(pattern)
+        .with_context(|| format!("bad glob `{pattern}`"))?
+        .filter_map(|p| p.ok())
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// A path relative to `base` for links in the README (falls back to the path itself).
+pub(crate) fn rel(path: &Path, base: &Path) -> String {
+    path.strip_prefix(base)
+        .unwrap_or(path)
+        .to_string_lossy()
+        .into_owned()
+}

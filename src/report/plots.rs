@@ -1,0 +1,348 @@
+//! SVG plots (plotters' SVG backend) with the CSV of every plotted point written next to them.
+//!
+//! Logarithmic axes are drawn by plotting `log10(value)` on a linear axis and labelling ticks
+//! with the original values, so one code path serves every combination of linear and log axes.
+//! Points that cannot be shown on a log axis (zero, negative, non-finite) are dropped from the
+//! plot but kept in the CSV.
+
+use anyhow::{Context, Result};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mark {
+    /// Connected line.
+    Line,
+    /// Markers only.
+    Points,
+    /// Line with markers.
+    LinePoints,
+    /// Staircase (performance profiles).
+    Step,
+    /// Dashed reference line, grey.
+    Reference,
+}
+
+/// One named series of `(x, y)` points.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend label.
+    pub name: String,
+    /// Colour key (solver name): series with the same key share a colour.
+    pub color_key: String,
+    /// The points.
+    pub points: Vec<(f64, f64)>,
+    /// Drawing style.
+    pub mark: Mark,
+}
+
+/// A plot's axes and labels.
+#[derive(Debug, Clone)]
+pub struct PlotSpec {
+    /// Title.
+    pub title: String,
+    /// X axis label.
+    pub x_label: String,
+    /// Y axis label.
+    pub y_label: String,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+    /// Fixed y range (in data units), if any.
+    pub y_range: Option<(f64, f64)>,
+    /// Where the legend goes.
+    pub legend: LegendAt,
+}
+
+/// Legend placement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LegendAt {
+    /// Upper right corner (the default).
+    #[default]
+    UpperRight,
+    /// Lower left corner.
+    LowerLeft,
+    /// Lower right corner.
+    LowerRight,
+}
+
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// A stable colour per solver name (the shipped solvers get fixed colours).
+pub fn color_for(key: &str) -> RGBColor {
+    let base = key.split(['@', '+']).next().unwrap_or(key);
+    let fixed = [
+        "pgs",
+        "sor",
+        "lemke",
+        "dantzig",
+        "clarabel",
+        "micro",
+        "si",
+        "body-micro",
+        "penalty",
+    ];
+    if let Some(i) = fixed.iter().position(|k| *k == base) {
+        if key == base {
+            return PALETTE[i];
+        }
+    }
+    let h = key
+        .bytes()
+        .fold(7u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
+    PALETTE[(h % PALETTE.len() as u64) as usize]
+}
+
+fn tick_label(v: f64, log: bool) -> String {
+    if log {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("1e{}", v.round() as i64)
+        } else {
+            format!("{:.1e}", 10f64.powf(v))
+        }
+    } else if v != 0.0 && (v.abs() >= 1e4 || v.abs() < 1e-2) {
+        format!("{v:.1e}")
+    } else {
+        format!("{v:.3}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_owned()
+    }
+}
+
+fn to_axis(v: f64, log: bool) -> Option<f64> {
+    if !v.is_finite() {
+        return None;
+    }
+    if log {
+        (v > 0.0).then(|| v.log10())
+    } else {
+        Some(v)
+    }
+}
+
+/// Write the plotted data as CSV: `series,x,y`.
+pub fn write_series_csv(path: &Path, series: &[Series]) -> Result<()> {
+    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
+    w.write_record(["series", "x", "y"])?;
+    for s in series {
+        for (x, y) in &s.points {
+            w.write_record([s.name.clone(), format!("{x:e}"), format!("{y:e}")])?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Draw `series` to `svg_path` (800×520) and write their data to the same path with `.csv`.
+pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
+    write_series_csv(&svg_path.with_extension("csv"), series)?;
+    let mapped: Vec<(Series, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|s| {
+            let pts = s
+                .points
+                .iter()
+                .filter_map(|&(x, y)| Some((to_axis(x, spec.log_x)?, to_axis(y, spec.log_y)?)))
+                .collect();
+            (s.clone(), pts)
+        })
+        .collect();
+    let all: Vec<(f64, f64)> = mapped.iter().flat_map(|(_, p)| p.iter().copied()).collect();
+    let (mut x0, mut x1, mut y0, mut y1) = all.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), &(x, y)| (a.min(x), b.max(x), c.min(y), d.max(y)),
+    );
+    if all.is_empty() {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    if let Some((lo, hi)) = spec.y_range {
+        y0 = to_axis(lo, spec.log_y).unwrap_or(y0);
+        y1 = to_axis(hi, spec.log_y).unwrap_or(y1);
+    }
+    let pad = |a: f64, b: f64| {
+        let span = (b - a)
+            .abs()
+            .max(if a.abs() > 0.0 { a.abs() * 0.1 } else { 1.0 });
+        (a - 0.05 * span, b + 0.05 * span)
+    };
+    let (x0, x1) = pad(x0, x1);
+    let (y0, y1) = if spec.y_range.is_some() {
+        (y0, y1)
+    } else {
+        pad(y0, y1)
+    };
+
+    let root = SVGBackend::new(svg_path, (820, 540)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&spec.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let (lx, ly) = (spec.log_x, spec.log_y);
+    chart
+        .configure_mesh()
+        .x_desc(&spec.x_label)
+        .y_desc(&spec.y_label)
+        .x_label_formatter(&|v| tick_label(*v, lx))
+        .y_label_formatter(&|v| tick_label(*v, ly))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    for (s, pts) in &mapped {
+        if pts.is_empty() {
+            continue;
+        }
+        let color = if s.mark == Mark::Reference {
+            RGBColor(90, 90, 90)
+        } else {
+            color_for(&s.color_key)
+        };
+        let style = ShapeStyle::from(&color).stroke_width(2);
+        let legend_style = style;
+        let mark = if pts.len() == 1 && matches!(s.mark, Mark::Line | Mark::Step) {
+            Mark::Points
+        } else {
+            s.mark
+        };
+        let anno = match mark {
+            Mark::Line | Mark::Reference => chart
+                .draw_series(LineSeries::new(pts.clone(), style))
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
+            Mark::Step => {
+                let mut stair = Vec::with_capacity(2 * pts.len());
+                for (i, &(x, y)) in pts.iter().enumerate() {
+                    if i > 0 {
+                        stair.push((x, pts[i - 1].1));
+                    }
+                    stair.push((x, y));
+                }
+                stair.push((x1, pts[pts.len() - 1].1));
+                chart
+                    .draw_series(LineSeries::new(stair, style))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
+            }
+            Mark::Points => chart
+                .draw_series(
+                    pts.iter()
+                        .map(|&p| Circle::new(p, 4, ShapeStyle::from(&color).filled())),
+                )
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
+            Mark::LinePoints => {
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), style))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                chart
+                    .draw_series(
+                        pts.iter()
+                            .map(|&p| Circle::new(p, 3, ShapeStyle::from(&color).filled())),
+                    )
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
+            }
+        };
+        if !s.name.is_empty() {
+            anno.label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
+        }
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .position(match spec.legend {
+            LegendAt::UpperRight => SeriesLabelPosition::UpperRight,
+            LegendAt::LowerLeft => SeriesLabelPosition::LowerLeft,
+            LegendAt::LowerRight => SeriesLabelPosition::LowerRight,
+        })
+        .draw()
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+/// Least-squares slope and intercept of `log10 y` against `log10 x` (positive points only).
+pub fn loglog_fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        .map(|(x, y)| (x.log10(), y.log10()))
+        .collect();
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx == 0.0 {
+        return None;
+    }
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let slope = sxy / sxx;
+    Some((slope, my - slope * mx))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_recovers_a_power_law() {
+        let pts: Vec<(f64, f64)> = [10.0, 20.0, 40.0, 80.0]
+            .iter()
+            .map(|&x: &f64| (x, 3.0 * x.powf(2.5)))
+            .collect();
+        let (slope, _) = loglog_fit(&pts).unwrap();
+        assert!((slope - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn plot_writes_svg_and_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.svg");
+        let series = vec![Series {
+            name: "pgs".into(),
+            color_key: "pgs".into(),
+            points: vec![(1.0, 1e-2), (10.0, 1e-6), (0.0, 1.0)],
+            mark: Mark::LinePoints,
+        }];
+        let spec = PlotSpec {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            log_x: true,
+            log_y: true,
+            y_range: None,
+            legend: LegendAt::default(),
+        };
+        plot(&path, &spec, &series).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("pgs"));
+        let csv = std::fs::read_to_string(path.with_extension("csv")).unwrap();
+        assert_eq!(csv.lines().count(), 4);
+    }
+}

@@ -1,0 +1,243 @@
+//! The default suite behind `lcpbench report`: which cases, solvers and budgets are run.
+//!
+//! Parts (each tagged so the report knows which rows feed which table):
+//!
+//! * **matrix**: every generated family at three sizes × every solver × budgets `default` and
+//!   `tight`. Feeds the robustness matrix (budget `default`), time-to-accuracy, performance
+//!   profiles, fastest-solver and convergence plots (budget `tight`, whose histories reach
+//!   `1e-10`).
+//! * **scaling**: SPD (`cond = 1e3`) at sizes doubling from 16 × every solver, budget `default`:
+//!   time against the number of rows.
+//! * **omega**: SOR with `omega` from 0.2 to 1.9 on three problems.
+//! * **warm**: the iterative solvers warm and cold on four problems.
+//! * **scenes**: every scene file (at most [`SCENE_STEPS`] steps) × every matrix and body-level
+//!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
+//!   (budget `default`); large scenes run cold under `default` only, at most
+//!   [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
+//!   solver × budgets `default`, `tight`.
+
+use crate::harness::{Case, Job, NamedBudget, SolverSpec};
+use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_solvers::SolverKind;
+use std::path::PathBuf;
+
+/// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
+pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
+
+/// Scenes with more dynamic bodies than this are *large*: one budget (`default`) and
+/// [`LARGE_SCENE_STEPS`] steps in the full suite.
+pub const LARGE_SCENE_BODIES: usize = 30;
+
+/// Steps of a large scene's runs in the full suite.
+pub const LARGE_SCENE_STEPS: usize = 50;
+
+/// True when the scene has more than [`LARGE_SCENE_BODIES`] dynamic bodies (false when it does
+/// not load; its runs then record the error).
+pub fn is_large_scene(path: &std::path::Path) -> bool {
+    lcpbench_contact::scene::Scene::load(path)
+        .map(|s| s.bodies.iter().filter(|b| !b.is_static).count() > LARGE_SCENE_BODIES)
+        .unwrap_or(false)
+}
+
+/// Steps of each scene run in the full suite (the scene's own count when smaller).
+pub const SCENE_STEPS: usize = 100;
+
+/// A suite: jobs plus the case lists the report groups them by.
+#[derive(Debug, Clone, Default)]
+pub struct Suite {
+    /// Every job.
+    pub jobs: Vec<Job>,
+    /// Cases of the robustness matrix / profiles.
+    pub matrix_cases: Vec<Case>,
+    /// Cases of the scaling study, in increasing size.
+    pub scaling_cases: Vec<Case>,
+    /// Cases of the SOR omega sweep.
+    pub omega_cases: Vec<Case>,
+    /// SOR relaxation factors swept.
+    pub omegas: Vec<f64>,
+    /// Cases of the warm-versus-cold comparison.
+    pub warm_cases: Vec<Case>,
+    /// Scene cases.
+    pub scene_cases: Vec<Case>,
+    /// LCPs exported from scenes.
+    pub exported_cases: Vec<Case>,
+    /// Cases whose convergence histories are plotted.
+    pub history_cases: Vec<Case>,
+}
+
+fn budget(name: &str) -> NamedBudget {
+    name.parse().expect("preset budget")
+}
+
+fn case(key: &str) -> Case {
+    key.parse().expect("valid suite key")
+}
+
+/// Every matrix solver with default parameters, cold start.
+pub fn all_solvers() -> Vec<SolverSpec> {
+    SolverKind::ALL.into_iter().map(SolverSpec::plain).collect()
+}
+
+/// Every solver a scene can use: the matrix solvers and the body-level ones, cold start.
+pub fn scene_solvers() -> Vec<SolverSpec> {
+    let mut v = all_solvers();
+    v.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+    v
+}
+
+/// Build the default suite (`quick`: a much smaller one for tests). `scenes` are scene files and
+/// `exported` problem files exported from scenes.
+pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> Suite {
+    let solvers = all_solvers();
+    let mut suite = Suite::default();
+    let sizes: &[usize] = if quick { &[8, 16] } else { &[10, 50, 200] };
+    let conds: &[&str] = if quick {
+        &["1e2", "1e8"]
+    } else {
+        &["1e2", "1e4", "1e6", "1e8", "1e10"]
+    };
+    for &n in sizes {
+        for cond in conds {
+            suite
+                .matrix_cases
+                .push(case(&format!("spd:n={n}:cond={cond}:seed=1")));
+        }
+        for fam in ["psd", "pmatrix", "dup", "weak", "zerob", "infeasible"] {
+            suite
+                .matrix_cases
+                .push(case(&format!("{fam}:n={n}:seed=1")));
+        }
+    }
+    let murty: &[usize] = if quick { &[6] } else { &[6, 10, 14] };
+    for &n in murty {
+        suite.matrix_cases.push(case(&format!("murty:n={n}")));
+    }
+    let big = sizes[sizes.len() - 1];
+    suite.history_cases = vec![
+        case(&format!(
+            "spd:n={big}:cond={}:seed=1",
+            conds[conds.len() / 2]
+        )),
+        case(&format!("psd:n={big}:seed=1")),
+        case(&format!("pmatrix:n={big}:seed=1")),
+    ];
+    let scaling: &[usize] = if quick {
+        &[8, 16, 32]
+    } else {
+        &[16, 32, 64, 128, 256, 512]
+    };
+    suite.scaling_cases = scaling
+        .iter()
+        .map(|n| case(&format!("spd:n={n}:cond=1e3:seed=2")))
+        .collect();
+    let mid = if quick { 16 } else { 100 };
+    suite.omega_cases = vec![
+        case(&format!("spd:n={mid}:cond=1e2:seed=3")),
+        case(&format!("spd:n={mid}:cond=1e4:seed=3")),
+        case(&format!("psd:n={mid}:seed=3")),
+    ];
+    suite.omegas = if quick {
+        vec![0.8, 1.0, 1.4]
+    } else {
+        (2..=19).map(|k| k as f64 / 10.0).collect()
+    };
+    suite.warm_cases = vec![
+        case(&format!("spd:n={mid}:cond=1e2:seed=4")),
+        case(&format!("spd:n={mid}:cond=1e4:seed=4")),
+        case(&format!("psd:n={mid}:seed=4")),
+        case(&format!("dup:n={mid}:seed=4")),
+    ];
+    let mut large_scenes = Vec::new();
+    for path in scenes {
+        let large = is_large_scene(path);
+        let steps = if quick {
+            20
+        } else if large {
+            LARGE_SCENE_STEPS
+        } else {
+            SCENE_STEPS
+        };
+        let case = Case::scene(path, Some(steps));
+        if large {
+            large_scenes.push(case.clone());
+        }
+        suite.scene_cases.push(case);
+    }
+    suite.exported_cases = exported.iter().cloned().map(Case::File).collect();
+    suite
+        .warm_cases
+        .extend(suite.exported_cases.iter().cloned());
+    suite
+        .omega_cases
+        .extend(suite.exported_cases.iter().take(2).cloned());
+    suite
+        .history_cases
+        .extend(suite.exported_cases.iter().take(2).cloned());
+
+    let matrix_budgets = [budget("default"), budget("tight")];
+    let mut push = |cases: &[Case], solvers: &[SolverSpec], budgets: &[NamedBudget]| {
+        suite
+            .jobs
+            .extend(crate::harness::cross_product(cases, solvers, budgets));
+    };
+    push(&suite.matrix_cases, &solvers, &matrix_budgets);
+    push(&suite.exported_cases, &solvers, &matrix_budgets);
+    push(&suite.scaling_cases, &solvers, &[budget("default")]);
+    let omega_specs: Vec<SolverSpec> = suite
+        .omegas
+        .iter()
+        .map(|&w| SolverSpec {
+            omega: Some(w),
+            ..SolverSpec::plain(SolverKind::Sor)
+        })
+        .collect();
+    push(&suite.omega_cases, &omega_specs, &[budget("default")]);
+    let warm = |s: &SolverSpec| SolverSpec {
+        warm: true,
+        ..s.clone()
+    };
+    let iterative: Vec<SolverSpec> = all_solvers()
+        .iter()
+        .filter(|s| s.is_iterative())
+        .flat_map(|s| [s.clone(), warm(s)])
+        .collect();
+    push(&suite.warm_cases, &iterative, &[budget("default")]);
+    let scene_budgets: Vec<NamedBudget> = if quick {
+        vec![budget("default")]
+    } else {
+        SCENE_BUDGETS.into_iter().map(budget).collect()
+    };
+    let scene_solvers = scene_solvers();
+    let small: Vec<Case> = suite
+        .scene_cases
+        .iter()
+        .filter(|c| !large_scenes.contains(c))
+        .cloned()
+        .collect();
+    push(&small, &scene_solvers, &scene_budgets);
+    push(&large_scenes, &scene_solvers, &[budget("default")]);
+    let warm_only: Vec<SolverSpec> = scene_solvers
+        .iter()
+        .filter(|s| s.is_iterative())
+        .map(warm)
+        .collect();
+    push(&small, &warm_only, &[budget("default")]);
+    suite
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suites_have_no_duplicate_jobs_that_matter() {
+        for quick in [true, false] {
+            let s = default_suite(quick, &[], &[]);
+            assert!(!s.jobs.is_empty());
+            assert!(s.matrix_cases.iter().all(|c| c.size().is_some()));
+        }
+        assert!(
+            default_suite(true, &[], &[]).jobs.len() < default_suite(false, &[], &[]).jobs.len()
+        );
+    }
+}

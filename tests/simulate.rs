@@ -1,0 +1,134 @@
+//! `lcpbench simulate` and `lcpbench export` seen from outside.
+
+use std::process::{Command, Output};
+
+fn lcpbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the binary runs")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn simulate_prints_figures_and_records_json_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("run.jsonl");
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--solver",
+        "si",
+        "--steps",
+        "20",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    for needle in [
+        "solver si",
+        "20 steps",
+        "time per step",
+        "iterations",
+        "max penetration",
+        "energy",
+    ] {
+        assert!(out.contains(needle), "`{needle}` missing from:\n{out}");
+    }
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&rec)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 20);
+    let last = &lines[19];
+    assert_eq!(last["step"], 19);
+    assert_eq!(last["bodies"][1]["name"], "box");
+    assert_eq!(last["contacts"], 4);
+    let c = &last["contact_records"][0];
+    for key in ["point", "normal", "impulse"] {
+        assert_eq!(c[key].as_array().unwrap().len(), 3, "{key}");
+    }
+}
+
+#[test]
+fn simulate_json_summary() {
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/cradle_3.toml",
+        "--steps",
+        "5",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["solver"], "pgs");
+    assert_eq!(v["steps"], 5);
+    assert!(v["time_per_step_s"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn export_writes_a_problem_that_solve_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("step.json");
+    let o = lcpbench(&[
+        "export",
+        "bench_scenes/tower_10.toml",
+        "--step",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = lcpbench(&["solve", out.to_str().unwrap(), "--solver", "dantzig"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("120 rows"), "{}", text(&o.stdout));
+}
+
+#[test]
+fn bad_scenes_and_solvers_fail_with_one_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[settings]\ndt = 0.01\nstepz = 3\n").unwrap();
+    let o = lcpbench(&["simulate", bad.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = text(&o.stderr);
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.contains("bad.toml:3:1") && e.contains("unknown field `stepz`"),
+        "{e}"
+    );
+
+    let o = lcpbench(&["simulate", "bench_scenes/cradle_3.toml", "--solver", "nope"]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("unknown solver `nope`"));
+
+    // Lemke takes no friction rows: the run stops and says so.
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/tower_10.toml",
+        "--solver",
+        "lemke",
+    ]);
+    assert!(!o.status.success());
+    let e = text(&o.stderr);
+    assert!(e.contains("lemke") && e.contains("pyramid"), "{e}");
+
+    let out = dir.path().join("x.json");
+    let out = out.to_str().unwrap();
+    let o = lcpbench(&[
+        "export",
+        "bench_scenes/ball_drop.toml",
+        "--step",
+        "0",
+        "-o",
+        out,
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("no contacts"));
+}
