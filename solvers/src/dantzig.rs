@@ -903,16 +903,12 @@ mod tests {
     use super::*;
     use crate::generate::{generate, Family};
     use crate::problem::FrictionRow;
+    use crate::test_util::lcp;
     use crate::ProjectedSor;
     use crate::Status;
     use faer::Mat;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    fn lcp(rows: &[&[f64]], b: &[f64]) -> Problem {
-        let n = b.len();
-        Problem::lcp(Mat::from_fn(n, n, |i, j| rows[i][j]), b.to_vec()).unwrap()
-    }
 
     #[test]
     fn solves_small_lcps() {

@@ -533,13 +533,9 @@ fn invert(b: &[f64], k: usize) -> Option<Vec<f64>> {
 mod tests {
     use super::*;
     use crate::generate::{generate, Family};
+    use crate::test_util::lcp;
     use crate::Status;
     use faer::Mat;
-
-    fn lcp(rows: &[&[f64]], b: &[f64]) -> Problem {
-        let n = b.len();
-        Problem::lcp(Mat::from_fn(n, n, |i, j| rows[i][j]), b.to_vec()).unwrap()
-    }
 
     #[test]
     fn solves_a_two_by_two_lcp() {

@@ -37,6 +37,8 @@ mod micro_impulse;
 mod pgs;
 mod problem;
 mod solver;
+#[cfg(test)]
+mod test_util;
 
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;

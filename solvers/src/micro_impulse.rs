@@ -167,12 +167,9 @@ mod tests {
     use super::*;
     use crate::generate::{generate, Family};
     use crate::problem::FrictionRow;
+    use crate::test_util::mat;
     use crate::Status;
     use faer::Mat;
-
-    fn mat(rows: &[&[f64]]) -> Mat<f64> {
-        Mat::from_fn(rows.len(), rows.len(), |i, j| rows[i][j])
-    }
 
     #[test]
     fn single_contact_is_solved_exactly() {
