@@ -36,7 +36,7 @@ fn solve(kind: SolverKind, p: &Problem, s: &Settings) -> SolveResult {
 
 fn scaled(p: &Problem, s: f64) -> Problem {
     let n = p.n();
-    let a = Mat::from_fn(n, n, |i, j| s * p.a()[(i, j)]);
+    let a = Mat::from_fn(n, n, |i, j| s * p.entry(i, j));
     Problem::lcp(a, p.b().iter().map(|v| s * v).collect()).unwrap()
 }
 
@@ -87,7 +87,7 @@ fn tiny_b_scales_the_solution() {
     // Scaling b alone by 1e-9 scales the solution; the relative residual keeps its meaning.
     let g = generate(Family::Spd { cond: 1e2 }, 15, 8);
     let p = &g.problem;
-    let tiny = Problem::lcp(p.a().clone(), p.b().iter().map(|v| v * 1e-9).collect()).unwrap();
+    let tiny = Problem::lcp(p.to_dense(), p.b().iter().map(|v| v * 1e-9).collect()).unwrap();
     for kind in [
         SolverKind::Lemke,
         SolverKind::Dantzig,
@@ -106,7 +106,7 @@ fn tiny_b_scales_the_solution() {
 #[test]
 fn zero_b_gives_zero_impulse() {
     let g = generate(Family::PsdRankDeficient { rank: 4 }, 10, 2);
-    let p = Problem::lcp(g.problem.a().clone(), vec![0.0; 10]).unwrap();
+    let p = Problem::lcp(g.problem.to_dense(), vec![0.0; 10]).unwrap();
     for kind in SolverKind::ALL {
         let r = solve(kind, &p, &settings(1e-8, 1_000));
         if matches!(r.status, Status::Unsupported { .. }) {
@@ -147,7 +147,7 @@ fn duplicated_rows_do_not_break_the_solvers() {
     let src = &g.problem;
     let idx = [0, 1, 1, 2, 3, 3, 4, 5];
     let m = idx.len();
-    let a = Mat::from_fn(m, m, |i, j| src.a()[(idx[i], idx[j])]);
+    let a = Mat::from_fn(m, m, |i, j| src.entry(idx[i], idx[j]));
     let mut b: Vec<f64> = idx.iter().map(|&i| src.b()[i]).collect();
     b[0] = 0.0;
     let p = Problem::lcp(a, b).unwrap();

@@ -341,7 +341,7 @@ fn box_rests_on_ground_for_10_s() {
     w.settings.keep_problem = true;
     let r = w.step();
     let p = r.problem.expect("problem kept");
-    let a = DMatrix::from_fn(p.n(), p.n(), |i, j| p.a()[(i, j)]);
+    let a = DMatrix::from_fn(p.n(), p.n(), |i, j| p.entry(i, j));
     let rank = a.clone().svd(false, false).rank(1e-10 * a.amax());
     println!(
         "box on ground: {} contacts, {} rows, rank A = {rank}",

@@ -77,7 +77,7 @@
 
 use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
@@ -87,7 +87,10 @@ use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point); friction rows as a convex relaxation";
+    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point); friction rows as a convex relaxation; dense per island up to 2000 rows";
+
+/// Largest island the QP formulation densifies.
+pub const DENSE_LIMIT: usize = 2000;
 
 /// The LCP as a convex QP, solved by Clarabel. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,7 +170,7 @@ impl ScaledQp {
                 tau = 1.0;
             }
         }
-        let a = problem.a();
+        let a = problem.dense().expect("the QP is built on dense islands");
         let a_hat = Mat::from_fn(n, n, |i, j| 0.5 * e[i] * (a[(i, j)] + a[(j, i)]) * e[j]);
         let q = (0..n).map(|i| e[i] * b[i] / tau).collect();
 
@@ -347,6 +350,16 @@ impl Solver for ClarabelQp {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        let this = self.clone();
+        solve_by_islands(problem, settings, DENSE_LIMIT, |island, settings| {
+            this.solve_island(island, settings)
+        })
+    }
+}
+
+impl ClarabelQp {
+    /// One dense island.
+    fn solve_island(&self, problem: &Problem, settings: &Settings) -> SolveResult {
         let monitor = Monitor::new(problem, settings);
         let n = problem.n();
         if n == 0 {
@@ -553,7 +566,7 @@ mod tests {
         let g = generate(Family::Spd { cond: 1e3 }, 20, 3);
         let p = &g.problem;
         for s in [1e-9, 1e9] {
-            let a = Mat::from_fn(20, 20, |i, j| s * p.a()[(i, j)]);
+            let a = Mat::from_fn(20, 20, |i, j| s * p.entry(i, j));
             let b = p.b().iter().map(|v| s * v).collect();
             let scaled = Problem::lcp(a, b).unwrap();
             // With and without the polish: the interior-point answer alone must be good.
@@ -575,7 +588,7 @@ mod tests {
         // b = 0: the solution is f = 0, and any f != 0 has a relative residual of order one. The
         // interior point stops near, not at, zero; the active-set polish lands on it exactly.
         let g = generate(Family::Spd { cond: 1e2 }, 15, 8);
-        let p = Problem::lcp(g.problem.a().clone(), vec![0.0; 15]).unwrap();
+        let p = Problem::lcp(g.problem.to_dense(), vec![0.0; 15]).unwrap();
         let r = solve(&p);
         assert_eq!(r.status, Status::Converged);
         assert!(r.f.iter().all(|&v| v == 0.0), "{:?}", r.f);
@@ -587,7 +600,7 @@ mod tests {
         assert!(!r.status.is_converged());
         // Boxed rows, planted SPD: polished to rounding level.
         let p = Problem::boxed(
-            g.problem.a().clone(),
+            g.problem.to_dense(),
             g.problem.b().to_vec(),
             vec![-0.3; 15],
             vec![0.7; 15],

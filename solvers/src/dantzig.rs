@@ -65,19 +65,30 @@
 //!   anti-cycling rule: on degenerate problems ties are broken in a fixed order (the row being
 //!   added first, then rows leaving `C`, then rows joining it), and the pivot cap ends a cycle.
 //! * **Warm start**: ignored; every pass starts from `f = mid(lo, hi, 0)`.
+//! * **Scaling and size**: the problem is split into independent islands ([`Problem::islands`]),
+//!   each densified (up to [`DENSE_LIMIT`] rows; a larger island gives `Unsupported`) and
+//!   equilibrated symmetrically (`S A S`, `s_i = 1/√A_ii`, friction coefficients rescaled to
+//!   keep their meaning), so the pivot and round-off tolerances below act on rows of comparable
+//!   size whatever the units of the data. The pivot count and the active sets refer to the
+//!   equilibrated island.
 //!
 //! References: D. Baraff, *Fast contact force computation for nonpenetrating rigid bodies*,
 //! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
 //! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
 use crate::lemke::Lemke;
-use crate::metrics::{residual_scale, residuals};
+use crate::metrics::{impulse_scale, residuals};
 use crate::problem::Problem;
-use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver, Status};
+use crate::solver::{
+    solve_by_islands, solve_equilibrated, Monitor, Outcome, Settings, SolveResult, Solver, Status,
+};
+
+/// Largest island Dantzig densifies.
+pub const DENSE_LIMIT: usize = 3000;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows (bound fixed point); PSD (also rank-deficient) or P-matrix A";
+    "LCP, boxed LCP, friction rows (bound fixed point); PSD (also rank-deficient) or P-matrix A; dense per island up to 3000 rows";
 
 /// Dantzig-style principal pivoting. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,6 +120,18 @@ impl Solver for Dantzig {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        let this = self.clone();
+        solve_by_islands(problem, settings, DENSE_LIMIT, |island, settings| {
+            solve_equilibrated(island, settings, |scaled, settings| {
+                this.solve_island(scaled, settings)
+            })
+        })
+    }
+}
+
+impl Dantzig {
+    /// One dense island, already equilibrated.
+    fn solve_island(&self, problem: &Problem, settings: &Settings) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         if !(self.pivot_tol.is_finite() && self.pivot_tol > 0.0) {
             let reason = format!("pivot_tol = {} must be finite and > 0", self.pivot_tol);
@@ -259,7 +282,7 @@ impl Dantzig {
             .chain(problem.friction().iter().map(|fr| fr.row))
             .collect();
         let d = problem.diagonal_scale();
-        let scale = residual_scale(problem, &d);
+        let scale = impulse_scale(problem);
         let passes = if problem.friction().is_empty() {
             1
         } else {
@@ -319,7 +342,7 @@ impl Dantzig {
 fn sliding_rows(problem: &Problem, f: &[f64]) -> Vec<(usize, f64)> {
     let w = problem.velocity(f);
     let d = problem.diagonal_scale();
-    let scale = residual_scale(problem, &d);
+    let scale = impulse_scale(problem);
     problem
         .friction()
         .iter()
@@ -364,7 +387,7 @@ impl Coupled {
         for (r, &i) in kept.iter().enumerate() {
             new_index[i] = r;
         }
-        let a = problem.a();
+        let a = problem.dense().expect("Dantzig works on dense islands");
         let mut full = a.clone();
         for &(t, k, s) in &sliding {
             for r in 0..n {
@@ -423,7 +446,7 @@ impl Coupled {
             lo[fr.row] = -c;
             hi[fr.row] = c;
         }
-        Problem::boxed(p.a().clone(), p.b().to_vec(), lo, hi, Vec::new()).expect("valid bounds")
+        Problem::boxed(p.to_dense(), p.b().to_vec(), lo, hi, Vec::new()).expect("valid bounds")
     }
 
     /// The full impulse from the reduced one.
@@ -562,7 +585,7 @@ impl<'a> Pass<'a> {
     ) -> Result<(), Outcome> {
         let n = self.problem.n();
         let (lo_i, hi_i) = (self.lo[i], self.hi[i]);
-        self.w[i] = crate::problem::dot(self.problem.a_row(i), &self.x) + self.problem.b()[i];
+        self.w[i] = crate::problem::dot(self.problem.dense_row(i), &self.x) + self.problem.b()[i];
         // Rows that may not block this row's drive again (their pivot was too small to join C).
         let mut ignored = vec![false; n];
         let mut dx_c: Vec<f64> = Vec::new();
@@ -594,7 +617,7 @@ impl<'a> Pass<'a> {
             // Direction: Δf_i = dir, Δf_C = −A_CC⁻¹ A_Ci dir, Δf_N = 0.
             let rows = self.lu.rows.clone();
             dx_c.clear();
-            dx_c.extend(rows.iter().map(|&c| -self.problem.a_row(c)[i] * dir));
+            dx_c.extend(rows.iter().map(|&c| -self.problem.dense_row(c)[i] * dir));
             self.lu.solve(&mut dx_c);
             let dx_max = dx_c.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
             if !dx_max.is_finite() {
@@ -603,7 +626,7 @@ impl<'a> Pass<'a> {
                 )));
             }
             let rate = |j: usize| -> f64 {
-                let row = self.problem.a_row(j);
+                let row = self.problem.dense_row(j);
                 rows.iter()
                     .zip(&dx_c)
                     .map(|(&c, v)| row[c] * v)
@@ -681,6 +704,11 @@ impl<'a> Pass<'a> {
             self.w[i] += s * dw[i];
             if self.record {
                 monitor.record(*pivots, &self.x);
+                monitor.record_active_set(*pivots, || {
+                    let mut rows = self.lu.rows.clone();
+                    rows.sort_unstable();
+                    rows
+                });
             }
 
             match event {
@@ -722,7 +750,7 @@ impl<'a> Pass<'a> {
         let mut rhs: Vec<f64> = rows
             .iter()
             .map(|&c| {
-                let row = self.problem.a_row(c);
+                let row = self.problem.dense_row(c);
                 -b[c]
                     - (0..n)
                         .filter(|&k| !in_c(k))
@@ -756,7 +784,7 @@ impl<'a> Pass<'a> {
         for (j, (wj, set)) in self.w.iter_mut().zip(&self.set).enumerate() {
             *wj = match set {
                 Set::Pending | Set::Clamped => 0.0,
-                _ => crate::problem::dot(self.problem.a_row(j), &self.x) + b[j],
+                _ => crate::problem::dot(self.problem.dense_row(j), &self.x) + b[j],
             };
         }
         Ok(())
@@ -772,7 +800,7 @@ fn ray(problem: &Problem, i: usize, pivots: usize) -> Outcome {
     let amax = problem.max_abs_entry();
     let psd = problem.is_symmetric(1e-12)
         && problem
-            .a()
+            .to_dense()
             .self_adjoint_eigenvalues(faer::Side::Lower)
             .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * amax * n as f64));
     if psd {
@@ -828,10 +856,10 @@ impl ClampedLu {
     /// pivot `A_ii − A_iC A_CC⁻¹ A_Ci` when that is not above `tol`.
     fn try_add(&mut self, problem: &Problem, i: usize, tol: f64) -> Result<(), f64> {
         let (m, cap) = (self.rows.len(), self.cap);
-        let row_i = problem.a_row(i);
+        let row_i = problem.dense_row(i);
         // l: Uᵀ l = A_iC; u: L u = A_Ci.
         let mut l: Vec<f64> = self.rows.iter().map(|&c| row_i[c]).collect();
-        let mut u: Vec<f64> = self.rows.iter().map(|&c| problem.a_row(c)[i]).collect();
+        let mut u: Vec<f64> = self.rows.iter().map(|&c| problem.dense_row(c)[i]).collect();
         for k in 0..m {
             let s: f64 = (0..k).map(|j| l[j] * self.u[j * cap + k]).sum();
             l[k] = (l[k] - s) / self.u[k * cap + k];
@@ -1203,7 +1231,7 @@ mod tests {
     fn scale_invariant() {
         // A and b scaled independently by 1e-9 and 1e9: the solution scales by sb / sa.
         let g = generate(Family::Spd { cond: 1e3 }, 20, 4);
-        let (a0, b0) = (g.problem.a(), g.problem.b());
+        let (a0, b0) = (&g.problem.to_dense(), g.problem.b());
         for (sa, sb) in [(1e-9, 1e9), (1e9, 1e-9), (1e-9, 1e-9)] {
             let a = Mat::from_fn(20, 20, |i, j| sa * a0[(i, j)]);
             let b = b0.iter().map(|v| sb * v).collect();

@@ -266,7 +266,7 @@ mod tests {
         let g = generate(Family::Infeasible, 8, 3);
         let p = &g.problem;
         for j in 0..8 {
-            let col: f64 = (0..8).map(|i| p.a()[(i, j)]).sum();
+            let col: f64 = (0..8).map(|i| p.entry(i, j)).sum();
             assert!(col.abs() < 1e-12);
         }
         assert!(p.b().iter().sum::<f64>() < 0.0);

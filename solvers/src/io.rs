@@ -148,7 +148,9 @@ pub fn problem_to_json(problem: &Problem) -> String {
     let standard = problem.is_standard();
     let file = ProblemFile {
         name: problem.name().map(str::to_owned),
-        a: (0..n).map(|i| problem.a_row(i).to_vec()).collect(),
+        a: (0..n)
+            .map(|i| (0..n).map(|j| problem.entry(i, j)).collect())
+            .collect(),
         b: problem.b().to_vec(),
         lo: (!standard).then(|| problem.lo().iter().map(|&v| opt(v)).collect()),
         hi: (!standard).then(|| problem.hi().iter().map(|&v| opt(v)).collect()),
@@ -181,7 +183,7 @@ mod tests {
         assert_eq!(p.name(), Some("t"));
         assert_eq!(p.friction()[0].mu, 0.5);
         let q = parse_problem(&problem_to_json(&p), Path::new("u.json")).unwrap();
-        assert_eq!(q.a_row(1), p.a_row(1));
+        assert_eq!(q.to_dense(), p.to_dense());
         assert_eq!(q.hi()[0], f64::INFINITY);
         assert_eq!(q.lo()[1], f64::NEG_INFINITY);
     }

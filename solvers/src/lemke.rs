@@ -42,8 +42,13 @@
 //! * **Trivial case**: `q >= 0` returns `z = 0` after zero pivots.
 //! * **Warm start**: ignored; Lemke always starts from `z = 0`.
 //!
-//! The data are scaled before pivoting (`M / max|M|`, `q / max|q|`, `d / max d`) so the pivot
-//! and tie tolerances are relative; the solution is scaled back.
+//! * **Scaling**: each island is first equilibrated symmetrically (`A' = S A S`, `b' = S b`,
+//!   `s_i = 1/√d_i` with `d_i` the diagonal scale), so rows and columns scaled over many decades
+//!   do not decide the pivots; then the reduced data are scaled (`M / max|M|`, `q / max|q|`,
+//!   `d / max d`) so the pivot and tie tolerances are relative; the solution is scaled back.
+//! * **Sparse and large problems**: the problem is split into independent islands
+//!   ([`Problem::islands`]); each is densified and solved on its own. An island above
+//!   [`DENSE_LIMIT`] rows gives `Unsupported` with the reason.
 //!
 //! Measured on Murty's example ([`crate::generate::Family::Murty`]: `M` lower triangular, 1 on
 //! the diagonal and 2 below, `q = −e`, `d = e`): exactly `2ⁿ` pivots, the first `z0` pivot and
@@ -57,12 +62,15 @@
 //! Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the exponential example).
 
 use crate::problem::Problem;
-use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
 use std::fmt;
+
+/// Largest island Lemke densifies (the reduced tableau is at most `2n × 2n`).
+pub const DENSE_LIMIT: usize = 1500;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP and boxed LCP with fixed bounds (reduced to an LCP); processes PSD and P-matrix A; no friction rows";
+    "LCP and boxed LCP with fixed bounds (reduced to an LCP); processes PSD and P-matrix A; no friction rows; dense per island up to 1500 rows";
 
 /// Lemke's complementary pivoting method. See the module documentation.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -87,32 +95,49 @@ impl Solver for Lemke {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
-        let mut monitor = Monitor::new(problem, settings);
-        let reduction = match Reduction::new(problem) {
-            Ok(r) => r,
-            Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason)),
-        };
-        let m = reduction.q.len();
-        let d = match &self.covering {
-            None => vec![1.0; m],
-            Some(d) if d.len() != m => {
-                let reason = format!(
-                    "covering vector has length {}, but the reduced LCP has {m} rows",
-                    d.len()
-                );
+        let covering = self.covering.clone();
+        solve_by_islands(problem, settings, DENSE_LIMIT, |island, settings| {
+            solve_island(island, settings, covering.as_deref())
+        })
+    }
+}
+
+/// Lemke on one island: equilibrate, reduce, pivot, map back.
+fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>) -> SolveResult {
+    let mut monitor = Monitor::new(problem, settings);
+    // Equilibration `A' = S A S` with `s_i = 1/√d_i`, so the pivots do not depend on how rows
+    // and columns are scaled (a problem scaled over many decades would otherwise mislead the
+    // ratio tests into a false ray).
+    let s: Vec<f64> = problem
+        .diagonal_scale()
+        .iter()
+        .map(|d| 1.0 / d.sqrt())
+        .collect();
+    let scaled = problem.scaled_symmetric(&s);
+    let reduction = match Reduction::new(&scaled, s) {
+        Ok(r) => r,
+        Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason)),
+    };
+    let m = reduction.q.len();
+    let d = match covering {
+        None => vec![1.0; m],
+        Some(d) if d.len() != m => {
+            let reason = format!(
+                "covering vector has length {}, but the reduced LCP has {m} rows",
+                d.len()
+            );
+            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+        }
+        Some(d) => match d.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            Some(i) => {
+                let reason = format!("covering vector entry d[{i}] = {} is not > 0", d[i]);
                 return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
             }
-            Some(d) => match d.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-                Some(i) => {
-                    let reason = format!("covering vector entry d[{i}] = {} is not > 0", d[i]);
-                    return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
-                }
-                None => d.clone(),
-            },
-        };
-        let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
-        monitor.finish(reduction.impulse(&z), pivots, outcome)
-    }
+            None => d.to_vec(),
+        },
+    };
+    let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
+    monitor.finish(reduction.impulse(&z), pivots, outcome)
 }
 
 /// The standard LCP `w' = M z + q` that a boxed problem reduces to, and the map back
@@ -126,10 +151,12 @@ struct Reduction {
     /// For each LCP variable: `Some((row, sign))` when it is (a signed part of) `f_row − c_row`,
     /// `None` for a box slack.
     var_row: Vec<Option<(usize, f64)>>,
+    /// The equilibration: the original impulse is `f_i = scale_i · f'_i`.
+    scale: Vec<f64>,
 }
 
 impl Reduction {
-    fn new(problem: &Problem) -> Result<Self, String> {
+    fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
         if !problem.friction().is_empty() {
             return Err(format!(
                 "{} friction rows: their bounds ±mu·f_normal move with the solution, and Lemke \
@@ -169,7 +196,7 @@ impl Reduction {
         let m = nv + slacks.len();
         let mut mat = vec![0.0; m * m];
         let mut q = vec![0.0; m];
-        let a = problem.a();
+        let a = problem.to_dense();
         for (v, &(i, s)) in vars.iter().enumerate() {
             q[v] = s * w0[i];
             for (u, &(j, t)) in vars.iter().enumerate() {
@@ -194,10 +221,11 @@ impl Reduction {
             q,
             c,
             var_row,
+            scale,
         })
     }
 
-    /// `f = c + T z`.
+    /// `f = S (c + T z)`.
     fn impulse(&self, z: &[f64]) -> Vec<f64> {
         let mut f = self.c.clone();
         if z.len() == self.var_row.len() {
@@ -207,7 +235,24 @@ impl Reduction {
                 }
             }
         }
+        for (fi, s) in f.iter_mut().zip(&self.scale) {
+            *fi *= s;
+        }
         f
+    }
+
+    /// Original rows whose variables are basic in `z` (the active set).
+    fn active_rows(&self, basis: &[Var]) -> Vec<usize> {
+        let mut rows: Vec<usize> = basis
+            .iter()
+            .filter_map(|v| match v {
+                Var::Z(j) => self.var_row[*j].map(|(i, _)| i),
+                _ => None,
+            })
+            .collect();
+        rows.sort_unstable();
+        rows.dedup();
+        rows
     }
 }
 
@@ -415,6 +460,7 @@ fn pivot(
     let record = |tab: &Tableau<'_>, monitor: &mut Monitor<'_>, pivots: usize| {
         if settings.record_history {
             monitor.record(pivots, &red.impulse(&unscale(tab.z())));
+            monitor.record_active_set(pivots, || red.active_rows(&tab.basis));
         }
     };
 
@@ -691,7 +737,7 @@ mod tests {
     fn scale_invariant() {
         // A and b scaled independently by 1e-9 and 1e9: the solution scales by sb / sa.
         let g = generate(Family::Spd { cond: 1e3 }, 20, 4);
-        let (a0, b0) = (g.problem.a(), g.problem.b());
+        let (a0, b0) = (&g.problem.to_dense(), g.problem.b());
         for (sa, sb) in [(1e-9, 1e9), (1e9, 1e-9), (1e-9, 1e-9)] {
             let a = Mat::from_fn(20, 20, |i, j| sa * a0[(i, j)]);
             let b = b0.iter().map(|v| sb * v).collect();

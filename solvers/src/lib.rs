@@ -44,10 +44,10 @@ pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
 pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
 pub use lemke::Lemke;
-pub use metrics::{residuals, Residuals};
+pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
 pub use pgs::ProjectedSor;
-pub use problem::{FrictionRow, Problem, ProblemError};
+pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
 
 /// The solvers lcpbench ships, by name.

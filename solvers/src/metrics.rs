@@ -5,21 +5,45 @@
 //!
 //! * **natural-map residual** `r = ‖f − mid(lo, hi, f − w)‖∞`. It is zero exactly at a solution of
 //!   the boxed LCP (for the standard LCP it is `‖min(f, w)‖∞`).
-//! * **relative natural-map residual** `r_rel = ‖f − mid(lo, hi, f − D⁻¹ w)‖∞ / s` with
-//!   `D = diag(d)` the [diagonal scale](crate::Problem::diagonal_scale) (`d_i = A_ii`, guarded
-//!   away from zero) and `s = max(‖D⁻¹ b‖∞, β)`, where `β` is the largest finite magnitude among
-//!   the fixed bounds (`s = 1` when both are zero). `D⁻¹ b` is an impulse scale: the impulse that
-//!   would zero each row's velocity alone. Scaling `(A, b)` to `(σA, σb)` leaves `f`, `D⁻¹w` and
-//!   `D⁻¹b` unchanged, so `r_rel` is unchanged; scaling `b` alone by `σ` (with bounds `0`/`±∞`)
-//!   scales the solution, the numerator and `s` together, so `r_rel` is unchanged again. The scale
-//!   deliberately does not include `‖f‖`: a blown-up impulse must not make its own residual look
-//!   small. This is the number every tolerance refers to.
+//! * **relative natural-map residual**, the number every tolerance refers to:
+//!
+//!   ```text
+//!   r_rel = max_i  |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|  /  s_i,
+//!   s_i   = (|b_i| + Σ_j |A_ij f_j|) / d_i,
+//!   ```
+//!
+//!   with `d_i` the [diagonal scale](crate::Problem::diagonal_scale) (`A_ii` when positive, else the
+//!   row's largest magnitude), `0/0 = 0` and `x/0 = ∞` for `x > 0`. Each row is measured against *its own* scale:
+//!   `s_i` is built from the magnitudes of the terms that make up that row's `w_i / d_i`
+//!   (`b_i / d_i` and each `A_ij f_j / d_i`, the row's own `f_i` included), the componentwise
+//!   backward-error scale of Oettli and Prager. So:
+//!   - no other row can hide a row's error: a weak row (tiny `A_ii`), a huge finite bound or a
+//!     huge `b_k` elsewhere changes only that row's own scale (an earlier definition divided
+//!     every row by one global `max(‖D⁻¹b‖∞, largest bound)` and was fooled by exactly these);
+//!   - bounds do not enter `s_i`, so a huge finite bound cannot hide the error of its own row
+//!     either (an active bound enters through `|A_ii f_i| / d_i = |f_i|`);
+//!   - it is invariant under every positive diagonal scaling of rows and of columns
+//!     (`A → R A C`, `b → R b`, `f → C⁻¹ f`: row `i`'s numerator and `s_i` both scale by
+//!     `1 / c_i`), so under symmetric scaling over any number of decades, under `(A, b) → (σA, σb)`
+//!     and under `b → σb` for the standard LCP;
+//!   - a blown-up impulse cannot pass: a row's numerator is a step of the natural map, and a
+//!     diverging or wrong `f` makes that step as large as the terms it is measured against. When
+//!     `r_rel <= tol`, each row's natural-map step is at most `tol` times the magnitude of the
+//!     data that row's velocity is made of, the level of a relative perturbation `tol` of that
+//!     row of `A` and of `b_i` (the row's rounding error in computing `w_i` is about
+//!     `nnz_i · ε` in these units, so tolerances down to about `1e-13` are reachable);
+//!   - a row whose data all vanish at `f` (`b_i = 0` and every `A_ij f_j = 0`) has `s_i = 0`
+//!     and must be solved exactly (`f_i` inside its bounds), which every solver here does.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
 //! * **bound violation** `max_i max(lo_i − f_i, f_i − hi_i, 0)`.
 //!
-//! Any non-finite entry in `f` makes every measure `+∞`.
+//! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse, and
+//! any non-finite entry in `f` makes every measure `+∞`.
+//!
+//! Reference: W. Oettli, W. Prager, *Compatibility of approximate solution of linear equations
+//! with given error bounds for coefficients and right-hand sides*, Numer. Math. 6 (1964).
 
 use crate::problem::Problem;
 use serde::Serialize;
@@ -29,7 +53,7 @@ use serde::Serialize;
 pub struct Residuals {
     /// `‖f − mid(lo, hi, f − w)‖∞`.
     pub natural_map: f64,
-    /// The scale-invariant relative natural-map residual (see the module doc).
+    /// The relative natural-map residual with per-row scales (see the module doc).
     pub natural_map_rel: f64,
     /// `Σ (f − lo)⁺ w⁺ + (hi − f)⁺ w⁻` over finite bounds.
     pub complementarity_gap: f64,
@@ -45,6 +69,13 @@ impl Residuals {
         complementarity_gap: f64::INFINITY,
         bound_violation: f64::INFINITY,
     };
+
+    const ZERO: Self = Self {
+        natural_map: 0.0,
+        natural_map_rel: 0.0,
+        complementarity_gap: 0.0,
+        bound_violation: 0.0,
+    };
 }
 
 #[inline]
@@ -52,56 +83,92 @@ fn mid(lo: f64, hi: f64, x: f64) -> f64 {
     x.max(lo).min(hi)
 }
 
-/// Residuals of `f`, computing `w = A f + b` internally.
-pub fn residuals(problem: &Problem, f: &[f64]) -> Residuals {
-    if f.len() != problem.n() || f.iter().any(|v| !v.is_finite()) {
-        return Residuals::INFINITE;
-    }
-    let w = problem.velocity(f);
-    residuals_with_velocity(problem, f, &w, &problem.diagonal_scale())
+/// Row `i`'s relative natural-map error `|f_i − mid(lo_i, hi_i, f_i − w_i/d_i)| / s_i` given
+/// `w_i` and the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of the terms that make it up (see the
+/// module doc; [`crate::Row::dot_and_magnitude`] gives both). Sweeping solvers use it for their
+/// own stopping rules, so that they stop where the shared residual agrees.
+#[inline]
+pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i: f64) -> f64 {
+    let d = problem.diagonal_scale_of(i);
+    let (lo, hi) = problem.bounds_at(i, f);
+    let r = (f[i] - mid(lo, hi, f[i] - w_i / d)).abs();
+    relative(r, t_i / d)
 }
 
-/// The normalisation `s = max(‖D⁻¹ b‖∞, β)` of the relative residual (see the module doc), or 1
-/// when it is zero. `d` is the problem's [diagonal scale](Problem::diagonal_scale). Iterative
-/// solvers use it for their own stopping rules so that they stop where the shared residual agrees.
-pub fn residual_scale(problem: &Problem, d: &[f64]) -> f64 {
+#[inline]
+fn relative(r: f64, s: f64) -> f64 {
+    if r == 0.0 {
+        0.0
+    } else if s > 0.0 {
+        r / s
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Residuals of `f`, computing `w = A f + b` internally.
+pub fn residuals(problem: &Problem, f: &[f64]) -> Residuals {
+    let mut w = vec![0.0; problem.n()];
+    residuals_and_velocity(problem, f, &mut w)
+}
+
+/// Residuals of `f`, writing `w = A f + b` into `w` in the same pass over `A`.
+pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Residuals {
+    let n = problem.n();
+    if f.len() != n || w.len() != n || f.iter().any(|v| !v.is_finite()) {
+        w.iter_mut().for_each(|v| *v = f64::NAN);
+        return Residuals::INFINITE;
+    }
     let b = problem.b();
-    let s = (0..problem.n()).fold(problem.bound_scale(), |m, i| m.max((b[i] / d[i]).abs()));
+    let mut r = Residuals::ZERO;
+    for i in 0..n {
+        let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+        let wi = af + b[i];
+        w[i] = wi;
+        let d = problem.diagonal_scale_of(i);
+        let (lo, hi) = problem.bounds_at(i, f);
+        let fi = f[i];
+        r.natural_map = r.natural_map.max((fi - mid(lo, hi, fi - wi)).abs());
+        let step = (fi - mid(lo, hi, fi - wi / d)).abs();
+        r.natural_map_rel = r
+            .natural_map_rel
+            .max(relative(step, (b[i].abs() + magnitude) / d));
+        if lo.is_finite() {
+            r.complementarity_gap += (fi - lo).max(0.0) * wi.max(0.0);
+        }
+        if hi.is_finite() {
+            r.complementarity_gap += (hi - fi).max(0.0) * (-wi).max(0.0);
+        }
+        r.bound_violation = r.bound_violation.max(lo - fi).max(fi - hi);
+    }
+    if !w.iter().all(|v| v.is_finite()) {
+        return Residuals::INFINITE;
+    }
+    r
+}
+
+/// A global impulse scale `max(‖D⁻¹ b‖∞, largest finite fixed bound)` (1 when zero). It no
+/// longer defines the residual; pivoting solvers use it only to size their internal round-off
+/// tolerances.
+pub(crate) fn impulse_scale(problem: &Problem) -> f64 {
+    let b = problem.b();
+    let (lo, hi) = (problem.lo(), problem.hi());
+    let s = (0..problem.n()).fold(0.0f64, |m, i| {
+        let mut m = m.max((b[i] / problem.diagonal_scale_of(i)).abs());
+        if problem.friction_of(i).is_none() {
+            for v in [lo[i], hi[i]] {
+                if v.is_finite() {
+                    m = m.max(v.abs());
+                }
+            }
+        }
+        m
+    });
     if s > 0.0 {
         s
     } else {
         1.0
     }
-}
-
-/// Residuals of `f` given `w = A f + b` and the problem's diagonal scale (both precomputed).
-pub fn residuals_with_velocity(problem: &Problem, f: &[f64], w: &[f64], d: &[f64]) -> Residuals {
-    if f.iter().chain(w).any(|v| !v.is_finite()) {
-        return Residuals::INFINITE;
-    }
-    let mut r = Residuals {
-        natural_map: 0.0,
-        natural_map_rel: 0.0,
-        complementarity_gap: 0.0,
-        bound_violation: 0.0,
-    };
-    for i in 0..problem.n() {
-        let (lo, hi) = problem.bounds_at(i, f);
-        let fi = f[i];
-        r.natural_map = r.natural_map.max((fi - mid(lo, hi, fi - w[i])).abs());
-        r.natural_map_rel = r
-            .natural_map_rel
-            .max((fi - mid(lo, hi, fi - w[i] / d[i])).abs());
-        if lo.is_finite() {
-            r.complementarity_gap += (fi - lo).max(0.0) * w[i].max(0.0);
-        }
-        if hi.is_finite() {
-            r.complementarity_gap += (hi - fi).max(0.0) * (-w[i]).max(0.0);
-        }
-        r.bound_violation = r.bound_violation.max(lo - fi).max(fi - hi);
-    }
-    r.natural_map_rel /= residual_scale(problem, d);
-    r
 }
 
 #[cfg(test)]
@@ -150,5 +217,78 @@ mod tests {
         assert_eq!(r.bound_violation, 1.0);
         assert_eq!(r.complementarity_gap, 2.0);
         assert_eq!(r.natural_map, 2.0);
+    }
+
+    /// The attacks the per-row scale guards against: a weak row (tiny `A_ii`) and a huge finite
+    /// bound on an unrelated row must not hide the error of the other rows.
+    #[test]
+    fn no_row_hides_another_rows_error() {
+        let weak = Problem::lcp(
+            Mat::from_fn(3, 3, |i, j| {
+                [[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1e-9]][i][j]
+            }),
+            vec![-1.0, -1.0, 1.0],
+        )
+        .unwrap();
+        // f = 0 leaves rows 0 and 1 at w = -1: 100 % wrong.
+        assert!(residuals(&weak, &[0.0; 3]).natural_map_rel >= 0.5);
+        // f = (0.5, 0.25, 0): row 1 off by w_1 = 0.0 - ..., row 0's w_0 = 0.25.
+        assert!(residuals(&weak, &[0.5, 0.25, 0.0]).natural_map_rel > 0.1);
+        // The exact solution f = (1/3, 1/3, 0).
+        assert!(residuals(&weak, &[1.0 / 3.0, 1.0 / 3.0, 0.0]).natural_map_rel < 1e-15);
+
+        let huge_bound = Problem::boxed(
+            Mat::from_fn(3, 3, |i, j| {
+                [[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]][i][j]
+            }),
+            vec![-1.0, -1.0, 1.0],
+            vec![0.0, 0.0, -1e12],
+            vec![f64::INFINITY, f64::INFINITY, 1e12],
+            vec![],
+        )
+        .unwrap();
+        assert!(residuals(&huge_bound, &[0.0; 3]).natural_map_rel >= 0.5);
+        // Row 2's own error is not hidden by its own huge bound either (solution f_2 = -1).
+        let r = residuals(&huge_bound, &[1.0 / 3.0, 1.0 / 3.0, 0.0]).natural_map_rel;
+        assert!(r >= 0.5, "{r}");
+    }
+
+    /// Invariance under independent positive row and column scalings `A → R A C`, `b → R b`,
+    /// `f → C⁻¹ f`, over 24 decades.
+    #[test]
+    fn relative_residual_is_invariant_under_row_and_column_scaling() {
+        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, -1.0], [0.5, -1.0, 2.0]];
+        let b = [-1.0, 0.5, -2.0];
+        let f = [0.3, 0.0, 1.1];
+        let p = Problem::lcp(Mat::from_fn(3, 3, |i, j| a[i][j]), b.to_vec()).unwrap();
+        let r0 = residuals(&p, &f).natural_map_rel;
+        assert!(r0 > 0.0);
+        let (rs, cs) = ([1e12, 1e-12, 3.0], [1e-9, 7.0, 1e11]);
+        let q = Problem::lcp(
+            Mat::from_fn(3, 3, |i, j| rs[i] * a[i][j] * cs[j]),
+            (0..3).map(|i| rs[i] * b[i]).collect(),
+        )
+        .unwrap();
+        let g: Vec<f64> = (0..3).map(|j| f[j] / cs[j]).collect();
+        let r1 = residuals(&q, &g).natural_map_rel;
+        assert!((r1 - r0).abs() <= 1e-12 * r0, "{r0} vs {r1}");
+    }
+
+    #[test]
+    fn sparse_and_dense_residuals_agree() {
+        let a = [[4.0, 1.0, 0.0], [1.0, 3.0, 0.0], [0.0, 0.0, 2.0]];
+        let dense =
+            Problem::lcp(Mat::from_fn(3, 3, |i, j| a[i][j]), vec![-1.0, 0.5, -2.0]).unwrap();
+        let triplets: Vec<_> = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j, a[i][j])))
+            .filter(|t| t.2 != 0.0)
+            .collect();
+        let sparse = Problem::lcp_sparse(
+            crate::problem::sparse_from_triplets(3, &triplets).unwrap(),
+            vec![-1.0, 0.5, -2.0],
+        )
+        .unwrap();
+        let f = [0.2, 0.1, 0.7];
+        assert_eq!(residuals(&dense, &f), residuals(&sparse, &f));
     }
 }

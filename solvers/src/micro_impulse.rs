@@ -35,16 +35,23 @@
 //!   (not a Delassus matrix) one push can drive other rows ever deeper, and the impulses may grow
 //!   by orders of magnitude before every row separates (`Stalled`); a non-finite impulse ends the
 //!   solve as `NumericalFailure`.
-//! * **Cost**: `O(n)` per impulse (an arg-max over the rows plus one column of `A`), so `O(n²)`
-//!   per sweep-equivalent, as a PGS sweep.
+//! * **Row choice**: the row whose actionable step is largest *relative to that row's own scale*
+//!   (the per-row scale of the shared residual, [`crate::metrics`]), so the choice does not
+//!   depend on how rows are scaled.
+//! * **Cost**: `O(n)` per impulse for the arg-max over the rows plus one column of `A`
+//!   (`O(nnz of the column)` when `A` is sparse, through a column-major copy made once), so
+//!   `O(n²)` per sweep-equivalent.
 //! * **Iterations**: [`Settings::max_iterations`] counts *sweep-equivalents* of `n` single
 //!   impulses; the reported iteration count is the number of impulses divided by `n`, rounded up,
 //!   and the history has one point per sweep-equivalent (plus the final partial one).
 //! * **Zero or tiny diagonals**: a row with `A_ii <= diagonal_floor · max|A|` is never divided by
 //!   and never receives an impulse; if that leaves it violated, the shared residual shows it.
-//! * **Stopping rule**: no row has an actionable step above `tolerance · s`, with
-//!   `s = max(‖f‖∞, ‖D⁻¹ b‖∞)` (`1` if both vanish) as in PGS. Before stopping, `w` is recomputed
-//!   from scratch so rounding drift in the incremental updates cannot end the solve early.
+//! * **Stopping rule**: no row has an actionable step above `tolerance` times that row's own
+//!   scale `(|b_i| + Σ_j |A_ij f_j|) / d_i`, the per-row scale of the shared residual (kept up to
+//!   date incrementally with `w`). Before stopping, `w` and the scales are recomputed from
+//!   scratch so rounding drift in the incremental updates cannot end the solve early. An
+//!   actionable step that is zero while the row is violated (a normal row that over-shot) is
+//!   left to the shared residual, which reports it.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds. A warm start that
 //!   is too large on a normal row is never reduced.
 //!
@@ -52,9 +59,10 @@
 //! University of California, Berkeley, 1996, ch. 4; B. Mirtich and J. Canny, *Impulse-based
 //! simulation of rigid bodies*, Proc. Symposium on Interactive 3D Graphics, 1995.
 
-use crate::metrics::residual_scale;
 use crate::problem::Problem;
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use faer::sparse::SparseColMat;
+use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
@@ -89,6 +97,51 @@ fn actionable_step(problem: &Problem, i: usize, f: &[f64], w: &[f64], d: &[f64])
     }
 }
 
+/// Recompute `w = A f + b` and each row's scale `(|b_i| + Σ_j |A_ij f_j|) / d_i`.
+fn refresh(problem: &Problem, f: &[f64], d: &[f64], w: &mut [f64], scale: &mut [f64]) {
+    let b = problem.b();
+    for i in 0..problem.n() {
+        let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+        w[i] = af + b[i];
+        scale[i] = (magnitude + b[i].abs()) / d[i];
+    }
+}
+
+/// Column access to `A`: the dense matrix (column-major already) or a column-major copy of a
+/// sparse one.
+enum Columns<'a> {
+    Dense(&'a Mat<f64>),
+    Sparse(SparseColMat<usize, f64>),
+}
+
+impl<'a> Columns<'a> {
+    fn of(problem: &'a Problem) -> Self {
+        match problem.dense() {
+            Some(a) => Columns::Dense(a),
+            None => Columns::Sparse(problem.to_csc()),
+        }
+    }
+
+    /// Calls `visit(j, A_ji)` for the stored entries of column `i`.
+    #[inline]
+    fn for_each(&self, i: usize, mut visit: impl FnMut(usize, f64)) {
+        match self {
+            Columns::Dense(a) => {
+                for (j, &v) in a.col_as_slice(i).iter().enumerate() {
+                    visit(j, v);
+                }
+            }
+            Columns::Sparse(a) => {
+                let sym = a.symbolic();
+                let range = sym.col_ptr()[i]..sym.col_ptr()[i + 1];
+                for (&j, &v) in sym.row_idx()[range.clone()].iter().zip(&a.val()[range]) {
+                    visit(j, v);
+                }
+            }
+        }
+    }
+}
+
 impl Solver for MicroImpulse {
     fn name(&self) -> &'static str {
         "micro"
@@ -97,27 +150,30 @@ impl Solver for MicroImpulse {
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
-        let a = problem.a();
+        let columns = Columns::of(problem);
         let amax = problem.max_abs_entry();
         let active: Vec<usize> = (0..n)
-            .filter(|&i| a[(i, i)] > self.diagonal_floor * amax)
+            .filter(|&i| problem.diagonal(i) > self.diagonal_floor * amax)
             .collect();
         let d = problem.diagonal_scale();
-        let scale = residual_scale(problem, &d);
         let mut f = initial_impulse(problem, settings);
-        let mut w = problem.velocity(&f);
+        let (mut w, mut scale) = (vec![0.0; n], vec![0.0; n]);
+        refresh(problem, &f, &d, &mut w, &mut scale);
         let tol = settings.tolerance;
         let cap = settings.max_iterations.saturating_mul(n);
         let mut impulses: usize = 0;
         let mut refreshed = false;
         let outcome = loop {
-            // Pick the row with the largest actionable step.
+            // Pick the row with the largest actionable step relative to its own scale.
             let mut best = None;
+            let mut best_rel = 0.0_f64;
             let mut best_step = 0.0_f64;
             for &i in &active {
                 let s = actionable_step(problem, i, &f, &w, &d);
-                if s.abs() > best_step.abs() || s.is_nan() {
+                let rel = if s == 0.0 { 0.0 } else { s.abs() / scale[i] };
+                if rel > best_rel || s.is_nan() {
                     best = Some(i);
+                    best_rel = rel;
                     best_step = s;
                 }
             }
@@ -127,13 +183,13 @@ impl Solver for MicroImpulse {
                 ));
             }
             let row = match best {
-                Some(i) if best_step.abs() > tol * scale => i,
+                Some(i) if best_rel > tol => i,
                 _ => {
                     if refreshed {
                         break Outcome::Stopped;
                     }
                     // Recompute w to rule out drift in the incremental updates, then re-check.
-                    w = problem.velocity(&f);
+                    refresh(problem, &f, &d, &mut w, &mut scale);
                     refreshed = true;
                     continue;
                 }
@@ -145,10 +201,13 @@ impl Solver for MicroImpulse {
             if impulses.is_multiple_of(n) && monitor.out_of_time() {
                 break Outcome::TimeLimit;
             }
+            let old = f[row];
             f[row] += best_step;
-            for (wj, aji) in w.iter_mut().zip(a.col_as_slice(row)) {
-                *wj += aji * best_step;
-            }
+            let grow = f[row].abs() - old.abs();
+            columns.for_each(row, |j, aji| {
+                w[j] += aji * best_step;
+                scale[j] = (scale[j] + aji.abs() * grow / d[j]).max(0.0);
+            });
             impulses += 1;
             if impulses.is_multiple_of(n) {
                 monitor.record(impulses / n, &f);

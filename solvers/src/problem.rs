@@ -12,7 +12,9 @@
 //! normal row `k` and a coefficient `mu`; its bounds are `[-mu f_k, mu f_k]`, evaluated at the
 //! current `f` (ODE's and Bullet's `findex`). Its stored `lo`/`hi` are ignored.
 
+use faer::sparse::{SparseColMat, SparseRowMat, Triplet};
 use faer::Mat;
+use std::sync::Arc;
 use thiserror::Error;
 
 /// A friction row: row `row` is bounded by `±mu · f[normal]`.
@@ -104,6 +106,32 @@ pub enum ProblemError {
         /// Row index.
         row: usize,
     },
+    /// A sparse row whose column indices are not strictly increasing.
+    #[error("sparse row {row}: column indices must be strictly increasing")]
+    UnsortedSparseRow {
+        /// Row index.
+        row: usize,
+    },
+    /// A sparse triplet outside the matrix.
+    #[error("triplet {entry}: ({row}, {col}) is outside the {n}×{n} matrix")]
+    TripletOutOfRange {
+        /// Index of the triplet.
+        entry: usize,
+        /// Row index.
+        row: usize,
+        /// Column index.
+        col: usize,
+        /// Matrix size.
+        n: usize,
+    },
+    /// A dense form was asked of a problem above the stated size limit.
+    #[error("{n} rows exceed the dense limit of {limit} rows (a dense A would need {} MB)", (*n as f64).powi(2) * 8.0 / 1e6)]
+    TooLarge {
+        /// Rows.
+        n: usize,
+        /// The limit.
+        limit: usize,
+    },
     /// A negative or non-finite friction coefficient.
     #[error("friction entry {entry}: mu = {mu} must be finite and >= 0")]
     FrictionCoefficient {
@@ -114,20 +142,111 @@ pub enum ProblemError {
     },
 }
 
-/// A validated LCP or boxed LCP. Construct with [`Problem::lcp`] or [`Problem::boxed`].
+/// How `A` is stored. Dense storage keeps a row-major copy for row dot products; sparse storage
+/// is faer's compressed sparse row form (column indices sorted within each row, no duplicates).
+#[derive(Debug, Clone)]
+enum Storage {
+    Dense { a: Mat<f64>, rows: Vec<f64> },
+    Sparse(SparseRowMat<usize, f64>),
+}
+
+/// One row of `A`: a dense slice, or the column indices and values of its nonzeros.
+#[derive(Debug, Clone, Copy)]
+pub enum Row<'a> {
+    /// All `n` entries.
+    Dense(&'a [f64]),
+    /// The nonzeros: `values[k]` sits in column `cols[k]`, columns increasing.
+    Sparse {
+        /// Column indices, increasing.
+        cols: &'a [usize],
+        /// Values.
+        values: &'a [f64],
+    },
+}
+
+impl<'a> Row<'a> {
+    /// `A_i · x`.
+    #[inline]
+    pub fn dot(&self, x: &[f64]) -> f64 {
+        match *self {
+            Row::Dense(row) => dot(row, x),
+            Row::Sparse { cols, values } => cols.iter().zip(values).map(|(&j, v)| v * x[j]).sum(),
+        }
+    }
+
+    /// `(A_i · x, Σ_j |A_ij x_j|)` in one pass: the row's velocity term and the magnitude of the
+    /// terms that make it up (the per-row scale of the relative residual).
+    #[inline]
+    pub fn dot_and_magnitude(&self, x: &[f64]) -> (f64, f64) {
+        let (mut s, mut m) = (0.0, 0.0);
+        match *self {
+            Row::Dense(row) => {
+                for (a, xj) in row.iter().zip(x) {
+                    let t = a * xj;
+                    s += t;
+                    m += t.abs();
+                }
+            }
+            Row::Sparse { cols, values } => {
+                for (&j, a) in cols.iter().zip(values) {
+                    let t = a * x[j];
+                    s += t;
+                    m += t.abs();
+                }
+            }
+        }
+        (s, m)
+    }
+
+    /// The stored entries as `(column, value)`; a dense row yields every column, zeros included.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, f64)> + 'a {
+        let (dense, cols, values): (&'a [f64], &'a [usize], &'a [f64]) = match *self {
+            Row::Dense(row) => (row, &[], &[]),
+            Row::Sparse { cols, values } => (&[], cols, values),
+        };
+        dense
+            .iter()
+            .copied()
+            .enumerate()
+            .chain(cols.iter().copied().zip(values.iter().copied()))
+    }
+
+    /// Number of stored entries.
+    pub fn len(&self) -> usize {
+        match *self {
+            Row::Dense(row) => row.len(),
+            Row::Sparse { cols, .. } => cols.len(),
+        }
+    }
+
+    /// True when the row stores no entry.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A validated LCP or boxed LCP. Construct with [`Problem::lcp`] or [`Problem::boxed`] (dense
+/// `A`) or [`Problem::lcp_sparse`] / [`Problem::boxed_sparse`] (sparse `A`). Every solver
+/// accepts both forms; see [`Problem::row`] for row access and [`Problem::islands`] for the
+/// independent sub-problems.
 #[derive(Debug, Clone)]
 pub struct Problem {
     name: Option<String>,
-    a: Mat<f64>,
-    /// Row-major copy of `A` for row dot products in sweeping solvers.
-    a_rows: Vec<f64>,
+    storage: Storage,
+    /// `A_ii`.
+    diag: Vec<f64>,
+    max_abs: f64,
     b: Vec<f64>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     friction: Vec<FrictionRow>,
     /// Per row: `Some((normal, mu))` for a friction row.
     friction_of: Vec<Option<(usize, f64)>>,
+    factors: Option<Arc<DelassusFactors>>,
 }
+
+/// Below this many rows, [`Problem::restrict`] stores a sub-problem densely.
+const DENSE_SUBPROBLEM_ROWS: usize = 48;
 
 impl Problem {
     /// A standard LCP `0 <= f ⟂ A f + b >= 0`.
@@ -149,15 +268,7 @@ impl Problem {
             return Err(ProblemError::NotSquare { rows, cols });
         }
         let n = rows;
-        for (what, len) in [("b", b.len()), ("lo", lo.len()), ("hi", hi.len())] {
-            if len != n {
-                return Err(ProblemError::DimensionMismatch {
-                    what,
-                    expected: n,
-                    found: len,
-                });
-            }
-        }
+        let mut row_major = vec![0.0; n * n];
         for j in 0..n {
             for i in 0..n {
                 let v = a[(i, j)];
@@ -167,46 +278,91 @@ impl Problem {
                         value: v,
                     });
                 }
+                row_major[i * n + j] = v;
             }
         }
-        for (i, &v) in b.iter().enumerate() {
-            if !v.is_finite() {
-                return Err(ProblemError::NonFinite {
-                    what: format!("b[{i}]"),
-                    value: v,
+        let diag = (0..n).map(|i| row_major[i * n + i]).collect();
+        let max_abs = row_major.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        let storage = Storage::Dense { a, rows: row_major };
+        Self::assemble(storage, diag, max_abs, b, lo, hi, friction)
+    }
+
+    /// A standard LCP with sparse `A`.
+    pub fn lcp_sparse(a: SparseRowMat<usize, f64>, b: Vec<f64>) -> Result<Self, ProblemError> {
+        let n = b.len();
+        Self::boxed_sparse(a, b, vec![0.0; n], vec![f64::INFINITY; n], Vec::new())
+    }
+
+    /// A boxed LCP with sparse `A` (faer's compressed sparse rows; build one from triplets with
+    /// [`sparse_from_triplets`]).
+    pub fn boxed_sparse(
+        a: SparseRowMat<usize, f64>,
+        b: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+        friction: Vec<FrictionRow>,
+    ) -> Result<Self, ProblemError> {
+        let (rows, cols) = (a.nrows(), a.ncols());
+        if rows != cols {
+            return Err(ProblemError::NotSquare { rows, cols });
+        }
+        let n = rows;
+        let mut diag = vec![0.0; n];
+        let mut max_abs: f64 = 0.0;
+        {
+            let sym = a.symbolic();
+            let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), a.val());
+            for i in 0..n {
+                let mut last = None;
+                for k in ptr[i]..ptr[i + 1] {
+                    let (j, v) = (idx[k], val[k]);
+                    if !v.is_finite() {
+                        return Err(ProblemError::NonFinite {
+                            what: format!("A[{i}][{j}]"),
+                            value: v,
+                        });
+                    }
+                    if last.is_some_and(|l| l >= j) {
+                        return Err(ProblemError::UnsortedSparseRow { row: i });
+                    }
+                    last = Some(j);
+                    if i == j {
+                        diag[i] = v;
+                    }
+                    max_abs = max_abs.max(v.abs());
+                }
+            }
+        }
+        Self::assemble(Storage::Sparse(a), diag, max_abs, b, lo, hi, friction)
+    }
+
+    /// Validation shared by the dense and sparse constructors (`A` itself is already checked).
+    fn assemble(
+        storage: Storage,
+        diag: Vec<f64>,
+        max_abs: f64,
+        b: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+        mut friction: Vec<FrictionRow>,
+    ) -> Result<Self, ProblemError> {
+        let n = diag.len();
+        for (what, len) in [("b", b.len()), ("lo", lo.len()), ("hi", hi.len())] {
+            if len != n {
+                return Err(ProblemError::DimensionMismatch {
+                    what,
+                    expected: n,
+                    found: len,
                 });
             }
         }
-        let mut friction_of = vec![None; n];
-        for (entry, fr) in friction.iter().enumerate() {
-            if fr.row >= n || fr.normal >= n {
-                return Err(ProblemError::FrictionOutOfRange {
-                    entry,
-                    row: fr.row,
-                    normal: fr.normal,
-                    n,
-                });
-            }
-            if fr.row == fr.normal {
-                return Err(ProblemError::FrictionSelf { entry, row: fr.row });
-            }
-            if !(fr.mu.is_finite() && fr.mu >= 0.0) {
-                return Err(ProblemError::FrictionCoefficient { entry, mu: fr.mu });
-            }
-            if friction_of[fr.row].is_some() {
-                return Err(ProblemError::FrictionDuplicate { entry, row: fr.row });
-            }
-            friction_of[fr.row] = Some((fr.normal, fr.mu));
+        if let Some(i) = b.iter().position(|v| !v.is_finite()) {
+            return Err(ProblemError::NonFinite {
+                what: format!("b[{i}]"),
+                value: b[i],
+            });
         }
-        for (entry, fr) in friction.iter().enumerate() {
-            if friction_of[fr.normal].is_some() {
-                return Err(ProblemError::FrictionChain {
-                    entry,
-                    row: fr.row,
-                    normal: fr.normal,
-                });
-            }
-        }
+        let friction_of = validate_friction(&friction, n)?;
         for i in 0..n {
             if friction_of[i].is_some() {
                 continue;
@@ -220,23 +376,20 @@ impl Problem {
                 });
             }
         }
-        let mut friction = friction;
-        friction.sort_by_key(|fr| fr.row);
-        let mut a_rows = vec![0.0; n * n];
-        for i in 0..n {
-            for j in 0..n {
-                a_rows[i * n + j] = a[(i, j)];
-            }
+        if !friction.is_sorted_by_key(|fr| fr.row) {
+            friction.sort_by_key(|fr| fr.row);
         }
         Ok(Self {
             name: None,
-            a,
-            a_rows,
+            storage,
+            diag,
+            max_abs,
             b,
             lo,
             hi,
             friction,
             friction_of,
+            factors: None,
         })
     }
 
@@ -246,25 +399,148 @@ impl Problem {
         self
     }
 
+    /// Attach the factors `A = J M⁻¹ Jᵀ` for solvers that work matrix-free. They must describe
+    /// the same `A` (the builder guarantees it; the dimensions are checked here).
+    pub fn with_factors(mut self, factors: DelassusFactors) -> Result<Self, ProblemError> {
+        if factors.rows() != self.n() {
+            return Err(ProblemError::DimensionMismatch {
+                what: "the Jacobian's rows",
+                expected: self.n(),
+                found: factors.rows(),
+            });
+        }
+        self.factors = Some(Arc::new(factors));
+        Ok(self)
+    }
+
+    /// The factors `J`, `M⁻¹` of `A`, when the problem came from a contact scene.
+    pub fn factors(&self) -> Option<&DelassusFactors> {
+        self.factors.as_deref()
+    }
+
     /// The problem's name, if any.
     pub fn name(&self) -> Option<&str> {
         self.name.as_deref()
     }
 
     /// Number of rows (unknowns).
+    #[inline]
     pub fn n(&self) -> usize {
         self.b.len()
     }
 
-    /// The Delassus matrix `A`.
-    pub fn a(&self) -> &Mat<f64> {
-        &self.a
+    /// True when `A` is stored sparse.
+    pub fn is_sparse(&self) -> bool {
+        matches!(self.storage, Storage::Sparse(_))
     }
 
-    /// Row `i` of `A`, contiguous.
-    pub fn a_row(&self, i: usize) -> &[f64] {
+    /// Stored entries of `A` (`n²` when dense).
+    pub fn nnz(&self) -> usize {
+        match &self.storage {
+            Storage::Dense { rows, .. } => rows.len(),
+            Storage::Sparse(a) => a.val().len(),
+        }
+    }
+
+    /// Row `i` of `A`.
+    #[inline]
+    pub fn row(&self, i: usize) -> Row<'_> {
+        match &self.storage {
+            Storage::Dense { rows, .. } => {
+                let n = self.n();
+                Row::Dense(&rows[i * n..(i + 1) * n])
+            }
+            Storage::Sparse(a) => {
+                let sym = a.symbolic();
+                let range = sym.row_ptr()[i]..sym.row_ptr()[i + 1];
+                Row::Sparse {
+                    cols: &sym.col_idx()[range.clone()],
+                    values: &a.val()[range],
+                }
+            }
+        }
+    }
+
+    /// `A_ij` (a binary search in the row when sparse).
+    pub fn entry(&self, i: usize, j: usize) -> f64 {
+        match self.row(i) {
+            Row::Dense(row) => row[j],
+            Row::Sparse { cols, values } => cols.binary_search(&j).map_or(0.0, |k| values[k]),
+        }
+    }
+
+    /// `A_ii`.
+    #[inline]
+    pub fn diagonal(&self, i: usize) -> f64 {
+        self.diag[i]
+    }
+
+    /// The dense `A`, when it is stored dense.
+    pub fn dense(&self) -> Option<&Mat<f64>> {
+        match &self.storage {
+            Storage::Dense { a, .. } => Some(a),
+            Storage::Sparse(_) => None,
+        }
+    }
+
+    /// `A` as a dense matrix (a copy; sparse storage is expanded). Check the size first with
+    /// [`Problem::dense_within`] where `n` may be large.
+    pub fn to_dense(&self) -> Mat<f64> {
+        match &self.storage {
+            Storage::Dense { a, .. } => a.clone(),
+            Storage::Sparse(a) => a.to_dense(),
+        }
+    }
+
+    /// `A` as a dense matrix if `n <= limit`, otherwise an error that states the limit: the
+    /// guard every densifying solver uses instead of an out-of-memory abort.
+    pub fn dense_within(
+        &self,
+        limit: usize,
+    ) -> Result<std::borrow::Cow<'_, Mat<f64>>, ProblemError> {
+        if self.n() > limit {
+            return Err(ProblemError::TooLarge { n: self.n(), limit });
+        }
+        Ok(match &self.storage {
+            Storage::Dense { a, .. } => std::borrow::Cow::Borrowed(a),
+            Storage::Sparse(a) => std::borrow::Cow::Owned(a.to_dense()),
+        })
+    }
+
+    /// `A` in compressed sparse columns (faer), for sparse factorisations.
+    pub fn to_csc(&self) -> SparseColMat<usize, f64> {
         let n = self.n();
-        &self.a_rows[i * n..(i + 1) * n]
+        let mut triplets = Vec::with_capacity(self.nnz());
+        for i in 0..n {
+            for (j, v) in self.row(i).iter() {
+                if v != 0.0 || i == j {
+                    triplets.push(Triplet::new(i, j, v));
+                }
+            }
+        }
+        SparseColMat::try_new_from_triplets(n, n, &triplets)
+            .expect("indices of a valid problem are in range")
+    }
+
+    /// `A` in compressed sparse rows: the stored matrix when sparse, the nonzeros (and the
+    /// diagonal) of the dense one otherwise.
+    pub fn to_sparse(&self) -> SparseRowMat<usize, f64> {
+        match &self.storage {
+            Storage::Sparse(a) => a.clone(),
+            Storage::Dense { .. } => {
+                let n = self.n();
+                let mut triplets = Vec::new();
+                for i in 0..n {
+                    for (j, v) in self.row(i).iter() {
+                        if v != 0.0 || i == j {
+                            triplets.push(Triplet::new(i, j, v));
+                        }
+                    }
+                }
+                SparseRowMat::try_new_from_triplets(n, n, &triplets)
+                    .expect("indices of a valid problem are in range")
+            }
+        }
     }
 
     /// The constant term `b`.
@@ -288,6 +564,7 @@ impl Problem {
     }
 
     /// `Some((normal, mu))` when row `i` is a friction row.
+    #[inline]
     pub fn friction_of(&self, i: usize) -> Option<(usize, f64)> {
         self.friction_of[i]
     }
@@ -301,14 +578,19 @@ impl Problem {
 
     /// True when `A` is symmetric to a relative tolerance `rel_tol` of its largest entry.
     pub fn is_symmetric(&self, rel_tol: f64) -> bool {
-        let n = self.n();
-        let tol = rel_tol * self.max_abs_entry().max(f64::MIN_POSITIVE);
-        (0..n).all(|i| (0..i).all(|j| (self.a[(i, j)] - self.a[(j, i)]).abs() <= tol))
+        let tol = rel_tol * self.max_abs.max(f64::MIN_POSITIVE);
+        // Every stored entry against its mirror (a missing mirror reads 0), so an entry of a
+        // sparse A without a partner counts too.
+        (0..self.n()).all(|i| {
+            self.row(i)
+                .iter()
+                .all(|(j, v)| j == i || (v - self.entry(j, i)).abs() <= tol)
+        })
     }
 
     /// Largest absolute entry of `A`.
     pub fn max_abs_entry(&self) -> f64 {
-        self.a_rows.iter().fold(0.0, |m, v| m.max(v.abs()))
+        self.max_abs
     }
 
     /// Bounds of row `i` at the impulse `f`: the stored bounds, or `±mu · max(f[normal], 0)` for a
@@ -324,40 +606,163 @@ impl Problem {
         }
     }
 
-    /// Largest finite magnitude among the stored bounds of non-friction rows (0 if none): the
-    /// impulse scale that fixed bounds impose, used by the relative residual.
-    pub fn bound_scale(&self) -> f64 {
-        (0..self.n())
-            .filter(|&i| self.friction_of[i].is_none())
-            .flat_map(|i| [self.lo[i], self.hi[i]])
-            .filter(|v| v.is_finite())
-            .fold(0.0, |m, v| m.max(v.abs()))
-    }
-
     /// `w = A f + b`.
     pub fn velocity(&self, f: &[f64]) -> Vec<f64> {
-        (0..self.n())
-            .map(|i| dot(self.a_row(i), f) + self.b[i])
-            .collect()
+        let mut w = vec![0.0; self.n()];
+        self.velocity_into(f, &mut w);
+        w
     }
 
-    /// Diagonal scaling used by the relative residual and by sweeping solvers: `d_i = A_ii` when
-    /// `A_ii > 1e-12 · max|A|`, otherwise `max|A|` (or 1 when `A = 0`). Never zero.
+    /// `w = A f + b` into a caller's buffer (no allocation).
+    pub fn velocity_into(&self, f: &[f64], w: &mut [f64]) {
+        for (i, wi) in w.iter_mut().enumerate() {
+            *wi = self.row(i).dot(f) + self.b[i];
+        }
+    }
+
+    /// Diagonal scaling used by the relative residual, by sweeping solvers and for
+    /// equilibration: `d_i = A_ii` when `A_ii > 0`; otherwise the largest magnitude in row `i`
+    /// (or 1 when the row is zero). Never zero. A positive diagonal is used as it is, however
+    /// small, so that `d` follows every diagonal scaling of the problem.
     pub fn diagonal_scale(&self) -> Vec<f64> {
-        let amax = self.max_abs_entry();
-        let floor = 1e-12 * amax;
-        (0..self.n())
-            .map(|i| {
-                let d = self.a[(i, i)];
-                if d > floor && d > 0.0 {
-                    d
-                } else if amax > 0.0 {
-                    amax
-                } else {
-                    1.0
+        (0..self.n()).map(|i| self.diagonal_scale_of(i)).collect()
+    }
+
+    /// Row `i`'s entry of [`Problem::diagonal_scale`].
+    #[inline]
+    pub fn diagonal_scale_of(&self, i: usize) -> f64 {
+        let d = self.diag[i];
+        if d > 0.0 {
+            return d;
+        }
+        let row_max = self.row(i).iter().fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+        if row_max > 0.0 {
+            row_max
+        } else {
+            1.0
+        }
+    }
+
+    /// The independent sub-problems: rows grouped so that no nonzero of `A` and no friction row
+    /// links two groups (union–find over the nonzeros, `O(nnz)`). Each group's rows are
+    /// increasing; groups are ordered by their first row. A dense `A` with no zero off-diagonal
+    /// entries is one group.
+    pub fn islands(&self) -> Vec<Vec<usize>> {
+        let n = self.n();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(parent: &mut [usize], mut x: usize) -> usize {
+            while parent[x] != x {
+                parent[x] = parent[parent[x]];
+                x = parent[x];
+            }
+            x
+        }
+        let union = |parent: &mut Vec<usize>, a: usize, b: usize| {
+            let (ra, rb) = (find(parent, a), find(parent, b));
+            if ra != rb {
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        };
+        for i in 0..n {
+            for (j, v) in self.row(i).iter() {
+                if v != 0.0 && j != i {
+                    union(&mut parent, i, j);
                 }
-            })
-            .collect()
+            }
+            if let Some((k, _)) = self.friction_of[i] {
+                union(&mut parent, i, k);
+            }
+        }
+        let mut group_of = vec![usize::MAX; n];
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        for i in 0..n {
+            let r = find(&mut parent, i);
+            if group_of[r] == usize::MAX {
+                group_of[r] = groups.len();
+                groups.push(Vec::new());
+            }
+            groups[group_of[r]].push(i);
+        }
+        groups
+    }
+
+    /// The sub-problem on `rows` (increasing, and holding the normal row of every friction row
+    /// among them, as each island of [`Problem::islands`] does). Small sub-problems are stored
+    /// dense, larger ones keep the storage of `self`.
+    pub fn restrict(&self, rows: &[usize]) -> Result<Self, ProblemError> {
+        let n = self.n();
+        let m = rows.len();
+        let mut local = vec![usize::MAX; n];
+        for (k, &i) in rows.iter().enumerate() {
+            if i >= n {
+                return Err(ProblemError::DimensionMismatch {
+                    what: "a restricted row index",
+                    expected: n,
+                    found: i,
+                });
+            }
+            local[i] = k;
+        }
+        let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let mut friction = Vec::new();
+        for &i in rows {
+            if let Some((k, mu)) = self.friction_of[i] {
+                friction.push(FrictionRow {
+                    row: local[i],
+                    normal: local[k],
+                    mu,
+                });
+            }
+        }
+        let mut triplets = Vec::new();
+        for (r, &i) in rows.iter().enumerate() {
+            for (j, v) in self.row(i).iter() {
+                if local[j] != usize::MAX && (v != 0.0 || i == j) {
+                    triplets.push(Triplet::new(r, local[j], v));
+                }
+            }
+        }
+        let (b, lo, hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
+        let mut p = if m <= DENSE_SUBPROBLEM_ROWS || !self.is_sparse() {
+            let mut a = Mat::zeros(m, m);
+            for t in &triplets {
+                a[(t.row, t.col)] = t.val;
+            }
+            Self::boxed(a, b, lo, hi, friction)?
+        } else {
+            let a = SparseRowMat::try_new_from_triplets(m, m, &triplets)
+                .map_err(|_| ProblemError::UnsortedSparseRow { row: 0 })?;
+            Self::boxed_sparse(a, b, lo, hi, friction)?
+        };
+        p.name = self.name.clone();
+        Ok(p)
+    }
+
+    /// The sub-problem on `rows` stored dense (for solvers that factorise; the caller bounds
+    /// the size).
+    pub(crate) fn restrict_dense(&self, rows: &[usize]) -> Result<Self, ProblemError> {
+        let p = self.restrict(rows)?;
+        if !p.is_sparse() {
+            return Ok(p);
+        }
+        let mut dense = Self::boxed(
+            p.to_dense(),
+            p.b.clone(),
+            p.lo.clone(),
+            p.hi.clone(),
+            p.friction.clone(),
+        )?;
+        dense.name = p.name;
+        Ok(dense)
+    }
+
+    /// Row `i` of a dense `A` as a slice. Only for solvers that work on dense islands
+    /// ([`crate::solver::solve_by_islands`] hands them dense problems).
+    pub(crate) fn dense_row(&self, i: usize) -> &[f64] {
+        match self.row(i) {
+            Row::Dense(row) => row,
+            Row::Sparse { .. } => unreachable!("dense_row on a sparse problem"),
+        }
     }
 
     /// A copy with rows and columns permuted: new row `k` is old row `perm[k]`.
@@ -368,7 +773,6 @@ impl Problem {
         for (k, &p) in perm.iter().enumerate() {
             inv[p] = k;
         }
-        let a = Mat::from_fn(n, n, |i, j| self.a[(perm[i], perm[j])]);
         let pick = |v: &[f64]| perm.iter().map(|&p| v[p]).collect::<Vec<_>>();
         let friction = self
             .friction
@@ -379,10 +783,225 @@ impl Problem {
                 mu: fr.mu,
             })
             .collect();
-        let mut p = Self::boxed(a, pick(&self.b), pick(&self.lo), pick(&self.hi), friction)
-            .expect("a permutation of a valid problem is valid");
+        let (b, lo, hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
+        let mut p = match &self.storage {
+            Storage::Dense { a, .. } => {
+                let a = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
+                Self::boxed(a, b, lo, hi, friction)
+            }
+            Storage::Sparse(_) => {
+                let mut triplets = Vec::with_capacity(self.nnz());
+                for (k, &p) in perm.iter().enumerate() {
+                    for (j, v) in self.row(p).iter() {
+                        triplets.push(Triplet::new(k, inv[j], v));
+                    }
+                }
+                let a = SparseRowMat::try_new_from_triplets(n, n, &triplets)
+                    .expect("a permutation of valid indices is valid");
+                Self::boxed_sparse(a, b, lo, hi, friction)
+            }
+        }
+        .expect("a permutation of a valid problem is valid");
         p.name = self.name.clone();
         p
+    }
+
+    /// The symmetrically scaled problem `A' = S A S`, `b' = S b` with `S = diag(s)`, `s_i > 0`,
+    /// whose solutions are `f' = S⁻¹ f`: bounds become `lo_i / s_i`, `hi_i / s_i`, and a friction
+    /// row `t` of normal `k` keeps its meaning with `mu' = mu · s_k / s_t`. Pivoting solvers use
+    /// it with `s_i = 1/√d_i` (equilibration), so that data scaled over many decades does not
+    /// decide their pivots.
+    pub fn scaled_symmetric(&self, s: &[f64]) -> Self {
+        let n = self.n();
+        assert_eq!(s.len(), n, "scaling length");
+        let b = (0..n).map(|i| s[i] * self.b[i]).collect();
+        let lo = (0..n).map(|i| self.lo[i] / s[i]).collect();
+        let hi = (0..n).map(|i| self.hi[i] / s[i]).collect();
+        let friction = self
+            .friction
+            .iter()
+            .map(|fr| FrictionRow {
+                mu: fr.mu * s[fr.normal] / s[fr.row],
+                ..*fr
+            })
+            .collect();
+        let mut p = match &self.storage {
+            Storage::Dense { a, .. } => {
+                let a = Mat::from_fn(n, n, |i, j| s[i] * a[(i, j)] * s[j]);
+                Self::boxed(a, b, lo, hi, friction)
+            }
+            Storage::Sparse(a) => {
+                let mut a = a.clone();
+                let ptr: Vec<usize> = a.symbolic().row_ptr().to_vec();
+                let idx: Vec<usize> = a.symbolic().col_idx().to_vec();
+                let val = a.val_mut();
+                for i in 0..n {
+                    for k in ptr[i]..ptr[i + 1] {
+                        val[k] *= s[i] * s[idx[k]];
+                    }
+                }
+                Self::boxed_sparse(a, b, lo, hi, friction)
+            }
+        }
+        .expect("a positive scaling of a valid problem is valid");
+        p.name = self.name.clone();
+        p
+    }
+}
+
+/// Check the friction list against `n` rows; returns the per-row lookup.
+fn validate_friction(
+    friction: &[FrictionRow],
+    n: usize,
+) -> Result<Vec<Option<(usize, f64)>>, ProblemError> {
+    let mut friction_of = vec![None; n];
+    for (entry, fr) in friction.iter().enumerate() {
+        if fr.row >= n || fr.normal >= n {
+            return Err(ProblemError::FrictionOutOfRange {
+                entry,
+                row: fr.row,
+                normal: fr.normal,
+                n,
+            });
+        }
+        if fr.row == fr.normal {
+            return Err(ProblemError::FrictionSelf { entry, row: fr.row });
+        }
+        if !(fr.mu.is_finite() && fr.mu >= 0.0) {
+            return Err(ProblemError::FrictionCoefficient { entry, mu: fr.mu });
+        }
+        if friction_of[fr.row].is_some() {
+            return Err(ProblemError::FrictionDuplicate { entry, row: fr.row });
+        }
+        friction_of[fr.row] = Some((fr.normal, fr.mu));
+    }
+    for (entry, fr) in friction.iter().enumerate() {
+        if friction_of[fr.normal].is_some() {
+            return Err(ProblemError::FrictionChain {
+                entry,
+                row: fr.row,
+                normal: fr.normal,
+            });
+        }
+    }
+    Ok(friction_of)
+}
+
+/// A sparse `n × n` matrix from `(row, column, value)` triplets; duplicates are summed. Errors
+/// name the first triplet out of range or not finite.
+pub fn sparse_from_triplets(
+    n: usize,
+    triplets: &[(usize, usize, f64)],
+) -> Result<SparseRowMat<usize, f64>, ProblemError> {
+    for (k, &(i, j, v)) in triplets.iter().enumerate() {
+        if i >= n || j >= n {
+            return Err(ProblemError::TripletOutOfRange {
+                entry: k,
+                row: i,
+                col: j,
+                n,
+            });
+        }
+        if !v.is_finite() {
+            return Err(ProblemError::NonFinite {
+                what: format!("A[{i}][{j}] (triplet {k})"),
+                value: v,
+            });
+        }
+    }
+    let t: Vec<_> = triplets
+        .iter()
+        .map(|&(i, j, v)| Triplet::new(i, j, v))
+        .collect();
+    SparseRowMat::try_new_from_triplets(n, n, &t).map_err(|_| ProblemError::TripletOutOfRange {
+        entry: 0,
+        row: n,
+        col: n,
+        n,
+    })
+}
+
+/// The factored form `A = J M⁻¹ Jᵀ` of a contact problem: a sparse Jacobian `J` (one row per
+/// constraint row, six columns per body: linear then angular velocity) and a symmetric 6×6
+/// inverse-mass block per body (zero for static bodies). Solvers that need only products with
+/// `A`, or one row of `A` at a time, can use it without assembling `A`.
+#[derive(Debug, Clone)]
+pub struct DelassusFactors {
+    jacobian: SparseRowMat<usize, f64>,
+    inverse_mass: Vec<[[f64; 6]; 6]>,
+}
+
+impl DelassusFactors {
+    /// `J` (`rows × 6·bodies`) and the per-body inverse-mass blocks.
+    pub fn new(
+        jacobian: SparseRowMat<usize, f64>,
+        inverse_mass: Vec<[[f64; 6]; 6]>,
+    ) -> Result<Self, ProblemError> {
+        if jacobian.ncols() != 6 * inverse_mass.len() {
+            return Err(ProblemError::DimensionMismatch {
+                what: "the Jacobian's columns (6 per body)",
+                expected: 6 * inverse_mass.len(),
+                found: jacobian.ncols(),
+            });
+        }
+        Ok(Self {
+            jacobian,
+            inverse_mass,
+        })
+    }
+
+    /// Constraint rows.
+    pub fn rows(&self) -> usize {
+        self.jacobian.nrows()
+    }
+
+    /// The sparse Jacobian `J`.
+    pub fn jacobian(&self) -> &SparseRowMat<usize, f64> {
+        &self.jacobian
+    }
+
+    /// The inverse-mass block of each body.
+    pub fn inverse_mass(&self) -> &[[[f64; 6]; 6]] {
+        &self.inverse_mass
+    }
+
+    /// Body velocities `u = M⁻¹ Jᵀ f` (six per body).
+    pub fn body_velocity(&self, f: &[f64]) -> Vec<f64> {
+        let mut p = vec![0.0; self.jacobian.ncols()];
+        let sym = self.jacobian.symbolic();
+        let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), self.jacobian.val());
+        for (i, &fi) in f.iter().enumerate() {
+            if fi != 0.0 {
+                for k in ptr[i]..ptr[i + 1] {
+                    p[idx[k]] += val[k] * fi;
+                }
+            }
+        }
+        let mut u = vec![0.0; p.len()];
+        for (body, m) in self.inverse_mass.iter().enumerate() {
+            let (pb, ub) = (&p[6 * body..6 * body + 6], &mut u[6 * body..6 * body + 6]);
+            for r in 0..6 {
+                ub[r] = (0..6).map(|c| m[r][c] * pb[c]).sum();
+            }
+        }
+        u
+    }
+
+    /// `J_i · u`.
+    pub fn row_dot(&self, i: usize, u: &[f64]) -> f64 {
+        let sym = self.jacobian.symbolic();
+        let range = sym.row_ptr()[i]..sym.row_ptr()[i + 1];
+        sym.col_idx()[range.clone()]
+            .iter()
+            .zip(&self.jacobian.val()[range])
+            .map(|(&c, v)| v * u[c])
+            .sum()
+    }
+
+    /// `A f = J (M⁻¹ (Jᵀ f))` in `O(nnz(J))`.
+    pub fn apply(&self, f: &[f64]) -> Vec<f64> {
+        let u = self.body_velocity(f);
+        (0..self.rows()).map(|i| self.row_dot(i, &u)).collect()
     }
 }
 

@@ -1,7 +1,7 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::metrics::{residuals, Residuals};
+use crate::metrics::{residuals, residuals_and_velocity, Residuals};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -141,6 +141,10 @@ pub struct SolveResult {
     pub residuals: Residuals,
     /// Residual after each iteration, when [`Settings::record_history`] was set.
     pub history: Vec<HistoryPoint>,
+    /// For pivoting solvers with [`Settings::record_history`] set: after each pivot, the pivot
+    /// count and the rows in the active set (Lemke's basic `f` variables, Dantzig's clamped
+    /// set). Empty otherwise.
+    pub active_sets: Vec<(usize, Vec<usize>)>,
 }
 
 /// A contact solver: takes a problem, returns an impulse and an honest status.
@@ -168,6 +172,56 @@ pub(crate) enum Outcome {
     NumericalFailure(String),
 }
 
+impl Outcome {
+    /// The outcome a finished solve's status stands for (`Converged` and `Stalled` both mean
+    /// the solver's own rule stopped it).
+    pub(crate) fn of(status: Status) -> Self {
+        match status {
+            Status::Converged | Status::Stalled { .. } => Outcome::Stopped,
+            Status::IterationLimit => Outcome::IterationLimit,
+            Status::TimeLimit => Outcome::TimeLimit,
+            Status::NoSolution { reason } => Outcome::NoSolution(reason),
+            Status::Unsupported { reason } => Outcome::Unsupported(reason),
+            Status::NumericalFailure { reason } => Outcome::NumericalFailure(reason),
+        }
+    }
+}
+
+/// Solve the symmetrically equilibrated problem `S A S`, `s_i = 1/√d_i` (see
+/// [`Problem::scaled_symmetric`]) and map the impulse back, so that a solver whose internal
+/// tolerances are absolute sees rows and columns of comparable size. The status is decided on
+/// `problem` itself; the inner history (in the same, scale-invariant residual) is kept.
+pub(crate) fn solve_equilibrated(
+    problem: &Problem,
+    settings: &Settings,
+    inner: impl FnOnce(&Problem, &Settings) -> SolveResult,
+) -> SolveResult {
+    let mut monitor = Monitor::new(problem, settings);
+    let s: Vec<f64> = problem
+        .diagonal_scale()
+        .iter()
+        .map(|d| 1.0 / d.sqrt())
+        .collect();
+    let scaled = problem.scaled_symmetric(&s);
+    let inner_settings = Settings {
+        warm_start: settings
+            .warm_start
+            .as_ref()
+            .filter(|ws| ws.len() == s.len())
+            .map(|ws| ws.iter().zip(&s).map(|(v, si)| v / si).collect()),
+        ..settings.clone()
+    };
+    let r = inner(&scaled, &inner_settings);
+    monitor.history = r.history;
+    monitor.active_sets = r.active_sets;
+    let f = if r.f.len() == s.len() {
+        r.f.iter().zip(&s).map(|(v, si)| v * si).collect()
+    } else {
+        r.f
+    };
+    monitor.finish(f, r.iterations, Outcome::of(r.status))
+}
+
 /// Clock, time budget and history recorder for one solve. Solver bodies stay the textbook
 /// algorithm and call [`Monitor::record`] once per iteration.
 pub(crate) struct Monitor<'a> {
@@ -176,6 +230,7 @@ pub(crate) struct Monitor<'a> {
     start: Instant,
     excluded: Duration,
     history: Vec<HistoryPoint>,
+    active_sets: Vec<(usize, Vec<usize>)>,
 }
 
 impl<'a> Monitor<'a> {
@@ -186,6 +241,7 @@ impl<'a> Monitor<'a> {
             start: Instant::now(),
             excluded: Duration::ZERO,
             history: Vec::new(),
+            active_sets: Vec::new(),
         }
     }
 
@@ -215,6 +271,15 @@ impl<'a> Monitor<'a> {
             time_s,
         });
         self.excluded += t0.elapsed();
+    }
+
+    /// Record the active set after `pivot`, if history is on.
+    pub(crate) fn record_active_set(&mut self, pivot: usize, active: impl FnOnce() -> Vec<usize>) {
+        if self.settings.record_history {
+            let t0 = Instant::now();
+            self.active_sets.push((pivot, active()));
+            self.excluded += t0.elapsed();
+        }
     }
 
     /// Decide the status from the shared residual of `f` and package the result.
@@ -247,9 +312,13 @@ impl<'a> Monitor<'a> {
                 Status::NumericalFailure { reason },
             )
         } else {
-            let w = problem.velocity(&f);
-            let res = residuals(problem, &f);
-            let status = if res.natural_map_rel <= tol {
+            let mut w = vec![0.0; n];
+            let res = residuals_and_velocity(problem, &f, &mut w);
+            let status = if w.iter().any(|v| !v.is_finite()) {
+                Status::NumericalFailure {
+                    reason: "the velocity w = A f + b overflows at the returned impulse".into(),
+                }
+            } else if res.natural_map_rel <= tol {
                 Status::Converged
             } else {
                 match outcome {
@@ -276,6 +345,7 @@ impl<'a> Monitor<'a> {
             time,
             residuals: res,
             history: self.history,
+            active_sets: self.active_sets,
         }
     }
 }
@@ -298,4 +368,90 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
         f[fr.row] = f[fr.row].max(lo).min(hi);
     }
     f
+}
+
+/// Solve `problem` island by island with a solver that needs a dense `A` of at most `limit`
+/// rows: each independent sub-problem ([`Problem::islands`]) is densified and solved on its own
+/// (the warm start, tolerance and remaining time budget passed on; `max_iterations` applies per
+/// island), and the impulses are assembled. An island above `limit` rows makes the whole solve
+/// `Unsupported` with the reason, never an out-of-memory abort. The status of the whole is then
+/// decided by the shared residual as always. Problems of at most `limit` rows stored dense are
+/// solved directly.
+pub(crate) fn solve_by_islands(
+    problem: &Problem,
+    settings: &Settings,
+    limit: usize,
+    mut solve_one: impl FnMut(&Problem, &Settings) -> SolveResult,
+) -> SolveResult {
+    const SPLIT_FROM: usize = 32;
+    let small_dense = !problem.is_sparse() && problem.n() <= limit;
+    if small_dense && problem.n() <= SPLIT_FROM {
+        return solve_one(problem, settings);
+    }
+    let islands = problem.islands();
+    if small_dense && islands.len() == 1 {
+        return solve_one(problem, settings);
+    }
+    let mut monitor = Monitor::new(problem, settings);
+    if let Some(big) = islands.iter().find(|rows| rows.len() > limit) {
+        let reason = format!(
+            "an island of {} rows exceeds this solver's dense limit of {limit} rows",
+            big.len()
+        );
+        return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+    }
+    let n = problem.n();
+    let mut f = vec![0.0; n];
+    let mut iterations = 0;
+    let mut outcome = Outcome::Stopped;
+    for rows in &islands {
+        let sub = match problem.restrict_dense(rows) {
+            Ok(sub) => sub,
+            Err(e) => {
+                outcome = Outcome::NumericalFailure(format!("island extraction failed: {e}"));
+                break;
+            }
+        };
+        let mut sub_settings = Settings {
+            warm_start: settings
+                .warm_start
+                .as_ref()
+                .filter(|ws| ws.len() == n)
+                .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
+            record_history: false,
+            ..settings.clone()
+        };
+        if let Some(budget) = settings.time_budget {
+            let left = budget.saturating_sub(monitor.elapsed());
+            if left.is_zero() {
+                outcome = Outcome::TimeLimit;
+                break;
+            }
+            sub_settings.time_budget = Some(left);
+        }
+        let r = solve_one(&sub, &sub_settings);
+        iterations += r.iterations;
+        for (k, &i) in rows.iter().enumerate() {
+            f[i] = r.f[k];
+        }
+        let island_outcome = Outcome::of(r.status);
+        if island_outcome != Outcome::Stopped {
+            let o = island_outcome;
+            // The most telling outcome wins: unsupported and failures over limits.
+            let rank = |o: &Outcome| match o {
+                Outcome::Stopped => 0,
+                Outcome::IterationLimit | Outcome::TimeLimit => 1,
+                Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
+                Outcome::Unsupported(_) => 3,
+            };
+            if rank(&o) > rank(&outcome) {
+                outcome = o;
+            }
+        }
+        if matches!(outcome, Outcome::Unsupported(_)) {
+            break;
+        }
+    }
+    monitor.record(iterations, &f);
+    monitor.finish(f, iterations, outcome)
 }
