@@ -67,7 +67,8 @@
 //! * **Warm start**: ignored; every pass starts from `f = mid(lo, hi, 0)`.
 //! * **Scaling and size**: the problem is split into independent islands ([`Problem::islands`]),
 //!   each densified (up to [`DENSE_LIMIT`] rows; a larger island gives `Unsupported`) and
-//!   equilibrated symmetrically (`S A S`, `s_i = 1/√A_ii`, friction coefficients rescaled to
+//!   equilibrated symmetrically when its diagonal spans more than a factor 100 (`S A S`,
+//!   `s_i = 1/√A_ii`, friction coefficients rescaled to
 //!   keep their meaning), so the pivot and round-off tolerances below act on rows of comparable
 //!   size whatever the units of the data. The pivot count and the active sets refer to the
 //!   equilibrated island.

@@ -113,8 +113,7 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
         .iter()
         .map(|d| 1.0 / d.sqrt())
         .collect();
-    let scaled = problem.scaled_symmetric(&s);
-    let reduction = match Reduction::new(&scaled, s) {
+    let reduction = match Reduction::new(problem, s) {
         Ok(r) => r,
         Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason)),
     };
@@ -151,7 +150,7 @@ struct Reduction {
     /// For each LCP variable: `Some((row, sign))` when it is (a signed part of) `f_row − c_row`,
     /// `None` for a box slack.
     var_row: Vec<Option<(usize, f64)>>,
-    /// The equilibration: the original impulse is `f_i = scale_i · f'_i`.
+    /// The equilibration `s_i = 1/√d_i`: row `i`'s LCP variables are in units of `scale_i`.
     scale: Vec<f64>,
 }
 
@@ -182,7 +181,7 @@ impl Reduction {
                 }
                 (true, true) => {
                     c[i] = lo[i];
-                    slacks.push((vars.len(), hi[i] - lo[i]));
+                    slacks.push((vars.len(), (hi[i] - lo[i]) / scale[i]));
                     vars.push((i, 1.0));
                 }
                 (false, false) => {
@@ -191,16 +190,18 @@ impl Reduction {
                 }
             }
         }
+        // Offsets in the original units; the LCP variables are in the equilibrated ones
+        // (`f_i = c_i + scale_i · x`), so `M = S A S` and `q = S w(c)` up to signs.
         let w0 = problem.velocity(&c);
         let nv = vars.len();
         let m = nv + slacks.len();
         let mut mat = vec![0.0; m * m];
         let mut q = vec![0.0; m];
-        let a = problem.to_dense();
         for (v, &(i, s)) in vars.iter().enumerate() {
-            q[v] = s * w0[i];
+            q[v] = s * scale[i] * w0[i];
+            let row = problem.dense_row(i);
             for (u, &(j, t)) in vars.iter().enumerate() {
-                mat[v * m + u] = s * t * a[(i, j)];
+                mat[v * m + u] = s * t * scale[i] * row[j] * scale[j];
             }
         }
         for (k, &(v, width)) in slacks.iter().enumerate() {
@@ -225,18 +226,15 @@ impl Reduction {
         })
     }
 
-    /// `f = S (c + T z)`.
+    /// `f = c + S T z`.
     fn impulse(&self, z: &[f64]) -> Vec<f64> {
         let mut f = self.c.clone();
         if z.len() == self.var_row.len() {
             for (v, &zv) in z.iter().enumerate() {
                 if let Some((i, s)) = self.var_row[v] {
-                    f[i] += s * zv;
+                    f[i] += s * self.scale[i] * zv;
                 }
             }
-        }
-        for (fi, s) in f.iter_mut().zip(&self.scale) {
-            *fi *= s;
         }
         f
     }

@@ -190,18 +190,23 @@ impl Outcome {
 /// Solve the symmetrically equilibrated problem `S A S`, `s_i = 1/√d_i` (see
 /// [`Problem::scaled_symmetric`]) and map the impulse back, so that a solver whose internal
 /// tolerances are absolute sees rows and columns of comparable size. The status is decided on
-/// `problem` itself; the inner history (in the same, scale-invariant residual) is kept.
+/// `problem` itself; the inner history (in the same, scale-invariant residual) is kept. When the
+/// diagonal already spans less than [`EQUILIBRATE_ABOVE`], the problem is solved as it is (the
+/// copy would cost more than it gains on small problems).
 pub(crate) fn solve_equilibrated(
     problem: &Problem,
     settings: &Settings,
     inner: impl FnOnce(&Problem, &Settings) -> SolveResult,
 ) -> SolveResult {
+    let d = problem.diagonal_scale();
+    let (dmin, dmax) = d.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| {
+        (lo.min(v), hi.max(v))
+    });
+    if dmax <= EQUILIBRATE_ABOVE * dmin {
+        return inner(problem, settings);
+    }
     let mut monitor = Monitor::new(problem, settings);
-    let s: Vec<f64> = problem
-        .diagonal_scale()
-        .iter()
-        .map(|d| 1.0 / d.sqrt())
-        .collect();
+    let s: Vec<f64> = d.iter().map(|d| 1.0 / d.sqrt()).collect();
     let scaled = problem.scaled_symmetric(&s);
     let inner_settings = Settings {
         warm_start: settings
@@ -221,6 +226,9 @@ pub(crate) fn solve_equilibrated(
     };
     monitor.finish(f, r.iterations, Outcome::of(r.status))
 }
+
+/// Spread of the diagonal `max d / min d` above which [`solve_equilibrated`] scales.
+pub(crate) const EQUILIBRATE_ABOVE: f64 = 100.0;
 
 /// Clock, time budget and history recorder for one solve. Solver bodies stay the textbook
 /// algorithm and call [`Monitor::record`] once per iteration.
