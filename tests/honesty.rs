@@ -278,14 +278,15 @@ fn random_rotation(rng: &mut ChaCha8Rng) -> [[f64; 3]; 3] {
     }
     for k in 0..3 {
         for m in 0..k {
-            let d: f64 = (0..3).map(|i| v[k][i] * v[m][i]).sum();
-            for i in 0..3 {
-                v[k][i] -= d * v[m][i];
+            let prev = v[m];
+            let d: f64 = v[k].iter().zip(&prev).map(|(x, y)| x * y).sum();
+            for (x, y) in v[k].iter_mut().zip(&prev) {
+                *x -= d * y;
             }
         }
-        let norm = (0..3).map(|i| v[k][i] * v[k][i]).sum::<f64>().sqrt();
-        for i in 0..3 {
-            v[k][i] /= norm;
+        let norm = v[k].iter().map(|x| x * x).sum::<f64>().sqrt();
+        for x in v[k].iter_mut() {
+            *x /= norm;
         }
     }
     v

@@ -14,7 +14,7 @@
 //! * **Problem class**: symmetric (to a relative `symmetry_tolerance`, default `1e-10`) positive
 //!   semidefinite `A`: SPD, and PSD rank-deficient (redundant contacts); standard and boxed LCP.
 //!   Non-symmetric `A` and indefinite `A` are refused as `Unsupported` before Clarabel runs. The
-//!   semidefiniteness check is one dense Cholesky factorisation of the diagonally scaled matrix
+//!   semidefiniteness check is one sparse Cholesky factorisation (faer) of the diagonally scaled matrix
 //!   `Â = E A E` (`E` below) shifted by `psd_tolerance · ‖Â‖_F`; it accepts `A` whose smallest
 //!   eigenvalue is above about `−psd_tolerance · ‖Â‖_F` in the scaled variables.
 //! * **Friction rows are a convex relaxation.** A friction row `t` with normal row `k` becomes the
@@ -48,10 +48,12 @@
 //!   rows solve `A_FF f_F = −(b + A_FC f_C)_F` by `polish_refinements` (default 3) steps of
 //!   iterative refinement from `f_F = 0`, with one Cholesky factorisation of the scaled
 //!   `Â_FF + 10⁻¹² max|Â| I` (which also converges for singular, consistent `A_FF`). The polished
-//!   `f` is kept only if its shared residual is smaller; the cost is one extra dense
+//!   `f` is kept only if its shared residual is smaller; the cost is one extra sparse Cholesky
 //!   factorisation, and the reported iterations do not count it.
 //! * **Cost**: one sparse `LDLᵀ` factorisation of the quasi-definite KKT matrix per
-//!   interior-point iteration. `A` is dense here, so that is `O(n³)` per iteration; Clarabel
+//!   interior-point iteration. `P = Â` is handed over sparse (the stored entries of `A`), so the
+//!   cost follows the fill of that factorisation: `O(n³)` for a dense `A`, far less for the
+//!   block-sparse Delassus matrices of contact scenes; Clarabel
 //!   needs 7 to 20 iterations on the generated families. `Settings::max_iterations` counts
 //!   interior-point iterations and is capped at `max_ipm_iterations` (default 200).
 //!   `Settings::warm_start` is ignored (interior-point methods start from the central path), and
@@ -77,20 +79,18 @@
 
 use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
 };
 use faer::linalg::solvers::Solve;
+use faer::sparse::{SparseColMat, Triplet};
 use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point); friction rows as a convex relaxation; dense per island up to 2000 rows";
-
-/// Largest island the QP formulation densifies.
-pub const DENSE_LIMIT: usize = 2000;
+    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point, sparse P); friction rows as a convex relaxation";
 
 /// The LCP as a convex QP, solved by Clarabel. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
@@ -135,8 +135,8 @@ impl Default for ClarabelQp {
 struct ScaledQp {
     e: Vec<f64>,
     tau: f64,
-    /// Upper triangle of `Â = E A E` (symmetrised), column-major, dense.
-    a_hat: Mat<f64>,
+    /// `Â = E A E` symmetrised, both triangles, sparse.
+    a_hat: SparseColMat<usize, f64>,
     q: Vec<f64>,
     /// Constraint rows as `(column, value)` lists with right-hand sides; zero-cone rows first.
     rows: Vec<(Vec<(usize, f64)>, f64)>,
@@ -170,8 +170,18 @@ impl ScaledQp {
                 tau = 1.0;
             }
         }
-        let a = problem.dense().expect("the QP is built on dense islands");
-        let a_hat = Mat::from_fn(n, n, |i, j| 0.5 * e[i] * (a[(i, j)] + a[(j, i)]) * e[j]);
+        let mut triplets = Vec::with_capacity(2 * problem.nnz());
+        for i in 0..n {
+            for (j, v) in problem.row(i).iter() {
+                if v != 0.0 {
+                    let x = 0.5 * e[i] * v * e[j];
+                    triplets.push(Triplet::new(i, j, x));
+                    triplets.push(Triplet::new(j, i, x));
+                }
+            }
+        }
+        let a_hat = SparseColMat::try_new_from_triplets(n, n, &triplets)
+            .expect("indices of a valid problem are in range");
         let q = (0..n).map(|i| e[i] * b[i] / tau).collect();
 
         let mut zero_rows = Vec::new();
@@ -217,28 +227,50 @@ impl ScaledQp {
 
     /// True when `Â + δ I` has a Cholesky factorisation, `δ = psd_tolerance · ‖Â‖_F`.
     fn is_psd(&self, psd_tolerance: f64) -> bool {
-        let n = self.a_hat.nrows();
-        let norm = self.a_hat.norm_l2();
+        let norm = self.a_hat.val().iter().map(|v| v * v).sum::<f64>().sqrt();
         let delta = psd_tolerance * norm.max(f64::MIN_POSITIVE);
-        let shifted = Mat::from_fn(n, n, |i, j| {
-            self.a_hat[(i, j)] + if i == j { delta } else { 0.0 }
-        });
-        shifted.llt(faer::Side::Lower).is_ok()
+        let all: Vec<usize> = (0..self.a_hat.nrows()).collect();
+        self.shifted_block(&all, delta)
+            .sp_cholesky(faer::Side::Lower)
+            .is_ok()
+    }
+
+    /// The principal block of `Â` on `rows` (increasing), plus `shift · I`.
+    fn shifted_block(&self, rows: &[usize], shift: f64) -> SparseColMat<usize, f64> {
+        let n = self.a_hat.nrows();
+        let mut local = vec![usize::MAX; n];
+        for (k, &i) in rows.iter().enumerate() {
+            local[i] = k;
+        }
+        let sym = self.a_hat.symbolic();
+        let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), self.a_hat.val());
+        let mut triplets: Vec<Triplet<usize, usize, f64>> =
+            (0..rows.len()).map(|k| Triplet::new(k, k, shift)).collect();
+        for (c, &j) in rows.iter().enumerate() {
+            for p in ptr[j]..ptr[j + 1] {
+                if local[idx[p]] != usize::MAX {
+                    triplets.push(Triplet::new(local[idx[p]], c, val[p]));
+                }
+            }
+        }
+        SparseColMat::try_new_from_triplets(rows.len(), rows.len(), &triplets)
+            .expect("local indices are in range")
     }
 
     /// Clarabel's `P`: the upper triangle of `Â` in CSC.
     fn p_upper(&self) -> CscMatrix<f64> {
         let n = self.a_hat.nrows();
+        let sym = self.a_hat.symbolic();
+        let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), self.a_hat.val());
         let mut colptr = Vec::with_capacity(n + 1);
         let mut rowval = Vec::new();
         let mut nzval = Vec::new();
         colptr.push(0);
         for j in 0..n {
-            for i in 0..=j {
-                let v = self.a_hat[(i, j)];
-                if v != 0.0 {
-                    rowval.push(i);
-                    nzval.push(v);
+            for p in ptr[j]..ptr[j + 1] {
+                if idx[p] <= j && val[p] != 0.0 {
+                    rowval.push(idx[p]);
+                    nzval.push(val[p]);
                 }
             }
             colptr.push(rowval.len());
@@ -312,11 +344,12 @@ impl ScaledQp {
             return Some(g);
         }
         let k = free.len();
-        let eps = 1e-12 * self.a_hat.norm_max().max(f64::MIN_POSITIVE);
-        let m = Mat::from_fn(k, k, |r, c| {
-            self.a_hat[(free[r], free[c])] + if r == c { eps } else { 0.0 }
-        });
-        let llt = m.llt(faer::Side::Lower).ok()?;
+        let amax = self.a_hat.val().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let eps = 1e-12 * amax.max(f64::MIN_POSITIVE);
+        let llt = self
+            .shifted_block(&free, eps)
+            .sp_cholesky(faer::Side::Lower)
+            .ok()?;
         for _ in 0..refinements {
             let w = problem.velocity(&g);
             // Â δy = −E w_F, δf = E δy.
@@ -350,16 +383,6 @@ impl Solver for ClarabelQp {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
-        let this = self.clone();
-        solve_by_islands(problem, settings, DENSE_LIMIT, |island, settings| {
-            this.solve_island(island, settings)
-        })
-    }
-}
-
-impl ClarabelQp {
-    /// One dense island.
-    fn solve_island(&self, problem: &Problem, settings: &Settings) -> SolveResult {
         let monitor = Monitor::new(problem, settings);
         let n = problem.n();
         if n == 0 {

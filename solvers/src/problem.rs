@@ -1084,4 +1084,86 @@ mod tests {
         assert_eq!(p.bounds_at(1, &[-2.0, 0.0]), (-0.0, 0.0));
         assert!(!p.is_standard());
     }
+
+    fn two_blocks_sparse() -> Problem {
+        // Rows {0, 2} and {1, 3} are coupled; a friction row 4 hangs on normal row 1.
+        let t = [
+            (0, 0, 2.0),
+            (0, 2, 1.0),
+            (2, 0, 1.0),
+            (2, 2, 2.0),
+            (1, 1, 3.0),
+            (1, 3, -1.0),
+            (3, 1, -1.0),
+            (3, 3, 3.0),
+            (4, 4, 1.0),
+            // A duplicate, summed: A[4][4] = 1.5.
+            (4, 4, 0.5),
+        ];
+        let a = sparse_from_triplets(5, &t).unwrap();
+        Problem::boxed_sparse(
+            a,
+            vec![-1.0, -2.0, 0.5, -0.5, 0.1],
+            vec![0.0, 0.0, 0.0, 0.0, 0.0],
+            vec![f64::INFINITY; 5],
+            vec![FrictionRow {
+                row: 4,
+                normal: 1,
+                mu: 0.5,
+            }],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn sparse_storage_row_access_and_duplicates() {
+        let p = two_blocks_sparse();
+        assert!(p.is_sparse());
+        assert_eq!(p.nnz(), 9);
+        assert_eq!(p.entry(4, 4), 1.5);
+        assert_eq!(p.entry(0, 1), 0.0);
+        assert_eq!(p.row(0).dot(&[1.0, 10.0, 2.0, 10.0, 10.0]), 4.0);
+        assert!(p.is_symmetric(0.0));
+        let d = p.to_dense();
+        assert_eq!(d[(2, 0)], 1.0);
+        let back = Problem::boxed(
+            d,
+            p.b().to_vec(),
+            p.lo().to_vec(),
+            p.hi().to_vec(),
+            p.friction().to_vec(),
+        )
+        .unwrap();
+        let f = [0.3, 0.2, 0.1, 0.4, -0.05];
+        assert_eq!(back.velocity(&f), p.velocity(&f));
+        assert!(matches!(
+            sparse_from_triplets(2, &[(0, 2, 1.0)]),
+            Err(ProblemError::TripletOutOfRange { .. })
+        ));
+    }
+
+    #[test]
+    fn islands_follow_nonzeros_and_friction_rows() {
+        let p = two_blocks_sparse();
+        assert_eq!(p.islands(), vec![vec![0, 2], vec![1, 3, 4]]);
+        let sub = p.restrict(&[1, 3, 4]).unwrap();
+        assert_eq!(sub.n(), 3);
+        assert_eq!(sub.entry(0, 1), -1.0);
+        assert_eq!(sub.friction_of(2), Some((0, 0.5)));
+        assert_eq!(sub.b(), &[-2.0, -0.5, 0.1]);
+    }
+
+    #[test]
+    fn symmetric_scaling_keeps_friction_meaning() {
+        let p = two_blocks_sparse();
+        let s = [2.0, 0.5, 4.0, 1.0, 8.0];
+        let q = p.scaled_symmetric(&s);
+        assert_eq!(q.entry(0, 2), 2.0 * 1.0 * 4.0);
+        // Friction row 4 on normal 1: mu' = mu · s_1 / s_4.
+        assert_eq!(q.friction_of(4), Some((1, 0.5 * 0.5 / 8.0)));
+        // f' = S⁻¹ f has the same bounds meaning: |f'_4| <= mu' f'_1 ⇔ |f_4| <= mu f_1.
+        let f = [0.0, 1.0, 0.0, 0.0, 0.5];
+        let g: Vec<f64> = f.iter().zip(&s).map(|(v, si)| v / si).collect();
+        assert_eq!(q.bounds_at(4, &g).1 * s[4], p.bounds_at(4, &f).1);
+    }
 }
