@@ -166,8 +166,10 @@ pub fn write_report(
     let _ = writeln!(
         md,
         "\nEvery run is one child process (a panic, abort or hang is recorded, not fatal). \
-         Residuals are the shared relative natural-map residual of the returned impulse; \
-         times are solver wall time with residual measurement excluded. Raw rows: \
+         Residuals are the shared relative natural-map residual of the returned impulse, \
+         `max_i |f_i − mid(lo_i, hi_i, f_i − w_i/A_ii)| / ((|b_i| + Σ_j |A_ij f_j|) / A_ii)`: \
+         each row measured against the magnitudes its own velocity is made of, so no row, bound \
+         or scale can hide another row's error (see the README); times are solver wall time with residual measurement excluded. Raw rows: \
          [`data/results.csv`](data/results.csv); convergence histories: \
          [`data/histories.csv`](data/histories.csv); every table below is also in `tables/`, \
          every figure's points next to it in `plots/`.\n"
