@@ -291,3 +291,39 @@ fn random_rotation(rng: &mut ChaCha8Rng) -> [[f64; 3]; 3] {
     }
     v
 }
+
+/// The examples from the defect report, exactly: `weak.json`, and the same with a third row
+/// bounded by ±1e12 instead. Every solver's `converged` must be the true solution.
+#[test]
+fn the_reported_examples_are_no_longer_converged_at_wrong_answers() {
+    let a = Mat::from_fn(3, 3, |i, j| {
+        [[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1e-9]][i][j]
+    });
+    let weak = Problem::lcp(a, vec![-1.0, -1.0, 1.0]).unwrap();
+    let bounded = Problem::boxed(
+        Mat::from_fn(3, 3, |i, j| {
+            [[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]][i][j]
+        }),
+        vec![-1.0, -1.0, 1.0],
+        vec![0.0, 0.0, -1e12],
+        vec![f64::INFINITY, f64::INFINITY, 1e12],
+        vec![],
+    )
+    .unwrap();
+    for (p, third) in [(&weak, 0.0), (&bounded, -1.0)] {
+        for kind in SolverKind::ALL {
+            let r = solve(kind, p);
+            if r.status == Status::Converged {
+                let want = [1.0 / 3.0, 1.0 / 3.0, third];
+                for (got, want) in r.f.iter().zip(want) {
+                    assert!(
+                        (got - want).abs() <= 1e-6,
+                        "{} converged at {:?}",
+                        kind.name(),
+                        r.f
+                    );
+                }
+            }
+        }
+    }
+}
