@@ -29,11 +29,13 @@
 
 mod clarabel_qp;
 mod dantzig;
+mod enumeration;
 pub mod generate;
 mod io;
 mod lemke;
 pub mod metrics;
 mod micro_impulse;
+mod newton;
 mod pgs;
 mod problem;
 mod solver;
@@ -42,10 +44,12 @@ mod test_util;
 
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
+pub use enumeration::{Enumeration, MAX_BASES};
 pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
 pub use lemke::Lemke;
 pub use metrics::{residuals, Residuals};
 pub use micro_impulse::MicroImpulse;
+pub use newton::{FrictionHandling, Newton, Reformulation};
 pub use pgs::ProjectedSor;
 pub use problem::{FrictionRow, Problem, ProblemError};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
@@ -65,17 +69,26 @@ pub enum SolverKind {
     Clarabel,
     /// Sequential micro-impulses.
     MicroImpulse,
+    /// Semismooth Newton on the Fischer–Burmeister reformulation.
+    NewtonFb,
+    /// Semismooth Newton on the min-map reformulation.
+    NewtonMin,
+    /// Enumeration of complementary bases (complete, small problems).
+    Enumeration,
 }
 
 impl SolverKind {
     /// Every solver, in report order.
-    pub const ALL: [SolverKind; 6] = [
+    pub const ALL: [SolverKind; 9] = [
         SolverKind::Pgs,
         SolverKind::Sor,
         SolverKind::Lemke,
         SolverKind::Dantzig,
         SolverKind::Clarabel,
         SolverKind::MicroImpulse,
+        SolverKind::NewtonFb,
+        SolverKind::NewtonMin,
+        SolverKind::Enumeration,
     ];
 
     /// The name used on the command line and in reports.
@@ -87,6 +100,9 @@ impl SolverKind {
             SolverKind::Dantzig => "dantzig",
             SolverKind::Clarabel => "clarabel",
             SolverKind::MicroImpulse => "micro",
+            SolverKind::NewtonFb => "newton-fb",
+            SolverKind::NewtonMin => "newton-min",
+            SolverKind::Enumeration => "enum",
         }
     }
 
@@ -104,6 +120,9 @@ impl SolverKind {
             SolverKind::Dantzig => dantzig::PROBLEM_CLASSES,
             SolverKind::Clarabel => clarabel_qp::PROBLEM_CLASSES,
             SolverKind::MicroImpulse => micro_impulse::PROBLEM_CLASSES,
+            SolverKind::NewtonFb => newton::PROBLEM_CLASSES_FB,
+            SolverKind::NewtonMin => newton::PROBLEM_CLASSES_MIN,
+            SolverKind::Enumeration => enumeration::PROBLEM_CLASSES,
         }
     }
 
@@ -111,7 +130,11 @@ impl SolverKind {
     pub fn is_iterative(self) -> bool {
         matches!(
             self,
-            SolverKind::Pgs | SolverKind::Sor | SolverKind::MicroImpulse
+            SolverKind::Pgs
+                | SolverKind::Sor
+                | SolverKind::MicroImpulse
+                | SolverKind::NewtonFb
+                | SolverKind::NewtonMin
         )
     }
 
@@ -124,6 +147,9 @@ impl SolverKind {
             SolverKind::Dantzig => Box::new(Dantzig::default()),
             SolverKind::Clarabel => Box::new(ClarabelQp::default()),
             SolverKind::MicroImpulse => Box::new(MicroImpulse::default()),
+            SolverKind::NewtonFb => Box::new(Newton::fischer_burmeister()),
+            SolverKind::NewtonMin => Box::new(Newton::min_map()),
+            SolverKind::Enumeration => Box::new(Enumeration),
         }
     }
 }
