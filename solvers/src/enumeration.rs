@@ -138,7 +138,13 @@ pub(crate) struct Workspace {
 }
 
 impl LocalLcp<'_> {
-    /// Local residual of `x`.
+    /// Local residual `max_i |x_i − mid(lo_i, hi_i, x_i − w_i / d_i)|` of `x`.
+    pub(crate) fn residual_at(&self, x: &[f64]) -> f64 {
+        let mut w = vec![0.0; self.m];
+        self.residual(x, &mut w)
+    }
+
+    /// Local residual of `x`, with `w` written.
     fn residual(&self, x: &[f64], w: &mut [f64]) -> f64 {
         let m = self.m;
         let mut r: f64 = 0.0;

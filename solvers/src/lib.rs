@@ -27,6 +27,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod apgd;
 mod clarabel_qp;
 mod dantzig;
 mod enumeration;
@@ -36,12 +37,15 @@ mod lemke;
 pub mod metrics;
 mod micro_impulse;
 mod newton;
+mod nncg;
+mod nsgs;
 mod pgs;
 mod problem;
 mod solver;
 #[cfg(test)]
 mod test_util;
 
+pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
@@ -50,6 +54,8 @@ pub use lemke::Lemke;
 pub use metrics::{residuals, Residuals};
 pub use micro_impulse::MicroImpulse;
 pub use newton::{FrictionHandling, Newton, Reformulation};
+pub use nncg::Nncg;
+pub use nsgs::Nsgs;
 pub use pgs::ProjectedSor;
 pub use problem::{FrictionRow, Problem, ProblemError};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
@@ -73,13 +79,19 @@ pub enum SolverKind {
     NewtonFb,
     /// Semismooth Newton on the min-map reformulation.
     NewtonMin,
+    /// Accelerated projected gradient descent (Nesterov with adaptive restart).
+    Apgd,
+    /// Nonsmooth nonlinear conjugate gradient (PGS with Fletcher–Reeves directions).
+    Nncg,
+    /// Block Gauss–Seidel over contacts, each block solved exactly.
+    Nsgs,
     /// Enumeration of complementary bases (complete, small problems).
     Enumeration,
 }
 
 impl SolverKind {
     /// Every solver, in report order.
-    pub const ALL: [SolverKind; 9] = [
+    pub const ALL: [SolverKind; 12] = [
         SolverKind::Pgs,
         SolverKind::Sor,
         SolverKind::Lemke,
@@ -88,6 +100,9 @@ impl SolverKind {
         SolverKind::MicroImpulse,
         SolverKind::NewtonFb,
         SolverKind::NewtonMin,
+        SolverKind::Apgd,
+        SolverKind::Nncg,
+        SolverKind::Nsgs,
         SolverKind::Enumeration,
     ];
 
@@ -102,6 +117,9 @@ impl SolverKind {
             SolverKind::MicroImpulse => "micro",
             SolverKind::NewtonFb => "newton-fb",
             SolverKind::NewtonMin => "newton-min",
+            SolverKind::Apgd => "apgd",
+            SolverKind::Nncg => "nncg",
+            SolverKind::Nsgs => "nsgs",
             SolverKind::Enumeration => "enum",
         }
     }
@@ -122,6 +140,9 @@ impl SolverKind {
             SolverKind::MicroImpulse => micro_impulse::PROBLEM_CLASSES,
             SolverKind::NewtonFb => newton::PROBLEM_CLASSES_FB,
             SolverKind::NewtonMin => newton::PROBLEM_CLASSES_MIN,
+            SolverKind::Apgd => apgd::PROBLEM_CLASSES,
+            SolverKind::Nncg => nncg::PROBLEM_CLASSES,
+            SolverKind::Nsgs => nsgs::PROBLEM_CLASSES,
             SolverKind::Enumeration => enumeration::PROBLEM_CLASSES,
         }
     }
@@ -135,6 +156,9 @@ impl SolverKind {
                 | SolverKind::MicroImpulse
                 | SolverKind::NewtonFb
                 | SolverKind::NewtonMin
+                | SolverKind::Apgd
+                | SolverKind::Nncg
+                | SolverKind::Nsgs
         )
     }
 
@@ -149,6 +173,9 @@ impl SolverKind {
             SolverKind::MicroImpulse => Box::new(MicroImpulse::default()),
             SolverKind::NewtonFb => Box::new(Newton::fischer_burmeister()),
             SolverKind::NewtonMin => Box::new(Newton::min_map()),
+            SolverKind::Apgd => Box::new(Apgd),
+            SolverKind::Nncg => Box::new(Nncg),
+            SolverKind::Nsgs => Box::new(Nsgs),
             SolverKind::Enumeration => Box::new(Enumeration),
         }
     }
