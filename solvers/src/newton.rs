@@ -39,7 +39,8 @@
 //!   solve (`Stalled`, at a stationary point of `θ` that is not a solution, possible when `A` is
 //!   not a P-matrix or with the min-map merit at a kink); a non-finite iterate gives
 //!   `NumericalFailure`; [`Settings::max_iterations`] counts Newton iterations.
-//! * **Stopping rule**: the shared relative residual of the iterate is at most the tolerance.
+//! * **Stopping rule**: the shared relative residual of the iterate, projected onto its bounds
+//!   (PGS's projection), is at most the tolerance; the projected iterate is returned.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds.
 //!
 //! References: A. Fischer, *A special Newton-type optimization method*, Optimization 24, 1992;
@@ -49,6 +50,7 @@
 //! methods for linear complementarity problems in physics-based animation*, SIGGRAPH course
 //! 2013, §5 (min-map Newton, num4lcp); Siconos numerics, `NEWTON_MIN_FBLSA`.
 
+use crate::apgd::project;
 use crate::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
@@ -284,7 +286,12 @@ impl Solver for Newton {
         let mut iterations = 0;
         let tol = settings.tolerance;
         let outcome = loop {
-            if residuals(problem, &f).natural_map_rel <= tol {
+            // The iterate may sit just outside its bounds (neither reformulation keeps it
+            // feasible); its projection is tested too and returned when it is within tolerance.
+            let mut fp = f.clone();
+            project(problem, &mut fp);
+            if residuals(problem, &fp).natural_map_rel <= tol {
+                f = fp;
                 break Outcome::Stopped;
             }
             if iterations >= settings.max_iterations {
@@ -386,6 +393,11 @@ impl Solver for Newton {
                 ));
             }
         };
+        let mut fp = f.clone();
+        project(problem, &mut fp);
+        if residuals(problem, &fp).natural_map_rel <= residuals(problem, &f).natural_map_rel {
+            f = fp;
+        }
         monitor.finish(f, iterations, outcome)
     }
 }
