@@ -79,13 +79,22 @@ impl Solver for Apgd {
         let b = problem.b();
         // Objective from f and w = A f + b: ½ fᵀ(w + b).
         let objective = |f: &[f64], w: &[f64]| -> f64 {
-            0.5 * f.iter().zip(w).zip(b).map(|((x, y), z)| x * (y + z)).sum::<f64>()
+            0.5 * f
+                .iter()
+                .zip(w)
+                .zip(b)
+                .map(|((x, y), z)| x * (y + z))
+                .sum::<f64>()
         };
         let mut f = initial_impulse(problem, settings);
         let mut lipschitz = {
             let fh: Vec<f64> = f.iter().map(|v| v + 1.0).collect();
             let (w0, w1) = (problem.velocity(&f), problem.velocity(&fh));
-            let num = w0.iter().zip(&w1).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+            let num = w0
+                .iter()
+                .zip(&w1)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>();
             let l = (num / n.max(1) as f64).sqrt();
             if l.is_finite() && l > 0.0 {
                 l

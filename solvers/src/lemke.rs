@@ -39,8 +39,13 @@
 //!   `ray termination at pivot k …`);
 //!   pivot cap ([`Settings::max_iterations`] counts pivots, the first `z0` pivot included) gives
 //!   `IterationLimit`; the time budget gives `TimeLimit`; a singular basis at a refactorisation
-//!   or a non-finite column gives `NumericalFailure`. Entries below `1e-11 · max(1, max|y|)` in
-//!   the entering column `y` are never pivoted on. In every case the returned impulse is the
+//!   or a non-finite column gives `NumericalFailure`. Entries below `1e-9 · max(1, max|y|)` in
+//!   the entering column `y` are never pivoted on, and the ratio test reads round-off negative
+//!   basic values as zero. Both matter on the highly degenerate pyramid LCPs of resting stacks
+//!   (four contacts per face, opposite friction directions): with a `1e-11` threshold, step 265
+//!   of the 10-box tower pivoted on a round-off entry `4.9e-11` (against `max|y| = 4.5`) at a
+//!   basic value of `−9e-11`, the next pivot was `5e9`, and the "solution" left a whole face
+//!   without normal impulse (relative residual 0.5) — the tower fell. In every case the returned impulse is the
 //!   current basic solution's `z` mapped back to `f`, and the shared residual decides the status.
 //! * **Trivial case**: `q >= 0` returns `z = 0` after zero pivots.
 //! * **Warm start**: ignored; Lemke always starts from `z = 0`.
@@ -233,7 +238,7 @@ impl fmt::Display for Var {
 }
 
 /// Entries of the entering column below `PIVOT_TOL · max(1, max|y|)` are never pivoted on.
-const PIVOT_TOL: f64 = 1e-11;
+const PIVOT_TOL: f64 = 1e-9;
 /// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
 const TIE_TOL: f64 = 1e-10;
 
@@ -343,8 +348,11 @@ impl Tableau<'_> {
     }
 
     /// Lexicographic minimum of the rows `(x_B_r, B⁻¹_r) / y_r` over `cands`; `z0`'s row wins a
-    /// tie in the first (ratio) level.
-    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64]) -> usize {
+    /// tie in the first (ratio) level. With `feasible`, the basic values are taken as
+    /// `max(x_B_r, 0)`: they are non-negative in exact arithmetic, and a degenerate zero that
+    /// round-off made slightly negative must tie with the other zeros instead of winning with a
+    /// negative ratio (which would pivot on a round-off entry of `y` and wreck the basis).
+    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64], feasible: bool) -> usize {
         let k = self.k;
         let keep_min = |cands: &mut Vec<usize>, value: &dyn Fn(usize) -> f64| {
             let min = cands
@@ -357,7 +365,11 @@ impl Tableau<'_> {
                 cands.retain(|&r| value(r) <= min + tol);
             }
         };
-        keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+        if feasible {
+            keep_min(&mut cands, &|r| self.xb[r].max(0.0) / y[r]);
+        } else {
+            keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+        }
         if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
             return r;
         }
@@ -433,7 +445,7 @@ fn pivot(
         let cands: Vec<usize> = (0..k)
             .filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0))
             .collect();
-        tab.lexicographic_min(cands, &neg_y)
+        tab.lexicographic_min(cands, &neg_y, false)
     };
     let mut leaving = tab.basis[r];
     tab.pivot(r, &y, Var::Z0);
@@ -465,7 +477,7 @@ fn pivot(
         if cands.is_empty() {
             break ray_termination(red, pivots + 1, entering);
         }
-        let r = tab.lexicographic_min(cands, &y);
+        let r = tab.lexicographic_min(cands, &y, true);
         leaving = tab.basis[r];
         tab.pivot(r, &y, entering);
         pivots += 1;

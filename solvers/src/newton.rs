@@ -503,7 +503,9 @@ mod tests {
         let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
-        let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0, 0.0, 0.0];
+        let lo = vec![
+            0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0, 0.0, 0.0,
+        ];
         let hi = vec![inf, 0.3, 0.4, inf, 0.1, inf, 0.3, 0.4, inf, inf, 0.0, 0.0];
         let friction = vec![
             FrictionRow {

@@ -260,8 +260,7 @@ mod tests {
         let n = 3 * contacts;
         let j = Mat::from_fn(n, dofs, |_, _| rng.random_range(-1.0..1.0));
         let a = Mat::from_fn(n, n, |r, c| {
-            (0..dofs).map(|k| j[(r, k)] * j[(c, k)]).sum::<f64>()
-                + if r == c { 1e-3 } else { 0.0 }
+            (0..dofs).map(|k| j[(r, k)] * j[(c, k)]).sum::<f64>() + if r == c { 1e-3 } else { 0.0 }
         });
         let b: Vec<f64> = (0..n)
             .map(|i| {
@@ -300,7 +299,12 @@ mod tests {
             assert_eq!(r.status, Status::Converged, "seed {seed}: {}", r.status);
             // The same impulse as the pivoting reference.
             for (x, y) in r.f.iter().zip(&reference.f) {
-                assert!((x - y).abs() < 1e-5, "seed {seed}: {:?} vs {:?}", r.f, reference.f);
+                assert!(
+                    (x - y).abs() < 1e-5,
+                    "seed {seed}: {:?} vs {:?}",
+                    r.f,
+                    reference.f
+                );
             }
             agreed += 1;
         }
