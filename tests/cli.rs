@@ -26,7 +26,20 @@ fn solvers_lists_every_solver() {
     let o = lcpbench(&["solvers"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();
-    for name in ["pgs", "sor", "lemke", "dantzig", "clarabel", "micro"] {
+    for name in [
+        "pgs",
+        "sor",
+        "lemke",
+        "dantzig",
+        "clarabel",
+        "micro",
+        "newton-fb",
+        "newton-min",
+        "apgd",
+        "nncg",
+        "nsgs",
+        "enum",
+    ] {
         assert!(
             text.lines().any(|l| l.starts_with(name)),
             "{name} missing from:\n{text}"
@@ -43,7 +56,19 @@ fn gen_then_solve_json_with_every_solver() {
         "gen", "spd", "--n", "20", "--seed", "3", "--cond", "100", "-o", file,
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    for solver in ["pgs", "sor", "lemke", "dantzig", "clarabel", "micro"] {
+    for solver in [
+        "pgs",
+        "sor",
+        "lemke",
+        "dantzig",
+        "clarabel",
+        "micro",
+        "newton-fb",
+        "newton-min",
+        "apgd",
+        "nncg",
+        "nsgs",
+    ] {
         let o = lcpbench(&["solve", file, "--solver", solver, "--json"]);
         assert!(o.status.success(), "{solver}: {}", stderr(&o));
         let v: Value = serde_json::from_slice(&o.stdout).expect("one JSON object");

@@ -162,3 +162,60 @@ proptest! {
         }
     }
 }
+
+/// Newton's target: relative residual 1e-10 in at most 30 iterations on the planted families.
+fn newton_reaches_1e_10(p: &Problem) -> Result<(), TestCaseError> {
+    let settings = Settings {
+        tolerance: 1e-10,
+        max_iterations: 30,
+        ..Settings::default()
+    };
+    for kind in [SolverKind::NewtonFb, SolverKind::NewtonMin] {
+        let r = kind.create().solve(p, &settings);
+        prop_assert_eq!(&r.status, &Status::Converged, "{}", kind.name());
+        prop_assert!(r.iterations <= 30 && r.residuals.natural_map_rel <= 1e-10);
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(config(16))]
+
+    #[test]
+    fn newton_converges_on_spd(planted in planted_spd(40)) {
+        newton_reaches_1e_10(&planted.problem)?;
+    }
+
+    #[test]
+    fn newton_converges_on_rank_deficient_psd(planted in planted_psd(40)) {
+        newton_reaches_1e_10(&planted.problem)?;
+    }
+
+    #[test]
+    fn newton_converges_on_p_matrices(planted in planted_p_matrix(40)) {
+        newton_reaches_1e_10(&planted.problem)?;
+    }
+
+    #[test]
+    fn accelerated_and_block_solvers_find_the_spd_solution(planted in planted_spd(20)) {
+        // SPD: the solution is unique, so every converged answer is the planted one.
+        for kind in [SolverKind::Apgd, SolverKind::Nncg, SolverKind::Nsgs, SolverKind::Enumeration] {
+            if kind == SolverKind::Enumeration && planted.problem.n() > 12 {
+                continue;
+            }
+            let r = solve(kind, &planted.problem);
+            prop_assert_eq!(&r.status, &Status::Converged, "{}", kind.name());
+            let scale = 1.0 + norm_inf(&planted.solution);
+            prop_assert!(max_diff(&r.f, &planted.solution) <= 1e-5 * scale,
+                "{}: f differs from the planted solution by {:e}",
+                kind.name(), max_diff(&r.f, &planted.solution));
+        }
+    }
+
+    #[test]
+    fn enumeration_solves_every_small_p_matrix_problem(planted in planted_p_matrix(10)) {
+        let r = solve(SolverKind::Enumeration, &planted.problem);
+        prop_assert_eq!(&r.status, &Status::Converged);
+        prop_assert!(max_diff(&r.f, &planted.solution) <= 1e-6 * (1.0 + norm_inf(&planted.solution)));
+    }
+}

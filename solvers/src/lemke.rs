@@ -18,8 +18,10 @@
 //!   below. Lemke *processes* copositive-plus matrices (symmetric positive semidefinite, positive
 //!   definite, non-symmetric P-matrices…): it either finds a solution or ends in a ray, and for
 //!   a copositive-plus `M` a ray proves that no solution exists (Cottle–Pang–Stone, Thm 4.4.13).
-//!   On other matrices a ray proves nothing, but it is still reported as `NoSolution` with the
-//!   pivot at which it happened. Friction rows are `Unsupported`: their bounds `±mu f_k` move with
+//!   On other matrices a ray proves nothing: it is reported as `NoSolution` only when the reduced
+//!   `M` passes the sufficient test `M + Mᵀ` positive semidefinite (an eigenvalue decomposition,
+//!   done only after a ray), and as `Stalled` ("not a proof of infeasibility for this matrix
+//!   class") otherwise; [`crate::Enumeration`] settles such small problems. Friction rows are `Unsupported`: their bounds `±mu f_k` move with
 //!   the solution and have no fixed-bound reduction.
 //! * **Boxed reduction** (row `i`, with `w = A f + b`):
 //!   `lo_i` finite, `hi_i = ∞`: `f_i = lo_i + x`, `x ⟂ w_i`;
@@ -33,11 +35,17 @@
 //!   reduced LCP), plus an `O(m³)` refactorisation of the basis every `max(50, m)` pivots and at
 //!   the end (followed by one step of iterative refinement). The number of pivots is usually a
 //!   small multiple of `m`, but is `2ⁿ` on Murty's example (below).
-//! * **Failure modes**: ray termination (`NoSolution`, reason `ray termination at pivot k …`);
+//! * **Failure modes**: ray termination (`NoSolution` or `Stalled` as above, reason
+//!   `ray termination at pivot k …`);
 //!   pivot cap ([`Settings::max_iterations`] counts pivots, the first `z0` pivot included) gives
 //!   `IterationLimit`; the time budget gives `TimeLimit`; a singular basis at a refactorisation
-//!   or a non-finite column gives `NumericalFailure`. Entries below `1e-11 · max(1, max|y|)` in
-//!   the entering column `y` are never pivoted on. In every case the returned impulse is the
+//!   or a non-finite column gives `NumericalFailure`. Entries below `1e-9 · max(1, max|y|)` in
+//!   the entering column `y` are never pivoted on, and the ratio test reads round-off negative
+//!   basic values as zero. Both matter on the highly degenerate pyramid LCPs of resting stacks
+//!   (four contacts per face, opposite friction directions): with a `1e-11` threshold, step 265
+//!   of the 10-box tower pivoted on a round-off entry `4.9e-11` (against `max|y| = 4.5`) at a
+//!   basic value of `−9e-11`, the next pivot was `5e9`, and the "solution" left a whole face
+//!   without normal impulse (relative residual 0.5) — the tower fell. In every case the returned impulse is the
 //!   current basic solution's `z` mapped back to `f`, and the shared residual decides the status.
 //! * **Trivial case**: `q >= 0` returns `z = 0` after zero pivots.
 //! * **Warm start**: ignored; Lemke always starts from `z = 0`.
@@ -273,7 +281,7 @@ impl fmt::Display for Var {
 }
 
 /// Entries of the entering column below `PIVOT_TOL · max(1, max|y|)` are never pivoted on.
-const PIVOT_TOL: f64 = 1e-11;
+const PIVOT_TOL: f64 = 1e-9;
 /// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
 const TIE_TOL: f64 = 1e-10;
 
@@ -383,8 +391,11 @@ impl Tableau<'_> {
     }
 
     /// Lexicographic minimum of the rows `(x_B_r, B⁻¹_r) / y_r` over `cands`; `z0`'s row wins a
-    /// tie in the first (ratio) level.
-    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64]) -> usize {
+    /// tie in the first (ratio) level. With `feasible`, the basic values are taken as
+    /// `max(x_B_r, 0)`: they are non-negative in exact arithmetic, and a degenerate zero that
+    /// round-off made slightly negative must tie with the other zeros instead of winning with a
+    /// negative ratio (which would pivot on a round-off entry of `y` and wreck the basis).
+    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64], feasible: bool) -> usize {
         let k = self.k;
         let keep_min = |cands: &mut Vec<usize>, value: &dyn Fn(usize) -> f64| {
             let min = cands
@@ -397,7 +408,11 @@ impl Tableau<'_> {
                 cands.retain(|&r| value(r) <= min + tol);
             }
         };
-        keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+        if feasible {
+            keep_min(&mut cands, &|r| self.xb[r].max(0.0) / y[r]);
+        } else {
+            keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+        }
         if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
             return r;
         }
@@ -474,7 +489,7 @@ fn pivot(
         let cands: Vec<usize> = (0..k)
             .filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0))
             .collect();
-        tab.lexicographic_min(cands, &neg_y)
+        tab.lexicographic_min(cands, &neg_y, false)
     };
     let mut leaving = tab.basis[r];
     tab.pivot(r, &y, Var::Z0);
@@ -504,13 +519,9 @@ fn pivot(
         let tol = PIVOT_TOL * ymax.max(1.0);
         let cands: Vec<usize> = (0..k).filter(|&r| y[r] > tol).collect();
         if cands.is_empty() {
-            break Outcome::NoSolution(format!(
-                "ray termination at pivot {}: entering {entering} is not blocked (for PSD or \
-                 copositive-plus A this proves there is no solution)",
-                pivots + 1
-            ));
+            break ray_termination(red, pivots + 1, entering);
         }
-        let r = tab.lexicographic_min(cands, &y);
+        let r = tab.lexicographic_min(cands, &y, true);
         leaving = tab.basis[r];
         tab.pivot(r, &y, entering);
         pivots += 1;
@@ -528,6 +539,31 @@ fn pivot(
         (outcome, _) => outcome,
     };
     (unscale(tab.z()), pivots, outcome)
+}
+
+/// The outcome of a ray at `pivot`: a proof of infeasibility only when the reduced `M` is known
+/// to be copositive-plus, which is checked through its sufficient condition `M + Mᵀ` positive
+/// semidefinite (then `M` is positive semidefinite, hence copositive-plus). Otherwise the ray
+/// proves nothing and the solve has stalled.
+fn ray_termination(red: &Reduction, pivot: usize, entering: Var) -> Outcome {
+    let k = red.q.len();
+    let mmax = red.m.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+    let sym = faer::Mat::from_fn(k, k, |i, j| 0.5 * (red.m[i * k + j] + red.m[j * k + i]));
+    let psd = sym
+        .self_adjoint_eigenvalues(faer::Side::Lower)
+        .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * mmax * k as f64));
+    if psd {
+        Outcome::NoSolution(format!(
+            "ray termination at pivot {pivot}: entering {entering} is not blocked; M + Mᵀ is \
+             positive semidefinite (M is copositive-plus), so there is no solution"
+        ))
+    } else {
+        Outcome::Stalled(format!(
+            "ray termination at pivot {pivot}: entering {entering} is not blocked; not a proof \
+             of infeasibility for this matrix class (M + Mᵀ is not positive semidefinite, so M \
+             is not known to be copositive-plus)"
+        ))
+    }
 }
 
 /// Inverse of the row-major `k × k` matrix `b` by Gauss–Jordan elimination with partial
@@ -655,6 +691,22 @@ mod tests {
         let r = Lemke::default().solve(&lcp(&a, &[-1.0, 1.0]), &Settings::default());
         assert_eq!(r.status.name(), "no_solution");
         assert_eq!(r.iterations, 1);
+    }
+
+    #[test]
+    fn ray_on_a_matrix_not_copositive_plus_is_not_a_proof() {
+        let p = crate::test_util::three_solution_lcp();
+        let r = Lemke::default().solve(&p, &Settings::default());
+        match &r.status {
+            Status::Stalled { reason } => {
+                assert!(reason.starts_with("ray termination at pivot"), "{reason}");
+                assert!(reason.contains("not a proof of infeasibility"), "{reason}");
+            }
+            s => panic!("expected stalled, got {s}"),
+        }
+        // The problem has a solution: enumeration finds it.
+        let r = crate::Enumeration.solve(&p, &Settings::default());
+        assert_eq!(r.status, Status::Converged);
     }
 
     #[test]

@@ -27,25 +27,35 @@
 //! ```
 #![warn(missing_docs)]
 
+mod apgd;
 mod clarabel_qp;
 mod dantzig;
+mod enumeration;
 pub mod generate;
 mod io;
 mod lemke;
 pub mod metrics;
 mod micro_impulse;
+mod newton;
+mod nncg;
+mod nsgs;
 mod pgs;
 mod problem;
 mod solver;
 #[cfg(test)]
 mod test_util;
 
+pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
+pub use enumeration::{Enumeration, MAX_BASES};
 pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
 pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
+pub use newton::{FrictionHandling, Newton, Reformulation};
+pub use nncg::Nncg;
+pub use nsgs::Nsgs;
 pub use pgs::ProjectedSor;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
@@ -65,17 +75,35 @@ pub enum SolverKind {
     Clarabel,
     /// Sequential micro-impulses.
     MicroImpulse,
+    /// Semismooth Newton on the Fischer–Burmeister reformulation.
+    NewtonFb,
+    /// Semismooth Newton on the min-map reformulation.
+    NewtonMin,
+    /// Accelerated projected gradient descent (Nesterov with adaptive restart).
+    Apgd,
+    /// Nonsmooth nonlinear conjugate gradient (PGS with Fletcher–Reeves directions).
+    Nncg,
+    /// Block Gauss–Seidel over contacts, each block solved exactly.
+    Nsgs,
+    /// Enumeration of complementary bases (complete, small problems).
+    Enumeration,
 }
 
 impl SolverKind {
     /// Every solver, in report order.
-    pub const ALL: [SolverKind; 6] = [
+    pub const ALL: [SolverKind; 12] = [
         SolverKind::Pgs,
         SolverKind::Sor,
         SolverKind::Lemke,
         SolverKind::Dantzig,
         SolverKind::Clarabel,
         SolverKind::MicroImpulse,
+        SolverKind::NewtonFb,
+        SolverKind::NewtonMin,
+        SolverKind::Apgd,
+        SolverKind::Nncg,
+        SolverKind::Nsgs,
+        SolverKind::Enumeration,
     ];
 
     /// The name used on the command line and in reports.
@@ -87,6 +115,12 @@ impl SolverKind {
             SolverKind::Dantzig => "dantzig",
             SolverKind::Clarabel => "clarabel",
             SolverKind::MicroImpulse => "micro",
+            SolverKind::NewtonFb => "newton-fb",
+            SolverKind::NewtonMin => "newton-min",
+            SolverKind::Apgd => "apgd",
+            SolverKind::Nncg => "nncg",
+            SolverKind::Nsgs => "nsgs",
+            SolverKind::Enumeration => "enum",
         }
     }
 
@@ -104,6 +138,12 @@ impl SolverKind {
             SolverKind::Dantzig => dantzig::PROBLEM_CLASSES,
             SolverKind::Clarabel => clarabel_qp::PROBLEM_CLASSES,
             SolverKind::MicroImpulse => micro_impulse::PROBLEM_CLASSES,
+            SolverKind::NewtonFb => newton::PROBLEM_CLASSES_FB,
+            SolverKind::NewtonMin => newton::PROBLEM_CLASSES_MIN,
+            SolverKind::Apgd => apgd::PROBLEM_CLASSES,
+            SolverKind::Nncg => nncg::PROBLEM_CLASSES,
+            SolverKind::Nsgs => nsgs::PROBLEM_CLASSES,
+            SolverKind::Enumeration => enumeration::PROBLEM_CLASSES,
         }
     }
 
@@ -111,7 +151,14 @@ impl SolverKind {
     pub fn is_iterative(self) -> bool {
         matches!(
             self,
-            SolverKind::Pgs | SolverKind::Sor | SolverKind::MicroImpulse
+            SolverKind::Pgs
+                | SolverKind::Sor
+                | SolverKind::MicroImpulse
+                | SolverKind::NewtonFb
+                | SolverKind::NewtonMin
+                | SolverKind::Apgd
+                | SolverKind::Nncg
+                | SolverKind::Nsgs
         )
     }
 
@@ -124,6 +171,12 @@ impl SolverKind {
             SolverKind::Dantzig => Box::new(Dantzig::default()),
             SolverKind::Clarabel => Box::new(ClarabelQp::default()),
             SolverKind::MicroImpulse => Box::new(MicroImpulse::default()),
+            SolverKind::NewtonFb => Box::new(Newton::fischer_burmeister()),
+            SolverKind::NewtonMin => Box::new(Newton::min_map()),
+            SolverKind::Apgd => Box::new(Apgd),
+            SolverKind::Nncg => Box::new(Nncg),
+            SolverKind::Nsgs => Box::new(Nsgs),
+            SolverKind::Enumeration => Box::new(Enumeration),
         }
     }
 }

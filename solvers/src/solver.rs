@@ -160,6 +160,8 @@ pub trait Solver {
 pub(crate) enum Outcome {
     /// The solver's own stopping rule was met.
     Stopped,
+    /// The solver stopped for a reason it states (no proof of anything).
+    Stalled(String),
     /// The iteration or pivot cap was reached.
     IterationLimit,
     /// The time budget ran out.
@@ -336,6 +338,7 @@ impl<'a> Monitor<'a> {
                             res.natural_map_rel
                         ),
                     },
+                    Outcome::Stalled(reason) => Status::Stalled { reason },
                     Outcome::IterationLimit => Status::IterationLimit,
                     Outcome::TimeLimit => Status::TimeLimit,
                     Outcome::NoSolution(reason) => Status::NoSolution { reason },

@@ -68,7 +68,7 @@ pub enum LegendAt {
     LowerRight,
 }
 
-const PALETTE: [RGBColor; 10] = [
+const PALETTE: [RGBColor; 16] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -79,6 +79,12 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(127, 127, 127),
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 128),
+    RGBColor(128, 0, 0),
+    RGBColor(0, 100, 0),
+    RGBColor(255, 215, 0),
+    RGBColor(0, 0, 0),
+    RGBColor(255, 0, 255),
 ];
 
 /// A stable colour per solver name (the shipped solvers get fixed colours).
@@ -94,6 +100,12 @@ pub fn color_for(key: &str) -> RGBColor {
         "si",
         "body-micro",
         "penalty",
+        "newton-fb",
+        "newton-min",
+        "apgd",
+        "nncg",
+        "nsgs",
+        "enum",
     ];
     if let Some(i) = fixed.iter().position(|k| *k == base) {
         if key == base {
