@@ -360,7 +360,7 @@ impl Solver for Enumeration {
         }
         let mut mat = vec![0.0; n * n];
         for i in 0..n {
-            for (j, v) in problem.row(i) {
+            for (j, v) in problem.row(i).iter() {
                 mat[i * n + j] = v;
             }
         }

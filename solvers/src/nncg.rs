@@ -41,7 +41,7 @@ pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
         if diag[i] <= 0.0 {
             continue;
         }
-        let wi: f64 = problem.row(i).map(|(j, v)| v * f[j]).sum::<f64>() + b[i];
+        let wi: f64 = problem.row(i).dot(&f) + b[i];
         let (lo, hi) = problem.bounds_at(i, f);
         f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
     }
@@ -53,7 +53,7 @@ pub(crate) fn usable_diagonal(problem: &Problem) -> Vec<f64> {
     let mut diag = vec![0.0; n];
     let mut amax: f64 = 0.0;
     for (i, d) in diag.iter_mut().enumerate() {
-        for (j, v) in problem.row(i) {
+        for (j, v) in problem.row(i).iter() {
             amax = amax.max(v.abs());
             if j == i {
                 *d = v;

@@ -96,7 +96,7 @@ impl Nsgs {
             if diag[i] <= 0.0 {
                 return;
             }
-            let wi: f64 = problem.row(i).map(|(j, v)| v * f[j]).sum::<f64>() + b[i];
+            let wi: f64 = problem.row(i).dot(&f) + b[i];
             let (lo, hi) = problem.bounds_at(i, f);
             f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
             return;
@@ -110,7 +110,7 @@ impl Nsgs {
         ws.x.clear();
         for (r, &i) in rows.iter().enumerate() {
             let mut wi = b[i];
-            for (j, v) in problem.row(i) {
+            for (j, v) in problem.row(i).iter() {
                 wi += v * f[j];
                 let c = local[j];
                 if c < m && rows[c] == j {

@@ -543,16 +543,6 @@ impl Problem {
         }
     }
 
-    /// Row `i` of `A` as `(column, value)` pairs (every stored entry of the row).
-    pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.a_row(i).iter().copied().enumerate()
-    }
-
-    /// `A` as a dense matrix (a copy).
-    pub fn to_dense(&self) -> Mat<f64> {
-        self.a.clone()
-    }
-
     /// The constant term `b`.
     pub fn b(&self) -> &[f64] {
         &self.b

@@ -451,7 +451,7 @@ pub(crate) fn solve_by_islands(
             // The most telling outcome wins: unsupported and failures over limits.
             let rank = |o: &Outcome| match o {
                 Outcome::Stopped => 0,
-                Outcome::IterationLimit | Outcome::TimeLimit => 1,
+                Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
                 Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
                 Outcome::Unsupported(_) => 3,
             };
