@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench_contact::scene::{check_solver, Scene};
-use lcpbench_contact::step::{SolverChoice, StepReport, World};
+use lcpbench_contact::step::{SolverChoice, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::write_problem;
 use serde_json::json;

@@ -59,7 +59,7 @@ function linePlot(target, title, xs, series, opts) {
     legend: { show: series.length > 1 || !!opts.legend },
     cursor: { drag: { x: false, y: false } },
     scales: { x: { time: false }, y: opts.log ? { distr: 3 } : {} },
-    axes: [{ label: opts.xLabel || '', size: 30, labelSize: 14 }, { size: 56 }],
+    axes: [{ label: opts.xLabel || '', size: 30, labelSize: 14 }, { size: 62, values: (u, vals) => vals.map(fmt) }],
     series: [{ label: opts.xLabel || 'x' }].concat(series.map((s, i) => ({
       label: s.label,
       stroke: s.color || PALETTE[i % PALETTE.length],

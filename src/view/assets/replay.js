@@ -301,11 +301,11 @@ const toggle = (label, key) => el('label', {}, [
 const speed = el('select', { onchange: (e) => { ui.speed = Number(e.target.value); } },
   [1, 2, 5, 10].map((s) => el('option', { value: String(s), text: s + '×' })));
 APP.append(el('div', { class: 'controls' }, [
-  button('⏮', 'first step', () => setIndex(0)),
+  button('«', 'first step', () => setIndex(0)),
   button('◀', 'previous step (←)', () => setIndex(ui.index - 1)),
   playButton,
   button('▶|', 'next step (→)', () => setIndex(ui.index + 1)),
-  button('⏭', 'last step', () => setIndex(NSTEPS - 1)),
+  button('»', 'last step', () => setIndex(NSTEPS - 1)),
   slider, stepLabel, speed,
   toggle('contacts', 'showContacts'), toggle('normals', 'showNormals'), toggle('impulses', 'showImpulses'),
 ]));
