@@ -92,8 +92,8 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
             ));
         }
     }
-    // Series and headers are small next to the frames; leave them a tenth.
-    let budget = max_bytes.saturating_sub(fixed_bytes(true)) * 9 / 10 / recordings.len();
+    // A little room for the page's own text around the data.
+    let budget = max_bytes.saturating_sub(fixed_bytes(true) + 4_000) / recordings.len();
     let runs: Vec<Value> = recordings
         .iter()
         .map(|r| {

@@ -419,9 +419,9 @@ fn series(rec: &Recording) -> Value {
     })
 }
 
-/// The page data of one run: header, series, and frames decimated so that they take at most
-/// `frame_bytes` bytes of JSON. Returns the data and the stride used (1: every step).
-pub fn run_data(rec: &Recording, label: &str, frame_bytes: usize) -> Value {
+/// The page data of one run: header, series, and frames decimated so that the whole takes at
+/// most `bytes` bytes of JSON (at least one frame in ten kilobytes is always kept).
+pub fn run_data(rec: &Recording, label: &str, bytes: usize) -> Value {
     let index: HashMap<&str, usize> = rec
         .header
         .bodies
@@ -430,13 +430,21 @@ pub fn run_data(rec: &Recording, label: &str, frame_bytes: usize) -> Value {
         .rev()
         .map(|(i, b)| (b.name.as_str(), i))
         .collect();
+    let mut data = run_header(rec, label);
+    let frame_bytes = bytes.saturating_sub(data.to_string().len()).max(10_000);
     let frames: Vec<String> = rec
         .steps
         .iter()
         .map(|s| frame(rec, &index, s).to_string())
         .collect();
     let total: usize = frames.iter().map(|f| f.len() + 1).sum();
-    let stride = total.div_ceil(frame_bytes.max(1)).max(1);
+    // Room for the extra last frame kept after the stride.
+    let largest = frames.iter().map(|f| f.len() + 1).max().unwrap_or(0);
+    let stride = if total <= frame_bytes {
+        1
+    } else {
+        total.div_ceil(frame_bytes.saturating_sub(largest).max(1))
+    };
     let n = frames.len();
     let kept: Vec<&str> = frames
         .iter()
@@ -446,7 +454,14 @@ pub fn run_data(rec: &Recording, label: &str, frame_bytes: usize) -> Value {
         .collect();
     // The frames are spliced in as raw JSON to avoid parsing them again.
     let frames_raw = format!("[{}]", kept.join(","));
-    let frames_value: Value = serde_json::from_str(&frames_raw).unwrap_or(Value::Null);
+    data["frames"] = serde_json::from_str(&frames_raw).unwrap_or(Value::Null);
+    data["steps_total"] = json!(n);
+    data["stride"] = json!(stride);
+    data
+}
+
+/// Everything of a run's page data but its frames.
+fn run_header(rec: &Recording, label: &str) -> Value {
     let shapes: Vec<&Value> = rec.header.bodies.iter().map(|b| &b.shape).collect();
     let (geometries, geometry_of) = dedupe(&shapes);
     let bodies: Vec<Value> = rec
@@ -463,13 +478,11 @@ pub fn run_data(rec: &Recording, label: &str, frame_bytes: usize) -> Value {
         "solver": rec.header.solver,
         "dt": rec.header.dt,
         "tolerance": rec.header.tolerance,
-        "steps_total": n,
-        "stride": stride,
-        "frame_bytes_limit": frame_bytes,
+        "steps_total": rec.steps.len(),
+        "stride": 1,
         "geometries": geometries,
         "bodies": bodies,
         "series": series(rec),
-        "frames": frames_value,
     })
 }
 
