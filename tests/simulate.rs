@@ -54,7 +54,13 @@ fn simulate_prints_figures_and_records_json_lines() {
     assert_eq!(last["bodies"][1]["name"], "box");
     assert_eq!(last["contacts"], 4);
     let c = &last["contact_records"][0];
-    for key in ["point", "normal", "impulse", "tangent_impulse", "relative_velocity"] {
+    for key in [
+        "point",
+        "normal",
+        "impulse",
+        "tangent_impulse",
+        "relative_velocity",
+    ] {
         assert_eq!(c[key].as_array().unwrap().len(), 3, "{key}");
     }
     // A box resting on the ground: each corner carries a quarter of the weight per step, with
@@ -66,7 +72,10 @@ fn simulate_prints_figures_and_records_json_lines() {
         .map(|c| c["normal_impulse"].as_f64().unwrap())
         .sum();
     let weight = 1000.0 * 9.81 * header["dt"].as_f64().unwrap(); // 1 m³ at 1000 kg/m³
-    assert!((fn_sum - weight).abs() < 0.05 * weight, "{fn_sum} vs {weight}");
+    assert!(
+        (fn_sum - weight).abs() < 0.05 * weight,
+        "{fn_sum} vs {weight}"
+    );
     assert!(c["complementarity"].as_f64().unwrap().abs() < 1e-3 * fn_sum);
 }
 

@@ -12,7 +12,9 @@ fn lcpbench(args: &[&str]) -> Output {
 
 /// The JSON data embedded in a page.
 fn page_data(html: &str) -> serde_json::Value {
-    let start = html.find("id=\"lcpbench-data\" type=\"application/json\">").unwrap();
+    let start = html
+        .find("id=\"lcpbench-data\" type=\"application/json\">")
+        .unwrap();
     let rest = &html[start..];
     let open = rest.find('>').unwrap() + 1;
     let close = rest.find("</script>").unwrap();
@@ -54,9 +56,16 @@ fn long_runs_are_decimated_under_the_size_bound() {
     assert_eq!(df["runs"][0]["frames"].as_array().unwrap().len(), 1000);
     let stride = ds["runs"][0]["stride"].as_u64().unwrap();
     assert!(stride > 1, "no decimation at {} bytes", full.len());
-    assert!(small.len() <= max, "{} bytes over the bound {max}", small.len());
+    assert!(
+        small.len() <= max,
+        "{} bytes over the bound {max}",
+        small.len()
+    );
     // Every step stays in the plots; the last step stays in the frames.
-    assert_eq!(ds["runs"][0]["series"]["step"].as_array().unwrap().len(), 1000);
+    assert_eq!(
+        ds["runs"][0]["series"]["step"].as_array().unwrap().len(),
+        1000
+    );
     let frames = ds["runs"][0]["frames"].as_array().unwrap();
     assert_eq!(frames.last().unwrap()["step"], 999);
     // Histories (PGS, the scene's solver) are recorded per step.
@@ -91,7 +100,11 @@ fn problem_page_holds_every_solver_and_case_keys_work() {
                 s["f"][i].as_f64().unwrap(),
                 converged[0]["f"][i].as_f64().unwrap(),
             );
-            assert!((a - b).abs() <= 1e-5 * (1.0 + b.abs()), "{} row {i}", s["name"]);
+            assert!(
+                (a - b).abs() <= 1e-5 * (1.0 + b.abs()),
+                "{} row {i}",
+                s["name"]
+            );
         }
     }
 }

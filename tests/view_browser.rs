@@ -322,7 +322,10 @@ fn two_recordings_side_by_side() {
         }
         n
     };
-    assert!(half(true) > 200 && half(false) > 200, "one of the views is empty");
+    assert!(
+        half(true) > 200 && half(false) > 200,
+        "one of the views is empty"
+    );
 }
 
 #[test]

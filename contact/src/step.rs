@@ -50,8 +50,7 @@ use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind,
-    Status,
+    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;

@@ -33,7 +33,8 @@ pub struct ViewArgs {
 /// What an input file holds: a recording starts with its header line, a problem file is one
 /// JSON object with `A`.
 fn is_recording(path: &Path) -> Result<bool> {
-    let file = std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
     let mut first = String::new();
     std::io::BufReader::new(file)
         .read_line(&mut first)
@@ -91,6 +92,10 @@ pub fn run(args: ViewArgs) -> Result<()> {
 /// Write a page and say where it went and how large it is.
 pub fn write_page(path: &Path, html: &str) -> Result<()> {
     std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
-    println!("wrote {} ({:.1} kB)", path.display(), html.len() as f64 / 1e3);
+    println!(
+        "wrote {} ({:.1} kB)",
+        path.display(),
+        html.len() as f64 / 1e3
+    );
     Ok(())
 }

@@ -31,7 +31,12 @@ pub struct ReplayLink {
 }
 
 /// Simulate `scene_path` with `solver` for `steps` steps, recording in memory.
-fn record(scene: &Scene, scene_path: &Path, solver: SolverChoice, steps: usize) -> Result<Recording, String> {
+fn record(
+    scene: &Scene,
+    scene_path: &Path,
+    solver: SolverChoice,
+    steps: usize,
+) -> Result<Recording, String> {
     check_solver(solver, scene.settings.builder.friction_model)?;
     let mut world = scene.world();
     world.set_solver(solver);
@@ -62,7 +67,11 @@ pub fn write_replays(scenes: &[PathBuf], out_dir: &Path) -> Vec<ReplayLink> {
             };
             let result = (|| -> Result<PathBuf, String> {
                 let scene = Scene::load(path).map_err(|e| e.to_string())?;
-                let cap = if is_large_scene(path) { LARGE_SCENE_STEPS } else { SCENE_STEPS };
+                let cap = if is_large_scene(path) {
+                    LARGE_SCENE_STEPS
+                } else {
+                    SCENE_STEPS
+                };
                 let steps = scene.settings.steps.min(cap);
                 let mut recordings = Vec::new();
                 for solver in REPLAY_SOLVERS {
@@ -75,7 +84,8 @@ pub fn write_replays(scenes: &[PathBuf], out_dir: &Path) -> Vec<ReplayLink> {
                 if recordings.is_empty() {
                     return Err("no replay solver supports this scene".into());
                 }
-                let html = view::replay_page(&recordings, REPLAY_MAX_BYTES).map_err(|e| e.to_string())?;
+                let html =
+                    view::replay_page(&recordings, REPLAY_MAX_BYTES).map_err(|e| e.to_string())?;
                 std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
                 let page = dir.join(format!("{name}.html"));
                 std::fs::write(&page, html).map_err(|e| format!("{}: {e}", page.display()))?;
@@ -126,7 +136,10 @@ mod tests {
         assert!(html.contains("\"kind\":\"replay\""));
         assert!(links[1].error.is_some());
         let md = replay_section(&links, dir.path());
-        assert!(md.contains("| box_on_ground | [dantzig vs si](replays/box_on_ground.html) |"), "{md}");
+        assert!(
+            md.contains("| box_on_ground | [dantzig vs si](replays/box_on_ground.html) |"),
+            "{md}"
+        );
         assert!(md.contains("| missing | none:"), "{md}");
     }
 }

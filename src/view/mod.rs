@@ -97,7 +97,9 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
     let runs: Vec<Value> = recordings
         .iter()
         .map(|r| {
-            let label = if recordings.len() == 2 && recordings[0].header.solver == recordings[1].header.solver {
+            let label = if recordings.len() == 2
+                && recordings[0].header.solver == recordings[1].header.solver
+            {
                 r.source
                     .file_name()
                     .map(|f| f.to_string_lossy().into_owned())
@@ -110,7 +112,10 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
         .collect();
     let title = match recordings {
         [a] => format!("{} · {}", a.header.scene, a.header.solver),
-        [a, b] => format!("{} · {} vs {}", a.header.scene, a.header.solver, b.header.solver),
+        [a, b] => format!(
+            "{} · {} vs {}",
+            a.header.scene, a.header.solver, b.header.solver
+        ),
         _ => unreachable!("checked above"),
     };
     let data = serde_json::json!({
@@ -124,7 +129,10 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
 
 /// The solve page of a problem's data ([`problem_data`]).
 pub fn problem_page(data: &Value) -> String {
-    let name = data.get("name").and_then(Value::as_str).unwrap_or("problem");
+    let name = data
+        .get("name")
+        .and_then(Value::as_str)
+        .unwrap_or("problem");
     page(&format!("{name} · every solver"), data, false)
 }
 
@@ -148,7 +156,13 @@ fn page(title: &str, data: &Value, replay: bool) -> String {
         .replace("{{TITLE}}", &html_escape(title))
         .replace("{{CSS}}", &format!("{UPLOT_CSS}\n{CSS}"))
         .replace("{{LICENSES}}", &html_escape(&licences))
-        .replace("{{APP}}", &format!("{COMMON_JS}\n{}", if replay { REPLAY_JS } else { PROBLEM_JS }))
+        .replace(
+            "{{APP}}",
+            &format!(
+                "{COMMON_JS}\n{}",
+                if replay { REPLAY_JS } else { PROBLEM_JS }
+            ),
+        )
         .replace("{{VENDOR}}", &vendor)
         .replace("{{DATA}}", &json)
 }

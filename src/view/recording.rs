@@ -404,7 +404,12 @@ fn series(rec: &Recording) -> Value {
         .collect();
     let status: Vec<&str> = s
         .iter()
-        .map(|l| l.status.get("status").and_then(Value::as_str).unwrap_or("?"))
+        .map(|l| {
+            l.status
+                .get("status")
+                .and_then(Value::as_str)
+                .unwrap_or("?")
+        })
         .collect();
     json!({
         "step": s.iter().map(|l| l.step).collect::<Vec<_>>(),

@@ -13,11 +13,8 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
         record_history: true,
         ..settings.clone()
     };
-    let finite = |v: &[f64]| -> Vec<Option<f64>> {
-        v.iter()
-            .map(|&x| x.is_finite().then_some(x))
-            .collect()
-    };
+    let finite =
+        |v: &[f64]| -> Vec<Option<f64>> { v.iter().map(|&x| x.is_finite().then_some(x)).collect() };
     let solvers: Vec<Value> = SolverKind::ALL
         .into_iter()
         .map(|kind| {
