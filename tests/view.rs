@@ -37,7 +37,7 @@ fn long_runs_are_decimated_under_the_size_bound() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let full = dir.path().join("full.html");
     let small = dir.path().join("small.html");
-    let max = 1_200_000;
+    let max = 750_000;
     for (page, bound) in [(&full, 50_000_000), (&small, max)] {
         let o = lcpbench(&[
             "view",
@@ -69,7 +69,8 @@ fn long_runs_are_decimated_under_the_size_bound() {
     let frames = ds["runs"][0]["frames"].as_array().unwrap();
     assert_eq!(frames.last().unwrap()["step"], 999);
     // Histories (PGS, the scene's solver) are recorded per step.
-    assert!(df["runs"][0]["frames"][500]["history"]["res"].is_array());
+    let frames = df["runs"][0]["frames"].as_array().unwrap();
+    assert!(frames.iter().any(|f| f["history"]["res"].is_array()));
 }
 
 #[test]
