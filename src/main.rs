@@ -25,6 +25,9 @@ enum Command {
     Simulate(cli::simulate::SimulateArgs),
     /// Write the contact LCP of one step of a scene as a problem file.
     Export(cli::simulate::ExportArgs),
+    /// Write an interactive HTML page of a recording (or two side by side) or of every solver
+    /// on a problem.
+    View(cli::view::ViewArgs),
     /// Run solvers × scenes × budgets and write result rows as they finish.
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
         Command::Gen(args) => cli::gen::run(args),
         Command::Simulate(args) => cli::simulate::run_simulate(args),
         Command::Export(args) => cli::simulate::run_export(args),
+        Command::View(args) => cli::view::run(args),
         Command::Bench(args) => cli::bench::run_bench(args),
         Command::Report(args) => cli::bench::run_report(args),
         Command::BenchOne(args) => cli::bench::run_bench_one(args),

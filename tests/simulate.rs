@@ -45,15 +45,38 @@ fn simulate_prints_figures_and_records_json_lines() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert_eq!(lines.len(), 20);
-    let last = &lines[19];
+    assert_eq!(lines.len(), 21, "a header line and one line per step");
+    let header = &lines[0]["recording"];
+    assert_eq!(header["scene"], "box_on_ground");
+    assert_eq!(header["bodies"][1]["shape"]["type"], "box");
+    let last = &lines[20];
     assert_eq!(last["step"], 19);
     assert_eq!(last["bodies"][1]["name"], "box");
     assert_eq!(last["contacts"], 4);
     let c = &last["contact_records"][0];
-    for key in ["point", "normal", "impulse"] {
+    for key in [
+        "point",
+        "normal",
+        "impulse",
+        "tangent_impulse",
+        "relative_velocity",
+    ] {
         assert_eq!(c[key].as_array().unwrap().len(), 3, "{key}");
     }
+    // A box resting on the ground: each corner carries a quarter of the weight per step, with
+    // complementarity holding (the separation rate is zero where the impulse is positive).
+    let fn_sum: f64 = last["contact_records"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["normal_impulse"].as_f64().unwrap())
+        .sum();
+    let weight = 1000.0 * 9.81 * header["dt"].as_f64().unwrap(); // 1 m³ at 1000 kg/m³
+    assert!(
+        (fn_sum - weight).abs() < 0.05 * weight,
+        "{fn_sum} vs {weight}"
+    );
+    assert!(c["complementarity"].as_f64().unwrap().abs() < 1e-3 * fn_sum);
 }
 
 #[test]

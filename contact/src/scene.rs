@@ -583,6 +583,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         ccd,
         keep_problem: false,
         residuals: true,
+        record_history: false,
     })
 }
 

@@ -50,7 +50,7 @@ use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind, Status,
+    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -132,6 +132,10 @@ pub struct SimSettings {
     pub keep_problem: bool,
     /// Measure the shared residual for body-level solvers too (assembles `A`) \[`true`\].
     pub residuals: bool,
+    /// Ask matrix solvers for their convergence history (residual per iteration or pivot) and
+    /// keep it in each [`StepReport`] \[`false`\]. The measuring time is excluded from the
+    /// solver's reported time but not from the step's.
+    pub record_history: bool,
 }
 
 impl Default for SimSettings {
@@ -150,6 +154,7 @@ impl Default for SimSettings {
             ccd: None,
             keep_problem: false,
             residuals: true,
+            record_history: false,
         }
     }
 }
@@ -176,6 +181,21 @@ pub struct ContactRecord {
     pub dist: f64,
     /// Total impulse on the second body (normal plus friction), world frame.
     pub impulse: [f64; 3],
+    /// Normal impulse `f_n`.
+    pub normal_impulse: f64,
+    /// Tangential (friction) impulse on the second body, world frame.
+    pub tangent_impulse: [f64; 3],
+    /// Velocity of the second body's material point relative to the first's at the contact
+    /// point after the step, world frame (its normal part is positive when separating).
+    pub relative_velocity: [f64; 3],
+    /// Friction coefficient of the contact.
+    pub mu: f64,
+    /// `w_n`: the normal row of `w = A f + b` at the solved impulse (separation rate the
+    /// solver aimed for, bias terms included).
+    pub normal_rate: f64,
+    /// Complementarity of the normal row, `min(f_n, w_n / A_nn)` in impulse units: zero when
+    /// `0 <= f_n ⟂ w_n >= 0` holds, non-zero when it is violated.
+    pub complementarity: f64,
 }
 
 /// What one step did and measured.
@@ -219,6 +239,10 @@ pub struct StepReport {
     pub time_of_impact: Option<f64>,
     /// Contacts with their impulses.
     pub contact_records: Vec<ContactRecord>,
+    /// The solver's convergence history, when [`SimSettings::record_history`] is set and the
+    /// solver records one (matrix solvers).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub history: Vec<HistoryPoint>,
     /// The step's LCP, when [`SimSettings::keep_problem`] is set.
     #[serde(skip)]
     pub problem: Option<Problem>,
@@ -232,6 +256,7 @@ struct Solved {
     time_s: f64,
     residuals: Option<Residuals>,
     problem: Option<Problem>,
+    history: Vec<HistoryPoint>,
 }
 
 /// Bodies, materials, settings and the state carried between steps.
@@ -365,6 +390,7 @@ impl World {
                 time_s: 0.0,
                 residuals: None,
                 problem: None,
+                history: Vec::new(),
             };
         }
         let warm_start = self
@@ -385,10 +411,12 @@ impl World {
                             time_s: 0.0,
                             residuals: None,
                             problem: None,
+                            history: Vec::new(),
                         }
                     }
                 };
                 let mut settings = self.solver_settings();
+                settings.record_history = self.settings.record_history;
                 if kind.is_iterative() {
                     settings.warm_start = warm_start;
                 }
@@ -408,6 +436,7 @@ impl World {
                     time_s: result.time.as_secs_f64(),
                     residuals: Some(result.residuals),
                     problem: Some(problem),
+                    history: result.history,
                 }
             }
             SolverChoice::Body(kind) => {
@@ -453,6 +482,7 @@ impl World {
                     time_s: out.time.as_secs_f64(),
                     residuals: res,
                     problem,
+                    history: Vec::new(),
                 }
             }
         }
@@ -517,6 +547,55 @@ impl World {
         None
     }
 
+    /// Per contact: impulses, post-step relative velocity and normal-row complementarity.
+    fn contact_records(&self, system: &ContactSystem, f: &[f64]) -> Vec<ContactRecord> {
+        if f.len() != system.n() {
+            return Vec::new();
+        }
+        let op = system.operator();
+        // Velocity the solve produced: u = u* + M⁻¹ Jᵀ f, so w = J u + bias.
+        let mut u = system.free_velocity.clone();
+        op.add_response(f, &mut u);
+        let name = |i: usize| {
+            self.bodies
+                .get(i)
+                .map(|b| b.name.clone())
+                .unwrap_or_default()
+        };
+        let velocity = |i: usize, p| {
+            self.bodies
+                .get(i)
+                .map_or(Vector3::zeros(), |b| b.velocity_at(p))
+        };
+        system
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(c, ct)| {
+                let imp = system.contact_impulse(c, f);
+                let info = &system.info[c];
+                let row = info.normal_row;
+                let w_n = op.row_dot(row, &u) + system.bias[row];
+                let a_nn = op.diagonal(row);
+                let scaled = if a_nn > 0.0 { w_n / a_nn } else { w_n };
+                let rel = velocity(ct.body_b, &ct.point) - velocity(ct.body_a, &ct.point);
+                ContactRecord {
+                    bodies: [name(ct.body_a), name(ct.body_b)],
+                    point: ct.point.coords.into(),
+                    normal: ct.normal.into(),
+                    dist: ct.dist,
+                    impulse: (ct.normal * imp.normal + imp.tangent).into(),
+                    normal_impulse: imp.normal,
+                    tangent_impulse: imp.tangent.into(),
+                    relative_velocity: rel.into(),
+                    mu: info.mu,
+                    normal_rate: w_n,
+                    complementarity: imp.normal.min(scaled),
+                }
+            })
+            .collect()
+    }
+
     fn report(
         &self,
         system: &ContactSystem,
@@ -542,32 +621,7 @@ impl World {
             pe += integrate::potential_energy(b, &gravity);
         }
         let f = &solved.f;
-        let contact_records = if f.len() == system.n() {
-            system
-                .contacts
-                .iter()
-                .enumerate()
-                .map(|(c, ct)| {
-                    let imp = system.contact_impulse(c, f);
-                    let total = ct.normal * imp.normal + imp.tangent;
-                    let name = |i: usize| {
-                        self.bodies
-                            .get(i)
-                            .map(|b| b.name.clone())
-                            .unwrap_or_default()
-                    };
-                    ContactRecord {
-                        bodies: [name(ct.body_a), name(ct.body_b)],
-                        point: ct.point.coords.into(),
-                        normal: ct.normal.into(),
-                        dist: ct.dist,
-                        impulse: total.into(),
-                    }
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let contact_records = self.contact_records(system, f);
         StepReport {
             step: self.step_index - 1,
             time: self.time,
@@ -591,6 +645,7 @@ impl World {
                 0.0
             },
             contact_records,
+            history: solved.history,
             time_of_impact,
             problem: if self.settings.keep_problem {
                 solved.problem

@@ -4,3 +4,4 @@ pub mod bench;
 pub mod gen;
 pub mod simulate;
 pub mod solve;
+pub mod view;

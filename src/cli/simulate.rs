@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench_contact::scene::{check_solver, Scene};
-use lcpbench_contact::step::{SolverChoice, StepReport, World};
+use lcpbench_contact::step::{SolverChoice, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::write_problem;
 use serde_json::json;
@@ -36,9 +36,19 @@ pub struct SimulateArgs {
     /// do not use), so the step time is theirs alone.
     #[arg(long)]
     pub no_residuals: bool,
-    /// Write per-step body states and contacts (point, normal, impulse) as JSON lines.
+    /// Write per-step body states and contacts (point, normal, impulse) as JSON lines, after a
+    /// header line with the bodies' shapes.
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// Keep the solver's convergence history of every step in the recording (on with `--html`).
+    #[arg(long)]
+    pub history: bool,
+    /// Write the run as an interactive replay page (self-contained HTML; see `lcpbench view`).
+    #[arg(long)]
+    pub html: Option<PathBuf>,
+    /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D.
+    #[arg(long, default_value_t = lcpbench::view::DEFAULT_MAX_BYTES)]
+    pub max_bytes: usize,
     /// Print the run's figures as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -93,29 +103,6 @@ fn load_world(
     Ok((scene, world))
 }
 
-/// One JSON line of a recording: the step's figures, body states and contacts.
-fn record_line(report: &StepReport, world: &World) -> serde_json::Value {
-    let bodies: Vec<_> = world
-        .bodies
-        .iter()
-        .map(|b| {
-            let q = b.orientation.quaternion();
-            json!({
-                "name": b.name,
-                "position": [b.position.x, b.position.y, b.position.z],
-                "orientation": [q.w, q.i, q.j, q.k],
-                "velocity": <[f64; 3]>::from(b.velocity()),
-                "angular_velocity": <[f64; 3]>::from(b.angular_velocity()),
-            })
-        })
-        .collect();
-    let mut line = serde_json::to_value(report).unwrap_or_else(|_| json!({}));
-    if let Some(obj) = line.as_object_mut() {
-        obj.insert("bodies".into(), json!(bodies));
-    }
-    line
-}
-
 /// Run `lcpbench simulate`.
 pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let (scene, mut world) = load_world(
@@ -139,12 +126,22 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         }
         world.settings.max_iterations = max_iter;
     }
+    world.settings.record_history = args.history || args.html.is_some();
     let mut record = match &args.record {
         Some(p) => Some(BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?,
         )),
         None => None,
     };
+    // The lines of the replay page, kept in memory.
+    let mut page_lines: Option<Vec<String>> = args.html.as_ref().map(|_| Vec::new());
+    let header = lcpbench::view::header(&scene.name, &world).to_string();
+    if let Some(w) = record.as_mut() {
+        writeln!(w, "{header}")?;
+    }
+    if let Some(lines) = page_lines.as_mut() {
+        lines.push(header);
+    }
     let energy0: f64 = world
         .bodies
         .iter()
@@ -175,9 +172,14 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
                 }
             );
         }
-        if let Some(w) = record.as_mut() {
-            serde_json::to_writer(&mut *w, &record_line(&report, &world))?;
-            w.write_all(b"\n")?;
+        if record.is_some() || page_lines.is_some() {
+            let line = lcpbench::view::recording::step_line(&report, &world).to_string();
+            if let Some(w) = record.as_mut() {
+                writeln!(w, "{line}")?;
+            }
+            if let Some(lines) = page_lines.as_mut() {
+                lines.push(line);
+            }
         }
         *statuses.entry(report.status.name()).or_default() += 1;
         step_time += report.step_time_s;
@@ -198,6 +200,12 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     }
     if let Some(mut w) = record {
         w.flush()?;
+    }
+    if let (Some(path), Some(lines)) = (&args.html, page_lines) {
+        let recording =
+            lcpbench::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
+        let html = lcpbench::view::replay_page(&[recording], args.max_bytes)?;
+        super::view::write_page(path, &html)?;
     }
     let n = steps.max(1) as f64;
     if args.json {

@@ -16,6 +16,7 @@
 
 pub mod machine;
 pub mod plots;
+pub mod replays;
 pub mod suite;
 mod tables;
 

@@ -1,0 +1,101 @@
+//! `lcpbench view`: a self-contained HTML page of one or two recordings, or of every solver on
+//! one problem.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use lcpbench::harness::Case;
+use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
+use lcpbench_solvers::{read_problem, Settings};
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `lcpbench view`.
+#[derive(Args)]
+pub struct ViewArgs {
+    /// A recording (`simulate --record`), two recordings of the same scene (side by side), a
+    /// problem file (JSON), or a bench case key (such as `spd:n=50:cond=1e3:seed=1`).
+    #[arg(required = true, num_args = 1..=2)]
+    pub inputs: Vec<String>,
+    /// Output HTML file.
+    #[arg(long, short)]
+    pub output: PathBuf,
+    /// Size bound of a replay page in bytes: longer runs draw every k-th step in 3-D.
+    #[arg(long, default_value_t = DEFAULT_MAX_BYTES)]
+    pub max_bytes: usize,
+    /// Solver tolerance for a problem page.
+    #[arg(long, default_value_t = 1e-8)]
+    pub tol: f64,
+    /// Iteration / pivot cap for a problem page.
+    #[arg(long, default_value_t = 10_000)]
+    pub max_iter: usize,
+}
+
+/// What an input file holds: a recording starts with its header line, a problem file is one
+/// JSON object with `A`.
+fn is_recording(path: &Path) -> Result<bool> {
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let mut first = String::new();
+    std::io::BufReader::new(file)
+        .read_line(&mut first)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(first.trim_start().starts_with("{\"recording\""))
+}
+
+/// Run `lcpbench view`.
+pub fn run(args: ViewArgs) -> Result<()> {
+    if !(args.tol.is_finite() && args.tol > 0.0) {
+        bail!("--tol must be a positive number, got {}", args.tol);
+    }
+    if args.max_iter == 0 {
+        bail!("--max-iter must be at least 1");
+    }
+    let first = Path::new(&args.inputs[0]);
+    let html = if first.exists() && is_recording(first)? {
+        let recordings = args
+            .inputs
+            .iter()
+            .map(|p| Recording::read(Path::new(p)))
+            .collect::<Result<Vec<_>, _>>()?;
+        view::replay_page(&recordings, args.max_bytes)?
+    } else {
+        if args.inputs.len() > 1 {
+            bail!("only recordings can be compared side by side; give one problem file or case");
+        }
+        let (problem, name) = if first.exists() {
+            let p = read_problem(first)?;
+            let name = p.name().map(str::to_owned).unwrap_or_else(|| {
+                first
+                    .file_stem()
+                    .map_or("problem".into(), |s| s.to_string_lossy().into_owned())
+            });
+            (p, name)
+        } else {
+            let case: Case = args.inputs[0].parse().map_err(|e| {
+                anyhow::anyhow!("{} is neither a file nor a case key: {e}", args.inputs[0])
+            })?;
+            let loaded = case
+                .load_lcp()
+                .map_err(|e| anyhow::anyhow!("case {}: {e}", args.inputs[0]))?;
+            (loaded.problem, args.inputs[0].clone())
+        };
+        let settings = Settings {
+            tolerance: args.tol,
+            max_iterations: args.max_iter,
+            ..Settings::default()
+        };
+        view::problem_page(&view::problem_data(&problem, &name, &settings))
+    };
+    write_page(&args.output, &html)
+}
+
+/// Write a page and say where it went and how large it is.
+pub fn write_page(path: &Path, html: &str) -> Result<()> {
+    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    println!(
+        "wrote {} ({:.1} kB)",
+        path.display(),
+        html.len() as f64 / 1e3
+    );
+    Ok(())
+}

@@ -1,0 +1,174 @@
+//! Interactive, self-contained HTML pages of recordings and solves (`lcpbench view`).
+//!
+//! A *replay page* draws a recorded simulation in 3-D with three.js (bodies from their shapes,
+//! contact points, normals and impulse vectors coloured by contact status), a timeline with
+//! per-step plots (uPlot), the selected step's convergence history and its contact table; two
+//! recordings of the same scene are shown side by side, synchronised. A *solve page* shows every
+//! solver on one problem: convergence histories and the final `f` and `w` per row.
+//!
+//! Every script, style and datum is inlined (the vendored libraries with their licences, see
+//! `src/view/assets/vendor/README.md`), so a page opens without network. Replays are kept under
+//! a byte budget by drawing every k-th step in 3-D (the plots keep every step), and the page
+//! says so.
+//!
+//! Test hooks: `window.lcpbenchState` and the element `#lcpbench-state` (attributes
+//! `data-ready`, `data-step`, `data-markers`, `data-expected-markers`), errors collected into
+//! `#lcpbench-errors`, and the URL hash `#step=N` selecting a step at load.
+
+pub mod recording;
+pub mod solve;
+
+use serde_json::Value;
+use std::path::PathBuf;
+use thiserror::Error;
+
+pub use recording::{header, Recording};
+pub use solve::problem_data;
+
+/// Errors reading the inputs of a page.
+#[derive(Debug, Error)]
+pub enum ViewError {
+    /// A file could not be read or written.
+    #[error("{0}: {1}")]
+    Io(PathBuf, #[source] std::io::Error),
+    /// A recording line is malformed.
+    #[error("{path}: line {line}: {message}")]
+    Recording {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Two recordings compared side by side must come from the same scene.
+    #[error("cannot compare recordings of different scenes: `{0}` and `{1}`")]
+    DifferentScenes(String, String),
+    /// A comparison takes one or two recordings.
+    #[error("a replay page shows one recording or two side by side, not {0}")]
+    TooManyRecordings(usize),
+}
+
+/// Default byte budget of a replay page (frames are decimated to fit).
+pub const DEFAULT_MAX_BYTES: usize = 6_000_000;
+
+const THREE: &str = include_str!("assets/vendor/three.min.js");
+const UPLOT: &str = include_str!("assets/vendor/uPlot.iife.min.js");
+const UPLOT_CSS: &str = include_str!("assets/vendor/uPlot.min.css");
+const LICENSE_THREE: &str = include_str!("assets/vendor/LICENSE-three.txt");
+const LICENSE_UPLOT: &str = include_str!("assets/vendor/LICENSE-uplot.txt");
+const TEMPLATE: &str = include_str!("assets/page.html");
+const CSS: &str = include_str!("assets/page.css");
+const COMMON_JS: &str = include_str!("assets/common.js");
+const REPLAY_JS: &str = include_str!("assets/replay.js");
+const PROBLEM_JS: &str = include_str!("assets/problem.js");
+
+/// Bytes of a page that are not data (scripts, styles, licences).
+fn fixed_bytes(replay: bool) -> usize {
+    TEMPLATE.len()
+        + CSS.len()
+        + COMMON_JS.len()
+        + UPLOT.len()
+        + UPLOT_CSS.len()
+        + LICENSE_UPLOT.len()
+        + if replay {
+            THREE.len() + REPLAY_JS.len() + LICENSE_THREE.len()
+        } else {
+            PROBLEM_JS.len()
+        }
+}
+
+/// The replay page of one recording, or of two side by side. The page stays under about
+/// `max_bytes` by decimating the 3-D frames.
+pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String, ViewError> {
+    if recordings.is_empty() || recordings.len() > 2 {
+        return Err(ViewError::TooManyRecordings(recordings.len()));
+    }
+    if let [a, b] = recordings {
+        if a.header.scene != b.header.scene {
+            return Err(ViewError::DifferentScenes(
+                a.header.scene.clone(),
+                b.header.scene.clone(),
+            ));
+        }
+    }
+    // A little room for the page's own text around the data.
+    let budget = max_bytes.saturating_sub(fixed_bytes(true) + 4_000) / recordings.len();
+    let runs: Vec<Value> = recordings
+        .iter()
+        .map(|r| {
+            let label = if recordings.len() == 2
+                && recordings[0].header.solver == recordings[1].header.solver
+            {
+                r.source
+                    .file_name()
+                    .map(|f| f.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| r.header.solver.clone())
+            } else {
+                r.header.solver.clone()
+            };
+            recording::run_data(r, &label, budget.max(10_000))
+        })
+        .collect();
+    let title = match recordings {
+        [a] => format!("{} · {}", a.header.scene, a.header.solver),
+        [a, b] => format!(
+            "{} · {} vs {}",
+            a.header.scene, a.header.solver, b.header.solver
+        ),
+        _ => unreachable!("checked above"),
+    };
+    let data = serde_json::json!({
+        "kind": "replay",
+        "generator": concat!("lcpbench ", env!("CARGO_PKG_VERSION")),
+        "max_bytes": max_bytes,
+        "runs": runs,
+    });
+    Ok(page(&title, &data, true))
+}
+
+/// The solve page of a problem's data ([`problem_data`]).
+pub fn problem_page(data: &Value) -> String {
+    let name = data
+        .get("name")
+        .and_then(Value::as_str)
+        .unwrap_or("problem");
+    page(&format!("{name} · every solver"), data, false)
+}
+
+/// Assemble a page: template, styles, vendored scripts, data and the page's own script.
+fn page(title: &str, data: &Value, replay: bool) -> String {
+    let json = data.to_string().replace("</", "<\\/");
+    let licences = format!(
+        "uPlot (https://github.com/leeoniya/uPlot)\n\n{LICENSE_UPLOT}{}",
+        if replay {
+            format!("\n\nthree.js (https://threejs.org)\n\n{LICENSE_THREE}")
+        } else {
+            String::new()
+        }
+    );
+    let vendor = if replay {
+        format!("{UPLOT}\n</script>\n<script>\n{THREE}")
+    } else {
+        UPLOT.to_string()
+    };
+    TEMPLATE
+        .replace("{{TITLE}}", &html_escape(title))
+        .replace("{{CSS}}", &format!("{UPLOT_CSS}\n{CSS}"))
+        .replace("{{LICENSES}}", &html_escape(&licences))
+        .replace(
+            "{{APP}}",
+            &format!(
+                "{COMMON_JS}\n{}",
+                if replay { REPLAY_JS } else { PROBLEM_JS }
+            ),
+        )
+        .replace("{{VENDOR}}", &vendor)
+        .replace("{{DATA}}", &json)
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}

@@ -1,0 +1,561 @@
+//! Recordings: the JSON-lines file `lcpbench simulate --record` writes, read back and turned into
+//! the compact data a replay page draws.
+//!
+//! Line 1 is a header `{"recording": {...}}` with the scene name, solver, time step, tolerance
+//! and each body's name, shape and whether it is static (shapes as the page draws them: sphere,
+//! box, capsule, plane, or a triangle mesh for convex hulls and meshes). Every further line is one
+//! [`StepReport`](lcpbench_contact::StepReport) with the body states after the step.
+
+use super::ViewError;
+use lcpbench_contact::{Shape, StepReport, World};
+use serde::Deserialize;
+use serde_json::{json, Map, Value};
+use std::collections::HashMap;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+/// Most points of one solve's convergence history kept in a page (more are thinned, first and
+/// last kept).
+pub const MAX_HISTORY_POINTS: usize = 200;
+
+/// The header line of a recording for `world` (call before the first step).
+pub fn header(scene: &str, world: &World) -> Value {
+    let bodies: Vec<Value> = world
+        .bodies
+        .iter()
+        .map(|b| {
+            json!({
+                "name": b.name,
+                "static": b.is_static,
+                "shape": shape_json(&b.shape),
+            })
+        })
+        .collect();
+    json!({ "recording": {
+        "version": 1,
+        "scene": scene,
+        "solver": world.settings.solver.name(),
+        "dt": world.settings.dt,
+        "tolerance": world.settings.tolerance,
+        "gravity": <[f64; 3]>::from(world.settings.gravity),
+        "bodies": bodies,
+    }})
+}
+
+/// One step line of a recording: the step's report and the body states after it.
+pub fn step_line(report: &StepReport, world: &World) -> Value {
+    let bodies: Vec<_> = world
+        .bodies
+        .iter()
+        .map(|b| {
+            let q = b.orientation.quaternion();
+            json!({
+                "name": b.name,
+                "position": [b.position.x, b.position.y, b.position.z],
+                "orientation": [q.w, q.i, q.j, q.k],
+                "velocity": <[f64; 3]>::from(b.velocity()),
+                "angular_velocity": <[f64; 3]>::from(b.angular_velocity()),
+            })
+        })
+        .collect();
+    let mut line = serde_json::to_value(report).unwrap_or_else(|_| json!({}));
+    if let Some(obj) = line.as_object_mut() {
+        obj.insert("bodies".into(), json!(bodies));
+    }
+    line
+}
+
+/// A shape as the page draws it, in the body frame.
+fn shape_json(shape: &Shape) -> Value {
+    let mesh = |vertices: Vec<[f64; 3]>, indices: Vec<[u32; 3]>| {
+        let v: Vec<f32> = vertices.iter().flatten().map(|&x| x as f32).collect();
+        let i: Vec<u32> = indices.into_iter().flatten().collect();
+        json!({ "type": "mesh", "vertices": v, "indices": i })
+    };
+    match shape {
+        Shape::Sphere { radius } | Shape::Particle { radius } => {
+            json!({ "type": "sphere", "radius": radius })
+        }
+        Shape::Box { half_extents } => {
+            json!({ "type": "box", "half_extents": <[f64; 3]>::from(*half_extents) })
+        }
+        Shape::Capsule {
+            half_height,
+            radius,
+        } => json!({ "type": "capsule", "half_height": half_height, "radius": radius }),
+        Shape::Plane { normal } => {
+            json!({ "type": "plane", "normal": <[f64; 3]>::from(normal.into_inner()) })
+        }
+        Shape::ConvexPolyhedron { hull, .. } => {
+            let (vertices, indices) = hull.to_trimesh();
+            mesh(vertices.iter().map(|p| [p.x, p.y, p.z]).collect(), indices)
+        }
+        Shape::TriMesh { mesh: m, .. } => mesh(
+            m.vertices().iter().map(|p| [p.x, p.y, p.z]).collect(),
+            m.indices().to_vec(),
+        ),
+    }
+}
+
+/// One body of the header.
+#[derive(Debug, Clone, Deserialize)]
+pub struct BodyInfo {
+    /// Name.
+    pub name: String,
+    /// Static (never moves).
+    #[serde(rename = "static")]
+    pub is_static: bool,
+    /// Shape, as [`header`] wrote it.
+    pub shape: Value,
+}
+
+/// The header of a recording.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Header {
+    /// Scene name.
+    pub scene: String,
+    /// Solver name.
+    pub solver: String,
+    /// Time step, s.
+    pub dt: f64,
+    /// Solver tolerance on the relative residual.
+    pub tolerance: f64,
+    /// Bodies at step 0.
+    pub bodies: Vec<BodyInfo>,
+}
+
+/// A body state in a step line.
+#[derive(Debug, Clone, Deserialize)]
+pub struct BodyState {
+    /// Name.
+    pub name: String,
+    /// Centre of mass, world frame.
+    pub position: [f64; 3],
+    /// Orientation quaternion `[w, x, y, z]`.
+    pub orientation: [f64; 4],
+}
+
+/// A contact in a step line (fields added after version 1 default to zero).
+#[derive(Debug, Clone, Deserialize)]
+pub struct ContactLine {
+    /// The two bodies' names.
+    pub bodies: [String; 2],
+    /// Contact point.
+    pub point: [f64; 3],
+    /// Unit normal from the first body to the second.
+    pub normal: [f64; 3],
+    /// Signed gap.
+    pub dist: f64,
+    /// Total impulse on the second body.
+    pub impulse: [f64; 3],
+    /// Normal impulse.
+    #[serde(default)]
+    pub normal_impulse: f64,
+    /// Tangential impulse.
+    #[serde(default)]
+    pub tangent_impulse: [f64; 3],
+    /// Relative velocity after the step.
+    #[serde(default)]
+    pub relative_velocity: [f64; 3],
+    /// Friction coefficient.
+    #[serde(default)]
+    pub mu: f64,
+    /// Normal row of `w`.
+    #[serde(default)]
+    pub normal_rate: f64,
+    /// `min(f_n, w_n / A_nn)`.
+    #[serde(default)]
+    pub complementarity: f64,
+}
+
+/// One step line.
+#[derive(Debug, Clone, Deserialize)]
+pub struct StepLine {
+    /// Step index.
+    pub step: usize,
+    /// Time at the end of the step, s.
+    pub time: f64,
+    /// Solver status object (`{"status": name, "reason": ...}`).
+    pub status: Value,
+    /// Iterations or pivots.
+    pub iterations: usize,
+    /// Solver time, s.
+    pub solve_time_s: f64,
+    /// Shared residuals (`natural_map_rel`, ...), when measured.
+    #[serde(default)]
+    pub residuals: Option<Value>,
+    /// Largest penetration, m.
+    pub max_penetration: f64,
+    /// Kinetic energy, J.
+    pub kinetic_energy: f64,
+    /// Potential energy, J.
+    pub potential_energy: f64,
+    /// Contacts.
+    pub contact_records: Vec<ContactLine>,
+    /// Convergence history (objects with `iteration`, `residual`, `time_s`, and whatever else
+    /// the solver recorded, such as an active set).
+    #[serde(default)]
+    pub history: Vec<Value>,
+    /// Body states after the step.
+    pub bodies: Vec<BodyState>,
+}
+
+/// A recording read back.
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// Where it came from.
+    pub source: PathBuf,
+    /// The header.
+    pub header: Header,
+    /// The steps.
+    pub steps: Vec<StepLine>,
+}
+
+impl Recording {
+    /// Read a recording file.
+    pub fn read(path: &Path) -> Result<Self, ViewError> {
+        let file = std::fs::File::open(path).map_err(|e| ViewError::Io(path.into(), e))?;
+        Self::from_lines(path, std::io::BufReader::new(file).lines())
+    }
+
+    /// Parse recording lines (the first must be the header).
+    pub fn from_lines(
+        path: &Path,
+        lines: impl Iterator<Item = std::io::Result<String>>,
+    ) -> Result<Self, ViewError> {
+        let bad = |line: usize, message: String| ViewError::Recording {
+            path: path.into(),
+            line,
+            message,
+        };
+        let mut header = None;
+        let mut steps = Vec::new();
+        for (k, line) in lines.enumerate() {
+            let line = line.map_err(|e| ViewError::Io(path.into(), e))?;
+            if line.trim().is_empty() {
+                continue;
+            }
+            if header.is_none() {
+                let mut v: Value =
+                    serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?;
+                let h = v.get_mut("recording").map(Value::take).ok_or_else(|| {
+                    bad(
+                        1,
+                        "no header line `{\"recording\": ...}` (re-record with this version of \
+                         lcpbench simulate --record)"
+                            .into(),
+                    )
+                })?;
+                header = Some(serde_json::from_value(h).map_err(|e| bad(1, e.to_string()))?);
+                continue;
+            }
+            steps.push(serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?);
+        }
+        let header = header.ok_or_else(|| bad(0, "the file is empty".into()))?;
+        Ok(Self {
+            source: path.into(),
+            header,
+            steps,
+        })
+    }
+}
+
+/// How a contact is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactStatus {
+    /// No normal impulse.
+    Separating = 0,
+    /// Normal impulse, no slip.
+    Sticking = 1,
+    /// Normal impulse and slip.
+    Sliding = 2,
+    /// `0 <= f_n ⟂ w_n >= 0` or the friction cone is violated beyond the tolerance.
+    Violated = 3,
+}
+
+/// Slip speed above which a loaded contact counts as sliding, m/s.
+pub const SLIP_SPEED: f64 = 1e-3;
+
+/// Classify a contact. `f_scale` is the step's largest normal impulse, `tol` the solver's
+/// relative tolerance: a violation is judged against `tol · f_scale`.
+pub fn contact_status(c: &ContactLine, tol: f64, f_scale: f64) -> ContactStatus {
+    let eps = (tol * f_scale).max(1e-12);
+    let ft = norm(c.tangent_impulse);
+    let cone = ft - c.mu * c.normal_impulse.max(0.0);
+    if c.complementarity.abs() > eps || c.normal_impulse < -eps || cone > eps.max(1e-6 * ft) {
+        return ContactStatus::Violated;
+    }
+    if c.normal_impulse <= eps {
+        return ContactStatus::Separating;
+    }
+    let n = c.normal;
+    let v = c.relative_velocity;
+    let vn = n[0] * v[0] + n[1] * v[1] + n[2] * v[2];
+    let vt = [v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2]];
+    if norm(vt) > SLIP_SPEED {
+        ContactStatus::Sliding
+    } else {
+        ContactStatus::Sticking
+    }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Numbers per contact in a frame: body a, body b, point (3), normal (3), `f_n`, tangential
+/// impulse (3), relative velocity (3), gap, `mu`, `w_n`, complementarity, status code.
+pub const CONTACT_FIELDS: usize = 20;
+
+/// The step's frame: poses (`[x, y, z, qw, qx, qy, qz]` per body in `ids`), contacts
+/// ([`CONTACT_FIELDS`] numbers each) and the thinned convergence history.
+fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine) -> Value {
+    let all = s.bodies.len() == rec.header.bodies.len()
+        && s.bodies
+            .iter()
+            .zip(&rec.header.bodies)
+            .all(|(a, b)| a.name == b.name);
+    let mut pose = Vec::with_capacity(7 * s.bodies.len());
+    for b in &s.bodies {
+        pose.extend(b.position.iter().chain(&b.orientation).map(|&x| x as f32));
+    }
+    let f_scale = s
+        .contact_records
+        .iter()
+        .map(|c| c.normal_impulse.abs())
+        .fold(0.0, f64::max);
+    let id = |name: &str| index.get(name).map_or(-1.0, |&i| i as f32);
+    let mut contacts = Vec::with_capacity(CONTACT_FIELDS * s.contact_records.len());
+    for c in &s.contact_records {
+        contacts.extend([id(&c.bodies[0]), id(&c.bodies[1])]);
+        contacts.extend(c.point.iter().chain(&c.normal).map(|&x| x as f32));
+        contacts.push(c.normal_impulse as f32);
+        contacts.extend(c.tangent_impulse.iter().map(|&x| x as f32));
+        contacts.extend(c.relative_velocity.iter().map(|&x| x as f32));
+        contacts.extend([c.dist, c.mu, c.normal_rate, c.complementarity].map(|x| x as f32));
+        contacts.push(contact_status(c, rec.header.tolerance, f_scale) as u8 as f32);
+    }
+    let mut out = json!({ "step": s.step, "pose": pose, "contacts": contacts });
+    if !all {
+        let ids: Vec<f32> = s.bodies.iter().map(|b| id(&b.name)).collect();
+        out["ids"] = json!(ids);
+    }
+    if !s.history.is_empty() {
+        out["history"] = history_json(&s.history);
+    }
+    out
+}
+
+/// A convergence history thinned to [`MAX_HISTORY_POINTS`]: `{"it": [...], "res": [...],
+/// "thinned_from": n, "extra_key": name, "extra": [...]}`, where `extra` holds the first field
+/// beyond `iteration`, `residual` and `time_s` the solver recorded (a pivoting solver's active
+/// set), when there is one.
+pub fn history_json(history: &[Value]) -> Value {
+    let n = history.len();
+    let stride = n.div_ceil(MAX_HISTORY_POINTS).max(1);
+    let keep: Vec<&Value> = history
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % stride == 0 || *i + 1 == n)
+        .map(|(_, v)| v)
+        .collect();
+    let num = |v: &Value, k: &str| v.get(k).and_then(Value::as_f64);
+    let its: Vec<Option<f64>> = keep.iter().map(|v| num(v, "iteration")).collect();
+    let res: Vec<Option<f32>> = keep
+        .iter()
+        .map(|v| num(v, "residual").map(|x| x as f32))
+        .collect();
+    let extra_key = keep.iter().find_map(|v| {
+        v.as_object()?
+            .iter()
+            .find(|(k, x)| {
+                !matches!(k.as_str(), "iteration" | "residual" | "time_s") && !x.is_null()
+            })
+            .map(|(k, _)| k.clone())
+    });
+    let mut out = Map::new();
+    out.insert("it".into(), json!(its));
+    out.insert("res".into(), json!(res));
+    if stride > 1 {
+        out.insert("thinned_from".into(), json!(n));
+    }
+    if let Some(k) = extra_key {
+        let extra: Vec<Value> = keep
+            .iter()
+            .map(|v| v.get(&k).cloned().unwrap_or(Value::Null))
+            .collect();
+        out.insert("extra".into(), json!(extra));
+        out.insert("extra_key".into(), json!(k));
+    }
+    Value::Object(out)
+}
+
+/// Per-step series for the plots (every step, never decimated).
+fn series(rec: &Recording) -> Value {
+    let s = &rec.steps;
+    let residual: Vec<Option<f64>> = s
+        .iter()
+        .map(|l| {
+            l.residuals
+                .as_ref()
+                .and_then(|r| r.get("natural_map_rel"))
+                .and_then(Value::as_f64)
+        })
+        .collect();
+    let status: Vec<&str> = s
+        .iter()
+        .map(|l| {
+            l.status
+                .get("status")
+                .and_then(Value::as_str)
+                .unwrap_or("?")
+        })
+        .collect();
+    json!({
+        "step": s.iter().map(|l| l.step).collect::<Vec<_>>(),
+        "time": s.iter().map(|l| l.time).collect::<Vec<_>>(),
+        "residual": residual,
+        "iterations": s.iter().map(|l| l.iterations).collect::<Vec<_>>(),
+        "solve_time": s.iter().map(|l| l.solve_time_s).collect::<Vec<_>>(),
+        "energy": s.iter().map(|l| l.kinetic_energy + l.potential_energy).collect::<Vec<_>>(),
+        "penetration": s.iter().map(|l| l.max_penetration).collect::<Vec<_>>(),
+        "contacts": s.iter().map(|l| l.contact_records.len()).collect::<Vec<_>>(),
+        "status": status,
+    })
+}
+
+/// The page data of one run: header, series, and frames decimated so that the whole takes at
+/// most `bytes` bytes of JSON (at least one frame in ten kilobytes is always kept).
+pub fn run_data(rec: &Recording, label: &str, bytes: usize) -> Value {
+    let index: HashMap<&str, usize> = rec
+        .header
+        .bodies
+        .iter()
+        .enumerate()
+        .rev()
+        .map(|(i, b)| (b.name.as_str(), i))
+        .collect();
+    let mut data = run_header(rec, label);
+    let frame_bytes = bytes.saturating_sub(data.to_string().len()).max(10_000);
+    let frames: Vec<String> = rec
+        .steps
+        .iter()
+        .map(|s| frame(rec, &index, s).to_string())
+        .collect();
+    let total: usize = frames.iter().map(|f| f.len() + 1).sum();
+    // Room for the extra last frame kept after the stride.
+    let largest = frames.iter().map(|f| f.len() + 1).max().unwrap_or(0);
+    let stride = if total <= frame_bytes {
+        1
+    } else {
+        total.div_ceil(frame_bytes.saturating_sub(largest).max(1))
+    };
+    let n = frames.len();
+    let kept: Vec<&str> = frames
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % stride == 0 || *i + 1 == n)
+        .map(|(_, f)| f.as_str())
+        .collect();
+    // The frames are spliced in as raw JSON to avoid parsing them again.
+    let frames_raw = format!("[{}]", kept.join(","));
+    data["frames"] = serde_json::from_str(&frames_raw).unwrap_or(Value::Null);
+    data["steps_total"] = json!(n);
+    data["stride"] = json!(stride);
+    data
+}
+
+/// Everything of a run's page data but its frames.
+fn run_header(rec: &Recording, label: &str) -> Value {
+    let shapes: Vec<&Value> = rec.header.bodies.iter().map(|b| &b.shape).collect();
+    let (geometries, geometry_of) = dedupe(&shapes);
+    let bodies: Vec<Value> = rec
+        .header
+        .bodies
+        .iter()
+        .zip(&geometry_of)
+        .map(|(b, g)| json!({ "name": b.name, "static": b.is_static, "geometry": g }))
+        .collect();
+    json!({
+        "label": label,
+        "source": rec.source.display().to_string(),
+        "scene": rec.header.scene,
+        "solver": rec.header.solver,
+        "dt": rec.header.dt,
+        "tolerance": rec.header.tolerance,
+        "steps_total": rec.steps.len(),
+        "stride": 1,
+        "geometries": geometries,
+        "bodies": bodies,
+        "series": series(rec),
+    })
+}
+
+/// Distinct shapes and, per body, the index of its shape.
+fn dedupe(shapes: &[&Value]) -> (Vec<Value>, Vec<usize>) {
+    let mut seen: HashMap<String, usize> = HashMap::new();
+    let mut distinct = Vec::new();
+    let of = shapes
+        .iter()
+        .map(|s| {
+            *seen.entry(s.to_string()).or_insert_with(|| {
+                distinct.push((*s).clone());
+                distinct.len() - 1
+            })
+        })
+        .collect();
+    (distinct, of)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn contact(fn_: f64, ft: f64, vt: f64, compl: f64) -> ContactLine {
+        ContactLine {
+            bodies: ["a".into(), "b".into()],
+            point: [0.0; 3],
+            normal: [0.0, 0.0, 1.0],
+            dist: 0.0,
+            impulse: [ft, 0.0, fn_],
+            normal_impulse: fn_,
+            tangent_impulse: [ft, 0.0, 0.0],
+            relative_velocity: [vt, 0.0, 0.0],
+            mu: 0.5,
+            normal_rate: 0.0,
+            complementarity: compl,
+        }
+    }
+
+    #[test]
+    fn contacts_are_classified_by_impulse_slip_and_complementarity() {
+        let s = |c: ContactLine| contact_status(&c, 1e-6, 1.0);
+        assert_eq!(s(contact(0.0, 0.0, 0.3, 0.0)), ContactStatus::Separating);
+        assert_eq!(s(contact(1.0, 0.2, 0.0, 0.0)), ContactStatus::Sticking);
+        assert_eq!(s(contact(1.0, 0.5, 0.3, 0.0)), ContactStatus::Sliding);
+        // Both f_n and w_n positive: complementarity violated.
+        assert_eq!(s(contact(1.0, 0.0, 0.0, 0.4)), ContactStatus::Violated);
+        // Outside the friction cone.
+        assert_eq!(s(contact(1.0, 0.9, 0.3, 0.0)), ContactStatus::Violated);
+        assert_eq!(s(contact(-0.1, 0.0, 0.0, -0.1)), ContactStatus::Violated);
+    }
+
+    #[test]
+    fn long_histories_are_thinned_keeping_the_last_point() {
+        let h: Vec<Value> = (0..1000)
+            .map(|i| json!({"iteration": i, "residual": 1.0 / (1.0 + i as f64), "time_s": 0.0}))
+            .collect();
+        let v = history_json(&h);
+        let its = v["it"].as_array().unwrap();
+        assert!(its.len() <= MAX_HISTORY_POINTS + 1);
+        assert_eq!(its.last().unwrap().as_f64(), Some(999.0));
+        assert_eq!(v["thinned_from"], json!(1000));
+        assert!(v.get("extra").is_none());
+        let h: Vec<Value> = (0..3)
+            .map(|i| json!({"iteration": i, "residual": 1.0, "time_s": 0.0, "active_set": [i]}))
+            .collect();
+        let v = history_json(&h);
+        assert_eq!(v["extra_key"], json!("active_set"));
+        assert_eq!(v["extra"][2], json!([2]));
+    }
+}
