@@ -354,7 +354,10 @@ fn problem_page_shows_every_solver() {
     ]);
     let state = page_state(&browser, &page, "");
     assert_no_errors(&state);
-    assert_eq!(state.get("solvers"), "6");
+    assert_eq!(
+        state.get("solvers"),
+        lcpbench_solvers::SolverKind::ALL.len().to_string()
+    );
     assert_eq!(state.get("rows"), "30");
     let plotted: usize = state.get("plotted").parse().unwrap();
     assert!(plotted >= 3, "only {plotted} convergence curves");
