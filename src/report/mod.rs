@@ -12,6 +12,7 @@
 //! tables/*.csv         the data of every table
 //! plots/*.svg, *.csv   every figure and its points
 //! lcps/*.json          LCPs exported from the scenes (when scenes are available)
+//! replays/*.html       self-contained replay pages of the scenes that are not large
 //! ```
 
 pub mod machine;
@@ -79,11 +80,38 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let sweep_seconds = start.elapsed().as_secs_f64();
     let header = Header::collect(&options.command);
     let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
+    if !options.quick {
+        append_replays(&options.out_dir, &options.scenes, &readme)?;
+    }
     Ok(ReportSummary {
         sweep,
         sweep_seconds,
         readme,
     })
+}
+
+/// Write the replay pages of the scenes that are not large (a large scene's page would exceed
+/// the size a committed report should carry; `lcpbench simulate SCENE --html` makes one) and
+/// append the section that links them to the README.
+fn append_replays(out_dir: &Path, scenes: &[PathBuf], readme: &Path) -> Result<()> {
+    let small: Vec<PathBuf> = scenes
+        .iter()
+        .filter(|p| !suite::is_large_scene(p))
+        .cloned()
+        .collect();
+    let links = replays::write_replays(&small, out_dir);
+    let mut md =
+        std::fs::read_to_string(readme).with_context(|| format!("reading {}", readme.display()))?;
+    md.push('\n');
+    md.push_str(&replays::replay_section(&links, out_dir));
+    let large = scenes.len() - small.len();
+    if large > 0 {
+        md.push_str(&format!(
+            "\n{large} large scenes have no committed replay (a page of theirs would be several \
+             megabytes); make one with `lcpbench simulate SCENE --html page.html`.\n"
+        ));
+    }
+    std::fs::write(readme, md).with_context(|| format!("writing {}", readme.display()))
 }
 
 /// Files matching a glob pattern, sorted.
