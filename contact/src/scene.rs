@@ -419,12 +419,6 @@ impl Scene {
             materials.push(Material::default());
         }
 
-        if file.bodies.is_empty() {
-            return Err(invalid(
-                "bodies".into(),
-                "the scene has no bodies (add at least one [[bodies]] table)".into(),
-            ));
-        }
         let mut total: usize = 0;
         for (i, b) in file.bodies.iter().enumerate() {
             let copies = match &b.repeat {
@@ -492,6 +486,12 @@ impl Scene {
             });
         }
 
+        if bodies.is_empty() {
+            return Err(invalid(
+                "bodies".into(),
+                "the scene has no bodies (add at least one [[bodies]] table)".into(),
+            ));
+        }
         let name = file.name.unwrap_or_else(|| {
             path.file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
@@ -569,7 +569,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             format!("must be between 1 and {MAX_STEPS}, got {}", s.steps),
         ));
     }
-    let g = vec3(s.gravity).norm();
+    let g = magnitude(s.gravity);
     if !(g.is_finite() && g <= MAX_GRAVITY) {
         return Err(err(
             "gravity",
@@ -692,6 +692,17 @@ pub fn tolerance(tol: f64) -> Result<f64, String> {
     }
 }
 
+/// Euclidean length of `v`, or its largest component when the length overflows (so a message
+/// can show `1e300` rather than `inf`).
+fn magnitude(v: [f64; 3]) -> f64 {
+    let norm = vec3(v).norm();
+    if norm.is_finite() || v.iter().any(|x| !x.is_finite()) {
+        norm
+    } else {
+        v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+    }
+}
+
 fn vec3(v: [f64; 3]) -> Vector3<f64> {
     Vector3::new(v[0], v[1], v[2])
 }
@@ -723,7 +734,7 @@ fn convert_body(
     let err = |f: &str, m: String| (f.to_owned(), m);
     let shape = convert_shape(&b.shape, dir)?;
     let limit = |field: &str, v: [f64; 3], max: f64, unit: &str| {
-        let norm = vec3(v).norm();
+        let norm = magnitude(v);
         if norm.is_finite() && norm <= max {
             Ok(())
         } else {

@@ -13,8 +13,14 @@ use lcpbench::harness::case::MAX_GENERATED_N as MAX_N;
 /// Sizes from which generation counts as long work (a warning and a spinner).
 const LONG_N: usize = 1_000;
 
-fn dense_gigabytes(n: usize) -> f64 {
-    (n as f64).powi(2) * 8.0 / 1e9
+/// Size of a dense `n × n` matrix of `f64`, as `"80 MB"` or `"3.2 GB"`.
+fn dense_size(n: usize) -> String {
+    let bytes = (n as f64).powi(2) * 8.0;
+    if bytes >= 1e9 {
+        format!("{:.1} GB", bytes / 1e9)
+    } else {
+        format!("{:.0} MB", bytes / 1e6)
+    }
 }
 
 /// Arguments of `lcpbench gen`.
@@ -61,18 +67,18 @@ pub fn run(args: GenArgs) -> Result<()> {
     }
     if args.n > MAX_N {
         bail!(
-            "--n {} is beyond the limit of {MAX_N} rows (the dense matrix alone would need {:.1} GB, \
+            "--n {} is beyond the limit of {MAX_N} rows (the dense matrix alone would need {}, \
              and its JSON file several times that)",
             args.n,
-            dense_gigabytes(args.n)
+            dense_size(args.n)
         );
     }
     let bar = if args.n >= LONG_N {
         eprintln!(
-            "generating an n = {} instance is O(n³) work and writes a {:.1} GB matrix; this may \
-             take minutes",
+            "generating an n = {} instance is O(n³) work and writes a {} matrix; this may take \
+             minutes",
             args.n,
-            dense_gigabytes(args.n)
+            dense_size(args.n)
         );
         let bar = ProgressBar::new_spinner();
         if let Ok(style) = ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}") {

@@ -60,7 +60,8 @@ pub fn tolerance(tol: f64) -> Result<f64, String> {
         Ok(tol)
     } else {
         Err(format!(
-            "tolerance must be a number in (0, 1) on the relative residual, got {tol}"
+            "tolerance must be a number in (0, 1) on the relative residual, got {}",
+            lcpbench_contact::scene::readable(tol)
         ))
     }
 }
