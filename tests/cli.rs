@@ -180,10 +180,8 @@ fn solve_refuses_an_unrepresentable_time_budget() {
     let dir = tempfile::tempdir().unwrap();
     let file = write(dir.path(), "p.json", TWO_ROWS);
     for t in ["1e20", "1e19", "inf", "NaN", "-1", "0"] {
-        refused(
-            &["solve", &file, "--solver", "pgs", "--time-budget", t],
-            &["--time-budget"],
-        );
+        let flag = format!("--time-budget={t}");
+        refused(&["solve", &file, "--solver", "pgs", &flag], &["--time-budget"]);
     }
     let o = lcpbench(&["solve", &file, "--solver", "pgs", "--time-budget", "1e6"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -194,8 +192,9 @@ fn solve_refuses_tolerances_outside_zero_one() {
     let dir = tempfile::tempdir().unwrap();
     let file = write(dir.path(), "p.json", TWO_ROWS);
     for tol in ["1e300", "1", "2", "0", "-1e-8", "NaN"] {
+        let flag = format!("--tol={tol}");
         refused(
-            &["solve", &file, "--solver", "pgs", "--tol", tol],
+            &["solve", &file, "--solver", "pgs", &flag],
             &["--tol", "(0, 1)"],
         );
     }
@@ -208,8 +207,9 @@ fn an_invalid_omega_is_an_input_error_not_unsupported() {
     let dir = tempfile::tempdir().unwrap();
     let file = write(dir.path(), "p.json", TWO_ROWS);
     for omega in ["5", "2", "0", "-0.5", "NaN"] {
+        let flag = format!("--omega={omega}");
         refused(
-            &["solve", &file, "--solver", "sor", "--omega", omega, "--json"],
+            &["solve", &file, "--solver", "sor", &flag, "--json"],
             &["--omega", "(0, 2)"],
         );
     }
