@@ -181,7 +181,10 @@ fn solve_refuses_an_unrepresentable_time_budget() {
     let file = write(dir.path(), "p.json", TWO_ROWS);
     for t in ["1e20", "1e19", "inf", "NaN", "-1", "0"] {
         let flag = format!("--time-budget={t}");
-        refused(&["solve", &file, "--solver", "pgs", &flag], &["--time-budget"]);
+        refused(
+            &["solve", &file, "--solver", "pgs", &flag],
+            &["--time-budget"],
+        );
     }
     let o = lcpbench(&["solve", &file, "--solver", "pgs", "--time-budget", "1e6"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -263,12 +266,19 @@ fn simulate_and_export_refuse_step_counts_beyond_the_limit() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/box_on_ground.toml");
     let scene = scene.to_str().unwrap();
     refused(
-        &["export", scene, "--step", "18446744073709551615", "-o", "/dev/null"],
+        &[
+            "export",
+            scene,
+            "--step",
+            "18446744073709551615",
+            "-o",
+            "/dev/null",
+        ],
         &["--step", "1000000"],
     );
-    refused(&["simulate", scene, "--steps", "0"], &["--steps", "between 1"]);
     refused(
-        &["simulate", scene, "--tol", "1e300"],
-        &["--tol", "(0, 1)"],
+        &["simulate", scene, "--steps", "0"],
+        &["--steps", "between 1"],
     );
+    refused(&["simulate", scene, "--tol", "1e300"], &["--tol", "(0, 1)"]);
 }

@@ -177,7 +177,10 @@ fn a_second_sweep_on_the_same_directory_refuses_and_no_row_is_lost_or_doubled() 
     let lock = out.join(".lcpbench.lock");
     let start = Instant::now();
     while std::fs::read_to_string(&lock).map_or(true, |s| s.trim().is_empty()) {
-        assert!(start.elapsed() < Duration::from_secs(30), "no lock appeared");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no lock appeared"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     let second = bench(
@@ -192,7 +195,10 @@ fn a_second_sweep_on_the_same_directory_refuses_and_no_row_is_lost_or_doubled() 
     let stderr = stderr_of(&second);
     assert_eq!(second.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains(&out.display().to_string()), "{stderr}");
-    assert!(stderr.contains("in use by another lcpbench sweep"), "{stderr}");
+    assert!(
+        stderr.contains("in use by another lcpbench sweep"),
+        "{stderr}"
+    );
     assert!(first.wait().unwrap().success());
     let rows = read_results(&out.join("results.csv")).unwrap();
     assert_eq!(rows.len(), 3);
@@ -222,9 +228,15 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
     let out = dir.path().join("sweep");
     let results = out.join("results.csv");
     let run = || {
-        bench(&out, "spd:n=10:cond=1e2:seed=1", "pgs,sor", "1e-8:1000:1", 1)
-            .output()
-            .unwrap()
+        bench(
+            &out,
+            "spd:n=10:cond=1e2:seed=1",
+            "pgs,sor",
+            "1e-8:1000:1",
+            1,
+        )
+        .output()
+        .unwrap()
     };
     assert!(run().status.success());
     let full = read_results(&results).unwrap();
@@ -299,7 +311,11 @@ fn stale_runner_copies_of_a_killed_sweep_are_removed() {
     let left: Vec<_> = std::fs::read_dir(&out)
         .unwrap()
         .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with(".lcpbench-runner-"))
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with(".lcpbench-runner-")
+        })
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }

@@ -771,7 +771,10 @@ fn convert_body(
             ));
         }
     }
-    if let Some(m) = b.mass.filter(|m| !(MASS_RANGE.0..=MASS_RANGE.1).contains(m)) {
+    if let Some(m) = b
+        .mass
+        .filter(|m| !(MASS_RANGE.0..=MASS_RANGE.1).contains(m))
+    {
         return Err(err(
             "mass",
             format!(

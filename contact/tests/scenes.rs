@@ -352,7 +352,11 @@ fn a_tiny_mass_is_printed_readably() {
 fn huge_repeat_counts_and_body_counts_are_refused_before_building() {
     // 1e5³ copies overflows a naive product; 1e5 bodies would need a contact problem far
     // beyond memory. Both are refused at once, naming the limit.
-    for count in ["[100000, 100000, 100000]", "[100, 100, 10]", "[18446744073709551615, 2, 1]"] {
+    for count in [
+        "[100000, 100000, 100000]",
+        "[100, 100, 10]",
+        "[18446744073709551615, 2, 1]",
+    ] {
         let text = format!(
             "[[bodies]]\nname = \"b\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\nrepeat = {{ count = {count}, spacing = [0.3, 0.3, 0.3] }}\n"
         );

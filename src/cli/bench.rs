@@ -196,10 +196,7 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
         results.display()
     );
     if summary.duplicates > 0 {
-        line.push_str(&format!(
-            ", {} repeated runs run once",
-            summary.duplicates
-        ));
+        line.push_str(&format!(", {} repeated runs run once", summary.duplicates));
     }
     line.push_str(&format!(", {} isolation failures", summary.failed));
     eprintln!("{line}");

@@ -3,10 +3,10 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::time::Duration;
 use lcpbench_solvers::generate::{generate, Family};
 use lcpbench_solvers::write_problem;
 use std::path::PathBuf;
+use std::time::Duration;
 
 use lcpbench::harness::case::MAX_GENERATED_N as MAX_N;
 

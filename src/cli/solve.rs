@@ -1,8 +1,8 @@
 //! `lcpbench solve` and `lcpbench solvers`.
 
 use anyhow::{anyhow, bail, Context, Result};
-use lcpbench::harness::budget;
 use clap::Args;
+use lcpbench::harness::budget;
 use lcpbench_solvers::{read_problem, Problem, ProjectedSor, Settings, Solver, SolverKind};
 use serde_json::json;
 use std::path::PathBuf;

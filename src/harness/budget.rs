@@ -199,10 +199,12 @@ impl std::str::FromStr for NamedBudget {
             max_iterations,
             time_s,
         };
-        budget.validate().map_err(|message| SpecError::BudgetValue {
-            spec: s.to_owned(),
-            message,
-        })?;
+        budget
+            .validate()
+            .map_err(|message| SpecError::BudgetValue {
+                spec: s.to_owned(),
+                message,
+            })?;
         Ok(Self {
             name: s.to_owned(),
             budget,

@@ -292,7 +292,11 @@ pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
 }
 
 /// [`run_sweep`] for a caller that already holds the lock on `config.out_dir`.
-pub fn run_sweep_locked(config: &SweepConfig, jobs: Vec<Job>, lock: &DirLock) -> Result<SweepSummary> {
+pub fn run_sweep_locked(
+    config: &SweepConfig,
+    jobs: Vec<Job>,
+    lock: &DirLock,
+) -> Result<SweepSummary> {
     if lock.dir() != config.out_dir {
         bail!(
             "the lock is on {}, the sweep writes to {}",
@@ -402,7 +406,11 @@ pub fn run_sweep_locked(config: &SweepConfig, jobs: Vec<Job>, lock: &DirLock) ->
         ));
         bar.inc(1);
     }
-    let panicked = workers.into_iter().map(|w| w.join()).filter(Result::is_err).count();
+    let panicked = workers
+        .into_iter()
+        .map(|w| w.join())
+        .filter(Result::is_err)
+        .count();
     if let Some(runner) = runner {
         let _ = std::fs::remove_file(runner);
     }
