@@ -449,13 +449,36 @@ impl World {
                 let warm = warm_start.unwrap_or_default();
                 let out = body_solvers::solve(kind, system, &warm, &settings);
                 self.warm.store(system, &out.warm);
-                let problem = if self.settings.residuals || self.settings.keep_problem {
-                    system.problem().ok()
+                let (problem, invalid) = if self.settings.residuals || self.settings.keep_problem {
+                    match system.problem() {
+                        Ok(p) => (Some(p), None),
+                        Err(e) => (None, Some(e.to_string())),
+                    }
                 } else {
-                    None
+                    (None, None)
                 };
                 let res = problem.as_ref().map(|p| residuals(p, &out.f));
+                let non_finite = out.f.iter().position(|v| !v.is_finite());
                 let status = match (&res, out.stopped) {
+                    // Overflow is a numerical failure, whatever the solver's own rule said.
+                    _ if invalid.is_some() => Status::NumericalFailure {
+                        reason: format!(
+                            "contact system is invalid: {}",
+                            invalid.unwrap_or_default()
+                        ),
+                    },
+                    _ if non_finite.is_some() => {
+                        let i = non_finite.unwrap_or_default();
+                        Status::NumericalFailure {
+                            reason: format!("non-finite impulse f[{i}] = {}", out.f[i]),
+                        }
+                    }
+                    (Some(r), _) if !r.natural_map_rel.is_finite() => Status::NumericalFailure {
+                        reason: format!(
+                            "the residual of the step's LCP is not finite ({})",
+                            r.natural_map_rel
+                        ),
+                    },
                     (Some(r), _) if r.natural_map_rel <= self.settings.tolerance => {
                         Status::Converged
                     }

@@ -1,11 +1,11 @@
 //! `lcpbench solve` and `lcpbench solvers`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use lcpbench::harness::budget;
 use lcpbench_solvers::{read_problem, Problem, ProjectedSor, Settings, Solver, SolverKind};
 use serde_json::json;
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// Arguments of `lcpbench solve`.
 #[derive(Args)]
@@ -38,6 +38,9 @@ pub struct SolveArgs {
 /// Build the solver named by `kind`, applying `omega` to SOR.
 pub fn make_solver(kind: SolverKind, omega: Option<f64>) -> Result<Box<dyn Solver + Send>> {
     match (kind, omega) {
+        (SolverKind::Sor, Some(w)) if !(w > 0.0 && w < 2.0) => {
+            bail!("--omega must be in (0, 2) (projected SOR diverges outside it), got {w}")
+        }
         (SolverKind::Sor, Some(w)) => Ok(Box::new(ProjectedSor::sor(w))),
         (_, Some(_)) => bail!("--omega applies only to --solver sor"),
         (kind, None) => Ok(kind.create()),
@@ -62,16 +65,16 @@ fn describe(problem: &Problem) -> String {
 
 /// Run `lcpbench solve`.
 pub fn run(args: SolveArgs) -> Result<()> {
-    if !(args.tol.is_finite() && args.tol > 0.0) {
-        bail!("--tol must be a positive number, got {}", args.tol);
-    }
+    budget::tolerance(args.tol).map_err(|m| anyhow!("--tol: {m}"))?;
     let time_budget = match args.time_budget {
-        Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
-        Some(t) => bail!("--time-budget must be a positive number of seconds, got {t}"),
+        Some(t) => Some(budget::time_budget(t).map_err(|m| anyhow!("--time-budget: {m}"))?),
         None => None,
     };
-    let problem = read_problem(&args.problem)?;
+    if args.max_iter == 0 {
+        bail!("--max-iter must be at least 1");
+    }
     let mut solver = make_solver(args.solver, args.omega)?;
+    let problem = read_problem(&args.problem)?;
     let settings = Settings {
         tolerance: args.tol,
         max_iterations: args.max_iter,

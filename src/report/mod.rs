@@ -24,7 +24,8 @@ mod tables;
 pub use machine::Header;
 pub use tables::write_report;
 
-use crate::harness::{run_sweep, SweepConfig, SweepSummary};
+use crate::harness::sweep::{lock_dir, run_sweep_locked};
+use crate::harness::{SweepConfig, SweepSummary};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -62,7 +63,8 @@ pub struct ReportSummary {
 /// Run the default suite into `out_dir/data` and write the report.
 pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let data = options.out_dir.join("data");
-    std::fs::create_dir_all(&data).with_context(|| format!("creating {}", data.display()))?;
+    // Locked before anything in it is removed, and until the sweep ends.
+    let lock = lock_dir(&data)?;
     if !options.resume {
         for f in ["results.csv", "histories.csv"] {
             let p = data.join(f);
@@ -76,7 +78,8 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     config.out_dir = data;
     config.keep_histories = true;
     let start = Instant::now();
-    let sweep = run_sweep(&config, suite.jobs.clone())?;
+    let sweep = run_sweep_locked(&config, suite.jobs.clone(), &lock)?;
+    drop(lock);
     let sweep_seconds = start.elapsed().as_secs_f64();
     let header = Header::collect(&options.command);
     let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
