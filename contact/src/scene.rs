@@ -15,6 +15,7 @@
 //! tolerance = 1e-6               # on the relative natural-map residual
 //! max_iterations = 1000          # sweeps / pivots / iterations per step
 //! warm_start = true              # start iterative solvers from last step's impulses
+//! islands = true                 # solve independent contact groups separately (in parallel)
 //! restitution_threshold = 0.1    # closing speeds below this do not bounce, m/s
 //! position_correction = "baumgarte"  # "baumgarte" | "split" | "none"
 //! baumgarte = 0.2                # fraction of the penetration removed per step
@@ -183,6 +184,7 @@ struct SettingsFile {
     tolerance: f64,
     max_iterations: usize,
     warm_start: bool,
+    islands: bool,
     restitution_threshold: f64,
     position_correction: String,
     baumgarte: f64,
@@ -209,6 +211,7 @@ impl Default for SettingsFile {
             tolerance: s.tolerance,
             max_iterations: s.max_iterations,
             warm_start: s.warm_start,
+            islands: s.islands,
             restitution_threshold: p.restitution_threshold,
             position_correction: "baumgarte".into(),
             baumgarte: p.baumgarte,
@@ -662,6 +665,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         tolerance: tolerance(s.tolerance).map_err(|m| err("tolerance", m))?,
         max_iterations: s.max_iterations,
         warm_start: s.warm_start,
+        islands: s.islands,
         prediction_distance: non_negative("prediction_distance", s.prediction_distance)?,
         builder: BuilderParams {
             friction_model,
