@@ -340,7 +340,11 @@ fn solve_islands(
             Ok(r) => r,
             Err(e) => return Solved::invalid(n, &e),
         };
-        for (&i, v) in island.rows.iter().zip(usable_impulse(&result, island.rows.len())) {
+        for (&i, v) in island
+            .rows
+            .iter()
+            .zip(usable_impulse(&result, island.rows.len()))
+        {
             f[i] = v;
         }
         if status_rank(&result.status) > status_rank(&status) {
