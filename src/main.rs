@@ -25,6 +25,8 @@ enum Command {
     Simulate(cli::simulate::SimulateArgs),
     /// Write the contact LCP of one step of a scene as a problem file.
     Export(cli::simulate::ExportArgs),
+    /// Read a problem file (JSON, Siconos .dat, FCLIB .hdf5) and write it as JSON.
+    Import(cli::import::ImportArgs),
     /// Run solvers × scenes × budgets and write result rows as they finish.
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
         Command::Gen(args) => cli::gen::run(args),
         Command::Simulate(args) => cli::simulate::run_simulate(args),
         Command::Export(args) => cli::simulate::run_export(args),
+        Command::Import(args) => cli::import::run(args),
         Command::Bench(args) => cli::bench::run_bench(args),
         Command::Report(args) => cli::bench::run_report(args),
         Command::BenchOne(args) => cli::bench::run_bench_one(args),

@@ -30,7 +30,7 @@
 mod clarabel_qp;
 mod dantzig;
 pub mod generate;
-mod io;
+pub mod io;
 mod lemke;
 pub mod metrics;
 mod micro_impulse;
@@ -42,7 +42,12 @@ mod test_util;
 
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
-pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
+#[cfg(feature = "fclib")]
+pub use io::fclib::{read_fclib, write_fclib_local};
+pub use io::siconos::{parse_siconos, parse_siconos_lcp};
+pub use io::{
+    parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,
+};
 pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;

@@ -2,5 +2,6 @@
 
 pub mod bench;
 pub mod gen;
+pub mod import;
 pub mod simulate;
 pub mod solve;
