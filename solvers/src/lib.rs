@@ -43,7 +43,7 @@ mod test_util;
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
 #[cfg(feature = "fclib")]
-pub use io::fclib::{read_fclib, write_fclib_local};
+pub use io::fclib::{read_fclib, write_fclib_local, write_problem_as_fclib};
 pub use io::siconos::{parse_siconos, parse_siconos_lcp};
 pub use io::{
     parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,

@@ -415,6 +415,76 @@ pub fn write_fclib_local(
     Ok(())
 }
 
+/// Write a box-friction problem as a local FCLIB file: every row must be a normal row with
+/// `lo = 0`, `hi = ∞` and exactly `d - 1` friction rows of one `mu`, or one of those friction
+/// rows (`d` is 3 when the first normal row has two friction rows, 2 when it has one). Rows are
+/// reordered contact by contact (normal first, then its friction rows in order); the returned
+/// permutation gives, for each FCLIB row, the problem's row.
+pub fn write_problem_as_fclib(
+    problem: &Problem,
+    path: &Path,
+) -> Result<Vec<usize>, ProblemFileError> {
+    let unsupported = |message: String| ProblemFileError::Unsupported {
+        path: path.to_owned(),
+        message,
+    };
+    let n = problem.n();
+    let mut tangents: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    for fr in problem.friction() {
+        tangents[fr.normal].push((fr.row, fr.mu));
+    }
+    let normals: Vec<usize> = (0..n)
+        .filter(|&i| problem.friction_of(i).is_none())
+        .collect();
+    let d = normals.first().map_or(3, |&k| tangents[k].len() + 1);
+    if d != 2 && d != 3 {
+        return Err(unsupported(format!(
+            "FCLIB contacts are 2-D or 3-D, but row {} has {} friction rows",
+            normals[0],
+            d - 1
+        )));
+    }
+    let mut perm = Vec::with_capacity(n);
+    let mut mu = Vec::with_capacity(normals.len());
+    for &k in &normals {
+        let t = &tangents[k];
+        if t.len() != d - 1 || t.iter().any(|&(_, m)| m != t[0].1) {
+            return Err(unsupported(format!(
+                "row {k} has {} friction rows (of one mu each contact); FCLIB needs {} per contact",
+                t.len(),
+                d - 1
+            )));
+        }
+        if problem.lo()[k] != 0.0 || problem.hi()[k] != f64::INFINITY {
+            return Err(unsupported(format!(
+                "normal row {k} has bounds [{}, {}]; FCLIB normal rows are [0, ∞)",
+                problem.lo()[k],
+                problem.hi()[k]
+            )));
+        }
+        perm.push(k);
+        perm.extend(t.iter().map(|&(r, _)| r));
+        mu.push(t[0].1);
+    }
+    let mut inv = vec![0; n];
+    for (new, &old) in perm.iter().enumerate() {
+        inv[old] = new;
+    }
+    let mut triplets = Vec::with_capacity(problem.nnz());
+    for (new, &old) in perm.iter().enumerate() {
+        for (j, v) in problem.row(old).iter() {
+            if v != 0.0 || j == old {
+                triplets.push(Triplet::new(new, inv[j], v));
+            }
+        }
+    }
+    let w = SparseColMat::try_new_from_triplets(n, n, &triplets)
+        .map_err(|e| unsupported(format!("building W: {e:?}")))?;
+    let q: Vec<f64> = perm.iter().map(|&i| problem.b()[i]).collect();
+    write_fclib_local(path, d, &w, &q, &mu)?;
+    Ok(perm)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -568,6 +638,52 @@ mod tests {
                 mu: 0.4
             }]
         );
+    }
+
+    #[test]
+    fn box_friction_problems_write_as_fclib_and_read_back() {
+        // Rows out of contact order: normal 2 with friction rows 0 and 1, normal 3 with 4, 5.
+        let n = 6;
+        let a = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                2.0
+            } else if i.abs_diff(j) == 1 {
+                0.5
+            } else {
+                0.0
+            }
+        });
+        let fr = |row, normal, mu| FrictionRow { row, normal, mu };
+        let mut lo = vec![0.0; n];
+        lo[0] = -1.0;
+        let p = Problem::boxed(
+            a,
+            vec![0.1, 0.2, -1.0, -2.0, 0.3, 0.4],
+            lo,
+            vec![f64::INFINITY; n],
+            vec![fr(0, 2, 0.5), fr(1, 2, 0.5), fr(4, 3, 0.2), fr(5, 3, 0.2)],
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.hdf5");
+        let perm = write_problem_as_fclib(&p, &path).unwrap();
+        assert_eq!(perm, [2, 0, 1, 3, 4, 5]);
+        let back = read_fclib(&path).unwrap();
+        let restored = back.permuted(
+            &(0..n)
+                .map(|i| perm.iter().position(|&k| k == i).unwrap())
+                .collect::<Vec<_>>(),
+        );
+        assert_eq!(restored.to_dense(), p.to_dense());
+        assert_eq!(restored.b(), p.b());
+        // The same solution, row for row.
+        let r = SolverKind::Dantzig.create().solve(&p, &Settings::default());
+        let f_back: Vec<f64> = perm.iter().map(|&k| r.f[k]).collect();
+        assert!(residuals(&back, &f_back).natural_map_rel < 1e-8);
+        // A normal row without friction rows cannot be written.
+        let lcp = Problem::lcp(Mat::identity(2, 2), vec![1.0, 1.0]).unwrap();
+        let e = write_problem_as_fclib(&lcp, &path).unwrap_err().to_string();
+        assert!(e.contains("row 0 has 0 friction rows"), "{e}");
     }
 
     #[test]
