@@ -28,6 +28,8 @@ enum Command {
     /// Write an interactive HTML page of a recording (or two side by side) or of every solver
     /// on a problem.
     View(cli::view::ViewArgs),
+    /// Read a problem file (JSON, Siconos .dat, FCLIB .hdf5) and write it as JSON.
+    Import(cli::import::ImportArgs),
     /// Run solvers × scenes × budgets and write result rows as they finish.
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Command::Simulate(args) => cli::simulate::run_simulate(args),
         Command::Export(args) => cli::simulate::run_export(args),
         Command::View(args) => cli::view::run(args),
+        Command::Import(args) => cli::import::run(args),
         Command::Bench(args) => cli::bench::run_bench(args),
         Command::Report(args) => cli::bench::run_report(args),
         Command::BenchOne(args) => cli::bench::run_bench_one(args),

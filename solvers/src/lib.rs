@@ -32,7 +32,7 @@ mod clarabel_qp;
 mod dantzig;
 mod enumeration;
 pub mod generate;
-mod io;
+pub mod io;
 mod lemke;
 pub mod metrics;
 mod micro_impulse;
@@ -49,7 +49,12 @@ pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
-pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
+#[cfg(feature = "fclib")]
+pub use io::fclib::{read_fclib, write_fclib_local, write_problem_as_fclib};
+pub use io::siconos::{parse_siconos, parse_siconos_lcp};
+pub use io::{
+    parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,
+};
 pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;

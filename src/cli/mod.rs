@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod gen;
+pub mod import;
 pub mod simulate;
 pub mod solve;
 pub mod view;

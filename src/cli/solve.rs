@@ -10,7 +10,8 @@ use std::path::PathBuf;
 /// Arguments of `lcpbench solve`.
 #[derive(Args)]
 pub struct SolveArgs {
-    /// Problem file (JSON; format in the README).
+    /// Problem file: JSON (format in the README), Siconos numerics LCP (`.dat`) or FCLIB
+    /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content.
     pub problem: PathBuf,
     /// Solver name (see `lcpbench solvers`).
     #[arg(long, short)]

@@ -14,7 +14,7 @@
 //! | `weak:n=100:seed=1`                   | degenerate: a third of the rows have `f_i = w_i = 0`   |
 //! | `zerob:n=100:seed=1`                  | degenerate: PSD `A`, `b = 0`                           |
 //! | `infeasible:n=50:seed=1`              | PSD with no solution                                   |
-//! | `file:PATH`                           | a problem file (JSON; e.g. from `lcpbench export`)     |
+//! | `file:PATH`                           | a problem file: JSON (e.g. from `lcpbench export`), Siconos `.dat`, FCLIB `.hdf5` |
 //! | `scene:PATH`                          | a scene file, stepped with the chosen solver           |
 //! | `scene:PATH?steps=N`                  | the same, at most `N` steps                            |
 
