@@ -27,8 +27,10 @@
 //! ```
 #![warn(missing_docs)]
 
+mod alart_curnier;
 mod apgd;
 mod clarabel_qp;
+pub mod cone;
 mod dantzig;
 mod enumeration;
 pub mod generate;
@@ -37,8 +39,10 @@ mod lemke;
 pub mod metrics;
 mod micro_impulse;
 mod newton;
+mod newton_ac;
 mod nncg;
 mod nsgs;
+mod nsgs_cone;
 mod pgs;
 mod problem;
 mod solver;
@@ -47,6 +51,10 @@ mod test_util;
 
 pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
+pub use cone::{
+    cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
+    ConeSolver,
+};
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
 pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
@@ -54,8 +62,10 @@ pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
 pub use newton::{FrictionHandling, Newton, Reformulation};
+pub use newton_ac::NewtonAc;
 pub use nncg::Nncg;
 pub use nsgs::Nsgs;
+pub use nsgs_cone::NsgsCone;
 pub use pgs::ProjectedSor;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
@@ -188,5 +198,48 @@ impl std::str::FromStr for SolverKind {
             let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
             format!("unknown solver `{s}` (known: {})", names.join(", "))
         })
+    }
+}
+
+/// The solvers of the exact Coulomb cone ([`ConeProblem`]), by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ConeSolverKind {
+    /// Block Gauss–Seidel over contacts, each contact solved exactly on its cone.
+    NsgsCone,
+    /// Global Alart–Curnier semismooth Newton.
+    NewtonAc,
+}
+
+impl ConeSolverKind {
+    /// Every cone solver, in report order.
+    pub const ALL: [ConeSolverKind; 2] = [ConeSolverKind::NsgsCone, ConeSolverKind::NewtonAc];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConeSolverKind::NsgsCone => "nsgs-cone",
+            ConeSolverKind::NewtonAc => "newton-ac",
+        }
+    }
+
+    /// Look a cone solver up by name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The problem classes the solver handles, in one line.
+    pub fn problem_classes(self) -> &'static str {
+        match self {
+            ConeSolverKind::NsgsCone => nsgs_cone::PROBLEM_CLASSES,
+            ConeSolverKind::NewtonAc => newton_ac::PROBLEM_CLASSES,
+        }
+    }
+
+    /// A solver of this kind with default parameters.
+    pub fn create(self) -> Box<dyn ConeSolver + Send> {
+        match self {
+            ConeSolverKind::NsgsCone => Box::new(NsgsCone),
+            ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
+        }
     }
 }
