@@ -606,4 +606,53 @@ mod tests {
         assert_eq!(back.name(), Some("two"));
         assert_eq!(back.delassus().to_dense(), p.delassus().to_dense());
     }
+
+    fn two_contacts(scale: [f64; 2], col: [f64; 2]) -> (ConeProblem, Vec<f64>) {
+        let w0 = [
+            [2.0, 0.3, -0.1, 0.5, 0.0, 0.1],
+            [0.3, 1.5, 0.2, 0.0, 0.2, 0.0],
+            [-0.1, 0.2, 1.2, 0.1, 0.0, 0.3],
+            [0.5, 0.0, 0.1, 3.0, 0.4, 0.0],
+            [0.0, 0.2, 0.0, 0.4, 2.5, -0.2],
+            [0.1, 0.0, 0.3, 0.0, -0.2, 2.0],
+        ];
+        let q0 = [-1.0, 0.4, -0.3, -0.5, 0.9, 0.2];
+        let r0 = [0.4, -0.1, 0.05, 0.3, -0.2, 0.1];
+        let (rs, cs) = (|i: usize| scale[i / 3], |j: usize| col[j / 3]);
+        let w = Mat::from_fn(6, 6, |i, j| rs(i) * w0[i][j] * cs(j));
+        let q = (0..6).map(|i| rs(i) * q0[i]).collect();
+        let r = (0..6).map(|j| r0[j] / cs(j)).collect();
+        (ConeProblem::new(w, q, vec![0.4, 0.8]).unwrap(), r)
+    }
+
+    /// The relative cone residual is invariant under positive scalings of each contact's rows
+    /// and columns, over many decades.
+    #[test]
+    fn relative_cone_residual_is_scale_invariant() {
+        let (p, r) = two_contacts([1.0, 1.0], [1.0, 1.0]);
+        let base = cone_residuals(&p, &r).natural_map_rel;
+        assert!(base > 1e-3);
+        let (q, s) = two_contacts([1e9, 1e-7], [1e-6, 3e8]);
+        let scaled = cone_residuals(&q, &s).natural_map_rel;
+        assert!((scaled - base).abs() <= 1e-12 * base, "{base} vs {scaled}");
+    }
+
+    #[test]
+    fn sparse_and_dense_cone_problems_agree() {
+        let (p, r) = two_contacts([1.0, 1.0], [1.0, 1.0]);
+        let d = p.delassus().to_dense();
+        let triplets: Vec<_> = (0..6)
+            .flat_map(|i| (0..6).map(move |j| (i, j)))
+            .filter(|&(i, j)| d[(i, j)] != 0.0)
+            .map(|(i, j)| (i, j, d[(i, j)]))
+            .collect();
+        let sparse = ConeProblem::new_sparse(
+            crate::problem::sparse_from_triplets(6, &triplets).unwrap(),
+            p.q().to_vec(),
+            p.mu().to_vec(),
+        )
+        .unwrap();
+        assert_eq!(cone_residuals(&p, &r), cone_residuals(&sparse, &r));
+        assert!(sparse.to_box().is_sparse());
+    }
 }

@@ -31,6 +31,7 @@ mod alart_curnier;
 mod apgd;
 mod clarabel_qp;
 pub mod cone;
+mod cone_io;
 mod dantzig;
 mod enumeration;
 pub mod generate;
@@ -55,6 +56,7 @@ pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
 };
+pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
 pub use io::{parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError};
