@@ -84,12 +84,13 @@ pub(crate) fn solve3(mut m: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> 
         }
         m.swap(k, piv);
         b.swap(k, piv);
-        for i in k + 1..3 {
-            let f = m[i][k] / m[k][k];
-            for j in k..3 {
-                m[i][j] -= f * m[k][j];
+        let (pivot_row, pivot_b) = (m[k], b[k]);
+        for (row, bi) in m.iter_mut().zip(b.iter_mut()).skip(k + 1) {
+            let f = row[k] / pivot_row[k];
+            for (x, p) in row.iter_mut().zip(pivot_row).skip(k) {
+                *x -= f * p;
             }
-            b[i] -= f * b[k];
+            *bi -= f * pivot_b;
         }
     }
     let mut x = [0.0; 3];
@@ -162,9 +163,9 @@ pub(crate) fn solve_contact(mu: f64, w: &[[f64; 3]; 3], q: [f64; 3], r0: [f64; 3
             break;
         }
         let mut jac = l.p;
-        for a in 0..3 {
-            for b in 0..3 {
-                jac[a][b] += (0..3).map(|k| l.q[a][k] * w[k][b]).sum::<f64>();
+        for (row, qa) in jac.iter_mut().zip(&l.q) {
+            for (b, x) in row.iter_mut().enumerate() {
+                *x += (0..3).map(|k| qa[k] * w[k][b]).sum::<f64>();
             }
         }
         let mut stepped = false;

@@ -141,7 +141,7 @@ impl ConeProblem {
 
     fn assemble(delassus: Problem, mu: Vec<f64>) -> Result<Self, ConeError> {
         let rows = delassus.n();
-        if rows % 3 != 0 {
+        if !rows.is_multiple_of(3) {
             return Err(ConeError::NotTriples { rows });
         }
         if mu.len() != rows / 3 {
@@ -164,7 +164,7 @@ impl ConeProblem {
     /// The same `A`, `b` become `W`, `q`.
     pub fn from_box(problem: &Problem) -> Result<Self, ConeError> {
         let n = problem.n();
-        if n % 3 != 0 {
+        if !n.is_multiple_of(3) {
             return Err(ConeError::NotTriples { rows: n });
         }
         let bad = |row: usize, reason: String| Err(ConeError::NotContactTriples { row, reason });

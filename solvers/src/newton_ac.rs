@@ -171,7 +171,7 @@ impl ConeSolver for NewtonAc {
             candidates.push((&gradient_dir, gslope));
             let mut accepted = false;
             for (direction, slope) in candidates {
-                if !(slope < 0.0) {
+                if slope.is_nan() || slope >= 0.0 {
                     continue;
                 }
                 let wd = {
