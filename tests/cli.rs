@@ -235,3 +235,126 @@ fn cone_problems_through_the_command_line() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("triples"), "{}", stderr(&o));
 }
+
+/// Run `args`, expect exit code 1 with one line on stderr that contains every needle; return it.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let o = lcpbench(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: `{err}` lacks `{n}`");
+    }
+    err
+}
+
+const TWO_ROWS: &str = r#"{"A": [[2, 1], [1, 2]], "b": [-1, -1]}"#;
+
+#[test]
+fn solve_refuses_an_unrepresentable_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "p.json", TWO_ROWS);
+    for t in ["1e20", "1e19", "inf", "NaN", "-1", "0"] {
+        let flag = format!("--time-budget={t}");
+        refused(
+            &["solve", &file, "--solver", "pgs", &flag],
+            &["--time-budget"],
+        );
+    }
+    let o = lcpbench(&["solve", &file, "--solver", "pgs", "--time-budget", "1e6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn solve_refuses_tolerances_outside_zero_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "p.json", TWO_ROWS);
+    for tol in ["1e300", "1", "2", "0", "-1e-8", "NaN"] {
+        let flag = format!("--tol={tol}");
+        refused(
+            &["solve", &file, "--solver", "pgs", &flag],
+            &["--tol", "(0, 1)"],
+        );
+    }
+    let err = refused(&["solve", &file, "--solver", "pgs", "--tol", "1e300"], &[]);
+    assert!(err.contains("got 1e300"), "{err}");
+}
+
+#[test]
+fn an_invalid_omega_is_an_input_error_not_unsupported() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "p.json", TWO_ROWS);
+    for omega in ["5", "2", "0", "-0.5", "NaN"] {
+        let flag = format!("--omega={omega}");
+        refused(
+            &["solve", &file, "--solver", "sor", &flag, "--json"],
+            &["--omega", "(0, 2)"],
+        );
+    }
+}
+
+#[test]
+fn io_and_invalid_data_errors_are_printed_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.json");
+    let err = refused(
+        &["solve", missing.to_str().unwrap(), "--solver", "pgs"],
+        &["missing.json", "No such file or directory"],
+    );
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+    let bounds = write(
+        dir.path(),
+        "bounds.json",
+        r#"{"A": [[1]], "b": [1], "lo": [2], "hi": [1]}"#,
+    );
+    let err = refused(&["solve", &bounds, "--solver", "pgs"], &["bounds [2, 1]"]);
+    assert_eq!(err.matches("bounds [2, 1]").count(), 1, "{err}");
+}
+
+#[test]
+fn a_top_level_array_or_null_is_described_without_internal_names() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text, found) in [
+        ("null.json", "null", "found null"),
+        ("array.json", "[[1]]", "found an array"),
+        ("number.json", " 3", "found a number"),
+    ] {
+        let file = write(dir.path(), name, text);
+        let err = refused(
+            &["solve", &file, "--solver", "pgs"],
+            &[name, "one JSON object with fields `A` and `b`", found],
+        );
+        assert!(!err.contains("ProblemFile"), "{err}");
+    }
+}
+
+#[test]
+fn gen_refuses_sizes_that_cannot_fit() {
+    refused(
+        &["gen", "spd", "--n", "100000", "-o", "/dev/null"],
+        &["--n 100000", "limit of 10000"],
+    );
+}
+
+#[test]
+fn simulate_and_export_refuse_step_counts_beyond_the_limit() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/box_on_ground.toml");
+    let scene = scene.to_str().unwrap();
+    refused(
+        &[
+            "export",
+            scene,
+            "--step",
+            "18446744073709551615",
+            "-o",
+            "/dev/null",
+        ],
+        &["--step", "1000000"],
+    );
+    refused(
+        &["simulate", scene, "--steps", "0"],
+        &["--steps", "between 1"],
+    );
+    refused(&["simulate", scene, "--tol", "1e300"], &["--tol", "(0, 1)"]);
+}

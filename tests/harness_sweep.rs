@@ -134,3 +134,211 @@ fn the_hidden_child_reports_injected_faults_as_failures() {
     let parsed = lcpbench::harness::isolate::parse_protocol(&text).unwrap();
     assert_eq!(parsed.record.status, "converged");
 }
+
+fn stderr_of(output: &std::process::Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+#[test]
+fn an_unrepresentable_budget_is_refused_before_any_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let output = bench(
+        &out,
+        "spd:n=5:seed=1",
+        "pgs,sor",
+        "1e-8:100:1,1e-8:100:1e19",
+        2,
+    )
+    .output()
+    .unwrap();
+    let stderr = stderr_of(&output);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("1e-8:100:1e19"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out.join("results.csv").exists());
+}
+
+#[test]
+fn a_second_sweep_on_the_same_directory_refuses_and_no_row_is_lost_or_doubled() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    // The hanging run holds the first sweep for several seconds.
+    let mut first = bench(
+        &out,
+        "spd:n=10:cond=1e2:seed=1",
+        "pgs,fault-hang,sor",
+        "1e-8:1000:0.2",
+        1,
+    )
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let lock = out.join(".lcpbench.lock");
+    let start = Instant::now();
+    while std::fs::read_to_string(&lock).map_or(true, |s| s.trim().is_empty()) {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no lock appeared"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let second = bench(
+        &out,
+        "spd:n=10:cond=1e2:seed=1,psd:n=8:seed=1",
+        "pgs,sor",
+        "1e-8:1000:0.2",
+        2,
+    )
+    .output()
+    .unwrap();
+    let stderr = stderr_of(&second);
+    assert_eq!(second.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(&out.display().to_string()), "{stderr}");
+    assert!(
+        stderr.contains("in use by another lcpbench sweep"),
+        "{stderr}"
+    );
+    assert!(first.wait().unwrap().success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 3);
+    // Once the first is done the directory is free again, and a resume adds only new runs.
+    let third = bench(
+        &out,
+        "spd:n=10:cond=1e2:seed=1,psd:n=8:seed=1",
+        "pgs,sor",
+        "1e-8:1000:0.2",
+        2,
+    )
+    .output()
+    .unwrap();
+    assert!(third.status.success(), "{}", stderr_of(&third));
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    let mut keys: Vec<_> = rows.iter().map(|r| r.key()).collect();
+    keys.sort();
+    let n = keys.len();
+    keys.dedup();
+    assert_eq!(n, keys.len(), "duplicate rows");
+    assert_eq!(n, 5);
+}
+
+#[test]
+fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let results = out.join("results.csv");
+    let run = || {
+        bench(
+            &out,
+            "spd:n=10:cond=1e2:seed=1",
+            "pgs,sor",
+            "1e-8:1000:1",
+            1,
+        )
+        .output()
+        .unwrap()
+    };
+    assert!(run().status.success());
+    let full = read_results(&results).unwrap();
+    assert_eq!(full.len(), 2);
+    let text = std::fs::read_to_string(&results).unwrap();
+    let last = full[1].clone();
+    // Cut the last row inside its relative residual: `1.85e-15` would read as `1.85`.
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let column = header.iter().position(|h| *h == "residual_rel").unwrap();
+    let line_start = text.trim_end().rfind('\n').unwrap() + 1;
+    let line = &text[line_start..];
+    let field_start: usize = line.split(',').take(column).map(|f| f.len() + 1).sum();
+    let value = line.split(',').nth(column).unwrap();
+    assert!(value.len() > 3, "{value}");
+    let cut = line_start + field_start + 3;
+    for torn in [
+        text[..cut].to_owned(),              // no newline, columns missing
+        format!("{}\n", &text[..cut]),       // newline, columns missing
+        format!("{}9,9\n", text.trim_end()), // extra columns
+    ] {
+        std::fs::write(&results, &torn).unwrap();
+        let output = run();
+        let stderr = stderr_of(&output);
+        assert!(output.status.success(), "{stderr}");
+        assert!(stderr.contains("ran 1, skipped 1"), "{stderr}");
+        assert!(stderr.contains("dropped 1 rows"), "{stderr}");
+        let rows = read_results(&results).unwrap();
+        assert_eq!(rows.len(), 2);
+        let again = rows.iter().find(|r| r.key() == last.key()).unwrap();
+        assert_eq!(again.residual_rel, last.residual_rel);
+        assert_eq!(again.status, last.status);
+        let text = std::fs::read_to_string(&results).unwrap();
+        assert_eq!(text.lines().count(), 3);
+    }
+}
+
+#[test]
+fn duplicate_rows_in_results_are_dropped_and_rerun_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let results = out.join("results.csv");
+    let run = || {
+        bench(&out, "spd:n=10:cond=1e2:seed=1", "pgs", "1e-8:1000:1", 1)
+            .output()
+            .unwrap()
+    };
+    assert!(run().status.success());
+    let text = std::fs::read_to_string(&results).unwrap();
+    let row = text.lines().nth(1).unwrap();
+    std::fs::write(&results, format!("{text}{row}\n")).unwrap();
+    let output = run();
+    assert!(output.status.success());
+    assert!(stderr_of(&output).contains("ran 1, skipped 0"));
+    assert_eq!(read_results(&results).unwrap().len(), 1);
+}
+
+#[test]
+fn stale_runner_copies_of_a_killed_sweep_are_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    std::fs::create_dir_all(&out).unwrap();
+    // What a killed sweep leaves behind.
+    let stale = out.join(".lcpbench-runner-4000000");
+    std::fs::write(&stale, b"old binary").unwrap();
+    let output = bench(&out, "spd:n=10:cond=1e2:seed=1", "pgs", "1e-8:1000:1", 1)
+        .output()
+        .unwrap();
+    let stderr = stderr_of(&output);
+    assert!(output.status.success(), "{stderr}");
+    assert!(!stale.exists());
+    assert!(stderr.contains("removed 1 executable copies"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with(".lcpbench-runner-")
+        })
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn a_case_listed_twice_is_run_once_and_said_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let output = bench(
+        &out,
+        "spd:n=10:cond=1e2:seed=1,spd:n=10:cond=100:seed=1",
+        "pgs",
+        "1e-8:1000:1",
+        1,
+    )
+    .output()
+    .unwrap();
+    let stderr = stderr_of(&output);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("case spd:n=10:cond=1e2:seed=1 listed more than once, running it once"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("ran 1, skipped 0"), "{stderr}");
+    assert_eq!(read_results(&out.join("results.csv")).unwrap().len(), 1);
+}

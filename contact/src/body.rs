@@ -110,10 +110,11 @@ impl RigidBody {
                 body.shape.mass_properties(m / unit.volume)?
             }
         };
-        let inv_inertia = mp.inertia.try_inverse().ok_or(ShapeError::BadMass {
-            field: "mass",
-            value: mp.mass,
-        })?;
+        let inv_inertia = mp
+            .inertia
+            .try_inverse()
+            .filter(|m| m.iter().all(|v| v.is_finite()))
+            .ok_or(ShapeError::SingularInertia { mass: mp.mass })?;
         body.mass = mp.mass;
         body.inv_mass = 1.0 / mp.mass;
         body.inertia_body = mp.inertia;

@@ -42,8 +42,9 @@
 
 use crate::body::RigidBody;
 use crate::collision::Contact;
+use faer::sparse::{SparseRowMat, SymbolicSparseRowMat, Triplet};
 use faer::Mat;
-use lcpbench_solvers::{FrictionRow, Problem, ProblemError};
+use lcpbench_solvers::{DelassusFactors, FrictionRow, Problem, ProblemError};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -310,6 +311,56 @@ impl WarmStartCache {
     }
 }
 
+/// Problems of at most this many rows are stored dense: for them a dense row is faster than
+/// a sparse one and the pivoting solvers need the dense form anyway.
+pub const DENSE_ROWS: usize = 24;
+
+/// An independent group of contacts: no dynamic body is shared with another island, so its
+/// rows of `A` couple to no other island's rows ([`ContactSystem::islands`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Island {
+    /// Contact indices, increasing.
+    pub contacts: Vec<usize>,
+    /// Rows of those contacts, increasing.
+    pub rows: Vec<usize>,
+    /// Dynamic bodies the contacts touch, in first-seen order.
+    pub bodies: Vec<usize>,
+}
+
+/// The islands of a step with one numbering shared by all: every row and dynamic body
+/// belongs to exactly one island, so one global → local map serves them all.
+#[derive(Debug, Clone, Default)]
+pub struct Partition {
+    /// The islands.
+    pub islands: Vec<Island>,
+    /// Global row → row within its island.
+    local_row: Vec<usize>,
+    /// Global body → body within its island (`usize::MAX` for bodies in no island).
+    local_body: Vec<usize>,
+}
+
+impl Partition {
+    /// Number of islands.
+    pub fn len(&self) -> usize {
+        self.islands.len()
+    }
+
+    /// True when there are no contacts.
+    pub fn is_empty(&self) -> bool {
+        self.islands.is_empty()
+    }
+}
+
+/// A set of rows and bodies with their local numbering, for assembling a sub-problem.
+struct Subset<'a> {
+    rows: &'a [usize],
+    bodies: &'a [usize],
+    /// Global row → local row (`usize::MAX` outside the subset).
+    local_row: &'a [usize],
+    /// Global body → local body.
+    local_body: &'a [usize],
+}
+
 /// The contact problem of one step: rows of `J`, `b` split into its parts, bounds and friction
 /// rows. Dense `A` is assembled on demand ([`ContactSystem::delassus`]).
 #[derive(Debug, Clone)]
@@ -375,55 +426,338 @@ impl ContactSystem {
         j
     }
 
-    /// The dense LCP matrix: `A = J M⁻¹ Jᵀ`, assembled body block by body block (cost
-    /// `Σ_bodies rows(body)²`), plus the pyramid coupling entries. The slack row and column of
-    /// a pyramid contact are scaled by `s = A_nn` (entries `s`, `s mu`, `−s`): the variable is
-    /// `γ / s` and its row `s (mu f_n − Σ β)`, the same complementarity problem with entries of
-    /// one magnitude, which pivoting solvers need.
+    /// The dense LCP matrix `A` (a copy of [`ContactSystem::delassus_sparse`]; for tests and
+    /// small systems).
     pub fn delassus(&self) -> Mat<f64> {
-        let n = self.n();
-        let mut a = Mat::zeros(n, n);
-        let mut per_body: Vec<Vec<(usize, usize)>> = vec![Vec::new(); self.inv_mass.len()];
-        for (i, row) in self.rows.iter().enumerate() {
-            for (s, blk) in row.blocks.iter().enumerate() {
-                per_body[blk.body].push((i, s));
-            }
-        }
-        for (k, list) in per_body.iter().enumerate() {
-            let m = &self.inv_mass[k];
-            let responses: Vec<BodyVelocity> = list
-                .iter()
-                .map(|&(j, s)| m.response(&self.rows[j].blocks[s], 1.0))
-                .collect();
-            for &(i, si) in list {
-                let bi = &self.rows[i].blocks[si];
-                for (&(j, _), r) in list.iter().zip(&responses) {
-                    a[(i, j)] += bi.dot(r);
-                }
-            }
-        }
-        for info in &self.info {
-            if let Some(s) = info.slack_row {
-                let scale = info.slack_scale;
-                a[(s, info.normal_row)] = scale * info.mu;
-                for d in info.friction_rows.clone() {
-                    a[(d, s)] = scale;
-                    a[(s, d)] = -scale;
-                }
-            }
-        }
-        a
+        self.delassus_sparse().to_dense()
     }
 
-    /// The step's LCP as a solver [`Problem`].
+    /// The LCP matrix `A = J M⁻¹ Jᵀ` in compressed sparse rows, plus the pyramid coupling
+    /// entries. The slack row and column of a pyramid contact are scaled by `s = A_nn`
+    /// (entries `s`, `s mu`, `−s`): the variable is `γ / s` and its row `s (mu f_n − Σ β)`, the
+    /// same complementarity problem with entries of one magnitude, which pivoting solvers need.
+    /// Assembled body by body in `O(Σ_bodies rows(body)²)`, that is contacts × neighbours.
+    pub fn delassus_sparse(&self) -> SparseRowMat<usize, f64> {
+        let (rows, bodies) = self.identity();
+        self.assemble_delassus(&Subset {
+            rows: &rows,
+            bodies: &bodies,
+            local_row: &rows,
+            local_body: &bodies,
+        })
+    }
+
+    /// `(0..rows, 0..bodies)`: the numbering of the whole system.
+    fn identity(&self) -> (Vec<usize>, Vec<usize>) {
+        ((0..self.n()).collect(), (0..self.inv_mass.len()).collect())
+    }
+
+    /// The independent groups of contacts: union–find over the dynamic bodies the contacts
+    /// touch (a static body joins no group). Islands are ordered by their first contact; the
+    /// contacts, rows and bodies of each are increasing, first-seen and increasing respectively.
+    pub fn islands(&self) -> Partition {
+        let nc = self.contacts.len();
+        let mut parent: Vec<usize> = (0..nc).collect();
+        fn find(parent: &mut [usize], mut x: usize) -> usize {
+            while parent[x] != x {
+                parent[x] = parent[parent[x]];
+                x = parent[x];
+            }
+            x
+        }
+        let mut first_contact = vec![usize::MAX; self.inv_mass.len()];
+        for (c, info) in self.info.iter().enumerate() {
+            for blk in &self.rows[info.normal_row].blocks {
+                let other = first_contact[blk.body];
+                if other == usize::MAX {
+                    first_contact[blk.body] = c;
+                } else {
+                    let (ra, rb) = (find(&mut parent, c), find(&mut parent, other));
+                    if ra != rb {
+                        parent[ra.max(rb)] = ra.min(rb);
+                    }
+                }
+            }
+        }
+        let mut island_of = vec![usize::MAX; nc];
+        let mut islands: Vec<Island> = Vec::new();
+        let mut body_seen = vec![false; self.inv_mass.len()];
+        for c in 0..nc {
+            let r = find(&mut parent, c);
+            if island_of[r] == usize::MAX {
+                island_of[r] = islands.len();
+                islands.push(Island::default());
+            }
+            let island = &mut islands[island_of[r]];
+            island.contacts.push(c);
+            island.rows.extend(self.contact_rows(c));
+            for blk in &self.rows[self.info[c].normal_row].blocks {
+                if !body_seen[blk.body] {
+                    body_seen[blk.body] = true;
+                    island.bodies.push(blk.body);
+                }
+            }
+        }
+        let mut local_row = vec![usize::MAX; self.n()];
+        let mut local_body = vec![usize::MAX; self.inv_mass.len()];
+        for island in &islands {
+            for (k, &i) in island.rows.iter().enumerate() {
+                local_row[i] = k;
+            }
+            for (k, &b) in island.bodies.iter().enumerate() {
+                local_body[b] = k;
+            }
+        }
+        Partition {
+            islands,
+            local_row,
+            local_body,
+        }
+    }
+
+    /// The rows of contact `c` (normal, friction, slack), contiguous.
+    pub fn contact_rows(&self, c: usize) -> std::ops::Range<usize> {
+        let end = self.info.get(c + 1).map_or(self.n(), |i| i.normal_row);
+        self.info[c].normal_row..end
+    }
+
+    /// The step's LCP as a solver [`Problem`]: `A` sparse (dense when tiny), with the factors
+    /// `J`, `M⁻¹` attached for matrix-free solvers unless pyramid slack rows are present (their
+    /// coupling entries are not of the form `J M⁻¹ Jᵀ`).
     pub fn problem(&self) -> Result<Problem, ProblemError> {
-        Problem::boxed(
-            self.delassus(),
-            self.b(),
-            self.lo.clone(),
-            self.hi.clone(),
-            self.friction.clone(),
-        )
+        let (rows, bodies) = self.identity();
+        let all = Subset {
+            rows: &rows,
+            bodies: &bodies,
+            local_row: &rows,
+            local_body: &bodies,
+        };
+        self.subset_problem(&all, self.friction.clone(), self.b())
+    }
+
+    /// The LCP of island `k` of `partition` (rows and bodies renumbered in the island's order).
+    pub fn island_problem(&self, partition: &Partition, k: usize) -> Result<Problem, ProblemError> {
+        let island = &partition.islands[k];
+        let subset = Subset {
+            rows: &island.rows,
+            bodies: &island.bodies,
+            local_row: &partition.local_row,
+            local_body: &partition.local_body,
+        };
+        let mut friction = Vec::new();
+        for &c in &island.contacts {
+            let info = &self.info[c];
+            if info.slack_row.is_none() {
+                for r in info.friction_rows.clone() {
+                    friction.push(FrictionRow {
+                        row: subset.local_row[r],
+                        normal: subset.local_row[info.normal_row],
+                        mu: info.mu,
+                    });
+                }
+            }
+        }
+        let b = island
+            .rows
+            .iter()
+            .map(|&i| self.free_rate[i] + self.bias[i])
+            .collect();
+        self.subset_problem(&subset, friction, b)
+    }
+
+    fn subset_problem(
+        &self,
+        subset: &Subset,
+        friction: Vec<FrictionRow>,
+        b: Vec<f64>,
+    ) -> Result<Problem, ProblemError> {
+        let a = self.assemble_delassus(subset);
+        let lo = subset.rows.iter().map(|&i| self.lo[i]).collect();
+        let hi = subset.rows.iter().map(|&i| self.hi[i]).collect();
+        let problem = if subset.rows.len() <= DENSE_ROWS {
+            Problem::boxed(a.to_dense(), b, lo, hi, friction)?
+        } else {
+            Problem::boxed_sparse(a, b, lo, hi, friction)?
+        };
+        let pyramid = subset
+            .rows
+            .iter()
+            .any(|&i| matches!(self.rows[i].kind, RowKind::Slack { .. }));
+        if pyramid {
+            Ok(problem)
+        } else {
+            problem.with_factors(self.factors(subset)?)
+        }
+    }
+
+    /// `J` (sparse, local numbering) and the 6×6 inverse-mass blocks of the subset's bodies.
+    fn factors(&self, subset: &Subset) -> Result<DelassusFactors, ProblemError> {
+        let mut triplets = Vec::with_capacity(12 * subset.rows.len());
+        for (r, &i) in subset.rows.iter().enumerate() {
+            for blk in &self.rows[i].blocks {
+                let col = 6 * subset.local_body[blk.body];
+                for d in 0..3 {
+                    triplets.push(Triplet::new(r, col + d, blk.linear[d]));
+                    triplets.push(Triplet::new(r, col + 3 + d, blk.angular[d]));
+                }
+            }
+        }
+        let ncols = 6 * subset.bodies.len();
+        let jacobian = SparseRowMat::try_new_from_triplets(subset.rows.len(), ncols, &triplets)
+            .map_err(|_| ProblemError::DimensionMismatch {
+                what: "the Jacobian's columns (6 per body)",
+                expected: ncols,
+                found: ncols + 1,
+            })?;
+        let blocks = subset
+            .bodies
+            .iter()
+            .map(|&k| {
+                let m = &self.inv_mass[k];
+                let mut blk = [[0.0; 6]; 6];
+                for a in 0..3 {
+                    blk[a][a] = m.inv_mass;
+                    for c in 0..3 {
+                        blk[3 + a][3 + c] = m.inv_inertia[(a, c)];
+                    }
+                }
+                blk
+            })
+            .collect();
+        DelassusFactors::new(jacobian, blocks)
+    }
+
+    /// `A` of the subset's rows in compressed sparse rows. Each row's nonzeros are the rows
+    /// that share one of its (at most two) bodies: the two bodies' sorted row lists are merged
+    /// and each entry is `J_i,body · (M⁻¹ J_j,bodyᵀ)`, summed over shared bodies.
+    fn assemble_delassus(&self, subset: &Subset) -> SparseRowMat<usize, f64> {
+        let m = subset.rows.len();
+        // Per local body: (local row, M⁻¹ J_blockᵀ as [linear; angular]), rows increasing.
+        let mut touching: Vec<Vec<(usize, [f64; 6])>> = vec![Vec::new(); subset.bodies.len()];
+        for (r, &i) in subset.rows.iter().enumerate() {
+            for blk in &self.rows[i].blocks {
+                let resp = self.inv_mass[blk.body].response(blk, 1.0);
+                let v = [
+                    resp.linear.x,
+                    resp.linear.y,
+                    resp.linear.z,
+                    resp.angular.x,
+                    resp.angular.y,
+                    resp.angular.z,
+                ];
+                touching[subset.local_body[blk.body]].push((r, v));
+            }
+        }
+        let nnz: usize = subset
+            .rows
+            .iter()
+            .map(|&i| {
+                self.rows[i]
+                    .blocks
+                    .iter()
+                    .map(|b| touching[subset.local_body[b.body]].len())
+                    .sum::<usize>()
+                    + 1
+            })
+            .sum();
+        let mut row_ptr = Vec::with_capacity(m + 1);
+        let mut col_idx = Vec::with_capacity(nnz);
+        let mut val = Vec::with_capacity(nnz);
+        row_ptr.push(0);
+        let six = |b: &JacobianBlock| {
+            [
+                b.linear.x,
+                b.linear.y,
+                b.linear.z,
+                b.angular.x,
+                b.angular.y,
+                b.angular.z,
+            ]
+        };
+        let dot6 = |a: &[f64; 6], b: &[f64; 6]| -> f64 { (0..6).map(|k| a[k] * b[k]).sum() };
+        for &i in subset.rows {
+            let start = col_idx.len();
+            let blocks = &self.rows[i].blocks;
+            match blocks.as_slice() {
+                [] => {}
+                [b1] => {
+                    let j1 = six(b1);
+                    for (c, resp) in &touching[subset.local_body[b1.body]] {
+                        col_idx.push(*c);
+                        val.push(dot6(&j1, resp));
+                    }
+                }
+                [b1, b2, ..] => {
+                    let (j1, j2) = (six(b1), six(b2));
+                    let l1 = &touching[subset.local_body[b1.body]];
+                    let l2 = &touching[subset.local_body[b2.body]];
+                    let (mut p, mut q) = (0, 0);
+                    while p < l1.len() || q < l2.len() {
+                        let c1 = l1.get(p).map_or(usize::MAX, |e| e.0);
+                        let c2 = l2.get(q).map_or(usize::MAX, |e| e.0);
+                        let c = c1.min(c2);
+                        let mut v = 0.0;
+                        if c1 == c {
+                            v += dot6(&j1, &l1[p].1);
+                            p += 1;
+                        }
+                        if c2 == c {
+                            v += dot6(&j2, &l2[q].1);
+                            q += 1;
+                        }
+                        col_idx.push(c);
+                        val.push(v);
+                    }
+                }
+            }
+            if let Some(extra) = self.pyramid_coupling(i, subset) {
+                for (c, v) in extra {
+                    col_idx.push(c);
+                    val.push(v);
+                }
+                let mut entries: Vec<(usize, f64)> = col_idx[start..]
+                    .iter()
+                    .copied()
+                    .zip(val[start..].iter().copied())
+                    .collect();
+                entries.sort_by_key(|e| e.0);
+                for (k, (c, v)) in entries.into_iter().enumerate() {
+                    col_idx[start + k] = c;
+                    val[start + k] = v;
+                }
+            }
+            row_ptr.push(col_idx.len());
+        }
+        let symbolic = SymbolicSparseRowMat::new_checked(m, m, row_ptr, None, col_idx);
+        SparseRowMat::new(symbolic, val)
+    }
+
+    /// The pyramid coupling entries of row `i` (local columns), if it is a direction or slack
+    /// row whose partner rows are in the subset.
+    fn pyramid_coupling(&self, i: usize, subset: &Subset) -> Option<Vec<(usize, f64)>> {
+        let local = |r: usize| Some(subset.local_row[r]).filter(|&l| l != usize::MAX);
+        match self.rows[i].kind {
+            RowKind::Direction { contact, .. } => {
+                let info = &self.info[contact];
+                let s = local(info.slack_row?)?;
+                Some(vec![(s, info.slack_scale)])
+            }
+            RowKind::Slack { contact } => {
+                let info = &self.info[contact];
+                let scale = info.slack_scale;
+                let mut v = Vec::with_capacity(1 + info.friction_rows.len());
+                if let Some(n) = local(info.normal_row) {
+                    v.push((n, scale * info.mu));
+                }
+                v.extend(
+                    info.friction_rows
+                        .clone()
+                        .filter_map(|d| Some((local(d)?, -scale))),
+                );
+                Some(v)
+            }
+            _ => None,
+        }
     }
 
     /// The normal rows only, with `b = J u + position_bias` for a split-impulse position solve
@@ -434,15 +768,24 @@ impl ContactSystem {
             return None;
         }
         let op = self.operator();
-        let a_full = self.delassus();
-        let a = Mat::from_fn(normals.len(), normals.len(), |i, j| {
-            a_full[(normals[i], normals[j])]
-        });
         let b = normals
             .iter()
             .map(|&i| op.row_dot(i, u) + self.position_bias[i])
             .collect();
-        Problem::lcp(a, b).ok().map(|p| (p, normals))
+        let mut local_row = vec![usize::MAX; self.n()];
+        for (k, &i) in normals.iter().enumerate() {
+            local_row[i] = k;
+        }
+        let (_, bodies) = self.identity();
+        let subset = Subset {
+            rows: &normals,
+            bodies: &bodies,
+            local_row: &local_row,
+            local_body: &bodies,
+        };
+        self.subset_problem(&subset, Vec::new(), b)
+            .ok()
+            .map(|p| (p, normals))
     }
 
     /// The matrix-free operator over this system's Jacobian rows.

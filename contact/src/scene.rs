@@ -15,6 +15,7 @@
 //! tolerance = 1e-6               # on the relative natural-map residual
 //! max_iterations = 1000          # sweeps / pivots / iterations per step
 //! warm_start = true              # start iterative solvers from last step's impulses
+//! islands = true                 # solve independent contact groups separately (in parallel)
 //! restitution_threshold = 0.1    # closing speeds below this do not bounce, m/s
 //! position_correction = "baumgarte"  # "baumgarte" | "split" | "none"
 //! baumgarte = 0.2                # fraction of the penetration removed per step
@@ -77,6 +78,43 @@ use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
+
+/// Largest number of bodies a scene may have (repeats expanded). The contact problem of a
+/// scene grows with its contacts; beyond this the assembled problem no longer fits in memory
+/// on an ordinary machine, so the loader refuses the scene before building anything.
+pub const MAX_BODIES: usize = 10_000;
+
+/// Largest `steps` of a scene (and of `--steps`): at `dt = 0.01` that is 10⁴ s of simulation.
+pub const MAX_STEPS: usize = 1_000_000;
+
+/// Largest `pyramid_directions`: each contact of the pyramid model has `directions + 2` rows.
+pub const MAX_PYRAMID_DIRECTIONS: usize = 64;
+
+/// Smallest and largest time step `dt`, s.
+pub const DT_RANGE: (f64, f64) = (1e-6, 0.1);
+
+/// Largest gravity magnitude, m/s² (a thousand times Earth's).
+pub const MAX_GRAVITY: f64 = 1e4;
+
+/// Largest speed of a body, m/s, and angular speed, rad/s, in a scene file.
+pub const MAX_SPEED: f64 = 1e4;
+
+/// Largest coordinate of a body position, m (beyond it `f64` keeps less than a micrometre).
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// Smallest and largest body mass, kg (from `mass`, or from `density` and the volume).
+pub const MASS_RANGE: (f64, f64) = (1e-9, 1e15);
+
+/// A number as a person would write it: plain for ordinary magnitudes, in exponent form for
+/// tiny and huge ones (`1e-300`, not three hundred zeros).
+pub fn readable(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
 
 /// A scene file that cannot be used.
 #[derive(Debug, Error)]
@@ -146,6 +184,7 @@ struct SettingsFile {
     tolerance: f64,
     max_iterations: usize,
     warm_start: bool,
+    islands: bool,
     restitution_threshold: f64,
     position_correction: String,
     baumgarte: f64,
@@ -172,6 +211,7 @@ impl Default for SettingsFile {
             tolerance: s.tolerance,
             max_iterations: s.max_iterations,
             warm_start: s.warm_start,
+            islands: s.islands,
             restitution_threshold: p.restitution_threshold,
             position_correction: "baumgarte".into(),
             baumgarte: p.baumgarte,
@@ -382,9 +422,34 @@ impl Scene {
             materials.push(Material::default());
         }
 
+        let mut total: usize = 0;
+        for (i, b) in file.bodies.iter().enumerate() {
+            let copies = match &b.repeat {
+                Some(r) => r.count.iter().try_fold(1usize, |p, &c| p.checked_mul(c)),
+                None => Some(1),
+            };
+            total = match copies.and_then(|c| total.checked_add(c)) {
+                Some(t) if t <= MAX_BODIES => t,
+                _ => {
+                    let field = if b.repeat.is_some() {
+                        format!("bodies[{i}] (\"{}\").repeat.count", b.name)
+                    } else {
+                        "bodies".into()
+                    };
+                    return Err(invalid(
+                        field,
+                        format!(
+                            "the scene would have more than {MAX_BODIES} bodies (the limit; \
+                             the contact problem of more would not fit in memory)"
+                        ),
+                    ));
+                }
+            };
+        }
         let dir = path.parent().unwrap_or(Path::new("."));
-        let mut bodies = Vec::new();
-        let mut groups = Vec::new();
+        let mut bodies = Vec::with_capacity(total);
+        let mut groups = Vec::with_capacity(total);
+        let mut names = std::collections::HashSet::with_capacity(total);
         for (i, b) in file.bodies.iter().enumerate() {
             let at = |f: &str| {
                 if f.is_empty() {
@@ -395,7 +460,7 @@ impl Scene {
             };
             let made = convert_body(b, &materials, dir).map_err(|(f, m)| invalid(at(&f), m))?;
             for body in made {
-                if bodies.iter().any(|x: &RigidBody| x.name == body.name) {
+                if !names.insert(body.name.clone()) {
                     return Err(invalid(
                         at("name"),
                         format!("body name \"{}\" is used twice", body.name),
@@ -424,6 +489,12 @@ impl Scene {
             });
         }
 
+        if bodies.is_empty() {
+            return Err(invalid(
+                "bodies".into(),
+                "the scene has no bodies (add at least one [[bodies]] table)".into(),
+            ));
+        }
         let name = file.name.unwrap_or_else(|| {
             path.file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
@@ -484,17 +555,45 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         }
     };
     let dt = positive("dt", s.dt)?;
-    if !s.gravity.iter().all(|g| g.is_finite()) {
-        return Err(err("gravity", "must be finite".into()));
+    if !(DT_RANGE.0..=DT_RANGE.1).contains(&dt) {
+        return Err(err(
+            "dt",
+            format!(
+                "must be between {} and {} s, got {}",
+                readable(DT_RANGE.0),
+                DT_RANGE.1,
+                readable(dt)
+            ),
+        ));
+    }
+    if s.steps == 0 || s.steps > MAX_STEPS {
+        return Err(err(
+            "steps",
+            format!("must be between 1 and {MAX_STEPS}, got {}", s.steps),
+        ));
+    }
+    let g = magnitude(s.gravity);
+    if !(g.is_finite() && g <= MAX_GRAVITY) {
+        return Err(err(
+            "gravity",
+            format!(
+                "magnitude must be at most {} m/s², got {}",
+                readable(MAX_GRAVITY),
+                readable(g)
+            ),
+        ));
     }
     let friction_model = match s.friction_model.as_str() {
         "none" => FrictionModel::None,
         "box" => FrictionModel::Box,
         "pyramid" => {
-            if s.pyramid_directions < 3 {
+            if !(3..=MAX_PYRAMID_DIRECTIONS).contains(&s.pyramid_directions) {
                 return Err(err(
                     "pyramid_directions",
-                    format!("must be at least 3, got {}", s.pyramid_directions),
+                    format!(
+                        "must be between 3 and {MAX_PYRAMID_DIRECTIONS}, got {}",
+                        s.pyramid_directions
+                    ),
                 ));
             }
             FrictionModel::Pyramid {
@@ -563,9 +662,10 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         steps: s.steps,
         gravity: s.gravity.into(),
         solver,
-        tolerance: positive("tolerance", s.tolerance)?,
+        tolerance: tolerance(s.tolerance).map_err(|m| err("tolerance", m))?,
         max_iterations: s.max_iterations,
         warm_start: s.warm_start,
+        islands: s.islands,
         prediction_distance: non_negative("prediction_distance", s.prediction_distance)?,
         builder: BuilderParams {
             friction_model,
@@ -585,6 +685,27 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         residuals: true,
         record_history: false,
     })
+}
+
+/// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
+/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing).
+pub fn tolerance(tol: f64) -> Result<f64, String> {
+    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
+        Ok(tol)
+    } else {
+        Err(format!("must be a number in (0, 1), got {}", readable(tol)))
+    }
+}
+
+/// Euclidean length of `v`, or its largest component when the length overflows (so a message
+/// can show `1e300` rather than `inf`).
+fn magnitude(v: [f64; 3]) -> f64 {
+    let norm = vec3(v).norm();
+    if norm.is_finite() || v.iter().any(|x| !x.is_finite()) {
+        norm
+    } else {
+        v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+    }
 }
 
 fn vec3(v: [f64; 3]) -> Vector3<f64> {
@@ -617,6 +738,58 @@ fn convert_body(
 ) -> Result<Vec<RigidBody>, FieldError> {
     let err = |f: &str, m: String| (f.to_owned(), m);
     let shape = convert_shape(&b.shape, dir)?;
+    let limit = |field: &str, v: [f64; 3], max: f64, unit: &str| {
+        let norm = magnitude(v);
+        if norm.is_finite() && norm <= max {
+            Ok(())
+        } else {
+            Err(err(
+                field,
+                format!(
+                    "magnitude must be at most {} {unit}, got {}",
+                    readable(max),
+                    readable(norm)
+                ),
+            ))
+        }
+    };
+    let biggest = b.position.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(biggest.is_finite() && biggest <= MAX_COORDINATE) {
+        return Err(err(
+            "position",
+            format!(
+                "coordinates must be at most {} m in magnitude, got {}",
+                readable(MAX_COORDINATE),
+                readable(biggest)
+            ),
+        ));
+    }
+    limit("velocity", b.velocity, MAX_SPEED, "m/s")?;
+    limit("angular_velocity", b.angular_velocity, MAX_SPEED, "rad/s")?;
+    // Checked for static bodies too: a static body ignores its mass, but a negative one is
+    // still a mistake in the file.
+    for (field, v) in [("density", b.density), ("mass", b.mass)] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(err(
+                field,
+                format!("must be positive and finite, got {}", readable(v)),
+            ));
+        }
+    }
+    if let Some(m) = b
+        .mass
+        .filter(|m| !(MASS_RANGE.0..=MASS_RANGE.1).contains(m))
+    {
+        return Err(err(
+            "mass",
+            format!(
+                "must be between {} and {} kg, got {}",
+                readable(MASS_RANGE.0),
+                readable(MASS_RANGE.1),
+                readable(m)
+            ),
+        ));
+    }
     let mass = match (b.density, b.mass) {
         (Some(_), Some(_)) => {
             return Err(err("mass", "give `density` or `mass`, not both".into()));
@@ -675,7 +848,7 @@ fn convert_body(
         }
     };
     let repeated = b.repeat.is_some();
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(count.iter().product());
     let mut index = 0;
     for k in 0..count[2] {
         for j in 0..count[1] {
@@ -703,6 +876,17 @@ fn convert_body(
                     b.is_static,
                 )
                 .map_err(|e| err("", e.to_string()))?;
+                if !b.is_static && !(MASS_RANGE.0..=MASS_RANGE.1).contains(&body.mass) {
+                    return Err(err(
+                        "density",
+                        format!(
+                            "gives a mass of {} kg, outside {} to {} kg",
+                            readable(body.mass),
+                            readable(MASS_RANGE.0),
+                            readable(MASS_RANGE.1)
+                        ),
+                    ));
+                }
                 out.push(body);
             }
         }

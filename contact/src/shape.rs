@@ -32,7 +32,7 @@ use std::sync::Arc;
 #[derive(Debug, thiserror::Error)]
 pub enum ShapeError {
     /// A size (radius, half extent, half height) is zero, negative, infinite or NaN.
-    #[error("{shape}: {field} must be positive and finite, got {value}")]
+    #[error("{shape}: {field} must be positive and finite, got {}", crate::scene::readable(*value))]
     NonPositiveSize {
         /// Shape kind.
         shape: &'static str,
@@ -75,12 +75,19 @@ pub enum ShapeError {
         reason: String,
     },
     /// A density or mass that is zero, negative or not finite.
-    #[error("{field} must be positive and finite, got {value}")]
+    #[error("{field} must be positive and finite, got {}", crate::scene::readable(*value))]
     BadMass {
         /// `density` or `mass`.
         field: &'static str,
         /// Its value.
         value: f64,
+    },
+    /// The inertia tensor of a body cannot be inverted (a mass or size so small that it
+    /// underflows).
+    #[error("the inertia tensor of mass {} kg cannot be inverted (mass or size too small)", crate::scene::readable(*mass))]
+    SingularInertia {
+        /// The body's mass.
+        mass: f64,
     },
     /// The shape has no finite volume (a plane) but was given to a dynamic body.
     #[error("{shape} has no finite volume and can only belong to a static body")]
@@ -466,11 +473,49 @@ fn read_obj(path: &Path) -> Result<MeshBuffers, ShapeError> {
         single_index: false,
         ..Default::default()
     };
-    let (models, _materials) =
-        tobj::load_obj(path, &options).map_err(|e| ShapeError::MeshFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+    let file_err = |reason: String| ShapeError::MeshFile {
+        path: path.to_path_buf(),
+        reason,
+    };
+    // Read the file here so an I/O failure keeps the operating system's reason, and parse from
+    // memory so a parse error can be placed on its line.
+    let bytes = std::fs::read(path).map_err(|e| file_err(e.to_string()))?;
+    let mut cursor = std::io::Cursor::new(&bytes[..]);
+    // Materials are not used: every `mtllib` is answered with "not loaded".
+    let parsed = tobj::load_obj_buf(&mut cursor, &options, |_| {
+        Err(tobj::LoadError::GenericFailure)
+    });
+    let (models, _materials) = parsed.map_err(|e| {
+        use tobj::LoadError as E;
+        let per_line = matches!(
+            e,
+            E::UnrecognizedCharacter
+                | E::PositionParseError
+                | E::ScalingByZeroError
+                | E::ColorParseError
+                | E::NormalParseError
+                | E::TexcoordParseError
+                | E::FaceParseError
+                | E::MaterialParseError
+                | E::InvalidObjectName
+                | E::InvalidPolygon
+        );
+        if per_line {
+            // tobj reads line by line: the failing line is the last one consumed.
+            let end = usize::try_from(cursor.position()).unwrap_or(bytes.len());
+            let consumed = &bytes[..end.min(bytes.len())];
+            let line = consumed
+                .strip_suffix(b"\n")
+                .unwrap_or(consumed)
+                .iter()
+                .filter(|&&c| c == b'\n')
+                .count()
+                + 1;
+            file_err(format!("line {line}: {e}"))
+        } else {
+            file_err(e.to_string())
+        }
+    })?;
     let mut vertices = Vec::new();
     let mut indices = Vec::new();
     for model in &models {

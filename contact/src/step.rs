@@ -45,12 +45,15 @@
 use crate::body::RigidBody;
 use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
 use crate::builder::PositionCorrection;
-use crate::builder::{self, BodyVelocity, BuilderParams, ContactSystem, Material, WarmStartCache};
+use crate::builder::{
+    self, BodyVelocity, BuilderParams, ContactSystem, Material, Partition, WarmStartCache,
+};
 use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, Solver, SolverKind, Status,
+    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, SolveResult, Solver,
+    SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -136,6 +139,9 @@ pub struct SimSettings {
     /// keep it in each [`StepReport`] \[`false`\]. The measuring time is excluded from the
     /// solver's reported time but not from the step's.
     pub record_history: bool,
+    /// Solve each island (contacts sharing no dynamic body) on its own, in parallel when there
+    /// are several \[`true`\]. Off: one problem for the whole step.
+    pub islands: bool,
 }
 
 impl Default for SimSettings {
@@ -155,6 +161,7 @@ impl Default for SimSettings {
             keep_problem: false,
             residuals: true,
             record_history: false,
+            islands: true,
         }
     }
 }
@@ -215,8 +222,16 @@ pub struct StepReport {
     pub status: Status,
     /// Iterations, pivots or sweeps.
     pub iterations: usize,
-    /// Solver wall time, s.
+    /// Solver time, s: the sum over islands of each solver call's own time (the work; islands
+    /// solved in parallel take less wall time, see `solve_wall_s`).
     pub solve_time_s: f64,
+    /// Wall time of the solve phase, s: island extraction and assembly of the sub-problems
+    /// plus the (parallel) solver calls.
+    pub solve_wall_s: f64,
+    /// Independent islands of the step's contacts (contacts sharing no dynamic body).
+    pub islands: usize,
+    /// Rows of each island, in the order of their first contact.
+    pub island_rows: Vec<usize>,
     /// Whole step wall time, s.
     pub step_time_s: f64,
     /// Shared residuals of the impulse for the step's LCP (when measured).
@@ -254,9 +269,152 @@ struct Solved {
     status: Status,
     iterations: usize,
     time_s: f64,
+    wall_s: f64,
     residuals: Option<Residuals>,
     problem: Option<Problem>,
     history: Vec<HistoryPoint>,
+}
+
+/// Solve the whole step as one problem with `solver`.
+fn solve_whole(solver: &mut dyn Solver, system: &ContactSystem, settings: &Settings) -> Solved {
+    let n = system.n();
+    let problem = match system.problem() {
+        Ok(p) => p,
+        Err(e) => return Solved::invalid(n, &e),
+    };
+    let result = solver.solve(&problem, settings);
+    Solved {
+        f: usable_impulse(&result, n),
+        status: result.status,
+        iterations: result.iterations,
+        time_s: result.time.as_secs_f64(),
+        wall_s: 0.0,
+        residuals: Some(result.residuals),
+        problem: Some(problem),
+        history: result.history,
+    }
+}
+
+/// Solve each island of `partition` on its own (one solver of `kind` per island, in parallel
+/// with rayon) and scatter the impulses back. The step's residuals are those of the whole:
+/// every measure is a maximum over rows except the complementarity gap, a sum, and `A` has no
+/// entry between islands. The status is the worst island's.
+fn solve_islands(
+    kind: SolverKind,
+    system: &ContactSystem,
+    partition: &Partition,
+    settings: &Settings,
+) -> Solved {
+    use rayon::prelude::*;
+    let n = system.n();
+    let results: Vec<Result<SolveResult, String>> = (0..partition.len())
+        .into_par_iter()
+        .map(|k| {
+            let rows = &partition.islands[k].rows;
+            let problem = system
+                .island_problem(partition, k)
+                .map_err(|e| e.to_string())?;
+            let island_settings = Settings {
+                warm_start: settings
+                    .warm_start
+                    .as_ref()
+                    .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
+                ..settings.clone()
+            };
+            Ok(kind.create().solve(&problem, &island_settings))
+        })
+        .collect();
+    let mut f = vec![0.0; n];
+    let mut status = Status::Converged;
+    let (mut iterations, mut time_s) = (0, 0.0);
+    // The history shown for the step: the largest island's.
+    let (mut history, mut history_rows) = (Vec::new(), 0);
+    let mut res = Residuals {
+        natural_map: 0.0,
+        natural_map_rel: 0.0,
+        complementarity_gap: 0.0,
+        bound_violation: 0.0,
+    };
+    for (island, result) in partition.islands.iter().zip(results) {
+        let result = match result {
+            Ok(r) => r,
+            Err(e) => return Solved::invalid(n, &e),
+        };
+        for (&i, v) in island
+            .rows
+            .iter()
+            .zip(usable_impulse(&result, island.rows.len()))
+        {
+            f[i] = v;
+        }
+        if status_rank(&result.status) > status_rank(&status) {
+            status = result.status;
+        }
+        iterations = iterations.max(result.iterations);
+        time_s += result.time.as_secs_f64();
+        if island.rows.len() > history_rows {
+            history_rows = island.rows.len();
+            history = result.history;
+        }
+        let r = result.residuals;
+        res.natural_map = res.natural_map.max(r.natural_map);
+        res.natural_map_rel = res.natural_map_rel.max(r.natural_map_rel);
+        res.complementarity_gap += r.complementarity_gap;
+        res.bound_violation = res.bound_violation.max(r.bound_violation);
+    }
+    Solved {
+        f,
+        status,
+        iterations,
+        time_s,
+        wall_s: 0.0,
+        residuals: Some(res),
+        problem: None,
+        history,
+    }
+}
+
+/// How bad a status is, for reporting the worst island: converged < stalled < limits <
+/// failures < unsupported.
+fn status_rank(status: &Status) -> u8 {
+    match status {
+        Status::Converged => 0,
+        Status::Stalled { .. } => 1,
+        Status::IterationLimit | Status::TimeLimit => 2,
+        Status::NoSolution { .. } | Status::NumericalFailure { .. } => 3,
+        Status::Unsupported { .. } => 4,
+    }
+}
+
+/// Every finite answer is applied (its status is reported); an unsupported problem or a
+/// non-finite answer applies no impulse.
+fn usable_impulse(result: &SolveResult, n: usize) -> Vec<f64> {
+    let usable = !matches!(result.status, Status::Unsupported { .. })
+        && result.f.len() == n
+        && result.f.iter().all(|v| v.is_finite());
+    if usable {
+        result.f.clone()
+    } else {
+        vec![0.0; n]
+    }
+}
+
+impl Solved {
+    /// No impulse: the contact system could not be made into a problem.
+    fn invalid(n: usize, e: &dyn std::fmt::Display) -> Self {
+        Solved {
+            f: vec![0.0; n],
+            status: Status::NumericalFailure {
+                reason: format!("contact system is invalid: {e}"),
+            },
+            iterations: 0,
+            time_s: 0.0,
+            wall_s: 0.0,
+            residuals: None,
+            problem: None,
+            history: Vec::new(),
+        }
+    }
 }
 
 /// Bodies, materials, settings and the state carried between steps.
@@ -333,12 +491,13 @@ impl World {
             &self.settings.builder,
             h,
         );
-        let solved = self.solve(&system);
+        let partition = system.islands();
+        let solved = self.solve(&system, &partition);
         let pseudo = self.split_impulse_velocities(&system);
         let toi = self.integrate(&system, &solved.f, pseudo.as_deref());
         self.step_index += 1;
         self.time += h;
-        self.report(&system, solved, toi, start)
+        self.report(&system, &partition, solved, toi, start)
     }
 
     /// Run `n` steps, returning their reports.
@@ -379,8 +538,9 @@ impl World {
         }
     }
 
-    fn solve(&mut self, system: &ContactSystem) -> Solved {
+    fn solve(&mut self, system: &ContactSystem, partition: &Partition) -> Solved {
         let n = system.n();
+        let wall = Instant::now();
         if n == 0 {
             self.warm.clear();
             return Solved {
@@ -388,6 +548,7 @@ impl World {
                 status: Status::Converged,
                 iterations: 0,
                 time_s: 0.0,
+                wall_s: 0.0,
                 residuals: None,
                 problem: None,
                 history: Vec::new(),
@@ -399,45 +560,23 @@ impl World {
             .then(|| system.warm_start(&self.warm));
         match self.settings.solver {
             SolverChoice::Matrix(kind) => {
-                let problem = match system.problem() {
-                    Ok(p) => p,
-                    Err(e) => {
-                        return Solved {
-                            f: vec![0.0; n],
-                            status: Status::NumericalFailure {
-                                reason: format!("contact system is invalid: {e}"),
-                            },
-                            iterations: 0,
-                            time_s: 0.0,
-                            residuals: None,
-                            problem: None,
-                            history: Vec::new(),
-                        }
-                    }
-                };
                 let mut settings = self.solver_settings();
                 settings.record_history = self.settings.record_history;
                 if kind.is_iterative() {
                     settings.warm_start = warm_start;
                 }
-                let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
-                let result = solver.solve(&problem, &settings);
-                // Every finite answer is applied (its status is reported); an unsupported
-                // problem or a non-finite answer applies no impulse.
-                let usable = !matches!(result.status, Status::Unsupported { .. })
-                    && result.f.len() == n
-                    && result.f.iter().all(|v| v.is_finite());
-                let f = if usable { result.f } else { vec![0.0; n] };
-                self.warm.store(system, &f);
-                Solved {
-                    f,
-                    status: result.status,
-                    iterations: result.iterations,
-                    time_s: result.time.as_secs_f64(),
-                    residuals: Some(result.residuals),
-                    problem: Some(problem),
-                    history: result.history,
+                let mut solved = if self.settings.islands && partition.len() > 1 {
+                    solve_islands(kind, system, partition, &settings)
+                } else {
+                    let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
+                    solve_whole(solver.as_mut(), system, &settings)
+                };
+                if self.settings.keep_problem && solved.problem.is_none() {
+                    solved.problem = system.problem().ok();
                 }
+                self.warm.store(system, &solved.f);
+                solved.wall_s = wall.elapsed().as_secs_f64();
+                solved
             }
             SolverChoice::Body(kind) => {
                 let settings = BodySolverSettings {
@@ -449,13 +588,36 @@ impl World {
                 let warm = warm_start.unwrap_or_default();
                 let out = body_solvers::solve(kind, system, &warm, &settings);
                 self.warm.store(system, &out.warm);
-                let problem = if self.settings.residuals || self.settings.keep_problem {
-                    system.problem().ok()
+                let (problem, invalid) = if self.settings.residuals || self.settings.keep_problem {
+                    match system.problem() {
+                        Ok(p) => (Some(p), None),
+                        Err(e) => (None, Some(e.to_string())),
+                    }
                 } else {
-                    None
+                    (None, None)
                 };
                 let res = problem.as_ref().map(|p| residuals(p, &out.f));
+                let non_finite = out.f.iter().position(|v| !v.is_finite());
                 let status = match (&res, out.stopped) {
+                    // Overflow is a numerical failure, whatever the solver's own rule said.
+                    _ if invalid.is_some() => Status::NumericalFailure {
+                        reason: format!(
+                            "contact system is invalid: {}",
+                            invalid.unwrap_or_default()
+                        ),
+                    },
+                    _ if non_finite.is_some() => {
+                        let i = non_finite.unwrap_or_default();
+                        Status::NumericalFailure {
+                            reason: format!("non-finite impulse f[{i}] = {}", out.f[i]),
+                        }
+                    }
+                    (Some(r), _) if !r.natural_map_rel.is_finite() => Status::NumericalFailure {
+                        reason: format!(
+                            "the residual of the step's LCP is not finite ({})",
+                            r.natural_map_rel
+                        ),
+                    },
                     (Some(r), _) if r.natural_map_rel <= self.settings.tolerance => {
                         Status::Converged
                     }
@@ -480,6 +642,7 @@ impl World {
                     status,
                     iterations: out.iterations,
                     time_s: out.time.as_secs_f64(),
+                    wall_s: wall.elapsed().as_secs_f64(),
                     residuals: res,
                     problem,
                     history: Vec::new(),
@@ -599,6 +762,7 @@ impl World {
     fn report(
         &self,
         system: &ContactSystem,
+        partition: &Partition,
         solved: Solved,
         time_of_impact: Option<f64>,
         start: Instant,
@@ -631,6 +795,9 @@ impl World {
             status: solved.status,
             iterations: solved.iterations,
             solve_time_s: solved.time_s,
+            solve_wall_s: solved.wall_s,
+            islands: partition.len(),
+            island_rows: partition.islands.iter().map(|i| i.rows.len()).collect(),
             step_time_s: start.elapsed().as_secs_f64(),
             residuals: solved.residuals,
             max_penetration,

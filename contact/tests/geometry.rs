@@ -188,6 +188,20 @@ fn mesh_errors_name_the_file() {
 }
 
 #[test]
+fn mesh_errors_give_the_line_and_keep_the_os_reason() {
+    let missing = data("no_such_mesh.obj");
+    let err = Shape::from_obj(&missing).unwrap_err().to_string();
+    assert!(err.contains("No such file or directory"), "{err}");
+
+    let bad = std::env::temp_dir().join(format!("lcpbench-bad-{}.obj", std::process::id()));
+    std::fs::write(&bad, "# cube\nv 0 0 0\nv 1 0 0\nv 0 1 x\nf 1 2 3\n").unwrap();
+    let err = Shape::from_obj(&bad).unwrap_err().to_string();
+    let _ = std::fs::remove_file(&bad);
+    assert!(err.contains("lcpbench-bad"), "{err}");
+    assert!(err.contains("line 4"), "{err}");
+}
+
+#[test]
 fn sap_pair_count_grows_with_overlaps_on_sparse_grid() {
     // 10 x 10 x 10 grid of spheres, spacing 3r; every tenth sphere along x in the first row
     // is moved to touch its neighbour.

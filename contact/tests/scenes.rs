@@ -280,3 +280,91 @@ fn delassus_equals_j_minv_jt_and_the_matrix_free_operator() {
     }
     assert!(err <= 1e-10 * scale, "matrix-free apply differs by {err:e}");
 }
+
+/// A scene of `BALL` with `extra` settings lines, or with `body` lines added to the ball.
+fn ball_with(settings: &str, body: &str) -> String {
+    format!("[settings]\n{settings}\n{BALL}{body}\n")
+}
+
+#[test]
+fn nonsense_values_are_refused_with_the_field_and_the_limit() {
+    let cases: &[(String, &[&str])] = &[
+        (
+            ball_with("gravity = [0.0, 0.0, -1e300]", ""),
+            &["settings.gravity", "at most 10000", "got 1e300"],
+        ),
+        (
+            ball_with("", "velocity = [1e300, 0.0, 0.0]"),
+            &["bodies[1] (\"ball\").velocity", "at most 10000", "got 1e300"],
+        ),
+        (
+            ball_with("", "angular_velocity = [0.0, 0.0, 1e300]"),
+            &["angular_velocity", "got 1e300"],
+        ),
+        (
+            format!(
+                "{BALL}[[bodies]]\nname = \"far\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\nposition = [1e300, 0.0, 0.0]\n"
+            ),
+            &["bodies[2] (\"far\").position", "got 1e300"],
+        ),
+        (ball_with("steps = 0", ""), &["settings.steps", "between 1 and"]),
+        (
+            ball_with("steps = 100000000", ""),
+            &["settings.steps", "1000000"],
+        ),
+        (ball_with("dt = 10.0", ""), &["settings.dt", "0.1", "got 10"]),
+        (ball_with("dt = 1e-300", ""), &["settings.dt", "got 1e-300"]),
+        (ball_with("tolerance = 1e300", ""), &["settings.tolerance", "(0, 1)"]),
+        (ball_with("tolerance = 1.0", ""), &["settings.tolerance", "(0, 1)"]),
+        (
+            ball_with("friction_model = \"pyramid\"\npyramid_directions = 100000", ""),
+            &["settings.pyramid_directions", "between 3 and 64", "100000"],
+        ),
+        ("".to_owned(), &["bodies", "no bodies"]),
+        ("name = \"nothing\"\n".to_owned(), &["no bodies"]),
+    ];
+    for (text, needles) in cases {
+        let e = error(text);
+        assert!(e.starts_with("test.toml"), "no file in: {e}");
+        for n in *needles {
+            assert!(e.contains(n), "`{n}` missing from: {e}");
+        }
+    }
+}
+
+#[test]
+fn a_static_body_with_a_negative_mass_is_refused() {
+    let text = "[[bodies]]\nname = \"ground\"\nshape = { type = \"plane\", normal = [0.0, 0.0, 1.0] }\nstatic = true\nmass = -5.0\n";
+    let e = error(text);
+    assert!(e.contains("bodies[0] (\"ground\").mass"), "{e}");
+    assert!(e.contains("got -5"), "{e}");
+}
+
+#[test]
+fn a_tiny_mass_is_printed_readably() {
+    let e = error(&ball_with("", "mass = 1e-300"));
+    assert!(e.contains("bodies[1] (\"ball\").mass"), "{e}");
+    assert!(e.contains("got 1e-300"), "{e}");
+    assert!(!e.contains("0.0000000"), "{e}");
+}
+
+#[test]
+fn huge_repeat_counts_and_body_counts_are_refused_before_building() {
+    // 1e5³ copies overflows a naive product; 1e5 bodies would need a contact problem far
+    // beyond memory. Both are refused at once, naming the limit.
+    for count in [
+        "[100000, 100000, 100000]",
+        "[100, 100, 10]",
+        "[18446744073709551615, 2, 1]",
+    ] {
+        let text = format!(
+            "[[bodies]]\nname = \"b\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\nrepeat = {{ count = {count}, spacing = [0.3, 0.3, 0.3] }}\n"
+        );
+        let e = error(&text);
+        assert!(e.contains("bodies[0] (\"b\").repeat.count"), "{e}");
+        assert!(e.contains("10000 bodies"), "{e}");
+    }
+    // At the limit the scene loads.
+    let text = "[[bodies]]\nname = \"b\"\nshape = { type = \"sphere\", radius = 0.1 }\nrepeat = { count = [100, 10, 10], spacing = [0.3, 0.3, 0.3] }\n";
+    assert_eq!(parse(text).unwrap().bodies.len(), 10_000);
+}

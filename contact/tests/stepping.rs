@@ -125,3 +125,37 @@ fn warm_starting_cuts_sequential_impulse_sweeps() {
     }
     assert!(sweeps[1] < 0.5 * sweeps[0], "{sweeps:?}");
 }
+
+#[test]
+fn overflowing_body_level_step_is_a_numerical_failure_not_stalled() {
+    // A closing speed of 1e308 m/s (set past the scene loader, which refuses it) overflows the
+    // contact system; body-level solvers used to report `stalled` with no residual.
+    let text = r#"
+        [settings]
+        friction_model = "none"
+        [[bodies]]
+        name = "ground"
+        shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+        static = true
+        [[bodies]]
+        name = "ball"
+        shape = { type = "sphere", radius = 0.5 }
+        position = [0.0, 0.0, 0.5]
+        mass = 1e6
+    "#;
+    let scene = Scene::parse(text, Path::new("overflow.toml")).unwrap();
+    for solver in ["si", "body-micro", "penalty"] {
+        let mut world = scene.world();
+        world.set_solver(SolverChoice::from_name(solver).unwrap());
+        let ball = &mut world.bodies[1];
+        ball.linear_momentum = nalgebra::Vector3::new(0.0, 0.0, -1e308 * ball.mass);
+        let report = world.step();
+        assert_eq!(report.rows, 1, "{solver}");
+        assert_eq!(
+            report.status.name(),
+            "numerical_failure",
+            "{solver}: {:?}",
+            report.status
+        );
+    }
+}

@@ -37,11 +37,13 @@
 //! V. Acary, O. Bonnefon et al., Siconos numerics, `lcp_enum.c`.
 
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver,
+};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "any LCP or boxed LCP with friction rows up to 32768 complementary bases (standard LCP n <= 15); complete";
+    "any LCP or boxed LCP with friction rows, per island up to 32768 complementary bases (standard LCP n <= 15); complete";
 
 /// Largest number of complementary bases the solver enumerates (`2¹⁵`).
 pub const MAX_BASES: usize = 1 << 15;
@@ -334,6 +336,19 @@ impl Solver for Enumeration {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        solve_by_islands(problem, settings, ISLAND_ROWS, |island, settings| {
+            self.solve_dense(island, settings)
+        })
+    }
+}
+
+/// Largest island handed to the enumeration (its basis count is then checked against
+/// [`MAX_BASES`]).
+const ISLAND_ROWS: usize = 64;
+
+impl Enumeration {
+    /// One island.
+    fn solve_dense(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
         let bounds: Vec<LocalBound> = (0..n)

@@ -66,6 +66,7 @@ pub enum ProblemFileError {
 }
 
 #[derive(Deserialize, Serialize)]
+#[serde(expecting = "a problem object with fields `A` and `b`")]
 struct ProblemFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     name: Option<String>,
@@ -82,12 +83,31 @@ struct ProblemFile {
 
 /// Parse a problem from JSON text; `path` is used in error messages only.
 pub fn parse_problem(text: &str, path: &Path) -> Result<Problem, ProblemFileError> {
-    let file: ProblemFile = serde_json::from_str(text).map_err(|e| ProblemFileError::Parse {
+    let parse_error = |e: serde_json::Error| ProblemFileError::Parse {
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),
         message: e.to_string(),
-    })?;
+    };
+    if !text.trim_start().starts_with('{') {
+        // Name what the file holds instead of the internal type serde expected.
+        let value: serde_json::Value = serde_json::from_str(text).map_err(parse_error)?;
+        let found = match value {
+            serde_json::Value::Null => "null",
+            serde_json::Value::Bool(_) => "a boolean",
+            serde_json::Value::Number(_) => "a number",
+            serde_json::Value::String(_) => "a string",
+            serde_json::Value::Array(_) => "an array",
+            serde_json::Value::Object(_) => "an object",
+        };
+        return Err(ProblemFileError::Parse {
+            path: path.to_owned(),
+            line: 1,
+            column: 1,
+            message: format!("expected one JSON object with fields `A` and `b`, found {found}"),
+        });
+    }
+    let file: ProblemFile = serde_json::from_str(text).map_err(parse_error)?;
     let field = |field: &str, message: String| ProblemFileError::Field {
         path: path.to_owned(),
         field: field.to_owned(),

@@ -55,16 +55,18 @@
 use crate::apgd::project;
 use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver,
+};
 use faer::linalg::solvers::Solve;
 use faer::{Col, Mat};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
-    "LCP, boxed LCP, friction rows (directly); any A with n <= 3000 (dense LU); globally convergent for P-matrices";
+    "LCP, boxed LCP, friction rows (directly); any A; dense LU per island up to 3000 rows; globally convergent for P-matrices";
 /// Problem classes handled by the min-map variant.
 pub(crate) const PROBLEM_CLASSES_MIN: &str =
-    "LCP, boxed LCP, friction rows (directly); any A with n <= 3000 (dense LU); local quadratic convergence";
+    "LCP, boxed LCP, friction rows (directly); any A; dense LU per island up to 3000 rows; local quadratic convergence";
 
 /// Which nonsmooth equation the solver works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -241,6 +243,16 @@ impl Solver for Newton {
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
+        let limit = self.max_dense;
+        solve_by_islands(problem, settings, limit, |island, settings| {
+            self.solve_dense(island, settings)
+        })
+    }
+}
+
+impl Newton {
+    /// One island, its Newton systems dense.
+    fn solve_dense(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
         if n > self.max_dense {

@@ -758,6 +758,7 @@ impl Problem {
 
     /// Row `i` of a dense `A` as a slice. Only for solvers that work on dense islands
     /// ([`crate::solver::solve_by_islands`] hands them dense problems).
+    #[inline]
     pub(crate) fn dense_row(&self, i: usize) -> &[f64] {
         match self.row(i) {
             Row::Dense(row) => row,

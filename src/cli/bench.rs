@@ -134,6 +134,9 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
     if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {
         bail!("nothing to run: need at least one case, solver and budget");
     }
+    let cases = once_each("case", cases);
+    let solvers = once_each("solver", solvers);
+    let budgets = once_each("budget", budgets);
     let jobs = cross_product(&cases, &solvers, &budgets);
     let mut config = SweepConfig::new(&args.out)?;
     config.jobs = args.jobs;
@@ -147,11 +150,56 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
         config.results_path().display()
     );
     let summary = run_sweep(&config, jobs)?;
-    eprintln!(
-        "ran {}, skipped {} already present, {} isolation failures",
-        summary.ran, summary.skipped, summary.failed
-    );
+    report_summary(&summary, &config);
     Ok(())
+}
+
+/// Drop repeated entries of a list (by their key text), saying which were listed twice.
+fn once_each<T: std::fmt::Display>(what: &str, items: Vec<T>) -> Vec<T> {
+    let mut seen = std::collections::HashMap::new();
+    let mut out = Vec::new();
+    for item in items {
+        let key = item.to_string();
+        let count = seen.entry(key.clone()).or_insert(0usize);
+        *count += 1;
+        if *count == 2 {
+            eprintln!("{what} {key} listed more than once, running it once");
+        }
+        if *count == 1 {
+            out.push(item);
+        }
+    }
+    out
+}
+
+/// Print what a sweep did, one clause per thing that happened.
+fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfig) {
+    let results = config.results_path();
+    if summary.stale_runners > 0 {
+        eprintln!(
+            "removed {} executable copies left by an interrupted sweep in {}",
+            summary.stale_runners,
+            config.out_dir.display()
+        );
+    }
+    if summary.dropped_rows > 0 {
+        eprintln!(
+            "dropped {} rows of {} that were torn or repeated; their runs were done again",
+            summary.dropped_rows,
+            results.display()
+        );
+    }
+    let mut line = format!(
+        "ran {}, skipped {} already in {}",
+        summary.ran,
+        summary.skipped,
+        results.display()
+    );
+    if summary.duplicates > 0 {
+        line.push_str(&format!(", {} repeated runs run once", summary.duplicates));
+    }
+    line.push_str(&format!(", {} isolation failures", summary.failed));
+    eprintln!("{line}");
 }
 
 /// Run `lcpbench report`.

@@ -2,7 +2,8 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use lcpbench_contact::scene::{check_solver, Scene};
+use indicatif::{ProgressBar, ProgressStyle};
+use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
 use lcpbench_contact::step::{SolverChoice, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::write_problem;
@@ -73,6 +74,34 @@ pub struct ExportArgs {
     pub output: PathBuf,
 }
 
+/// Refuse a step count beyond [`MAX_STEPS`] (or zero, for `--steps`).
+fn check_steps(flag: &str, steps: usize) -> Result<()> {
+    let min = usize::from(flag == "--steps");
+    if steps < min || steps > MAX_STEPS {
+        bail!("{flag} must be between {min} and {MAX_STEPS}, got {steps}");
+    }
+    Ok(())
+}
+
+/// Steps after which a run counts as long work: a warning is printed and a progress bar drawn
+/// (on a terminal).
+const LONG_RUN_STEPS: u64 = 10_000;
+
+/// A progress bar over `steps` steps, drawn on stderr for long runs only.
+fn step_progress(steps: u64, scene: &str) -> ProgressBar {
+    if steps < LONG_RUN_STEPS {
+        return ProgressBar::hidden();
+    }
+    eprintln!("simulating {steps} steps of {scene}; this may take a while");
+    let bar = ProgressBar::new(steps);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} steps ({eta} left)")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
 /// Load a scene and build its world, applying solver and friction-model overrides.
 fn load_world(
     path: &Path,
@@ -111,11 +140,10 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         args.friction_model.as_deref(),
     )?;
     let steps = args.steps.unwrap_or(scene.settings.steps);
+    check_steps("--steps", steps)?;
     if let Some(tol) = args.tol {
-        if !(tol.is_finite() && tol > 0.0) {
-            bail!("--tol must be a positive number, got {tol}");
-        }
-        world.settings.tolerance = tol;
+        world.settings.tolerance =
+            lcpbench::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
     }
     if args.no_residuals {
         world.settings.residuals = false;
@@ -156,7 +184,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let (mut max_pen, mut max_cone) = (0.0f64, 0.0f64);
     let mut max_res: Option<f64> = None;
     let mut last_energy = energy0;
+    let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
+        bar.inc(1);
         let report = world.step();
         if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
             bail!(
@@ -198,6 +228,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         }
         last_energy = report.kinetic_energy + report.potential_energy;
     }
+    bar.finish_and_clear();
     if let Some(mut w) = record {
         w.flush()?;
     }
@@ -276,9 +307,13 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
         args.solver.as_deref(),
         args.friction_model.as_deref(),
     )?;
+    check_steps("--step", args.step)?;
+    let bar = step_progress(args.step as u64, &scene.name);
     for _ in 0..args.step {
         world.step();
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     world.settings.keep_problem = true;
     let report = world.step();
     let Some(problem) = report.problem else {

@@ -1,14 +1,14 @@
 //! `lcpbench solve` and `lcpbench solvers`.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use lcpbench::harness::budget;
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, parse_problem, ConeProblem, ConeSolverKind,
-    Problem, ProjectedSor, Settings, SolveResult, Solver, SolverKind, Status,
+    Problem, ProblemFileError, ProjectedSor, Settings, SolveResult, Solver, SolverKind, Status,
 };
 use serde_json::json;
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// Arguments of `lcpbench solve`.
 #[derive(Args)]
@@ -63,6 +63,9 @@ impl std::str::FromStr for SolverName {
 /// Build the solver named by `kind`, applying `omega` to SOR.
 pub fn make_solver(kind: SolverKind, omega: Option<f64>) -> Result<Box<dyn Solver + Send>> {
     match (kind, omega) {
+        (SolverKind::Sor, Some(w)) if !(w > 0.0 && w < 2.0) => {
+            bail!("--omega must be in (0, 2) (projected SOR diverges outside it), got {w}")
+        }
         (SolverKind::Sor, Some(w)) => Ok(Box::new(ProjectedSor::sor(w))),
         (_, Some(_)) => bail!("--omega applies only to --solver sor"),
         (kind, None) => Ok(kind.create()),
@@ -87,16 +90,23 @@ fn describe(problem: &Problem) -> String {
 
 /// Run `lcpbench solve`.
 pub fn run(args: SolveArgs) -> Result<()> {
-    if !(args.tol.is_finite() && args.tol > 0.0) {
-        bail!("--tol must be a positive number, got {}", args.tol);
-    }
+    budget::tolerance(args.tol).map_err(|m| anyhow!("--tol: {m}"))?;
     let time_budget = match args.time_budget {
-        Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
-        Some(t) => bail!("--time-budget must be a positive number of seconds, got {t}"),
+        Some(t) => Some(budget::time_budget(t).map_err(|m| anyhow!("--time-budget: {m}"))?),
         None => None,
     };
-    let text = std::fs::read_to_string(&args.problem)
-        .with_context(|| format!("reading {}", args.problem.display()))?;
+    if args.max_iter == 0 {
+        bail!("--max-iter must be at least 1");
+    }
+    // Solver options are checked before the file is read.
+    let lcp_solver = match args.solver {
+        SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
+        SolverName::Cone(_) => None,
+    };
+    let text = std::fs::read_to_string(&args.problem).map_err(|source| ProblemFileError::Io {
+        path: args.problem.clone(),
+        source,
+    })?;
     let settings = Settings {
         tolerance: args.tol,
         max_iterations: args.max_iter,
@@ -109,9 +119,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
         return run_cone(&args, &cone, &settings);
     }
     let problem = parse_problem(&text, &args.problem)?;
-    let kind = match args.solver {
-        SolverName::Lcp(kind) => kind,
-        SolverName::Cone(_) => {
+    let mut solver = match lcp_solver {
+        Some(solver) => solver,
+        None => {
             let cone = ConeProblem::from_box(&problem).with_context(|| {
                 format!(
                     "{}: a cone solver needs rows in (normal, tangent, tangent) triples",
@@ -121,7 +131,6 @@ pub fn run(args: SolveArgs) -> Result<()> {
             return run_cone(&args, &cone, &settings);
         }
     };
-    let mut solver = make_solver(kind, args.omega)?;
     let r = solver.solve(&problem, &settings);
     print_result(
         &args,
@@ -161,7 +170,7 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                 f,
                 status: Status::Unsupported { reason },
                 iterations: 0,
-                time: Duration::ZERO,
+                time: std::time::Duration::ZERO,
                 history: Vec::new(),
                 active_sets: Vec::new(),
             };

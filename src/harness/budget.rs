@@ -13,6 +13,14 @@ pub enum SpecError {
     /// A budget that is neither a preset nor `TOL:ITER:SECONDS`.
     #[error("budget `{0}`: expected a preset (loose, default, tight, realtime) or TOL:ITER:SECONDS such as 1e-6:500:2")]
     Budget(String),
+    /// A budget of the right shape whose tolerance, iteration cap or time is out of range.
+    #[error("budget `{spec}`: {message}")]
+    BudgetValue {
+        /// The budget as given.
+        spec: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A solver specification that does not parse.
     #[error("solver `{spec}`: {message}")]
     Solver {
@@ -21,6 +29,41 @@ pub enum SpecError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Largest time budget accepted, seconds (about 31 years). Larger values, and values whose
+/// derived kill time cannot be represented as a [`Duration`], are refused up front.
+pub const MAX_TIME_BUDGET_S: f64 = 1e9;
+
+/// Check a time budget in seconds: finite, positive, at most [`MAX_TIME_BUDGET_S`], and
+/// representable as a [`Duration`]. The error says what is wrong.
+pub fn time_budget(seconds: f64) -> Result<Duration, String> {
+    if !(seconds.is_finite() && seconds > 0.0) {
+        return Err(format!(
+            "time budget must be a positive number of seconds, got {seconds}"
+        ));
+    }
+    if seconds > MAX_TIME_BUDGET_S {
+        return Err(format!(
+            "time budget {seconds:e} s is beyond the limit of {MAX_TIME_BUDGET_S:e} s"
+        ));
+    }
+    Duration::try_from_secs_f64(seconds)
+        .map_err(|e| format!("time budget {seconds:e} s cannot be represented: {e}"))
+}
+
+/// Check a tolerance on the relative residual: a number in `(0, 1)`. A relative residual of
+/// 1 or more is met by `f = 0` on most problems, so such a tolerance would claim convergence
+/// for nothing.
+pub fn tolerance(tol: f64) -> Result<f64, String> {
+    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
+        Ok(tol)
+    } else {
+        Err(format!(
+            "tolerance must be a number in (0, 1) on the relative residual, got {}",
+            lcpbench_contact::scene::readable(tol)
+        ))
+    }
 }
 
 /// Tolerance, iteration cap and time budget of one run.
@@ -86,7 +129,7 @@ impl Budget {
         Settings {
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
-            time_budget: Some(Duration::from_secs_f64(self.time_s)),
+            time_budget: time_budget(self.time_s).ok(),
             warm_start: None,
             record_history: false,
         }
@@ -97,12 +140,24 @@ impl Budget {
     /// convergence history are outside the solver's clock); for a
     /// scene, which stops stepping by itself after [`Budget::scene_time_limit`], that limit
     /// plus half of it plus five seconds.
+    /// Saturates at [`Duration::MAX`] for a budget that was not validated.
     pub fn kill_after(&self, scene: bool) -> Duration {
-        if scene {
-            Duration::from_secs_f64(1.5 * self.scene_time_limit() + 5.0)
+        let seconds = if scene {
+            1.5 * self.scene_time_limit() + 5.0
         } else {
-            Duration::from_secs_f64(3.0 * self.time_s + 5.0)
+            3.0 * self.time_s + 5.0
+        };
+        Duration::try_from_secs_f64(seconds).unwrap_or(Duration::MAX)
+    }
+
+    /// Check the tolerance (in `(0, 1)`) and the time (see [`time_budget`]).
+    pub fn validate(&self) -> Result<(), String> {
+        tolerance(self.tolerance)?;
+        time_budget(self.time_s)?;
+        if self.max_iterations == 0 {
+            return Err("the iteration cap must be at least 1".into());
         }
+        Ok(())
     }
 
     /// Wall time after which a scene run stops stepping and records `time_limit` with the steps
@@ -139,16 +194,20 @@ impl std::str::FromStr for NamedBudget {
         let tolerance: f64 = parts[0].parse().map_err(|_| bad())?;
         let max_iterations: usize = parts[1].parse().map_err(|_| bad())?;
         let time_s: f64 = parts[2].trim_end_matches('s').parse().map_err(|_| bad())?;
-        if !(tolerance > 0.0 && tolerance.is_finite() && time_s > 0.0 && time_s.is_finite()) {
-            return Err(bad());
-        }
+        let budget = Budget {
+            tolerance,
+            max_iterations,
+            time_s,
+        };
+        budget
+            .validate()
+            .map_err(|message| SpecError::BudgetValue {
+                spec: s.to_owned(),
+                message,
+            })?;
         Ok(Self {
             name: s.to_owned(),
-            budget: Budget {
-                tolerance,
-                max_iterations,
-                time_s,
-            },
+            budget,
         })
     }
 }
@@ -323,6 +382,11 @@ impl std::str::FromStr for SolverSpec {
         if omega.is_some() && out.kind != Some(SolverKind::Sor) {
             return Err(err("@omega applies only to sor".into()));
         }
+        if let Some(w) = omega.filter(|w| !(*w > 0.0 && *w < 2.0)) {
+            return Err(err(format!(
+                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
+            )));
+        }
         if warm && !out.is_iterative() {
             return Err(err(format!(
                 "+warm applies only to iterative solvers, not {name}"
@@ -354,6 +418,9 @@ mod tests {
         assert!("lemke+warm".parse::<SolverSpec>().is_err());
         assert!("penalty+warm".parse::<SolverSpec>().is_err());
         assert!("pgs@1.2".parse::<SolverSpec>().is_err());
+        for bad_omega in ["sor@5", "sor@0", "sor@-1", "sor@NaN", "sor@2"] {
+            assert!(bad_omega.parse::<SolverSpec>().is_err(), "{bad_omega}");
+        }
         assert!("nope".parse::<SolverSpec>().is_err());
     }
 
@@ -366,5 +433,36 @@ mod tests {
         assert_eq!(b.budget.time_s, 2.0);
         assert!("fast".parse::<NamedBudget>().is_err());
         assert!("1e-6:500".parse::<NamedBudget>().is_err());
+    }
+
+    #[test]
+    fn unrepresentable_budget_seconds_are_refused() {
+        for spec in [
+            "1e-8:100:1e19",
+            "1e-8:100:1e20",
+            "1e-8:100:inf",
+            "1e-8:100:NaN",
+            "1e-8:100:-1",
+            "1e-8:100:0",
+            "1e300:100:1",
+            "1:100:1",
+            "1e-8:0:1",
+        ] {
+            let err = spec.parse::<NamedBudget>().unwrap_err();
+            assert!(
+                matches!(err, SpecError::BudgetValue { .. }),
+                "{spec}: {err}"
+            );
+        }
+        for (name, b) in Budget::PRESETS {
+            assert!(b.validate().is_ok(), "{name}");
+        }
+        let huge = Budget {
+            tolerance: 1e-8,
+            max_iterations: 1,
+            time_s: 1e300,
+        };
+        assert_eq!(huge.kill_after(false), Duration::MAX);
+        assert_eq!(huge.settings().time_budget, None);
     }
 }

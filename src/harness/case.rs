@@ -26,6 +26,10 @@ use std::fmt;
 use std::path::PathBuf;
 use thiserror::Error;
 
+/// Largest size `n` of a generated case (and of `lcpbench gen --n`): its dense `n × n` matrix
+/// takes 0.8 GB, and generation is O(n³) work.
+pub const MAX_GENERATED_N: usize = 10_000;
+
 /// A malformed case key.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[error("case `{key}`: {message}")]
@@ -205,7 +209,9 @@ impl std::str::FromStr for Case {
                     p,
                     Some(
                         n.parse::<usize>()
-                            .map_err(|_| err(format!("`{n}` is not a step count")))?,
+                            .ok()
+                            .filter(|&s| s >= 1)
+                            .ok_or_else(|| err(format!("`{n}` is not a step count (>= 1)")))?,
                     ),
                 ),
                 None => (rest, None),
@@ -236,8 +242,10 @@ impl std::str::FromStr for Case {
             }
         }
         let n = n.ok_or_else(|| err("missing `n=`".into()))?;
-        if n == 0 {
-            return Err(err("n must be at least 1".into()));
+        if n == 0 || n > MAX_GENERATED_N {
+            return Err(err(format!(
+                "n must be between 1 and {MAX_GENERATED_N}, got {n}"
+            )));
         }
         let family = match kind {
             "spd" => {
@@ -449,6 +457,8 @@ mod tests {
             assert_eq!(case.to_string(), key);
         }
         assert!("spd:n=0".parse::<Case>().is_err());
+        assert!("spd:n=100000000".parse::<Case>().is_err());
+        assert!("scene:a.toml?steps=0".parse::<Case>().is_err());
         assert!("spd:cond=1e3".parse::<Case>().is_err());
         assert!("cube:n=3".parse::<Case>().is_err());
     }

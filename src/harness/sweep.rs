@@ -5,19 +5,27 @@
 //!
 //! * `results.csv`: one [`RunRecord`] per (case, solver, budget), appended as runs finish.
 //!   On a restart with the same directory, rows already present are kept and their runs
-//!   skipped (resume); a torn last line from an interrupted write is dropped.
+//!   skipped (resume). A row that does not parse completely (a torn last line from an
+//!   interrupted write: no final newline, a missing column, a cut number) is dropped and its run
+//!   done again; so are the rows of a run that appears more than once.
 //! * `histories.csv`: [`HistoryRow`]s of LCP runs (when histories are kept), written before the
 //!   run's result row so a row in `results.csv` implies its history is complete.
+//! * `.lcpbench.lock`: a sweep holds an exclusive lock on this file (with its process id
+//!   inside) for as long as it runs; a second sweep on the same directory refuses to start.
+//! * `.lcpbench-runner-PID`: the private copy of the executable that the children of sweep
+//!   `PID` run. It is removed when the sweep ends; copies left by a killed sweep are removed by
+//!   the next sweep on the directory.
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::isolate::run_isolated;
 use crate::harness::record::{HistoryRow, RunRecord};
 use crate::harness::run::RunOutput;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::collections::{HashSet, VecDeque};
-use std::fs::{File, OpenOptions};
+use std::collections::{HashMap, HashSet, VecDeque};
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Arc, Mutex};
 
@@ -104,28 +112,149 @@ impl SweepConfig {
 pub struct SweepSummary {
     /// Runs executed now.
     pub ran: usize,
-    /// Runs skipped because their row was already present.
+    /// Runs skipped because their row was already in `results.csv`.
     pub skipped: usize,
+    /// Jobs dropped because the same (case, solver, budget) was listed more than once.
+    pub duplicates: usize,
+    /// Rows of `results.csv` dropped on resume because they did not parse completely (a torn
+    /// line) or repeated a run; their runs are done again.
+    pub dropped_rows: usize,
+    /// Copies of the executable left by killed sweeps, removed.
+    pub stale_runners: usize,
     /// Runs that ended in `panic`, `crash`, `timeout` or `error`.
     pub failed: usize,
 }
 
-/// Read the rows of a results file. Rows that do not parse (a torn last line) are dropped.
-pub fn read_results(path: &Path) -> Result<Vec<RunRecord>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .flexible(true)
-        .from_path(path)
-        .with_context(|| format!("reading {}", path.display()))?;
-    Ok(reader.deserialize().filter_map(|r| r.ok()).collect())
+/// Name of the lock file a sweep holds in its output directory.
+pub const LOCK_FILE: &str = ".lcpbench.lock";
+
+/// Prefix of the private copies of the executable that a sweep's children run.
+pub const RUNNER_PREFIX: &str = ".lcpbench-runner-";
+
+/// An exclusive lock on a sweep's output directory, held until dropped.
+#[derive(Debug)]
+pub struct DirLock {
+    dir: PathBuf,
+    _file: File,
 }
 
-/// Read a histories file (rows that do not parse are dropped).
-pub fn read_histories(path: &Path) -> Result<Vec<HistoryRow>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .flexible(true)
-        .from_path(path)
+impl DirLock {
+    /// The locked directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+}
+
+/// Lock `dir` (created if missing) for one sweep. Fails at once, naming the directory and the
+/// process that holds it, when another sweep has it.
+pub fn lock_dir(dir: &Path) -> Result<DirLock> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join(LOCK_FILE);
+    let mut file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .with_context(|| format!("opening the lock file {}", path.display()))?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = file.read_to_string(&mut holder);
+            let holder = holder.trim();
+            let by = if holder.is_empty() {
+                String::new()
+            } else {
+                format!(" (process {holder})")
+            };
+            bail!(
+                "output directory {} is in use by another lcpbench sweep{by}; wait for it to \
+                 finish or choose another output directory",
+                dir.display()
+            );
+        }
+        Err(TryLockError::Error(e)) => {
+            return Err(e).with_context(|| format!("locking {}", path.display()));
+        }
+    }
+    // Best effort: the process id helps whoever meets the lock.
+    let _ = file.set_len(0);
+    let _ = write!(file, "{}", std::process::id());
+    let _ = file.flush();
+    Ok(DirLock {
+        dir: dir.to_owned(),
+        _file: file,
+    })
+}
+
+/// Rows of a CSV file that parse completely, and how many did not.
+///
+/// Only newline-terminated lines count as written: a last line without its newline is torn (a
+/// number cut short still parses as a number, so the newline is the only proof the row is
+/// whole). Every row must have exactly the header's columns, and every cell must parse.
+fn read_strict<T: serde::de::DeserializeOwned>(path: &Path) -> Result<(Vec<T>, usize)> {
+    let mut bytes = Vec::new();
+    File::open(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
         .with_context(|| format!("reading {}", path.display()))?;
-    Ok(reader.deserialize().filter_map(|r| r.ok()).collect())
+    let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
+    let mut dropped = usize::from(bytes[complete..].iter().any(|c| !c.is_ascii_whitespace()));
+    let mut reader = csv::ReaderBuilder::new()
+        .flexible(false)
+        .from_reader(&bytes[..complete]);
+    let mut rows = Vec::new();
+    for row in reader.deserialize() {
+        match row {
+            Ok(r) => rows.push(r),
+            Err(_) => dropped += 1,
+        }
+    }
+    Ok((rows, dropped))
+}
+
+/// Read the rows of a results file. Rows that do not parse completely (a torn last line, a
+/// wrong column count, a cell that is not a value of its column) are dropped.
+pub fn read_results(path: &Path) -> Result<Vec<RunRecord>> {
+    Ok(read_strict(path)?.0)
+}
+
+/// Read a histories file (rows that do not parse completely are dropped).
+pub fn read_histories(path: &Path) -> Result<Vec<HistoryRow>> {
+    Ok(read_strict(path)?.0)
+}
+
+/// The rows of `results.csv` a resume keeps, with the count of rows dropped: torn or
+/// unparsable rows, and every row of a run that appears more than once (such a run is done
+/// again, so its history cannot be mixed up with another copy's).
+fn resumable_rows(path: &Path) -> Result<(Vec<RunRecord>, usize)> {
+    let (rows, mut dropped) = read_strict::<RunRecord>(path)?;
+    let mut count: HashMap<(String, String, String), usize> = HashMap::new();
+    for r in &rows {
+        *count.entry(r.key()).or_default() += 1;
+    }
+    let before = rows.len();
+    let rows: Vec<RunRecord> = rows.into_iter().filter(|r| count[&r.key()] == 1).collect();
+    dropped += before - rows.len();
+    Ok((rows, dropped))
+}
+
+/// Remove the runner copies in `dir` other than this process's own (the caller holds the
+/// directory's lock, so no other sweep is using them); returns how many were removed.
+fn remove_stale_runners(dir: &Path) -> usize {
+    let own = format!("{RUNNER_PREFIX}{}", std::process::id());
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with(RUNNER_PREFIX) && name != own
+        })
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
 }
 
 /// Rewrite `path` with exactly `rows` (header included), through a temporary file.
@@ -156,15 +285,36 @@ fn appender(path: &Path) -> Result<csv::Writer<File>> {
 }
 
 /// Run the jobs, skipping those already in `results.csv`, and append a row per finished run.
+/// Holds the lock on the output directory for the whole sweep (see [`lock_dir`]).
 pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
-    std::fs::create_dir_all(&config.out_dir)
-        .with_context(|| format!("creating {}", config.out_dir.display()))?;
+    let lock = lock_dir(&config.out_dir)?;
+    run_sweep_locked(config, jobs, &lock)
+}
+
+/// [`run_sweep`] for a caller that already holds the lock on `config.out_dir`.
+pub fn run_sweep_locked(
+    config: &SweepConfig,
+    jobs: Vec<Job>,
+    lock: &DirLock,
+) -> Result<SweepSummary> {
+    if lock.dir() != config.out_dir {
+        bail!(
+            "the lock is on {}, the sweep writes to {}",
+            lock.dir().display(),
+            config.out_dir.display()
+        );
+    }
     let results_path = config.results_path();
     let histories_path = config.histories_path();
-    // Resume: keep the parsable rows (and their histories), drop torn lines.
+    let mut summary = SweepSummary {
+        stale_runners: remove_stale_runners(&config.out_dir),
+        ..SweepSummary::default()
+    };
+    // Resume: keep the rows that parse completely (and their histories), drop the rest.
     let mut done: HashSet<(String, String, String)> = HashSet::new();
     if results_path.exists() {
-        let rows = read_results(&results_path)?;
+        let (rows, dropped) = resumable_rows(&results_path)?;
+        summary.dropped_rows = dropped;
         rewrite(&results_path, &rows)?;
         done.extend(rows.iter().map(RunRecord::key));
         if histories_path.exists() {
@@ -178,18 +328,20 @@ pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
         std::fs::remove_file(&histories_path)?;
     }
     let mut seen = HashSet::new();
-    let total = jobs.len();
-    let todo: VecDeque<Job> = jobs
-        .into_iter()
-        .filter(|j| !done.contains(&j.key()) && seen.insert(j.key()))
-        .collect();
-    let mut summary = SweepSummary {
-        skipped: total - todo.len(),
-        ..SweepSummary::default()
-    };
+    let mut todo: VecDeque<Job> = VecDeque::new();
+    for job in jobs {
+        if !seen.insert(job.key()) {
+            summary.duplicates += 1;
+        } else if done.contains(&job.key()) {
+            summary.skipped += 1;
+        } else {
+            todo.push_back(job);
+        }
+    }
     if todo.is_empty() {
         return Ok(summary);
     }
+    let total = todo.len();
     let mut results = appender(&results_path)?;
     let mut histories = appender(&histories_path)?;
 
@@ -254,20 +406,30 @@ pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
         ));
         bar.inc(1);
     }
-    for w in workers {
-        let _ = w.join();
-    }
+    let panicked = workers
+        .into_iter()
+        .map(|w| w.join())
+        .filter(Result::is_err)
+        .count();
     if let Some(runner) = runner {
         let _ = std::fs::remove_file(runner);
     }
     bar.finish_and_clear();
+    if panicked > 0 {
+        bail!(
+            "{panicked} worker thread(s) of the sweep panicked; {} of {total} runs were written \
+             to {} (run the sweep again to resume)",
+            summary.ran,
+            results_path.display()
+        );
+    }
     Ok(summary)
 }
 
 /// Copy `exe` into `dir` under a name private to this process; `None` when copying fails (the
 /// sweep then runs `exe` itself).
 fn private_copy(exe: &Path, dir: &Path) -> Option<PathBuf> {
-    let dest = dir.join(format!(".lcpbench-runner-{}", std::process::id()));
+    let dest = dir.join(format!("{RUNNER_PREFIX}{}", std::process::id()));
     std::fs::copy(exe, &dest).ok()?;
     Some(dest)
 }

@@ -12,6 +12,7 @@
 //! tables/*.csv         the data of every table
 //! plots/*.svg, *.csv   every figure and its points
 //! lcps/*.json          LCPs exported from the scenes (when scenes are available)
+//! replays/*.html       self-contained replay pages of the scenes that are not large
 //! ```
 
 pub mod machine;
@@ -23,7 +24,8 @@ mod tables;
 pub use machine::Header;
 pub use tables::write_report;
 
-use crate::harness::{run_sweep, SweepConfig, SweepSummary};
+use crate::harness::sweep::{lock_dir, run_sweep_locked};
+use crate::harness::{SweepConfig, SweepSummary};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -61,7 +63,8 @@ pub struct ReportSummary {
 /// Run the default suite into `out_dir/data` and write the report.
 pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let data = options.out_dir.join("data");
-    std::fs::create_dir_all(&data).with_context(|| format!("creating {}", data.display()))?;
+    // Locked before anything in it is removed, and until the sweep ends.
+    let lock = lock_dir(&data)?;
     if !options.resume {
         for f in ["results.csv", "histories.csv"] {
             let p = data.join(f);
@@ -75,15 +78,43 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     config.out_dir = data;
     config.keep_histories = true;
     let start = Instant::now();
-    let sweep = run_sweep(&config, suite.jobs.clone())?;
+    let sweep = run_sweep_locked(&config, suite.jobs.clone(), &lock)?;
+    drop(lock);
     let sweep_seconds = start.elapsed().as_secs_f64();
     let header = Header::collect(&options.command);
     let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
+    if !options.quick {
+        append_replays(&options.out_dir, &options.scenes, &readme)?;
+    }
     Ok(ReportSummary {
         sweep,
         sweep_seconds,
         readme,
     })
+}
+
+/// Write the replay pages of the scenes that are not large (a large scene's page would exceed
+/// the size a committed report should carry; `lcpbench simulate SCENE --html` makes one) and
+/// append the section that links them to the README.
+fn append_replays(out_dir: &Path, scenes: &[PathBuf], readme: &Path) -> Result<()> {
+    let small: Vec<PathBuf> = scenes
+        .iter()
+        .filter(|p| !suite::is_large_scene(p))
+        .cloned()
+        .collect();
+    let links = replays::write_replays(&small, out_dir);
+    let mut md =
+        std::fs::read_to_string(readme).with_context(|| format!("reading {}", readme.display()))?;
+    md.push('\n');
+    md.push_str(&replays::replay_section(&links, out_dir));
+    let large = scenes.len() - small.len();
+    if large > 0 {
+        md.push_str(&format!(
+            "\n{large} large scenes have no committed replay (a page of theirs would be several \
+             megabytes); make one with `lcpbench simulate SCENE --html page.html`.\n"
+        ));
+    }
+    std::fs::write(readme, md).with_context(|| format!("writing {}", readme.display()))
 }
 
 /// Files matching a glob pattern, sorted.

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 pub const REPLAY_SOLVERS: [&str; 2] = ["dantzig", "si"];
 
 /// Size bound of one replay page, bytes.
-pub const REPLAY_MAX_BYTES: usize = 3_000_000;
+pub const REPLAY_MAX_BYTES: usize = 1_500_000;
 
 /// A scene's replay page, or why there is none.
 #[derive(Debug, Clone)]
