@@ -13,6 +13,11 @@
 //! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`. Every solver implements [`Solver`],
 //! and every result's [`Status`] is decided by the one shared residual in [`metrics`].
 //!
+//! The exact Coulomb cone (FC3D, De Saxcé's form) is a separate class, [`ConeProblem`], with its
+//! own solvers ([`ConeSolver`], [`ConeSolverKind`]) whose statuses are decided by the cone
+//! residual in [`cone`]; [`ConeProblem::from_box`] and [`ConeProblem::to_box`] convert to and
+//! from the box-friction LCP.
+//!
 //! ```
 //! use lcpbench_solvers::{Problem, Settings, SolverKind, Status};
 //! use faer::Mat;
