@@ -39,6 +39,8 @@ fn solvers_lists_every_solver() {
         "nncg",
         "nsgs",
         "enum",
+        "nsgs-cone",
+        "newton-ac",
     ] {
         assert!(
             text.lines().any(|l| l.starts_with(name)),
@@ -183,6 +185,55 @@ fn bad_input_gets_one_clear_message() {
     let o = lcpbench(&["gen", "banana", "--n", "3", "-o", "/dev/null"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("unknown instance kind `banana`"));
+}
+
+/// A cone file is solved by the cone solvers, an LCP solver says `unsupported`, and a
+/// box-friction file in (normal, t1, t2) triples is solved in its cone form.
+#[test]
+fn cone_problems_through_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    // A block on an incline past its friction angle: it slides, ‖r_T‖ = mu r_N = 0.5.
+    let cone = write(
+        dir.path(),
+        "cone.json",
+        r#"{"name": "incline", "W": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "q": [-1, 0.6, 0.8],
+            "mu": [0.5]}"#,
+    );
+    for solver in ["nsgs-cone", "newton-ac"] {
+        let o = lcpbench(&["solve", &cone, "--solver", solver, "--json"]);
+        assert!(o.status.success(), "{solver}: {}", stderr(&o));
+        let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["status"], "converged", "{solver}: {v}");
+        let f: Vec<f64> = serde_json::from_value(v["f"].clone()).unwrap();
+        assert!(
+            (f[0] - 1.0).abs() < 1e-8 && (f[1] + 0.3).abs() < 1e-8 && (f[2] + 0.4).abs() < 1e-8
+        );
+    }
+    let o = lcpbench(&["solve", &cone, "--solver", "pgs", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "unsupported", "{v}");
+    assert!(v["reason"].as_str().unwrap().contains("nsgs-cone"), "{v}");
+    // The same data as a box-friction LCP, solved in its cone form by a cone solver.
+    let boxed = write(
+        dir.path(),
+        "box.json",
+        r#"{"A": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "b": [-1, 0.6, 0.8],
+            "lo": [0, null, null], "hi": [null, null, null], "friction": [[1, 0, 0.5], [2, 0, 0.5]]}"#,
+    );
+    let o = lcpbench(&["solve", &boxed, "--solver", "newton-ac", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "converged", "{v}");
+    // Rows that are not contact triples: one clear error.
+    let lcp = write(
+        dir.path(),
+        "lcp.json",
+        r#"{"A": [[2, 1], [1, 2]], "b": [-1, 1]}"#,
+    );
+    let o = lcpbench(&["solve", &lcp, "--solver", "nsgs-cone"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("triples"), "{}", stderr(&o));
 }
 
 /// Run `args`, expect exit code 1 with one line on stderr that contains every needle; return it.

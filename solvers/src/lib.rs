@@ -13,6 +13,11 @@
 //! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`. Every solver implements [`Solver`],
 //! and every result's [`Status`] is decided by the one shared residual in [`metrics`].
 //!
+//! The exact Coulomb cone (FC3D, De Saxcé's form) is a separate class, [`ConeProblem`], with its
+//! own solvers ([`ConeSolver`], [`ConeSolverKind`]) whose statuses are decided by the cone
+//! residual in [`cone`]; [`ConeProblem::from_box`] and [`ConeProblem::to_box`] convert to and
+//! from the box-friction LCP.
+//!
 //! ```
 //! use lcpbench_solvers::{Problem, Settings, SolverKind, Status};
 //! use faer::Mat;
@@ -27,8 +32,11 @@
 //! ```
 #![warn(missing_docs)]
 
+mod alart_curnier;
 mod apgd;
 mod clarabel_qp;
+pub mod cone;
+mod cone_io;
 mod dantzig;
 mod enumeration;
 pub mod generate;
@@ -37,8 +45,10 @@ mod lemke;
 pub mod metrics;
 mod micro_impulse;
 mod newton;
+mod newton_ac;
 mod nncg;
 mod nsgs;
+mod nsgs_cone;
 mod pgs;
 mod problem;
 mod solver;
@@ -47,6 +57,11 @@ mod test_util;
 
 pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
+pub use cone::{
+    cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
+    ConeSolver,
+};
+pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
 #[cfg(feature = "fclib")]
@@ -59,8 +74,10 @@ pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
 pub use newton::{FrictionHandling, Newton, Reformulation};
+pub use newton_ac::NewtonAc;
 pub use nncg::Nncg;
 pub use nsgs::Nsgs;
+pub use nsgs_cone::NsgsCone;
 pub use pgs::ProjectedSor;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
@@ -193,5 +210,48 @@ impl std::str::FromStr for SolverKind {
             let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
             format!("unknown solver `{s}` (known: {})", names.join(", "))
         })
+    }
+}
+
+/// The solvers of the exact Coulomb cone ([`ConeProblem`]), by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ConeSolverKind {
+    /// Block Gauss–Seidel over contacts, each contact solved exactly on its cone.
+    NsgsCone,
+    /// Global Alart–Curnier semismooth Newton.
+    NewtonAc,
+}
+
+impl ConeSolverKind {
+    /// Every cone solver, in report order.
+    pub const ALL: [ConeSolverKind; 2] = [ConeSolverKind::NsgsCone, ConeSolverKind::NewtonAc];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConeSolverKind::NsgsCone => "nsgs-cone",
+            ConeSolverKind::NewtonAc => "newton-ac",
+        }
+    }
+
+    /// Look a cone solver up by name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// The problem classes the solver handles, in one line.
+    pub fn problem_classes(self) -> &'static str {
+        match self {
+            ConeSolverKind::NsgsCone => nsgs_cone::PROBLEM_CLASSES,
+            ConeSolverKind::NewtonAc => newton_ac::PROBLEM_CLASSES,
+        }
+    }
+
+    /// A solver of this kind with default parameters.
+    pub fn create(self) -> Box<dyn ConeSolver + Send> {
+        match self {
+            ConeSolverKind::NsgsCone => Box::new(NsgsCone),
+            ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
+        }
     }
 }

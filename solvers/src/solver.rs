@@ -328,23 +328,8 @@ impl<'a> Monitor<'a> {
                 Status::NumericalFailure {
                     reason: "the velocity w = A f + b overflows at the returned impulse".into(),
                 }
-            } else if res.natural_map_rel <= tol {
-                Status::Converged
             } else {
-                match outcome {
-                    Outcome::Stopped => Status::Stalled {
-                        reason: format!(
-                            "stopping rule met at relative residual {:.3e} > tolerance {tol:.1e}",
-                            res.natural_map_rel
-                        ),
-                    },
-                    Outcome::Stalled(reason) => Status::Stalled { reason },
-                    Outcome::IterationLimit => Status::IterationLimit,
-                    Outcome::TimeLimit => Status::TimeLimit,
-                    Outcome::NoSolution(reason) => Status::NoSolution { reason },
-                    Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
-                    Outcome::Unsupported(_) => unreachable!("handled above"),
-                }
+                decide(outcome, res.natural_map_rel, tol)
             };
             (f, w, res, status)
         };
@@ -358,6 +343,27 @@ impl<'a> Monitor<'a> {
             history: self.history,
             active_sets: self.active_sets,
         }
+    }
+}
+
+/// The status of a finite result from its relative residual `rel` and the solver's own outcome:
+/// `Converged` if and only if `rel <= tol` (shared by the LCP and the cone monitors).
+pub(crate) fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
+    if rel <= tol {
+        return Status::Converged;
+    }
+    match outcome {
+        Outcome::Stopped => Status::Stalled {
+            reason: format!(
+                "stopping rule met at relative residual {rel:.3e} > tolerance {tol:.1e}"
+            ),
+        },
+        Outcome::Stalled(reason) => Status::Stalled { reason },
+        Outcome::IterationLimit => Status::IterationLimit,
+        Outcome::TimeLimit => Status::TimeLimit,
+        Outcome::NoSolution(reason) => Status::NoSolution { reason },
+        Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
+        Outcome::Unsupported(reason) => Status::Unsupported { reason },
     }
 }
 

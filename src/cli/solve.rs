@@ -3,7 +3,10 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
-use lcpbench_solvers::{read_problem, Problem, ProjectedSor, Settings, Solver, SolverKind};
+use lcpbench_solvers::{
+    cone_residuals, is_cone_file, parse_cone_problem, parse_problem, ConeProblem, ConeSolverKind,
+    Problem, ProblemFileError, ProjectedSor, Settings, SolveResult, Solver, SolverKind, Status,
+};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -13,9 +16,10 @@ pub struct SolveArgs {
     /// Problem file: JSON (format in the README), Siconos numerics LCP (`.dat`) or FCLIB
     /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content.
     pub problem: PathBuf,
-    /// Solver name (see `lcpbench solvers`).
+    /// Solver name (see `lcpbench solvers`): an LCP solver, or a cone solver (`nsgs-cone`,
+    /// `newton-ac`) for a cone file or a box-friction file in (normal, t1, t2) triples.
     #[arg(long, short)]
-    pub solver: SolverKind,
+    pub solver: SolverName,
     /// Tolerance on the relative natural-map residual.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
@@ -34,6 +38,27 @@ pub struct SolveArgs {
     /// Record and print the convergence history.
     #[arg(long)]
     pub history: bool,
+}
+
+/// An LCP solver or a cone solver, by name.
+#[derive(Debug, Clone, Copy)]
+pub enum SolverName {
+    /// A solver of the (boxed) LCP.
+    Lcp(SolverKind),
+    /// A solver of the exact Coulomb cone.
+    Cone(ConeSolverKind),
+}
+
+impl std::str::FromStr for SolverName {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if let Some(k) = ConeSolverKind::from_name(s) {
+            return Ok(SolverName::Cone(k));
+        }
+        s.parse::<SolverKind>()
+            .map(SolverName::Lcp)
+            .map_err(|e| format!("{e}; cone solvers: nsgs-cone, newton-ac"))
+    }
 }
 
 /// Build the solver named by `kind`, applying `omega` to SOR.
@@ -74,8 +99,15 @@ pub fn run(args: SolveArgs) -> Result<()> {
     if args.max_iter == 0 {
         bail!("--max-iter must be at least 1");
     }
-    let mut solver = make_solver(args.solver, args.omega)?;
-    let problem = read_problem(&args.problem)?;
+    // Solver options are checked before the file is read.
+    let lcp_solver = match args.solver {
+        SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
+        SolverName::Cone(_) => None,
+    };
+    let text = std::fs::read_to_string(&args.problem).map_err(|source| ProblemFileError::Io {
+        path: args.problem.clone(),
+        source,
+    })?;
     let settings = Settings {
         tolerance: args.tol,
         max_iterations: args.max_iter,
@@ -83,12 +115,84 @@ pub fn run(args: SolveArgs) -> Result<()> {
         warm_start: None,
         record_history: args.history,
     };
+    if is_cone_file(&text) {
+        let cone = parse_cone_problem(&text, &args.problem)?;
+        return run_cone(&args, &cone, &settings);
+    }
+    let problem = parse_problem(&text, &args.problem)?;
+    let mut solver = match lcp_solver {
+        Some(solver) => solver,
+        None => {
+            let cone = ConeProblem::from_box(&problem).with_context(|| {
+                format!(
+                    "{}: a cone solver needs rows in (normal, tangent, tangent) triples",
+                    args.problem.display()
+                )
+            })?;
+            return run_cone(&args, &cone, &settings);
+        }
+    };
     let r = solver.solve(&problem, &settings);
+    print_result(
+        &args,
+        problem.name(),
+        &describe(&problem),
+        solver.name(),
+        &r,
+    )
+}
+
+/// Solve a cone problem: with a cone solver, or `unsupported` for an LCP solver (the box
+/// approximation is a different problem; export it to solve it as an LCP).
+fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result<()> {
+    let describe = format!(
+        "{} rows, {} contacts, Coulomb cone",
+        cone.n(),
+        cone.contacts()
+    );
+    let (name, r) = match args.solver {
+        SolverName::Cone(kind) => {
+            if args.omega.is_some() {
+                bail!("--omega applies only to --solver sor");
+            }
+            let mut solver = kind.create();
+            (solver.name(), solver.solve_cone(cone, settings))
+        }
+        SolverName::Lcp(kind) => {
+            let f = vec![0.0; cone.n()];
+            let reason = format!(
+                "{} solves LCPs; this is a Coulomb cone (FC3D) problem: use a cone solver ({})",
+                kind.name(),
+                ConeSolverKind::ALL.map(|k| k.name()).join(", ")
+            );
+            let r = SolveResult {
+                w: cone.velocity(&f),
+                residuals: cone_residuals(cone, &f),
+                f,
+                status: Status::Unsupported { reason },
+                iterations: 0,
+                time: std::time::Duration::ZERO,
+                history: Vec::new(),
+                active_sets: Vec::new(),
+            };
+            (kind.name(), r)
+        }
+    };
+    print_result(args, cone.name(), &describe, name, &r)
+}
+
+fn print_result(
+    args: &SolveArgs,
+    problem_name: Option<&str>,
+    describe: &str,
+    solver_name: &str,
+    r: &SolveResult,
+) -> Result<()> {
     if args.json {
         let out = json!({
-            "problem": problem.name(),
-            "n": problem.n(),
-            "solver": solver.name(),
+            "problem": problem_name,
+            "n": r.f.len(),
+            "solver": solver_name,
             "status": r.status.name(),
             "reason": r.status.reason(),
             "iterations": r.iterations,
@@ -107,14 +211,13 @@ pub fn run(args: SolveArgs) -> Result<()> {
         );
         return Ok(());
     }
-    let name = problem.name().map(|n| format!("{n}: ")).unwrap_or_default();
+    let name = problem_name.map(|n| format!("{n}: ")).unwrap_or_default();
     println!(
-        "problem     {}{} ({})",
+        "problem     {}{} ({describe})",
         name,
         args.problem.display(),
-        describe(&problem)
     );
-    println!("solver      {}", solver.name());
+    println!("solver      {solver_name}");
     println!("status      {}", r.status);
     println!("iterations  {}", r.iterations);
     println!("time        {:.3} ms", r.time.as_secs_f64() * 1e3);
@@ -142,6 +245,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
 /// Run `lcpbench solvers`.
 pub fn list_solvers() -> Result<()> {
     for kind in SolverKind::ALL {
+        println!("{:<10} {}", kind.name(), kind.problem_classes());
+    }
+    for kind in ConeSolverKind::ALL {
         println!("{:<10} {}", kind.name(), kind.problem_classes());
     }
     Ok(())

@@ -1,0 +1,308 @@
+//! The exact Coulomb cone seen from outside: analytic incline cases (stick at and below the
+//! friction angle, isotropic sliding past it, in several tangent directions, against the box
+//! model's anisotropy) and fixed-seed property tests that every `converged` cone solve meets the
+//! cone residual computed here independently.
+
+use faer::Mat;
+use lcpbench_solvers::{
+    ConeProblem, ConeSolverKind, Dantzig, Settings, SolveResult, Solver, Status,
+};
+use rand::{Rng, SeedableRng};
+
+const G: f64 = 9.81;
+const H: f64 = 1.0 / 60.0;
+const MASS: f64 = 2.0;
+const MU: f64 = 0.5;
+
+/// A block of mass `MASS` on an incline of slope `alpha`, its downhill direction at angle `phi`
+/// in the tangent plane: `W = I / m`, `q = h g (−cos α, sin α cos φ, sin α sin φ)`.
+fn incline(alpha: f64, phi: f64) -> ConeProblem {
+    let w = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 / MASS } else { 0.0 });
+    let q = vec![
+        -H * G * alpha.cos(),
+        H * G * alpha.sin() * phi.cos(),
+        H * G * alpha.sin() * phi.sin(),
+    ];
+    ConeProblem::new(w, q, vec![MU]).unwrap()
+}
+
+fn tight() -> Settings {
+    Settings {
+        tolerance: 1e-12,
+        max_iterations: 100,
+        ..Settings::default()
+    }
+}
+
+fn solve_all(p: &ConeProblem) -> Vec<(&'static str, SolveResult)> {
+    ConeSolverKind::ALL
+        .iter()
+        .map(|k| (k.name(), k.create().solve_cone(p, &tight())))
+        .collect()
+}
+
+const DIRECTIONS_DEG: [f64; 4] = [0.0, 30.0, 45.0, 77.0];
+
+#[test]
+fn incline_below_and_at_the_friction_angle_sticks() {
+    let angle = MU.atan();
+    for alpha in [0.7 * angle, angle] {
+        for deg in DIRECTIONS_DEG {
+            let p = incline(alpha, deg.to_radians());
+            let scale = H * G;
+            for (name, r) in solve_all(&p) {
+                assert_eq!(r.status, Status::Converged, "{name} α {alpha} φ {deg}");
+                // u = 0 and r = −m q: the friction force balances the push.
+                let u = &r.w;
+                assert!(u.iter().all(|v| v.abs() <= 1e-9 * scale), "{name}: u {u:?}");
+                for (ri, qi) in r.f.iter().zip(p.q()) {
+                    assert!((ri + MASS * qi).abs() <= 1e-9 * MASS * scale, "{name}");
+                }
+                assert!(r.f[1].hypot(r.f[2]) <= MU * r.f[0] * (1.0 + 1e-9));
+            }
+        }
+    }
+}
+
+#[test]
+fn incline_past_the_friction_angle_slides_isotropically() {
+    let alpha = (1.2 * MU).atan();
+    let rn = MASS * H * G * alpha.cos();
+    let speed = H * G * (alpha.sin() - MU * alpha.cos());
+    for deg in DIRECTIONS_DEG {
+        let phi: f64 = deg.to_radians();
+        let d = [phi.cos(), phi.sin()];
+        let p = incline(alpha, phi);
+        for (name, r) in solve_all(&p) {
+            assert_eq!(r.status, Status::Converged, "{name} φ {deg}");
+            let (f, u) = (&r.f, &r.w);
+            // u_N = 0, r_N = m g h cos α.
+            assert!(u[0].abs() <= 1e-10 * H * G, "{name}: u_N {}", u[0]);
+            assert!((f[0] - rn).abs() <= 1e-10 * rn, "{name}");
+            // ‖r_T‖ = mu r_N, opposite the push and the sliding velocity.
+            for k in 0..2 {
+                assert!(
+                    (f[1 + k] + MU * rn * d[k]).abs() <= 1e-10 * rn,
+                    "{name} φ {deg}"
+                );
+                assert!(
+                    (u[1 + k] - speed * d[k]).abs() <= 1e-10 * H * G,
+                    "{name} φ {deg}"
+                );
+            }
+        }
+    }
+}
+
+/// The box model on the same data: each tangent row bounded by `mu r_N` on its own, so the
+/// friction force depends on the direction of the push. Past the friction angle (tan α = 1.2 mu)
+/// it slides along a tangent axis but sticks at 45° (a friction force of 1.2 mu r_N, outside the
+/// Coulomb cone); at 30° it slides along t1 only, not along the push.
+#[test]
+fn box_model_is_anisotropic_where_the_cone_is_not() {
+    let alpha = (1.2 * MU).atan();
+    let rn = MASS * H * G * alpha.cos();
+    let box_solve = |deg: f64| {
+        let b = incline(alpha, deg.to_radians()).to_box();
+        let r = Dantzig::default().solve(&b, &Settings::default());
+        assert_eq!(r.status, Status::Converged, "box φ {deg}");
+        r
+    };
+    let r0 = box_solve(0.0);
+    assert!(r0.w[1] > 1e-3, "box slides along t1: {:?}", r0.w);
+    assert!((r0.f[1].hypot(r0.f[2]) - MU * rn).abs() <= 1e-9 * rn);
+    let r45 = box_solve(45.0);
+    assert!(
+        r45.w[1].hypot(r45.w[2]) <= 1e-12,
+        "box sticks at 45°: {:?}",
+        r45.w
+    );
+    let friction = r45.f[1].hypot(r45.f[2]);
+    assert!(
+        (friction / (MU * rn) - 1.2).abs() < 1e-9,
+        "box friction at 45° is {} mu r_N",
+        friction / (MU * rn)
+    );
+    let r30 = box_solve(30.0);
+    assert!(
+        r30.w[1] > 1e-3 && r30.w[2].abs() <= 1e-12,
+        "box at 30°: {:?}",
+        r30.w
+    );
+    // The cone on the same data: the same sliding speed in every direction.
+    let speeds: Vec<f64> = [0.0, 30.0, 45.0]
+        .iter()
+        .map(|deg: &f64| {
+            let r = ConeSolverKind::NsgsCone
+                .create()
+                .solve_cone(&incline(alpha, deg.to_radians()), &tight());
+            r.w[1].hypot(r.w[2])
+        })
+        .collect();
+    for s in &speeds {
+        assert!(
+            (s - speeds[0]).abs() <= 1e-10 * speeds[0] && *s > 1e-3,
+            "{speeds:?}"
+        );
+    }
+}
+
+/// The projection onto `‖x_T‖ <= mu x_N`, written from the cone's geometry (half-angle
+/// `atan(mu)`), independently of the library's.
+fn project(mu: f64, x: [f64; 3]) -> [f64; 3] {
+    let norm = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+    if norm == 0.0 {
+        return x;
+    }
+    let t = x[1].hypot(x[2]);
+    let theta = t.atan2(x[0]);
+    let half = mu.atan();
+    if theta <= half {
+        x
+    } else if theta >= half + std::f64::consts::FRAC_PI_2 {
+        [0.0; 3]
+    } else {
+        let len = norm * (theta - half).cos();
+        let dir = if t > 0.0 {
+            [x[1] / t, x[2] / t]
+        } else {
+            [0.0, 0.0]
+        };
+        [
+            len * half.cos(),
+            len * half.sin() * dir[0],
+            len * half.sin() * dir[1],
+        ]
+    }
+}
+
+/// The relative cone residual (the definition in `lcpbench_solvers::cone`), from a dense `W`.
+fn independent_residual(w: &Mat<f64>, q: &[f64], mu: &[f64], r: &[f64]) -> f64 {
+    let n = q.len();
+    let mut worst: f64 = 0.0;
+    for (c, &m) in mu.iter().enumerate() {
+        let mut u = [0.0; 3];
+        let mut t = [0.0; 3];
+        for a in 0..3 {
+            let i = 3 * c + a;
+            u[a] = q[i] + (0..n).map(|j| w[(i, j)] * r[j]).sum::<f64>();
+            t[a] = q[i].abs() + (0..n).map(|j| (w[(i, j)] * r[j]).abs()).sum::<f64>();
+        }
+        let d = w[(3 * c, 3 * c)];
+        let uh = [u[0] + m * u[1].hypot(u[2]), u[1], u[2]];
+        let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
+        let p = project(m, [rc[0] - uh[0] / d, rc[1] - uh[1] / d, rc[2] - uh[2] / d]);
+        let e = ((rc[0] - p[0]).powi(2) + (rc[1] - p[1]).powi(2) + (rc[2] - p[2]).powi(2)).sqrt();
+        let tn = t[0] + m * t[1].hypot(t[2]);
+        let s = (tn * tn + t[1] * t[1] + t[2] * t[2]).sqrt() / d;
+        if e > 0.0 {
+            worst = worst.max(e / s);
+        }
+    }
+    worst
+}
+
+/// Contacts with `W = J Jᵀ + 10⁻³ I` from a random Jacobian, approaching normals, random pushes
+/// and coefficients.
+fn random_contacts(contacts: usize, dofs: usize, seed: u64) -> (Mat<f64>, Vec<f64>, Vec<f64>) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let n = 3 * contacts;
+    let j = Mat::from_fn(n, dofs, |_, _| rng.random_range(-1.0..1.0));
+    let w = Mat::from_fn(n, n, |r, c| {
+        (0..dofs).map(|k| j[(r, k)] * j[(c, k)]).sum::<f64>() + if r == c { 1e-3 } else { 0.0 }
+    });
+    let q = (0..n)
+        .map(|i| {
+            if i % 3 == 0 {
+                rng.random_range(-1.0..0.2)
+            } else {
+                rng.random_range(-0.5..0.5)
+            }
+        })
+        .collect();
+    let mu = (0..contacts).map(|_| rng.random_range(0.1..1.0)).collect();
+    (w, q, mu)
+}
+
+#[test]
+fn every_converged_cone_solve_meets_the_independent_residual() {
+    let settings = Settings {
+        tolerance: 1e-8,
+        max_iterations: 2000,
+        ..Settings::default()
+    };
+    for kind in ConeSolverKind::ALL {
+        let mut converged = 0;
+        for seed in 0..24u64 {
+            let contacts = 1 + (seed as usize % 5);
+            let (w, q, mu) = random_contacts(contacts, 6 * contacts, seed);
+            let p = ConeProblem::new(w.clone(), q.clone(), mu.clone()).unwrap();
+            let r = kind.create().solve_cone(&p, &settings);
+            assert!(
+                r.f.iter().all(|v| v.is_finite()),
+                "{} seed {seed}",
+                kind.name()
+            );
+            let independent = independent_residual(&w, &q, &mu, &r.f);
+            let reported = r.residuals.natural_map_rel;
+            assert!(
+                (independent - reported).abs() <= 1e-9 * reported.max(1e-6),
+                "{} seed {seed}: reported {reported:e}, independent {independent:e}",
+                kind.name()
+            );
+            if r.status.is_converged() {
+                converged += 1;
+                assert!(
+                    independent <= settings.tolerance,
+                    "{} seed {seed}",
+                    kind.name()
+                );
+            } else {
+                assert!(reported > settings.tolerance, "{} seed {seed}", kind.name());
+            }
+        }
+        assert!(
+            converged >= 18,
+            "{}: only {converged} of 24 converged",
+            kind.name()
+        );
+    }
+}
+
+/// With `mu = 0` the cone problem is the frictionless LCP on the normal rows plus free tangents
+/// with zero reaction; the cone solvers agree with the box form solved by Dantzig.
+#[test]
+fn frictionless_cone_agrees_with_the_lcp() {
+    for seed in 0..4u64 {
+        let (w, q, _) = random_contacts(3, 18, 100 + seed);
+        let p = ConeProblem::new(w, q, vec![0.0; 3]).unwrap();
+        let reference = Dantzig::default().solve(&p.to_box(), &Settings::default());
+        assert_eq!(reference.status, Status::Converged);
+        for (name, r) in solve_all(&p) {
+            assert_eq!(r.status, Status::Converged, "{name} seed {seed}");
+            for (x, y) in r.f.iter().zip(&reference.f) {
+                assert!((x - y).abs() <= 1e-8, "{name} seed {seed}: {:?}", r.f);
+            }
+        }
+    }
+}
+
+#[test]
+fn newton_converges_quadratically_on_a_sliding_contact() {
+    let (w, q, mu) = random_contacts(4, 24, 7);
+    let p = ConeProblem::new(w, q, mu).unwrap();
+    let settings = Settings {
+        tolerance: 1e-13,
+        max_iterations: 50,
+        record_history: true,
+        ..Settings::default()
+    };
+    let r = ConeSolverKind::NewtonAc.create().solve_cone(&p, &settings);
+    assert_eq!(r.status, Status::Converged, "{}", r.status);
+    let h: Vec<f64> = r.history.iter().map(|p| p.residual).collect();
+    // Somewhere in the last steps the residual at least squares (up to a constant).
+    let fast = h
+        .windows(2)
+        .any(|w| w[0] < 1e-2 && w[0] > 1e-12 && w[1] <= 10.0 * w[0] * w[0]);
+    assert!(fast, "no quadratic step in {h:?}");
+}
