@@ -82,7 +82,7 @@ impl LocalBound {
                 (false, true) => &[Free, Upper],
                 (false, false) => &[Free],
             },
-            LocalBound::Friction { mu, .. } if mu == 0.0 => &[Lower],
+            LocalBound::Friction { mu: 0.0, .. } => &[Lower],
             LocalBound::Friction { .. } => &[Lower, Free, Upper],
         }
     }

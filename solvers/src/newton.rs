@@ -364,7 +364,7 @@ impl Newton {
             };
             let mut accepted = false;
             for (direction, slope) in candidates {
-                if !(slope < 0.0) {
+                if slope.is_nan() || slope >= 0.0 {
                     continue;
                 }
                 let ad = scaled_velocity(direction);

@@ -41,7 +41,7 @@ pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
         if diag[i] <= 0.0 {
             continue;
         }
-        let wi: f64 = problem.row(i).dot(&f) + b[i];
+        let wi: f64 = problem.row(i).dot(f) + b[i];
         let (lo, hi) = problem.bounds_at(i, f);
         f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
     }
@@ -109,7 +109,7 @@ impl Solver for Nncg {
                 for i in 0..n {
                     p[i] = x[i] - previous[i];
                 }
-            } else if !(beta <= 1.0) {
+            } else if beta.is_nan() || beta > 1.0 {
                 p.fill(0.0);
             } else {
                 // p ← β p − ∇⁺, then x ← Π(x + β p_old).

@@ -96,7 +96,7 @@ impl Nsgs {
             if diag[i] <= 0.0 {
                 return;
             }
-            let wi: f64 = problem.row(i).dot(&f) + b[i];
+            let wi: f64 = problem.row(i).dot(f) + b[i];
             let (lo, hi) = problem.bounds_at(i, f);
             f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
             return;
