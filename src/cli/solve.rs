@@ -4,8 +4,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
 use lcpbench_solvers::{
-    cone_residuals, is_cone_file, parse_cone_problem, parse_problem, ConeProblem, ConeSolverKind,
-    Problem, ProblemFileError, ProjectedSor, Settings, SolveResult, Solver, SolverKind, Status,
+    cone_residuals, is_cone_file, parse_cone_problem, read_problem, ConeProblem, ConeSolverKind,
+    Problem, ProblemFileError, ProblemFormat, ProjectedSor, Settings, SolveResult, Solver,
+    SolverKind, Status,
 };
 use serde_json::json;
 use std::path::PathBuf;
@@ -104,10 +105,15 @@ pub fn run(args: SolveArgs) -> Result<()> {
         SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
         SolverName::Cone(_) => None,
     };
-    let text = std::fs::read_to_string(&args.problem).map_err(|source| ProblemFileError::Io {
+    let bytes = std::fs::read(&args.problem).map_err(|source| ProblemFileError::Io {
         path: args.problem.clone(),
         source,
     })?;
+    let head = &bytes[..bytes.len().min(64)];
+    let json = matches!(
+        ProblemFormat::detect(&args.problem, head),
+        ProblemFormat::Json
+    );
     let settings = Settings {
         tolerance: args.tol,
         max_iterations: args.max_iter,
@@ -115,11 +121,15 @@ pub fn run(args: SolveArgs) -> Result<()> {
         warm_start: None,
         record_history: args.history,
     };
-    if is_cone_file(&text) {
-        let cone = parse_cone_problem(&text, &args.problem)?;
-        return run_cone(&args, &cone, &settings);
+    // A JSON file with a `mu` key is a cone problem; everything else goes through the reader
+    // of its format (JSON, Siconos .dat, FCLIB .hdf5).
+    if let Some(text) = json.then(|| std::str::from_utf8(&bytes).ok()).flatten() {
+        if is_cone_file(text) {
+            let cone = parse_cone_problem(text, &args.problem)?;
+            return run_cone(&args, &cone, &settings);
+        }
     }
-    let problem = parse_problem(&text, &args.problem)?;
+    let problem = read_problem(&args.problem)?;
     let mut solver = match lcp_solver {
         Some(solver) => solver,
         None => {
