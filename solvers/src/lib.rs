@@ -46,7 +46,7 @@ pub use io::{parse_problem, problem_to_json, read_problem, write_problem, Proble
 pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
-pub use pgs::ProjectedSor;
+pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
 
