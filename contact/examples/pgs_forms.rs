@@ -11,7 +11,9 @@ use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let path = args.get(1).ok_or("usage: pgs_forms SCENE.toml [STEPS] [TOL]")?;
+    let path = args
+        .get(1)
+        .ok_or("usage: pgs_forms SCENE.toml [STEPS] [TOL]")?;
     let steps: usize = args.get(2).map_or(Ok(10), |s| s.parse())?;
     let tolerance: f64 = args.get(3).map_or(Ok(1e-6), |s| s.parse())?;
     let scene = Scene::load(path)?;

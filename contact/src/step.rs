@@ -52,8 +52,7 @@ use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, Problem, ProjectedSor, Residuals, Settings, SolveResult, Solver, SolverKind,
-    Status,
+    residuals, Problem, ProjectedSor, Residuals, Settings, SolveResult, Solver, SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -312,7 +311,11 @@ fn solve_islands(
             Ok(r) => r,
             Err(e) => return Solved::invalid(n, &e),
         };
-        for (&i, v) in island.rows.iter().zip(usable_impulse(&result, island.rows.len())) {
+        for (&i, v) in island
+            .rows
+            .iter()
+            .zip(usable_impulse(&result, island.rows.len()))
+        {
             f[i] = v;
         }
         if status_rank(&result.status) > status_rank(&status) {

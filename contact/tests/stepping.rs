@@ -161,7 +161,10 @@ fn islands_of_two_towers_solve_to_the_impulses_of_the_whole() {
             assert_eq!(a.island_rows.len(), 2);
             assert_eq!(a.island_rows[0], a.island_rows[1], "the towers are alike");
             assert_eq!(a.island_rows.iter().sum::<usize>(), a.rows);
-            assert!(a.status.is_converged() && b.status.is_converged(), "{solver}");
+            assert!(
+                a.status.is_converged() && b.status.is_converged(),
+                "{solver}"
+            );
             assert_eq!(a.contact_records.len(), b.contact_records.len());
             let scale = b
                 .contact_records
@@ -185,7 +188,10 @@ fn islands_of_two_towers_solve_to_the_impulses_of_the_whole() {
             // to its null space; the momentum they apply (hence every velocity) is unique.
             for (ba, bb) in split.bodies.iter().zip(&whole.bodies) {
                 let d = (ba.velocity() - bb.velocity()).norm();
-                assert!(d <= 1e-9, "{solver} step {step}: velocities differ by {d:e}");
+                assert!(
+                    d <= 1e-9,
+                    "{solver} step {step}: velocities differ by {d:e}"
+                );
             }
         }
     }
