@@ -271,7 +271,22 @@ fn delassus_equals_j_minv_jt_and_the_matrix_free_operator() {
         "Delassus by body blocks vs J M⁻¹ Jᵀ: max difference {err:.3e} (max diagonal {scale:.3e})"
     );
     assert!(err <= 1e-12 * scale);
+    // The solver problem: sparse A equal to the dense one, with J and M⁻¹ that reproduce it.
+    let p = sys.problem().unwrap();
+    assert!(p.is_sparse());
+    let sparse = p.to_dense();
+    for r in 0..n {
+        for c in 0..n {
+            assert_eq!(sparse[(r, c)], a[(r, c)]);
+        }
+    }
     let f: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+    let from_factors = p.factors().expect("box friction has factors").apply(&f);
+    let w = p.velocity(&f);
+    for r in 0..n {
+        let d = (from_factors[r] + p.b()[r] - w[r]).abs();
+        assert!(d <= 1e-10 * scale, "J M⁻¹ Jᵀ f differs from A f by {d:e}");
+    }
     let af = sys.operator().apply(&f);
     let mut err: f64 = 0.0;
     for r in 0..n {

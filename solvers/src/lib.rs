@@ -78,7 +78,7 @@ pub use newton_ac::NewtonAc;
 pub use nncg::Nncg;
 pub use nsgs::Nsgs;
 pub use nsgs_cone::NsgsCone;
-pub use pgs::ProjectedSor;
+pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
 

@@ -183,6 +183,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let (mut iters, mut max_iters, mut contacts, mut rows) = (0usize, 0usize, 0usize, 0usize);
     let (mut max_pen, mut max_cone) = (0.0f64, 0.0f64);
     let mut max_res: Option<f64> = None;
+    let (mut islands, mut largest_island, mut solve_wall) = (0usize, 0usize, 0.0);
     let mut last_energy = energy0;
     let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
@@ -215,6 +216,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         step_time += report.step_time_s;
         max_step_time = max_step_time.max(report.step_time_s);
         solve_time += report.solve_time_s;
+        solve_wall += report.solve_wall_s;
+        islands += report.islands;
+        largest_island = largest_island.max(report.island_rows.iter().copied().max().unwrap_or(0));
         iters += report.iterations;
         max_iters = max_iters.max(report.iterations);
         contacts += report.contacts;
@@ -249,6 +253,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             "time_per_step_s": step_time / n,
             "max_step_time_s": max_step_time,
             "solver_time_per_step_s": solve_time / n,
+            "solve_wall_per_step_s": solve_wall / n,
+            "mean_islands": islands as f64 / n,
+            "largest_island_rows": largest_island,
             "mean_iterations": iters as f64 / n,
             "max_iterations": max_iters,
             "mean_contacts": contacts as f64 / n,
@@ -276,7 +283,15 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         1e3 * step_time / n,
         1e3 * max_step_time
     );
-    println!("solver time/step  {:.3} ms", 1e3 * solve_time / n);
+    println!(
+        "solver time/step  {:.3} ms (solve phase wall time {:.3} ms)",
+        1e3 * solve_time / n,
+        1e3 * solve_wall / n
+    );
+    println!(
+        "islands           mean {:.1}, largest {largest_island} rows",
+        islands as f64 / n
+    );
     println!(
         "iterations        mean {:.1}, max {max_iters}",
         iters as f64 / n

@@ -15,6 +15,9 @@
 //!   (budget `default`); large scenes run cold under `default` only, at most
 //!   [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
 //!   solver × budgets `default`, `tight`.
+//! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
+//!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
+//!   [`SCALING_STEPS`] steps: solver time per step against contacts (full suite only).
 
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
@@ -42,6 +45,18 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
 /// Steps of each scene run in the full suite (the scene's own count when smaller).
 pub const SCENE_STEPS: usize = 100;
 
+/// Steps of each run of the scene scaling family.
+pub const SCALING_STEPS: usize = 10;
+
+/// The scene scaling family: `scaling/*.toml` in the directory of the first scene file.
+pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
+        return Vec::new();
+    };
+    let pattern = dir.join("scaling").join("*.toml");
+    crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+}
+
 /// A suite: jobs plus the case lists the report groups them by.
 #[derive(Debug, Clone, Default)]
 pub struct Suite {
@@ -59,6 +74,8 @@ pub struct Suite {
     pub warm_cases: Vec<Case>,
     /// Scene cases.
     pub scene_cases: Vec<Case>,
+    /// Cases of the scene scaling family (time per step against contacts).
+    pub scene_scaling_cases: Vec<Case>,
     /// LCPs exported from scenes.
     pub exported_cases: Vec<Case>,
     /// Cases whose convergence histories are plotted.
@@ -222,6 +239,18 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         .map(warm)
         .collect();
     push(&small, &warm_only, &[budget("default")]);
+    if !quick {
+        suite.scene_scaling_cases = scaling_scenes(scenes)
+            .iter()
+            .map(|p| Case::scene(p, Some(SCALING_STEPS)))
+            .collect();
+        let cases = suite.scene_scaling_cases.clone();
+        suite.jobs.extend(crate::harness::cross_product(
+            &cases,
+            &scene_solvers,
+            &[budget("default")],
+        ));
+    }
     suite
 }
 

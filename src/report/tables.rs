@@ -562,15 +562,20 @@ pub fn write_report(
         &[
             "solver",
             "time ∝ n^k (SPD LCPs, budget default)",
-            "time/step ∝ contacts^k (scenes)",
+            "time/step ∝ contacts^k (scene scaling family)",
         ],
     );
     let mut scene_slope: HashMap<String, String> = HashMap::new();
-    if !suite.scene_cases.is_empty() {
+    // The scaling family when it ran, otherwise every scene.
+    let scaling_scenes = if suite.scene_scaling_cases.is_empty() {
+        &suite.scene_cases
+    } else {
+        &suite.scene_scaling_cases
+    };
+    if !scaling_scenes.is_empty() {
         let mut series = Vec::new();
         for solver in scene_solver_names() {
-            let pts: Vec<(f64, f64)> = suite
-                .scene_cases
+            let pts: Vec<(f64, f64)> = scaling_scenes
                 .iter()
                 .filter_map(|c| data.get(c, solver, "default"))
                 .filter(|r| {
