@@ -135,7 +135,7 @@ pub fn write_report(
     let _ = writeln!(md, "# lcpbench report\n");
     let _ = writeln!(
         md,
-        "Regenerate with `cargo run --release -- report` (about ten minutes on two cores; \
+        "Regenerate with `cargo run --release -- report` (about twenty minutes on two cores; \
          `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
     );
     let failures = rows.iter().filter(|r| r.is_isolation_failure()).count();
