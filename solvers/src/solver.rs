@@ -398,10 +398,31 @@ pub(crate) fn solve_by_islands(
     problem: &Problem,
     settings: &Settings,
     limit: usize,
+    solve_one: impl FnMut(&Problem, &Settings) -> SolveResult,
+) -> SolveResult {
+    solve_islands_with(problem, settings, limit, true, solve_one)
+}
+
+/// [`solve_by_islands`] for solvers that work on sparse storage: each island keeps the storage
+/// [`Problem::restrict`] gives it (dense when small), and one island is solved in place.
+pub(crate) fn solve_by_sparse_islands(
+    problem: &Problem,
+    settings: &Settings,
+    limit: usize,
+    solve_one: impl FnMut(&Problem, &Settings) -> SolveResult,
+) -> SolveResult {
+    solve_islands_with(problem, settings, limit, false, solve_one)
+}
+
+fn solve_islands_with(
+    problem: &Problem,
+    settings: &Settings,
+    limit: usize,
+    densify: bool,
     mut solve_one: impl FnMut(&Problem, &Settings) -> SolveResult,
 ) -> SolveResult {
     const SPLIT_FROM: usize = 32;
-    let small_dense = !problem.is_sparse() && problem.n() <= limit;
+    let small_dense = (!densify || !problem.is_sparse()) && problem.n() <= limit;
     if small_dense && problem.n() <= SPLIT_FROM {
         return solve_one(problem, settings);
     }
@@ -422,7 +443,12 @@ pub(crate) fn solve_by_islands(
     let mut iterations = 0;
     let mut outcome = Outcome::Stopped;
     for rows in &islands {
-        let sub = match problem.restrict_dense(rows) {
+        let sub = if densify {
+            problem.restrict_dense(rows)
+        } else {
+            problem.restrict(rows)
+        };
+        let sub = match sub {
             Ok(sub) => sub,
             Err(e) => {
                 outcome = Outcome::NumericalFailure(format!("island extraction failed: {e}"));
