@@ -21,7 +21,8 @@
 //! s)` (`s` the residual scale; a Levenberg-type regularisation that keeps the system regular on
 //! PSD, rank-deficient `A` and vanishes at the solution, so the local convergence stays
 //! quadratic), by an LU factorisation (faer, partial pivoting): dense for small or dense
-//! islands, sparse (COLAMD ordering, one symbolic analysis per solve) for sparse ones, and for
+//! islands, sparse (COLAMD ordering; the symbolic analysis is kept in [`Newton::workspace`] and reused
+//! while the pattern stays the same, as it does on a resting stack from step to step) for sparse ones, and for
 //! contact problems that carry their factors `A = J M⁻¹ Jᵀ` in the *augmented body-space form*
 //! `[diag(α)+μI+Γ, diag(β)J; M⁻¹Jᵀ, −I] [d; u] = [−Φ; 0]`, whose `O(nnz(J))` entries fill far
 //! less than `A`'s (the body-space system of MuJoCo's Newton solver, kept unsymmetric for the
@@ -96,7 +97,7 @@ pub enum FrictionHandling {
 }
 
 /// Semismooth Newton. See the module documentation.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Newton {
     /// The reformulation. Default Fischer–Burmeister.
     pub reformulation: Reformulation,
@@ -111,6 +112,35 @@ pub struct Newton {
     /// Factorise the sparse systems in the augmented body-space form when the problem carries
     /// its [`DelassusFactors`] (see `SparseJacobian::augmented`). Default `true`.
     pub body_space: bool,
+    /// Workspace kept between solves: the last sparse pattern's ordering and symbolic LU,
+    /// reused while the pattern of the Newton system stays the same from one solve to the next
+    /// (a resting stack keeps its contacts for many steps). Default empty.
+    pub workspace: NewtonWorkspace,
+}
+
+/// What [`Newton`] keeps between solves (opaque).
+#[derive(Debug, Clone, Default)]
+pub struct NewtonWorkspace {
+    symbolic: Option<SymbolicCache>,
+}
+
+/// A sparse pattern with its column ordering and symbolic LU.
+#[derive(Clone)]
+struct SymbolicCache {
+    size: usize,
+    pairs: Vec<Pair<usize, usize>>,
+    symbolic: SymbolicSparseColMat<usize>,
+    argsort: Argsort<usize>,
+    lu: SymbolicLu<usize>,
+}
+
+impl std::fmt::Debug for SymbolicCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SymbolicCache")
+            .field("size", &self.size)
+            .field("entries", &self.pairs.len())
+            .finish()
+    }
 }
 
 /// How the Newton systems `(H + μI) d = −Φ` are factorised.
@@ -141,6 +171,7 @@ impl Newton {
             max_sparse: 200_000,
             linear_system: LinearSystem::Auto,
             body_space: true,
+            workspace: NewtonWorkspace::default(),
         }
     }
 
@@ -299,7 +330,7 @@ enum Jacobian {
     /// Dense `A`; `H` formed dense and factorised by partial-pivoting LU.
     Dense(Mat<f64>),
     /// Sparse: the fixed pattern of `H` (the pattern of `A`, the diagonal, and a coupling entry
-    /// per friction row), its column ordering and symbolic LU computed once per solve; each
+    /// per friction row), its column ordering and symbolic LU (computed once, or taken from the workspace); each
     /// iteration refills the values and factorises numerically.
     Sparse(Box<SparseJacobian>),
 }
@@ -325,14 +356,13 @@ struct SparseJacobian {
     /// Unknowns of the system: `n`, plus six body velocities per body of the island in the
     /// augmented form.
     size: usize,
-    symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
-    lu: SymbolicLu<usize>,
+    /// The pattern (`pairs` in the order of `entries`), its ordering and symbolic LU.
+    pattern: SymbolicCache,
     values: Vec<f64>,
 }
 
 impl SparseJacobian {
-    fn new(problem: &Problem) -> Result<Self, String> {
+    fn new(problem: &Problem, cache: Option<SymbolicCache>) -> Result<Self, String> {
         let n = problem.n();
         let mut entries = Vec::with_capacity(problem.nnz() + 2 * n);
         for i in 0..n {
@@ -347,7 +377,7 @@ impl SparseJacobian {
                 entries.push((i, k, EntryKind::Coupling));
             }
         }
-        Self::factor_pattern(entries, n)
+        Self::factor_pattern(entries, n, cache)
     }
 
     /// The augmented (body-space) form of `H + μI` for `A = J M⁻¹ Jᵀ`, with the body
@@ -361,7 +391,11 @@ impl SparseJacobian {
     /// It has `O(nnz(J))` entries where `A` has one per pair of rows sharing a body, so its LU
     /// fills far less on stacks and piles (the system MuJoCo's Newton solver factorises in
     /// joint space, here kept unsymmetric for the friction coupling).
-    fn augmented(problem: &Problem, factors: &DelassusFactors) -> Result<Self, String> {
+    fn augmented(
+        problem: &Problem,
+        factors: &DelassusFactors,
+        cache: Option<SymbolicCache>,
+    ) -> Result<Self, String> {
         let n = problem.n();
         let jac = factors.jacobian();
         let sym = jac.symbolic();
@@ -411,30 +445,43 @@ impl SparseJacobian {
         for r in n..size {
             entries.push((r, r, EntryKind::Fixed(-1.0)));
         }
-        Self::factor_pattern(entries, size)
+        Self::factor_pattern(entries, size, cache)
     }
 
-    /// The pattern, its column ordering and the symbolic LU.
+    /// The pattern, its column ordering and the symbolic LU; those of `cache` when its pattern
+    /// is the same.
     fn factor_pattern(
         entries: Vec<(usize, usize, EntryKind)>,
         size: usize,
+        cache: Option<SymbolicCache>,
     ) -> Result<Self, String> {
-        let n = size;
         let pairs: Vec<Pair<usize, usize>> = entries
             .iter()
             .map(|&(row, col, _)| Pair { row, col })
             .collect();
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pairs)
-            .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
-        let lu = SymbolicLu::try_new(symbolic.as_ref())
-            .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
+        let pattern = match cache {
+            Some(c) if c.size == size && c.pairs == pairs => c,
+            _ => {
+                let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(
+                    size, size, &pairs,
+                )
+                .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
+                let lu = SymbolicLu::try_new(symbolic.as_ref())
+                    .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
+                SymbolicCache {
+                    size,
+                    pairs,
+                    symbolic,
+                    argsort,
+                    lu,
+                }
+            }
+        };
         let values = vec![0.0; entries.len()];
         Ok(Self {
             entries,
             size,
-            symbolic,
-            argsort,
-            lu,
+            pattern,
             values,
         })
     }
@@ -480,18 +527,9 @@ impl Newton {
                 )),
             );
         }
-        let mut jacobian = if sparse {
-            let built = match problem.factors() {
-                Some(factors) if self.body_space => SparseJacobian::augmented(problem, factors),
-                _ => SparseJacobian::new(problem),
-            };
-            match built {
-                Ok(j) => Jacobian::Sparse(Box::new(j)),
-                Err(e) => return monitor.finish(Vec::new(), 0, Outcome::NumericalFailure(e)),
-            }
-        } else {
-            Jacobian::Dense(problem.to_dense())
-        };
+        // Formed at the first iteration that needs a direction: a warm start that already meets
+        // the tolerance costs no factorisation analysis.
+        let mut jacobian: Option<Jacobian> = None;
         let d = problem.diagonal_scale();
         let b = problem.b();
         let scale = {
@@ -566,13 +604,20 @@ impl Newton {
             }
             let phi_inf = phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             let mu_reg = (phi_inf / scale).min(1e-2);
-            let (newton_dir, grad) = match &mut jacobian {
-                Jacobian::Dense(a) => {
+            if jacobian.is_none() {
+                match self.jacobian(problem, sparse) {
+                    Ok(j) => jacobian = Some(j),
+                    Err(e) => break Outcome::NumericalFailure(e),
+                }
+            }
+            let (newton_dir, grad) = match jacobian.as_mut() {
+                Some(Jacobian::Dense(a)) => {
                     dense_direction(problem, a, &alpha, &beta, &gamma, &phi, mu_reg)
                 }
-                Jacobian::Sparse(j) => {
+                Some(Jacobian::Sparse(j)) => {
                     sparse_direction(problem, j, &alpha, &beta, &gamma, &phi, mu_reg)
                 }
+                None => break Outcome::NumericalFailure("no Newton system was formed".into()),
             };
             let dnorm2: f64 = newton_dir.iter().map(|v| v * v).sum();
             let slope: f64 = (0..n).map(|i| grad[i] * newton_dir[i]).sum();
@@ -630,12 +675,29 @@ impl Newton {
                 ));
             }
         };
+        if let Some(Jacobian::Sparse(j)) = jacobian {
+            self.workspace.symbolic = Some(j.pattern);
+        }
         let mut fp = f.clone();
         project(problem, &mut fp);
         if residuals(problem, &fp).natural_map_rel <= residuals(problem, &f).natural_map_rel {
             f = fp;
         }
         monitor.finish(f, iterations, outcome)
+    }
+
+    /// The Newton system's storage for `problem`: dense, or the sparse pattern (body-space
+    /// form when the problem carries its factors), reusing the cached symbolic analysis.
+    fn jacobian(&mut self, problem: &Problem, sparse: bool) -> Result<Jacobian, String> {
+        if !sparse {
+            return Ok(Jacobian::Dense(problem.to_dense()));
+        }
+        let cache = self.workspace.symbolic.take();
+        let built = match problem.factors() {
+            Some(factors) if self.body_space => SparseJacobian::augmented(problem, factors, cache),
+            _ => SparseJacobian::new(problem, cache),
+        };
+        built.map(|j| Jacobian::Sparse(Box::new(j)))
     }
 }
 
@@ -708,10 +770,11 @@ fn sparse_direction(
         };
     }
     let failed = |grad: Vec<f64>| (vec![f64::NAN; n], grad);
-    let Ok(h) = SparseColMat::new_from_argsort(j.symbolic.clone(), &j.argsort, &j.values) else {
+    let p = &j.pattern;
+    let Ok(h) = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &j.values) else {
         return failed(grad);
     };
-    let Ok(lu) = Lu::try_new_with_symbolic(j.lu.clone(), h.as_ref()) else {
+    let Ok(lu) = Lu::try_new_with_symbolic(p.lu.clone(), h.as_ref()) else {
         return failed(grad);
     };
     let mut dir = Mat::from_fn(j.size, 1, |i, _| if i < n { -phi[i] } else { 0.0 });
@@ -968,6 +1031,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_cached_symbolic_analysis_gives_the_answers_of_a_fresh_solver() {
+        let settings = Settings {
+            tolerance: 1e-11,
+            max_iterations: 60,
+            ..Settings::default()
+        };
+        let mut reused = Newton {
+            linear_system: LinearSystem::Sparse,
+            ..Newton::default()
+        };
+        // Same pattern with other data (the cache is reused), then another pattern (rebuilt),
+        // then the first pattern again.
+        for (bodies, seed) in [(40, 0), (40, 1), (30, 2), (40, 3)] {
+            let p = chain_with_factors(bodies, seed);
+            let r = reused.solve(&p, &settings);
+            let fresh = Newton {
+                linear_system: LinearSystem::Sparse,
+                ..Newton::default()
+            }
+            .solve(&p, &settings);
+            assert!(r.status.is_converged(), "seed {seed}: {:?}", r.status);
+            assert_eq!(r.iterations, fresh.iterations, "seed {seed}");
+            for (x, y) in r.f.iter().zip(&fresh.f) {
+                assert_eq!(x, y, "seed {seed}: the cached pattern changed the answer");
+            }
+        }
+        assert!(reused.workspace.symbolic.is_some());
     }
 
     #[test]
