@@ -20,6 +20,7 @@ pub mod plots;
 pub mod replays;
 pub mod suite;
 mod tables;
+mod towers;
 
 pub use machine::Header;
 pub use tables::write_report;

@@ -45,6 +45,14 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
 /// Steps of each scene run in the full suite (the scene's own count when smaller).
 pub const SCENE_STEPS: usize = 100;
 
+/// The towers of the low-budget comparison (file names in the scene directory), run for their
+/// whole length.
+pub const TOWER_SCENES: [&str; 2] = ["tower_10_60hz.toml", "tower_40_60hz.toml"];
+
+/// Budgets of the low-budget tower comparison: tolerance 1e-6, 20 and 50 iterations per step,
+/// 20 s (a scene run stops after half of it).
+pub const TOWER_BUDGETS: [&str; 2] = ["1e-6:20:20", "1e-6:50:20"];
+
 /// Steps of each run of the scene scaling family.
 pub const SCALING_STEPS: usize = 10;
 
@@ -80,6 +88,12 @@ pub struct Suite {
     pub exported_cases: Vec<Case>,
     /// Cases whose convergence histories are plotted.
     pub history_cases: Vec<Case>,
+    /// The 60 Hz towers of the low-budget comparison (whole runs).
+    pub tower_cases: Vec<Case>,
+    /// The warm-started solvers of the tower comparison.
+    pub tower_solvers: Vec<SolverSpec>,
+    /// Its budgets.
+    pub tower_budgets: Vec<NamedBudget>,
 }
 
 fn budget(name: &str) -> NamedBudget {
@@ -240,6 +254,21 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         .collect();
     push(&small, &warm_only, &[budget("default")]);
     if !quick {
+        suite.tower_cases = scenes
+            .iter()
+            .filter(|p| {
+                p.file_name()
+                    .is_some_and(|f| TOWER_SCENES.iter().any(|t| f == *t))
+            })
+            .map(|p| Case::scene(p, None))
+            .collect();
+        suite.tower_solvers = warm_only.clone();
+        suite.tower_budgets = TOWER_BUDGETS.into_iter().map(budget).collect();
+        suite.jobs.extend(crate::harness::cross_product(
+            &suite.tower_cases,
+            &suite.tower_solvers,
+            &suite.tower_budgets,
+        ));
         suite.scene_scaling_cases = scaling_scenes(scenes)
             .iter()
             .map(|p| Case::scene(p, Some(SCALING_STEPS)))
