@@ -371,40 +371,53 @@ pub fn cone_residuals_and_velocity(problem: &ConeProblem, r: &[f64], u: &mut [f6
         u.iter_mut().for_each(|v| *v = f64::NAN);
         return Residuals::INFINITE;
     }
-    let (w, q) = (problem.delassus(), problem.q());
-    let mut res = Residuals {
-        natural_map: 0.0,
-        natural_map_rel: 0.0,
-        complementarity_gap: 0.0,
-        bound_violation: 0.0,
-    };
-    for (c, &mu) in problem.mu().iter().enumerate() {
-        let mut uc = [0.0; 3];
-        let mut t = [0.0; 3];
-        for a in 0..3 {
-            let i = 3 * c + a;
-            let (wr, m) = w.row(i).dot_and_magnitude(r);
-            uc[a] = wr + q[i];
-            t[a] = q[i].abs() + m;
-            u[i] = uc[a];
-        }
-        let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-        let d = problem.scale_of(c);
-        res.natural_map = res.natural_map.max(contact_natural_map(mu, 1.0, rc, uc));
-        let e = contact_natural_map(mu, 1.0 / d, rc, uc);
-        let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
-        res.natural_map_rel = res.natural_map_rel.max(relative(e, s));
-        let uh = de_saxce(mu, uc);
-        res.complementarity_gap += (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs();
-        let p = project_onto_cone(mu, rc);
-        res.bound_violation =
-            res.bound_violation
-                .max(norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]));
+    let mut res = Residuals::ZERO;
+    for c in 0..problem.contacts() {
+        let one = contact_residuals(problem, c, r, u);
+        res.natural_map = res.natural_map.max(one.natural_map);
+        res.natural_map_rel = res.natural_map_rel.max(one.natural_map_rel);
+        res.complementarity_gap += one.complementarity_gap;
+        res.bound_violation = res.bound_violation.max(one.bound_violation);
     }
     if !u.iter().all(|v| v.is_finite()) {
         return Residuals::INFINITE;
     }
     res
+}
+
+/// The relative cone residual `e_c / s_c` of each contact (see the module doc) at a finite `r`
+/// of the right length.
+pub(crate) fn contact_relative_residuals(problem: &ConeProblem, r: &[f64]) -> Vec<f64> {
+    let mut u = vec![0.0; problem.n()];
+    (0..problem.contacts())
+        .map(|c| contact_residuals(problem, c, r, &mut u).natural_map_rel)
+        .collect()
+}
+
+/// The four measures of the module doc for contact `c` alone, writing its rows of `u = W r + q`.
+fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) -> Residuals {
+    let (w, q, mu) = (problem.delassus(), problem.q(), problem.mu()[c]);
+    let mut uc = [0.0; 3];
+    let mut t = [0.0; 3];
+    for a in 0..3 {
+        let i = 3 * c + a;
+        let (wr, m) = w.row(i).dot_and_magnitude(r);
+        uc[a] = wr + q[i];
+        t[a] = q[i].abs() + m;
+        u[i] = uc[a];
+    }
+    let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
+    let d = problem.scale_of(c);
+    let e = contact_natural_map(mu, 1.0 / d, rc, uc);
+    let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
+    let uh = de_saxce(mu, uc);
+    let p = project_onto_cone(mu, rc);
+    Residuals {
+        natural_map: contact_natural_map(mu, 1.0, rc, uc),
+        natural_map_rel: relative(e, s),
+        complementarity_gap: (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs(),
+        bound_violation: norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]),
+    }
 }
 
 /// A solver of the FC3D problem: takes a [`ConeProblem`], returns reactions `r` (in
