@@ -257,10 +257,10 @@ fn print_result(
 /// Run `lcpbench solvers`.
 pub fn list_solvers() -> Result<()> {
     for kind in SolverKind::ALL {
-        println!("{:<10} {}", kind.name(), kind.problem_classes());
+        println!("{:<13} {}", kind.name(), kind.problem_classes());
     }
     for kind in ConeSolverKind::ALL {
-        println!("{:<10} {}", kind.name(), kind.problem_classes());
+        println!("{:<13} {}", kind.name(), kind.problem_classes());
     }
     Ok(())
 }
