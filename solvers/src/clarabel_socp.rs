@@ -197,8 +197,9 @@ fn diagnose(problem: &ConeProblem, r: &[f64], tol: f64) -> Option<String> {
     }
     if rough > 0 {
         parts.push(format!(
-            "{rough} contacts miss the tolerance in the relaxation itself (the interior point's \
-             accuracy; relaxed residual up to {roughest:.3e})"
+            "{rough} of {} contacts miss the tolerance in the relaxation itself (the interior \
+             point's accuracy; relaxed residual up to {roughest:.3e})",
+            problem.contacts()
         ));
     }
     Some(format!(
