@@ -41,6 +41,7 @@ fn solvers_lists_every_solver() {
         "enum",
         "nsgs-cone",
         "newton-ac",
+        "clarabel-socp",
     ] {
         assert!(
             text.lines().any(|l| l.starts_with(name)),
@@ -209,6 +210,21 @@ fn cone_problems_through_the_command_line() {
             (f[0] - 1.0).abs() < 1e-8 && (f[1] + 0.3).abs() < 1e-8 && (f[2] + 0.4).abs() < 1e-8
         );
     }
+    // The convex relaxation pushes harder, r = P_K(−q) = (1.2, −0.36, −0.48), and lifts off at
+    // u_N = mu ‖u_T‖ = 0.2: not converged, and the reason says so.
+    let o = lcpbench(&["solve", &cone, "--solver", "clarabel-socp", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "stalled", "{v}");
+    assert!(
+        v["reason"].as_str().unwrap().contains("lifts off 1 of 1"),
+        "{v}"
+    );
+    let f: Vec<f64> = serde_json::from_value(v["f"].clone()).unwrap();
+    assert!(
+        (f[0] - 1.2).abs() < 1e-7 && (f[1] + 0.36).abs() < 1e-7,
+        "{f:?}"
+    );
     let o = lcpbench(&["solve", &cone, "--solver", "pgs", "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();

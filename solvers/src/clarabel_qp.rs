@@ -170,18 +170,7 @@ impl ScaledQp {
                 tau = 1.0;
             }
         }
-        let mut triplets = Vec::with_capacity(2 * problem.nnz());
-        for i in 0..n {
-            for (j, v) in problem.row(i).iter() {
-                if v != 0.0 {
-                    let x = 0.5 * e[i] * v * e[j];
-                    triplets.push(Triplet::new(i, j, x));
-                    triplets.push(Triplet::new(j, i, x));
-                }
-            }
-        }
-        let a_hat = SparseColMat::try_new_from_triplets(n, n, &triplets)
-            .expect("indices of a valid problem are in range");
+        let a_hat = scaled_symmetric_part(problem, &e);
         let q = (0..n).map(|i| e[i] * b[i] / tau).collect();
 
         let mut zero_rows = Vec::new();
@@ -223,59 +212,6 @@ impl ScaledQp {
             rows: zero_rows,
             zero,
         }
-    }
-
-    /// True when `Â + δ I` has a Cholesky factorisation, `δ = psd_tolerance · ‖Â‖_F`.
-    fn is_psd(&self, psd_tolerance: f64) -> bool {
-        let norm = self.a_hat.val().iter().map(|v| v * v).sum::<f64>().sqrt();
-        let delta = psd_tolerance * norm.max(f64::MIN_POSITIVE);
-        let all: Vec<usize> = (0..self.a_hat.nrows()).collect();
-        self.shifted_block(&all, delta)
-            .sp_cholesky(faer::Side::Lower)
-            .is_ok()
-    }
-
-    /// The principal block of `Â` on `rows` (increasing), plus `shift · I`.
-    fn shifted_block(&self, rows: &[usize], shift: f64) -> SparseColMat<usize, f64> {
-        let n = self.a_hat.nrows();
-        let mut local = vec![usize::MAX; n];
-        for (k, &i) in rows.iter().enumerate() {
-            local[i] = k;
-        }
-        let sym = self.a_hat.symbolic();
-        let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), self.a_hat.val());
-        let mut triplets: Vec<Triplet<usize, usize, f64>> =
-            (0..rows.len()).map(|k| Triplet::new(k, k, shift)).collect();
-        for (c, &j) in rows.iter().enumerate() {
-            for p in ptr[j]..ptr[j + 1] {
-                if local[idx[p]] != usize::MAX {
-                    triplets.push(Triplet::new(local[idx[p]], c, val[p]));
-                }
-            }
-        }
-        SparseColMat::try_new_from_triplets(rows.len(), rows.len(), &triplets)
-            .expect("local indices are in range")
-    }
-
-    /// Clarabel's `P`: the upper triangle of `Â` in CSC.
-    fn p_upper(&self) -> CscMatrix<f64> {
-        let n = self.a_hat.nrows();
-        let sym = self.a_hat.symbolic();
-        let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), self.a_hat.val());
-        let mut colptr = Vec::with_capacity(n + 1);
-        let mut rowval = Vec::new();
-        let mut nzval = Vec::new();
-        colptr.push(0);
-        for j in 0..n {
-            for p in ptr[j]..ptr[j + 1] {
-                if idx[p] <= j && val[p] != 0.0 {
-                    rowval.push(idx[p]);
-                    nzval.push(val[p]);
-                }
-            }
-            colptr.push(rowval.len());
-        }
-        CscMatrix::new(n, n, colptr, rowval, nzval)
     }
 
     /// Clarabel's constraint matrix and right-hand side.
@@ -346,8 +282,7 @@ impl ScaledQp {
         let k = free.len();
         let amax = self.a_hat.val().iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let eps = 1e-12 * amax.max(f64::MIN_POSITIVE);
-        let llt = self
-            .shifted_block(&free, eps)
+        let llt = shifted_block(&self.a_hat, &free, eps)
             .sp_cholesky(faer::Side::Lower)
             .ok()?;
         for _ in 0..refinements {
@@ -362,6 +297,134 @@ impl ScaledQp {
         project_onto_bounds(problem, &mut g);
         Some(g)
     }
+}
+
+/// `Â = ½ (E A E + (E A E)ᵀ)`, `E = diag(e)`, both triangles, from the stored entries of `A`
+/// (sparse in, sparse out).
+pub(crate) fn scaled_symmetric_part(problem: &Problem, e: &[f64]) -> SparseColMat<usize, f64> {
+    let n = problem.n();
+    let mut triplets = Vec::with_capacity(2 * problem.nnz());
+    for i in 0..n {
+        for (j, v) in problem.row(i).iter() {
+            if v != 0.0 {
+                let x = 0.5 * e[i] * v * e[j];
+                triplets.push(Triplet::new(i, j, x));
+                triplets.push(Triplet::new(j, i, x));
+            }
+        }
+    }
+    SparseColMat::try_new_from_triplets(n, n, &triplets)
+        .expect("indices of a valid problem are in range")
+}
+
+/// True when `Â + δ I` has a sparse Cholesky factorisation, `δ = psd_tolerance · ‖Â‖_F`.
+pub(crate) fn is_psd(a_hat: &SparseColMat<usize, f64>, psd_tolerance: f64) -> bool {
+    let norm = a_hat.val().iter().map(|v| v * v).sum::<f64>().sqrt();
+    let delta = psd_tolerance * norm.max(f64::MIN_POSITIVE);
+    let all: Vec<usize> = (0..a_hat.nrows()).collect();
+    shifted_block(a_hat, &all, delta)
+        .sp_cholesky(faer::Side::Lower)
+        .is_ok()
+}
+
+/// The principal block of `Â` on `rows` (increasing), plus `shift · I`.
+fn shifted_block(
+    a_hat: &SparseColMat<usize, f64>,
+    rows: &[usize],
+    shift: f64,
+) -> SparseColMat<usize, f64> {
+    let n = a_hat.nrows();
+    let mut local = vec![usize::MAX; n];
+    for (k, &i) in rows.iter().enumerate() {
+        local[i] = k;
+    }
+    let sym = a_hat.symbolic();
+    let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), a_hat.val());
+    let mut triplets: Vec<Triplet<usize, usize, f64>> =
+        (0..rows.len()).map(|k| Triplet::new(k, k, shift)).collect();
+    for (c, &j) in rows.iter().enumerate() {
+        for p in ptr[j]..ptr[j + 1] {
+            if local[idx[p]] != usize::MAX {
+                triplets.push(Triplet::new(local[idx[p]], c, val[p]));
+            }
+        }
+    }
+    SparseColMat::try_new_from_triplets(rows.len(), rows.len(), &triplets)
+        .expect("local indices are in range")
+}
+
+/// Clarabel's `P`: the upper triangle of the symmetric `Â` in CSC.
+pub(crate) fn upper_triangle(a_hat: &SparseColMat<usize, f64>) -> CscMatrix<f64> {
+    let n = a_hat.nrows();
+    let sym = a_hat.symbolic();
+    let (ptr, idx, val) = (sym.col_ptr(), sym.row_idx(), a_hat.val());
+    let mut colptr = Vec::with_capacity(n + 1);
+    let mut rowval = Vec::new();
+    let mut nzval = Vec::new();
+    colptr.push(0);
+    for j in 0..n {
+        for p in ptr[j]..ptr[j + 1] {
+            if idx[p] <= j && val[p] != 0.0 {
+                rowval.push(idx[p]);
+                nzval.push(val[p]);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    CscMatrix::new(n, n, colptr, rowval, nzval)
+}
+
+/// Limits of one interior-point run.
+pub(crate) struct IpmLimits {
+    /// Clarabel's gap, feasibility and infeasibility tolerances.
+    pub(crate) tol: f64,
+    /// Interior-point iterations, at least 1.
+    pub(crate) max_iter: u32,
+    /// Seconds; `f64::INFINITY` for none.
+    pub(crate) time_limit: f64,
+}
+
+/// What one interior-point run returned.
+pub(crate) struct IpmRun {
+    pub(crate) x: Vec<f64>,
+    pub(crate) status: SolverStatus,
+    pub(crate) iterations: usize,
+}
+
+/// Run Clarabel on `min ½ xᵀ P x + qᵀ x` s.t. `A x + s = b`, `s ∈ cones`, quietly. A rejected
+/// setting or problem and a panic inside Clarabel come back as the reason of a numerical failure.
+pub(crate) fn run_clarabel(
+    p: &CscMatrix<f64>,
+    q: &[f64],
+    a: &CscMatrix<f64>,
+    b: &[f64],
+    cones: &[SupportedConeT<f64>],
+    limits: &IpmLimits,
+) -> Result<IpmRun, String> {
+    let tol = limits.tol;
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .max_iter(limits.max_iter)
+        .time_limit(limits.time_limit)
+        .tol_gap_abs(tol)
+        .tol_gap_rel(tol)
+        .tol_feas(tol)
+        .tol_infeas_abs(tol)
+        .tol_infeas_rel(tol)
+        .build()
+        .map_err(|e| format!("Clarabel rejected the settings: {e}"))?;
+    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut solver = DefaultSolver::new(p, q, a, b, cones, settings)
+            .map_err(|e| format!("Clarabel rejected the problem: {e}"))?;
+        solver.solve();
+        let s = &solver.solution;
+        Ok(IpmRun {
+            x: s.x.clone(),
+            status: s.status,
+            iterations: s.iterations as usize,
+        })
+    }));
+    run.unwrap_or_else(|_| Err("Clarabel panicked".into()))
 }
 
 /// Project `f` onto the stored bounds, then friction rows onto `±mu · max(f_k, 0)`.
@@ -399,7 +462,7 @@ impl Solver for ClarabelQp {
             );
         }
         let qp = ScaledQp::new(problem, self.scale);
-        if !qp.is_psd(self.psd_tolerance) {
+        if !is_psd(&qp.a_hat, self.psd_tolerance) {
             return monitor.finish(
                 Vec::new(),
                 0,
@@ -429,48 +492,27 @@ impl Solver for ClarabelQp {
         if max_iter == 0 {
             return monitor.finish(fallback, 0, Outcome::IterationLimit);
         }
-        let ipm_settings = match DefaultSettingsBuilder::default()
-            .verbose(false)
-            .max_iter(max_iter)
-            .time_limit(time_limit)
-            .tol_gap_abs(tol)
-            .tol_gap_rel(tol)
-            .tol_feas(tol)
-            .tol_infeas_abs(tol)
-            .tol_infeas_rel(tol)
-            .build()
-        {
-            Ok(s) => s,
-            Err(e) => {
-                return monitor.finish(
-                    fallback,
-                    0,
-                    Outcome::NumericalFailure(format!("Clarabel rejected the settings: {e}")),
-                )
-            }
+        let limits = IpmLimits {
+            tol,
+            max_iter,
+            time_limit,
         };
-        let p = qp.p_upper();
         let (g, c) = qp.constraints();
-        let cones = qp.cones();
-        let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let mut solver = DefaultSolver::new(&p, &qp.q, &g, &c, &cones, ipm_settings)
-                .map_err(|e| format!("Clarabel rejected the problem: {e}"))?;
-            solver.solve();
-            let s = &solver.solution;
-            Ok::<_, String>((s.x.clone(), s.status, s.iterations as usize))
-        }));
-        let (h, status, iterations) = match run {
-            Ok(Ok(r)) => r,
-            Ok(Err(reason)) => {
-                return monitor.finish(fallback, 0, Outcome::NumericalFailure(reason));
-            }
-            Err(_) => {
-                return monitor.finish(
-                    fallback,
-                    0,
-                    Outcome::NumericalFailure("Clarabel panicked".into()),
-                );
-            }
+        let run = run_clarabel(
+            &upper_triangle(&qp.a_hat),
+            &qp.q,
+            &g,
+            &c,
+            &qp.cones(),
+            &limits,
+        );
+        let IpmRun {
+            x: h,
+            status,
+            iterations,
+        } = match run {
+            Ok(r) => r,
+            Err(reason) => return monitor.finish(fallback, 0, Outcome::NumericalFailure(reason)),
         };
         let friction_note = if problem.friction().is_empty() {
             ""

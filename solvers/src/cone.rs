@@ -53,11 +53,9 @@
 
 use crate::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
-use crate::solver::{decide, Outcome, Settings, SolveResult, Status};
-use crate::HistoryPoint;
+use crate::solver::{Measured, Monitor, Settings, SolveResult};
 use faer::sparse::SparseRowMat;
 use faer::Mat;
-use std::time::{Duration, Instant};
 use thiserror::Error;
 
 /// Invalid cone-problem data.
@@ -373,40 +371,53 @@ pub fn cone_residuals_and_velocity(problem: &ConeProblem, r: &[f64], u: &mut [f6
         u.iter_mut().for_each(|v| *v = f64::NAN);
         return Residuals::INFINITE;
     }
-    let (w, q) = (problem.delassus(), problem.q());
-    let mut res = Residuals {
-        natural_map: 0.0,
-        natural_map_rel: 0.0,
-        complementarity_gap: 0.0,
-        bound_violation: 0.0,
-    };
-    for (c, &mu) in problem.mu().iter().enumerate() {
-        let mut uc = [0.0; 3];
-        let mut t = [0.0; 3];
-        for a in 0..3 {
-            let i = 3 * c + a;
-            let (wr, m) = w.row(i).dot_and_magnitude(r);
-            uc[a] = wr + q[i];
-            t[a] = q[i].abs() + m;
-            u[i] = uc[a];
-        }
-        let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-        let d = problem.scale_of(c);
-        res.natural_map = res.natural_map.max(contact_natural_map(mu, 1.0, rc, uc));
-        let e = contact_natural_map(mu, 1.0 / d, rc, uc);
-        let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
-        res.natural_map_rel = res.natural_map_rel.max(relative(e, s));
-        let uh = de_saxce(mu, uc);
-        res.complementarity_gap += (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs();
-        let p = project_onto_cone(mu, rc);
-        res.bound_violation =
-            res.bound_violation
-                .max(norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]));
+    let mut res = Residuals::ZERO;
+    for c in 0..problem.contacts() {
+        let one = contact_residuals(problem, c, r, u);
+        res.natural_map = res.natural_map.max(one.natural_map);
+        res.natural_map_rel = res.natural_map_rel.max(one.natural_map_rel);
+        res.complementarity_gap += one.complementarity_gap;
+        res.bound_violation = res.bound_violation.max(one.bound_violation);
     }
     if !u.iter().all(|v| v.is_finite()) {
         return Residuals::INFINITE;
     }
     res
+}
+
+/// The relative cone residual `e_c / s_c` of each contact (see the module doc) at a finite `r`
+/// of the right length.
+pub(crate) fn contact_relative_residuals(problem: &ConeProblem, r: &[f64]) -> Vec<f64> {
+    let mut u = vec![0.0; problem.n()];
+    (0..problem.contacts())
+        .map(|c| contact_residuals(problem, c, r, &mut u).natural_map_rel)
+        .collect()
+}
+
+/// The four measures of the module doc for contact `c` alone, writing its rows of `u = W r + q`.
+fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) -> Residuals {
+    let (w, q, mu) = (problem.delassus(), problem.q(), problem.mu()[c]);
+    let mut uc = [0.0; 3];
+    let mut t = [0.0; 3];
+    for a in 0..3 {
+        let i = 3 * c + a;
+        let (wr, m) = w.row(i).dot_and_magnitude(r);
+        uc[a] = wr + q[i];
+        t[a] = q[i].abs() + m;
+        u[i] = uc[a];
+    }
+    let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
+    let d = problem.scale_of(c);
+    let e = contact_natural_map(mu, 1.0 / d, rc, uc);
+    let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
+    let uh = de_saxce(mu, uc);
+    let p = project_onto_cone(mu, rc);
+    Residuals {
+        natural_map: contact_natural_map(mu, 1.0, rc, uc),
+        natural_map_rel: relative(e, s),
+        complementarity_gap: (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs(),
+        bound_violation: norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]),
+    }
 }
 
 /// A solver of the FC3D problem: takes a [`ConeProblem`], returns reactions `r` (in
@@ -419,104 +430,23 @@ pub trait ConeSolver {
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult;
 }
 
-/// Clock, budget, history and the status decision for a cone solve (the cone twin of
-/// [`crate::solver::Monitor`]).
-pub(crate) struct ConeMonitor<'a> {
-    problem: &'a ConeProblem,
-    settings: &'a Settings,
-    start: Instant,
-    excluded: Duration,
-    history: Vec<HistoryPoint>,
-}
-
-impl<'a> ConeMonitor<'a> {
-    pub(crate) fn new(problem: &'a ConeProblem, settings: &'a Settings) -> Self {
-        Self {
-            problem,
-            settings,
-            start: Instant::now(),
-            excluded: Duration::ZERO,
-            history: Vec::new(),
-        }
+impl Measured for ConeProblem {
+    const UNKNOWN: (&'static str, &'static str) = ("reaction", "r");
+    const VELOCITY: &'static str = "u = W r + q";
+    fn rows(&self) -> usize {
+        self.n()
     }
-
-    pub(crate) fn elapsed(&self) -> Duration {
-        self.start.elapsed().saturating_sub(self.excluded)
+    fn velocity_at(&self, r: &[f64]) -> Vec<f64> {
+        self.velocity(r)
     }
-
-    pub(crate) fn out_of_time(&self) -> bool {
-        self.settings
-            .time_budget
-            .is_some_and(|budget| self.elapsed() >= budget)
-    }
-
-    /// Record the cone residual of `r` after `iteration`, if history is on.
-    pub(crate) fn record(&mut self, iteration: usize, r: &[f64]) {
-        if !self.settings.record_history {
-            return;
-        }
-        let t0 = Instant::now();
-        let time_s = self.elapsed().as_secs_f64();
-        let residual = cone_residuals(self.problem, r).natural_map_rel;
-        self.history.push(HistoryPoint {
-            iteration,
-            residual,
-            time_s,
-        });
-        self.excluded += t0.elapsed();
-    }
-
-    /// Decide the status from the cone residual of `r` and package the result.
-    pub(crate) fn finish(self, r: Vec<f64>, iterations: usize, outcome: Outcome) -> SolveResult {
-        let time = self.elapsed();
-        let problem = self.problem;
-        let n = problem.n();
-        let (r, u, residuals, status) = if let Outcome::Unsupported(reason) = outcome {
-            let r = vec![0.0; n];
-            let mut u = vec![0.0; n];
-            let res = cone_residuals_and_velocity(problem, &r, &mut u);
-            (r, u, res, Status::Unsupported { reason })
-        } else if r.len() != n {
-            let reason = format!("solver returned {} values for {n} rows", r.len());
-            (
-                r,
-                vec![f64::NAN; n],
-                Residuals::INFINITE,
-                Status::NumericalFailure { reason },
-            )
-        } else if let Some(i) = r.iter().position(|v| !v.is_finite()) {
-            let reason = format!("non-finite reaction r[{i}] = {}", r[i]);
-            let u = problem.velocity(&r);
-            (
-                r,
-                u,
-                Residuals::INFINITE,
-                Status::NumericalFailure { reason },
-            )
-        } else {
-            let mut u = vec![0.0; n];
-            let res = cone_residuals_and_velocity(problem, &r, &mut u);
-            let status = if u.iter().any(|v| !v.is_finite()) {
-                Status::NumericalFailure {
-                    reason: "the velocity u = W r + q overflows at the returned reaction".into(),
-                }
-            } else {
-                decide(outcome, res.natural_map_rel, self.settings.tolerance)
-            };
-            (r, u, res, status)
-        };
-        SolveResult {
-            f: r,
-            w: u,
-            status,
-            iterations,
-            time,
-            residuals,
-            history: self.history,
-            active_sets: Vec::new(),
-        }
+    fn measure(&self, r: &[f64], u: &mut [f64]) -> Residuals {
+        cone_residuals_and_velocity(self, r, u)
     }
 }
+
+/// Clock, budget, history and the status decision for a cone solve: the shared
+/// [`Monitor`](crate::solver::Monitor) judging by the cone residual.
+pub(crate) type ConeMonitor<'a> = Monitor<'a, ConeProblem>;
 
 /// Initial reaction: the warm start (when it has the right length and is finite) with each
 /// contact projected onto its cone, else zero.
@@ -635,6 +565,33 @@ mod tests {
         let (q, s) = two_contacts([1e9, 1e-7], [1e-6, 3e8]);
         let scaled = cone_residuals(&q, &s).natural_map_rel;
         assert!((scaled - base).abs() <= 1e-12 * base, "{base} vs {scaled}");
+    }
+
+    /// The shared monitor judges a cone solve by the cone residual and names its unknowns.
+    #[test]
+    fn cone_monitor_decides_by_the_cone_residual() {
+        use crate::solver::Outcome;
+        let (p, r) = two_contacts([1.0, 1.0], [1.0, 1.0]);
+        let settings = Settings::default();
+        let done = ConeMonitor::new(&p, &settings).finish(r.clone(), 3, Outcome::Stopped);
+        assert_eq!(done.residuals, cone_residuals(&p, &r));
+        assert_eq!(done.w, p.velocity(&r));
+        assert_eq!(done.status.name(), "stalled");
+        let mut bad = r;
+        bad[1] = f64::NAN;
+        let failed = ConeMonitor::new(&p, &settings).finish(bad, 3, Outcome::Stopped);
+        assert_eq!(
+            failed.status.reason(),
+            Some("non-finite reaction r[1] = NaN")
+        );
+        let refused = ConeMonitor::new(&p, &settings).finish(
+            Vec::new(),
+            0,
+            Outcome::Unsupported("no".into()),
+        );
+        assert_eq!(refused.f, vec![0.0; 6]);
+        assert_eq!(refused.w, p.q());
+        assert_eq!(refused.residuals, cone_residuals(&p, &[0.0; 6]));
     }
 
     #[test]

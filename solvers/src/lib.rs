@@ -35,6 +35,7 @@
 mod alart_curnier;
 mod apgd;
 mod clarabel_qp;
+mod clarabel_socp;
 pub mod cone;
 mod cone_io;
 mod dantzig;
@@ -57,6 +58,7 @@ mod test_util;
 
 pub use apgd::Apgd;
 pub use clarabel_qp::ClarabelQp;
+pub use clarabel_socp::ClarabelSocp;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
@@ -220,17 +222,24 @@ pub enum ConeSolverKind {
     NsgsCone,
     /// Global Alart–Curnier semismooth Newton.
     NewtonAc,
+    /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
+    ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 2] = [ConeSolverKind::NsgsCone, ConeSolverKind::NewtonAc];
+    pub const ALL: [ConeSolverKind; 3] = [
+        ConeSolverKind::NsgsCone,
+        ConeSolverKind::NewtonAc,
+        ConeSolverKind::ClarabelSocp,
+    ];
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             ConeSolverKind::NsgsCone => "nsgs-cone",
             ConeSolverKind::NewtonAc => "newton-ac",
+            ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
 
@@ -244,7 +253,14 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => nsgs_cone::PROBLEM_CLASSES,
             ConeSolverKind::NewtonAc => newton_ac::PROBLEM_CLASSES,
+            ConeSolverKind::ClarabelSocp => clarabel_socp::PROBLEM_CLASSES,
         }
+    }
+
+    /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
+    /// contact slides, and so not `converged` on sliding problems).
+    pub fn is_relaxation(self) -> bool {
+        matches!(self, ConeSolverKind::ClarabelSocp)
     }
 
     /// A solver of this kind with default parameters.
@@ -252,6 +268,7 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => Box::new(NsgsCone),
             ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
+            ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }
 }

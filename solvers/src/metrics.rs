@@ -70,7 +70,7 @@ impl Residuals {
         bound_violation: f64::INFINITY,
     };
 
-    const ZERO: Self = Self {
+    pub(crate) const ZERO: Self = Self {
         natural_map: 0.0,
         natural_map_rel: 0.0,
         complementarity_gap: 0.0,

@@ -1,7 +1,7 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::metrics::{residuals, residuals_and_velocity, Residuals};
+use crate::metrics::{residuals_and_velocity, Residuals};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -232,10 +232,41 @@ pub(crate) fn solve_equilibrated(
 /// Spread of the diagonal `max d / min d` above which [`solve_equilibrated`] scales.
 pub(crate) const EQUILIBRATE_ABOVE: f64 = 100.0;
 
-/// Clock, time budget and history recorder for one solve. Solver bodies stay the textbook
-/// algorithm and call [`Monitor::record`] once per iteration.
-pub(crate) struct Monitor<'a> {
-    problem: &'a Problem,
+/// A problem class whose results a [`Monitor`] judges: its shared residual (the only status
+/// decider) and the words its status reasons use for the unknown and the velocity.
+pub(crate) trait Measured {
+    /// The unknown in reasons: `("impulse", "f")` for an LCP.
+    const UNKNOWN: (&'static str, &'static str);
+    /// The velocity in reasons: `"w = A f + b"` for an LCP.
+    const VELOCITY: &'static str;
+    /// Number of rows.
+    fn rows(&self) -> usize;
+    /// The velocity at `x`.
+    fn velocity_at(&self, x: &[f64]) -> Vec<f64>;
+    /// The shared residuals of `x`, writing the velocity into `v` in the same pass.
+    fn measure(&self, x: &[f64], v: &mut [f64]) -> Residuals;
+}
+
+impl Measured for Problem {
+    const UNKNOWN: (&'static str, &'static str) = ("impulse", "f");
+    const VELOCITY: &'static str = "w = A f + b";
+    fn rows(&self) -> usize {
+        self.n()
+    }
+    fn velocity_at(&self, f: &[f64]) -> Vec<f64> {
+        self.velocity(f)
+    }
+    fn measure(&self, f: &[f64], w: &mut [f64]) -> Residuals {
+        residuals_and_velocity(self, f, w)
+    }
+}
+
+/// Clock, time budget and history recorder for one solve, and the status decision from the
+/// shared residual of the problem class `P` (the boxed LCP by default; [`crate::cone`] uses it
+/// for the Coulomb cone). Solver bodies stay the textbook algorithm and call
+/// [`Monitor::record`] once per iteration.
+pub(crate) struct Monitor<'a, P: Measured = Problem> {
+    problem: &'a P,
     settings: &'a Settings,
     start: Instant,
     excluded: Duration,
@@ -243,8 +274,8 @@ pub(crate) struct Monitor<'a> {
     active_sets: Vec<(usize, Vec<usize>)>,
 }
 
-impl<'a> Monitor<'a> {
-    pub(crate) fn new(problem: &'a Problem, settings: &'a Settings) -> Self {
+impl<'a, P: Measured> Monitor<'a, P> {
+    pub(crate) fn new(problem: &'a P, settings: &'a Settings) -> Self {
         Self {
             problem,
             settings,
@@ -274,7 +305,8 @@ impl<'a> Monitor<'a> {
         }
         let t0 = Instant::now();
         let time_s = self.elapsed().as_secs_f64();
-        let residual = residuals(self.problem, f).natural_map_rel;
+        let mut w = vec![0.0; self.problem.rows()];
+        let residual = self.problem.measure(f, &mut w).natural_map_rel;
         self.history.push(HistoryPoint {
             iteration,
             residual,
@@ -297,11 +329,12 @@ impl<'a> Monitor<'a> {
         let time = self.elapsed();
         let problem = self.problem;
         let tol = self.settings.tolerance;
-        let n = problem.n();
+        let n = problem.rows();
+        let (noun, symbol) = P::UNKNOWN;
         let (f, w, res, status) = if let Outcome::Unsupported(reason) = outcome {
             let f = vec![0.0; n];
-            let w = problem.velocity(&f);
-            let res = residuals(problem, &f);
+            let mut w = vec![0.0; n];
+            let res = problem.measure(&f, &mut w);
             (f, w, res, Status::Unsupported { reason })
         } else if f.len() != n {
             let reason = format!("solver returned {} values for {n} rows", f.len());
@@ -313,8 +346,8 @@ impl<'a> Monitor<'a> {
                 Status::NumericalFailure { reason },
             )
         } else if let Some(i) = f.iter().position(|v| !v.is_finite()) {
-            let reason = format!("non-finite impulse f[{i}] = {}", f[i]);
-            let w = problem.velocity(&f);
+            let reason = format!("non-finite {noun} {symbol}[{i}] = {}", f[i]);
+            let w = problem.velocity_at(&f);
             (
                 f,
                 w,
@@ -323,10 +356,13 @@ impl<'a> Monitor<'a> {
             )
         } else {
             let mut w = vec![0.0; n];
-            let res = residuals_and_velocity(problem, &f, &mut w);
+            let res = problem.measure(&f, &mut w);
             let status = if w.iter().any(|v| !v.is_finite()) {
                 Status::NumericalFailure {
-                    reason: "the velocity w = A f + b overflows at the returned impulse".into(),
+                    reason: format!(
+                        "the velocity {} overflows at the returned {noun}",
+                        P::VELOCITY
+                    ),
                 }
             } else {
                 decide(outcome, res.natural_map_rel, tol)

@@ -18,7 +18,8 @@ pub struct SolveArgs {
     /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content.
     pub problem: PathBuf,
     /// Solver name (see `lcpbench solvers`): an LCP solver, or a cone solver (`nsgs-cone`,
-    /// `newton-ac`) for a cone file or a box-friction file in (normal, t1, t2) triples.
+    /// `newton-ac`, `clarabel-socp`) for a cone file or a box-friction file in (normal, t1, t2)
+    /// triples.
     #[arg(long, short)]
     pub solver: SolverName,
     /// Tolerance on the relative natural-map residual.
@@ -56,9 +57,10 @@ impl std::str::FromStr for SolverName {
         if let Some(k) = ConeSolverKind::from_name(s) {
             return Ok(SolverName::Cone(k));
         }
-        s.parse::<SolverKind>()
-            .map(SolverName::Lcp)
-            .map_err(|e| format!("{e}; cone solvers: nsgs-cone, newton-ac"))
+        s.parse::<SolverKind>().map(SolverName::Lcp).map_err(|e| {
+            let cone: Vec<_> = ConeSolverKind::ALL.iter().map(|k| k.name()).collect();
+            format!("{e}; cone solvers: {}", cone.join(", "))
+        })
     }
 }
 
@@ -255,10 +257,10 @@ fn print_result(
 /// Run `lcpbench solvers`.
 pub fn list_solvers() -> Result<()> {
     for kind in SolverKind::ALL {
-        println!("{:<10} {}", kind.name(), kind.problem_classes());
+        println!("{:<13} {}", kind.name(), kind.problem_classes());
     }
     for kind in ConeSolverKind::ALL {
-        println!("{:<10} {}", kind.name(), kind.problem_classes());
+        println!("{:<13} {}", kind.name(), kind.problem_classes());
     }
     Ok(())
 }
