@@ -366,10 +366,9 @@ impl SparseJacobian {
         let n = problem.n();
         let mut entries = Vec::with_capacity(problem.nnz() + 2 * n);
         for i in 0..n {
+            // Stored entries enter the pattern even when zero, so it depends on the storage only.
             for (j, v) in problem.row(i).iter() {
-                if v != 0.0 {
-                    entries.push((i, j, EntryKind::A(v)));
-                }
+                entries.push((i, j, EntryKind::A(v)));
             }
             // Duplicated positions are summed when the matrix is assembled.
             entries.push((i, i, EntryKind::Diagonal));
@@ -411,19 +410,13 @@ impl SparseJacobian {
             }
         }
         let size = n + 6 * bodies.len();
-        let mut entries = Vec::with_capacity(4 * ptr[n] + 2 * n + 6 * bodies.len());
-        for i in 0..n {
-            for k in ptr[i]..ptr[i + 1] {
-                let (c, v) = (idx[k], val[k]);
-                entries.push((i, n + 6 * local[c / 6] + c % 6, EntryKind::Jacobian(v)));
-            }
-            entries.push((i, i, EntryKind::Diagonal));
-            if let Some((k, _)) = problem.friction_of(i) {
-                entries.push((i, k, EntryKind::Coupling));
-            }
-        }
-        // M⁻¹ Jᵀ, column by column (row i of J gives column i).
+        // Every (row, body) block enters whole, zeros included, so the pattern depends only on
+        // which bodies each row touches and stays the same while the contacts do (a lever arm
+        // component that drifts off exactly zero does not change it, and the symbolic analysis
+        // in the workspace is reused).
+        let mut entries = Vec::with_capacity(24 * n + 6 * bodies.len());
         let minv = factors.inverse_mass();
+        let mut m_jt = Vec::new();
         for i in 0..n {
             let mut k = ptr[i];
             while k < ptr[i + 1] {
@@ -433,15 +426,22 @@ impl SparseJacobian {
                     jb[idx[k] % 6] = val[k];
                     k += 1;
                 }
-                let m = &minv[body];
-                for (r, row) in m.iter().enumerate() {
+                let first = n + 6 * local[body];
+                for (c, &v) in jb.iter().enumerate() {
+                    entries.push((i, first + c, EntryKind::Jacobian(v)));
+                }
+                // Column i of M⁻¹ Jᵀ (row i of J gives column i).
+                for (r, row) in minv[body].iter().enumerate() {
                     let v: f64 = row.iter().zip(&jb).map(|(a, b)| a * b).sum();
-                    if v != 0.0 {
-                        entries.push((n + 6 * local[body] + r, i, EntryKind::Fixed(v)));
-                    }
+                    m_jt.push((first + r, i, EntryKind::Fixed(v)));
                 }
             }
+            entries.push((i, i, EntryKind::Diagonal));
+            if let Some((k, _)) = problem.friction_of(i) {
+                entries.push((i, k, EntryKind::Coupling));
+            }
         }
+        entries.append(&mut m_jt);
         for r in n..size {
             entries.push((r, r, EntryKind::Fixed(-1.0)));
         }
