@@ -18,11 +18,14 @@ pub struct Header {
     pub date: String,
     /// The command that produced the report.
     pub command: String,
+    /// Worker processes of the sweep.
+    pub workers: usize,
 }
 
 impl Header {
-    /// Collect the header for the current machine and working directory.
-    pub fn collect(command: &str) -> Self {
+    /// Collect the header for the current machine and working directory, for a sweep run by
+    /// `workers` worker processes.
+    pub fn collect(command: &str, workers: usize) -> Self {
         let cpu = std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|s| {
@@ -62,6 +65,7 @@ impl Header {
             commit,
             date: utc_now(),
             command: command.to_owned(),
+            workers,
         }
     }
 }

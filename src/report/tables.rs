@@ -152,10 +152,11 @@ pub fn write_report(
             "runs",
             format!(
                 "{} rows ({} isolation failures: panic, crash, timeout or error), sweep {:.0} s \
-                 on 2 worker processes",
+                 on {} worker processes",
                 rows.len(),
                 failures,
-                sweep_seconds
+                sweep_seconds,
+                header.workers
             ),
         ),
     ] {
