@@ -12,8 +12,8 @@
 //! * **warm**: the iterative solvers warm and cold on four problems.
 //! * **scenes**: every scene file (at most [`SCENE_STEPS`] steps) × every matrix and body-level
 //!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
-//!   (budget `default`); large scenes run cold under `default` only, at most
-//!   [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
+//!   (budget `default`); large scenes run under `default` only (cold, and warm for the iterative
+//!   solvers), at most [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
 //!   solver × budgets `default`, `tight`.
 //! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
 //!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
@@ -27,8 +27,8 @@ use std::path::PathBuf;
 /// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
 pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
 
-/// Scenes with more dynamic bodies than this are *large*: one budget (`default`) and
-/// [`LARGE_SCENE_STEPS`] steps in the full suite.
+/// Scenes with more dynamic bodies than this are *large*: one budget (`default`, cold and
+/// warm) and [`LARGE_SCENE_STEPS`] steps in the full suite.
 pub const LARGE_SCENE_BODIES: usize = 30;
 
 /// Steps of a large scene's runs in the full suite.
@@ -252,7 +252,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         .filter(|s| s.is_iterative())
         .map(warm)
         .collect();
-    push(&small, &warm_only, &[budget("default")]);
+    push(&suite.scene_cases.clone(), &warm_only, &[budget("default")]);
     if !quick {
         suite.tower_cases = scenes
             .iter()
