@@ -607,12 +607,14 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
                 directions: s.pyramid_directions,
             }
         }
-        other => return Err(err(
-            "friction_model",
-            format!(
+        other => {
+            return Err(err(
+                "friction_model",
+                format!(
                 "unknown model \"{other}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
             ),
-        )),
+            ))
+        }
     };
     let position_correction = match s.position_correction.as_str() {
         "none" => PositionCorrection::None,

@@ -114,12 +114,13 @@ fn load_world(
 ) -> Result<(Scene, World)> {
     let mut scene = Scene::load(path)?;
     if let Some(model) = friction_model {
-        scene.settings.builder.friction_model = FrictionModel::from_name(model).with_context(|| {
-            format!(
-                "unknown friction model `{model}` (known: {})",
-                FrictionModel::NAMES
-            )
-        })?;
+        scene.settings.builder.friction_model =
+            FrictionModel::from_name(model).with_context(|| {
+                format!(
+                    "unknown friction model `{model}` (known: {})",
+                    FrictionModel::NAMES
+                )
+            })?;
     }
     if let Some(name) = solver {
         let choice = SolverChoice::from_name(name).with_context(|| {
@@ -173,7 +174,12 @@ impl TopBody {
             .bodies
             .iter()
             .filter(|b| !b.is_static)
-            .max_by(|a, b| a.position.coords.dot(&up).total_cmp(&b.position.coords.dot(&up)))?;
+            .max_by(|a, b| {
+                a.position
+                    .coords
+                    .dot(&up)
+                    .total_cmp(&b.position.coords.dot(&up))
+            })?;
         Some(Self {
             name: top.name.clone(),
             start: top.position,

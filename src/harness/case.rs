@@ -245,11 +245,7 @@ impl std::str::FromStr for Case {
                             ))
                         })?)
                     }
-                    _ => {
-                        return Err(err(format!(
-                            "`{part}` is not steps=N or friction=MODEL"
-                        )))
-                    }
+                    _ => return Err(err(format!("`{part}` is not steps=N or friction=MODEL"))),
                 }
             }
             return Ok(Case::Scene {

@@ -14,14 +14,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// A table: header and rows of cells, written both as Markdown and as CSV.
-struct Table {
-    name: &'static str,
-    header: Vec<String>,
-    rows: Vec<Vec<String>>,
+pub(super) struct Table {
+    pub(super) name: &'static str,
+    pub(super) header: Vec<String>,
+    pub(super) rows: Vec<Vec<String>>,
 }
 
 impl Table {
-    fn new(name: &'static str, header: &[&str]) -> Self {
+    pub(super) fn new(name: &'static str, header: &[&str]) -> Self {
         Self {
             name,
             header: header.iter().map(|s| s.to_string()).collect(),
@@ -29,7 +29,7 @@ impl Table {
         }
     }
 
-    fn markdown(&self) -> String {
+    pub(super) fn markdown(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "| {} |", self.header.join(" | "));
         let _ = writeln!(
@@ -47,7 +47,7 @@ impl Table {
         s
     }
 
-    fn write_csv(&self, dir: &Path) -> Result<PathBuf> {
+    pub(super) fn write_csv(&self, dir: &Path) -> Result<PathBuf> {
         let path = dir.join(format!("{}.csv", self.name));
         let mut w = csv::Writer::from_path(&path)?;
         w.write_record(&self.header)?;
@@ -59,7 +59,7 @@ impl Table {
     }
 }
 
-fn fmt_time(s: Option<f64>) -> String {
+pub(super) fn fmt_time(s: Option<f64>) -> String {
     match s {
         None => "–".into(),
         Some(s) if s < 1e-3 => format!("{:.1} µs", s * 1e6),
@@ -68,7 +68,7 @@ fn fmt_time(s: Option<f64>) -> String {
     }
 }
 
-fn fmt_sci(v: Option<f64>) -> String {
+pub(super) fn fmt_sci(v: Option<f64>) -> String {
     match v {
         None => "–".into(),
         Some(0.0) => "0".into(),
@@ -91,17 +91,17 @@ fn geo_mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
 }
 
-struct Data<'a> {
+pub(super) struct Data<'a> {
     by_key: HashMap<(String, String, String), &'a RunRecord>,
 }
 
 impl<'a> Data<'a> {
-    fn new(rows: &'a [RunRecord]) -> Self {
+    pub(super) fn new(rows: &'a [RunRecord]) -> Self {
         let by_key = rows.iter().map(|r| (r.key(), r)).collect();
         Self { by_key }
     }
 
-    fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
+    pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
         self.by_key
             .get(&(case.to_string(), solver.to_owned(), budget.to_owned()))
             .copied()
@@ -192,6 +192,11 @@ pub fn write_report(
     // Scenes.
     if !suite.scene_cases.is_empty() {
         scene_section(&mut md, &data, suite, &tables_dir, &plots_dir, &mut figures)?;
+    }
+
+    // Friction models.
+    if !suite.friction_cases.is_empty() {
+        super::friction::friction_section(&mut md, &data, suite, &tables_dir)?;
     }
 
     // Robustness matrix.
