@@ -4,7 +4,7 @@
 //! acceleration error, the creep of boxes that must stick, the sliding-direction error of the
 //! diagonal push: the box model's anisotropy) and the solver time per step.
 
-use super::suite::{Suite, FRICTION_MODELS};
+use super::suite::{Suite, FRICTION_BUDGET, FRICTION_MODELS};
 use super::tables::{fmt_sci, fmt_time, Data, Table};
 use crate::harness::{Case, RunRecord};
 use anyhow::Result;
@@ -82,7 +82,7 @@ pub(super) fn friction_section(
         cases
             .iter()
             .find(|c| model_of(c) == Some(model))
-            .and_then(|c| data.get(c, solver, "default"))
+            .and_then(|c| data.get(c, solver, FRICTION_BUDGET))
     };
     let mut header = vec!["model".to_owned(), "solver".to_owned()];
     let mut time_header = header.clone();
@@ -131,12 +131,13 @@ pub(super) fn friction_section(
         md,
         "## Friction models\n\nThe same scenes under the box model (two tangent rows bounded by \
          `±mu f_n` each), the Stewart–Trinkle pyramid (4 directions) and the exact Coulomb cone \
-         (`friction_model = \"cone\"`, solved by the cone solvers), each solver warm started, \
-         budget `default`. Each scene's measure: a tower's sag and lateral drift of the top box; \
+         (`friction_model = \"cone\"`, solved by the cone solvers), budget `{FRICTION_BUDGET}` \
+         (tolerance, sweeps or iterations per step, seconds). Each scene's measure: a tower's sag and lateral drift of the top box; \
          the incline's acceleration error against g (sin θ − mu cos θ); the creep speed of the \
          boxes of `friction_ramp` that must stick; for `diagonal_push`, the angle between the \
          box's displacement and the push (30° off the x axis): the cone slides along the push, \
-         the box model bounds x and y friction separately and slides the box along x.\n\n{}",
+         the box model bounds x and y friction separately and slides the box along x. \
+         Converged steps count the steps that met the tolerance, over all four scenes.\n\n{}",
         table.markdown()
     );
     let _ = writeln!(
