@@ -155,3 +155,114 @@ fn bad_scenes_and_solvers_fail_with_one_clear_error() {
     assert!(!o.status.success());
     assert!(text(&o.stderr).contains("no contacts"));
 }
+
+#[test]
+fn simulate_a_cone_scene_with_a_cone_solver_converges_every_step() {
+    // The resting stack's four contacts per face take Gauss–Seidel sweeps beyond the scene's
+    // cap of 1000 (as for PGS on the box model), hence --max-iter.
+    for solver in ["nsgs-cone", "newton-ac"] {
+        let o = lcpbench(&[
+            "simulate",
+            "bench_scenes/tower_5.toml",
+            "--friction-model",
+            "cone",
+            "--solver",
+            solver,
+            "--steps",
+            "30",
+            "--max-iter",
+            "10000",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{solver}: {}", text(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["solver"], solver);
+        assert_eq!(
+            v["statuses"]["converged"], 30,
+            "{solver}: {}",
+            v["statuses"]
+        );
+        assert_eq!(
+            v["statuses"].as_object().unwrap().len(),
+            1,
+            "{}",
+            v["statuses"]
+        );
+        assert!(v["max_relative_residual"].as_f64().unwrap() <= 1e-6);
+        assert!(v["max_friction_cone_violation"].as_f64().unwrap() < 1e-12);
+        assert!(v["sag"].as_f64().unwrap().abs() < 1e-2, "{}", v["sag"]);
+    }
+    // A cone scene names no solver: nsgs-cone is its default.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("cone.toml");
+    let text_of = std::fs::read_to_string("bench_scenes/diagonal_push.toml").unwrap();
+    let cone = text_of
+        .replace("friction_model = \"box\"", "friction_model = \"cone\"")
+        .replace("solver = \"pgs\"\n", "");
+    std::fs::write(&scene, cone).unwrap();
+    let o = lcpbench(&["simulate", scene.to_str().unwrap(), "--steps", "10"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("solver nsgs-cone") && out.contains("converged 10"),
+        "{out}"
+    );
+}
+
+#[test]
+fn solvers_that_do_not_take_the_friction_model_are_unsupported() {
+    for (model, solver, needle) in [
+        ("cone", "pgs", "cone solver (nsgs-cone, newton-ac)"),
+        ("cone", "si", "cone solver (nsgs-cone, newton-ac)"),
+        ("box", "nsgs-cone", "--friction-model cone"),
+        ("pyramid", "newton-ac", "--friction-model cone"),
+    ] {
+        let o = lcpbench(&[
+            "simulate",
+            "bench_scenes/incline_slide.toml",
+            "--friction-model",
+            model,
+            "--solver",
+            solver,
+        ]);
+        assert!(!o.status.success(), "{solver} on {model}");
+        let e = text(&o.stderr);
+        assert_eq!(e.lines().count(), 1, "{e}");
+        assert!(e.contains("unsupported") && e.contains(needle), "{e}");
+    }
+    // `--help` names the cone solvers.
+    let help = text(&lcpbench(&["simulate", "--help"]).stdout);
+    assert!(
+        help.contains("nsgs-cone") && help.contains("cone"),
+        "{help}"
+    );
+}
+
+#[test]
+fn export_of_a_cone_scene_writes_a_cone_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cone.json");
+    let o = lcpbench(&[
+        "export",
+        "bench_scenes/diagonal_push.toml",
+        "--friction-model",
+        "cone",
+        "--solver",
+        "nsgs-cone",
+        "--step",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // Both cone solvers solve it; an LCP solver declines the cone file.
+    for solver in ["nsgs-cone", "newton-ac"] {
+        let o = lcpbench(&["solve", out.to_str().unwrap(), "--solver", solver, "--json"]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["status"], "converged", "{solver}: {v}");
+    }
+    let o = lcpbench(&["solve", out.to_str().unwrap(), "--solver", "pgs", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_default();
+    assert_eq!(v["status"], "unsupported", "{}", text(&o.stderr));
+}

@@ -26,6 +26,10 @@
 //! * friction model `none` (or `mu = 0`): one normal row, `0 ≤ f_n`;
 //! * `box`: the normal row and two tangent rows `t₁, t₂`, friction rows bounded by `±mu f_n`
 //!   ([`FrictionRow`]);
+//! * `cone`: the same three rows per contact (normal, `t₁`, `t₂`, also when `mu = 0`), solved as
+//!   the exact Coulomb cone `‖(f_t₁, f_t₂)‖ ≤ mu f_n` ([`ContactSystem::cone_problem`], a
+//!   [`ConeProblem`] with `W = A`, `q = b`); the friction rows are kept so that the box-friction
+//!   LCP of the same rows is at hand (export, the box residual);
 //! * `pyramid` with `k` directions `d_j = cos(2πj/k) t₁ + sin(2πj/k) t₂`: the normal row, `k`
 //!   direction rows `β_j ≥ 0` and one slack row `γ ≥ 0` in the standard-LCP form of
 //!   Stewart–Trinkle (1996):
@@ -44,7 +48,9 @@ use crate::body::RigidBody;
 use crate::collision::Contact;
 use faer::sparse::{SparseRowMat, SymbolicSparseRowMat, Triplet};
 use faer::Mat;
-use lcpbench_solvers::{DelassusFactors, FrictionRow, Problem, ProblemError};
+use lcpbench_solvers::{
+    ConeError, ConeProblem, DelassusFactors, FrictionRow, Problem, ProblemError,
+};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -84,6 +90,43 @@ pub enum FrictionModel {
         /// Number of directions `k >= 3`.
         directions: usize,
     },
+    /// The exact Coulomb cone: the rows of [`FrictionModel::Box`] (normal and two tangents per
+    /// contact), solved as an FC3D [`ConeProblem`] by a cone solver.
+    Cone,
+}
+
+impl FrictionModel {
+    /// The name used in scene files, case keys and on the command line: `none`, `box`,
+    /// `pyramid` (4 directions) or `pyramid-K`, `cone`.
+    pub fn name(&self) -> String {
+        match self {
+            FrictionModel::None => "none".into(),
+            FrictionModel::Box => "box".into(),
+            FrictionModel::Pyramid { directions: 4 } => "pyramid".into(),
+            FrictionModel::Pyramid { directions } => format!("pyramid-{directions}"),
+            FrictionModel::Cone => "cone".into(),
+        }
+    }
+
+    /// Inverse of [`FrictionModel::name`] (`pyramid-K` for `K` in 3 to 64).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(FrictionModel::None),
+            "box" => Some(FrictionModel::Box),
+            "pyramid" => Some(FrictionModel::Pyramid { directions: 4 }),
+            "cone" => Some(FrictionModel::Cone),
+            _ => name
+                .strip_prefix("pyramid-")?
+                .parse()
+                .ok()
+                .filter(|k| (3..=64).contains(k))
+                .map(|directions| FrictionModel::Pyramid { directions }),
+        }
+    }
+
+    /// The names [`FrictionModel::from_name`] takes, for messages.
+    pub const NAMES: &'static str =
+        "none, box, pyramid (4 directions), pyramid-K (K = 3 to 64), cone";
 }
 
 /// How penetration is corrected.
@@ -565,6 +608,79 @@ impl ContactSystem {
         self.subset_problem(&subset, friction, b)
     }
 
+    /// The step's contact problem as the exact Coulomb cone: `W = A`, `q = b` and `mu` of each
+    /// contact (`W` sparse, dense when tiny). Needs every contact to have the three rows of the
+    /// cone (or box) model, normal then two tangents; otherwise
+    /// [`ConeError::NotContactTriples`] names the first contact that has not.
+    pub fn cone_problem(&self) -> Result<ConeProblem, ConeError> {
+        let (rows, bodies) = self.identity();
+        let contacts: Vec<usize> = (0..self.contacts.len()).collect();
+        let subset = Subset {
+            rows: &rows,
+            bodies: &bodies,
+            local_row: &rows,
+            local_body: &bodies,
+        };
+        self.subset_cone_problem(&subset, &contacts, self.b())
+    }
+
+    /// The cone problem of island `k` of `partition` (see [`ContactSystem::cone_problem`]).
+    pub fn island_cone_problem(
+        &self,
+        partition: &Partition,
+        k: usize,
+    ) -> Result<ConeProblem, ConeError> {
+        let island = &partition.islands[k];
+        let subset = Subset {
+            rows: &island.rows,
+            bodies: &island.bodies,
+            local_row: &partition.local_row,
+            local_body: &partition.local_body,
+        };
+        let b = island
+            .rows
+            .iter()
+            .map(|&i| self.free_rate[i] + self.bias[i])
+            .collect();
+        self.subset_cone_problem(&subset, &island.contacts, b)
+    }
+
+    fn subset_cone_problem(
+        &self,
+        subset: &Subset,
+        contacts: &[usize],
+        q: Vec<f64>,
+    ) -> Result<ConeProblem, ConeError> {
+        for &c in contacts {
+            let info = &self.info[c];
+            let triple = info.slack_row.is_none()
+                && info.friction_rows.len() == 2
+                && info.friction_rows.start == info.normal_row + 1;
+            if !triple {
+                return Err(ConeError::NotContactTriples {
+                    row: subset.local_row[info.normal_row],
+                    reason: format!(
+                        "contact {c} has {} friction rows{}; the cone takes a normal and two \
+                         tangent rows per contact (friction_model \"cone\")",
+                        info.friction_rows.len(),
+                        if info.slack_row.is_some() {
+                            " and a pyramid slack row"
+                        } else {
+                            ""
+                        }
+                    ),
+                });
+            }
+        }
+        let mu = contacts.iter().map(|&c| self.info[c].mu).collect();
+        let w = self.assemble_delassus(subset);
+        if subset.rows.len() <= DENSE_ROWS {
+            ConeProblem::new(w.to_dense(), q, mu)
+        } else {
+            ConeProblem::new_sparse(w, q, mu)
+        }
+    }
+
     fn subset_problem(
         &self,
         subset: &Subset,
@@ -1037,41 +1153,44 @@ pub fn build(
         // Friction rows, only when needed.
         let first = sys.rows.len();
         let mut slack_row = None;
-        match params.friction_model {
-            _ if mu == 0.0 => {}
-            FrictionModel::None => {}
-            FrictionModel::Box => {
-                for (index, t) in [tangents.0, tangents.1].into_iter().enumerate() {
-                    let i = sys.rows.len();
-                    sys.rows
-                        .push(row_for(t, RowKind::Tangent { contact: c, index }));
-                    sys.friction.push(FrictionRow {
-                        row: i,
-                        normal: normal_row,
-                        mu,
-                    });
-                    sys.lo.push(f64::NEG_INFINITY);
-                    sys.hi.push(f64::INFINITY);
-                }
-            }
-            FrictionModel::Pyramid { directions } => {
-                let k = directions.max(3);
-                for index in 0..k {
-                    let th = 2.0 * std::f64::consts::PI * index as f64 / k as f64;
-                    let d = tangents.0 * th.cos() + tangents.1 * th.sin();
-                    sys.rows
-                        .push(row_for(d, RowKind::Direction { contact: c, index }));
-                    sys.lo.push(0.0);
-                    sys.hi.push(f64::INFINITY);
-                }
-                slack_row = Some(sys.rows.len());
-                sys.rows.push(JacobianRow {
-                    kind: RowKind::Slack { contact: c },
-                    blocks: Vec::new(),
+        // The cone keeps its three rows when mu = 0 (the cone is then the normal ray), so that
+        // every contact of a cone problem is a (normal, tangent, tangent) triple.
+        let tangent_rows = match params.friction_model {
+            FrictionModel::Cone => true,
+            FrictionModel::Box => mu > 0.0,
+            FrictionModel::None | FrictionModel::Pyramid { .. } => false,
+        };
+        if tangent_rows {
+            for (index, t) in [tangents.0, tangents.1].into_iter().enumerate() {
+                let i = sys.rows.len();
+                sys.rows
+                    .push(row_for(t, RowKind::Tangent { contact: c, index }));
+                sys.friction.push(FrictionRow {
+                    row: i,
+                    normal: normal_row,
+                    mu,
                 });
+                sys.lo.push(f64::NEG_INFINITY);
+                sys.hi.push(f64::INFINITY);
+            }
+        }
+        if let (FrictionModel::Pyramid { directions }, true) = (params.friction_model, mu > 0.0) {
+            let k = directions.max(3);
+            for index in 0..k {
+                let th = 2.0 * std::f64::consts::PI * index as f64 / k as f64;
+                let d = tangents.0 * th.cos() + tangents.1 * th.sin();
+                sys.rows
+                    .push(row_for(d, RowKind::Direction { contact: c, index }));
                 sys.lo.push(0.0);
                 sys.hi.push(f64::INFINITY);
             }
+            slack_row = Some(sys.rows.len());
+            sys.rows.push(JacobianRow {
+                kind: RowKind::Slack { contact: c },
+                blocks: Vec::new(),
+            });
+            sys.lo.push(0.0);
+            sys.hi.push(f64::INFINITY);
         }
         let friction_end = slack_row.unwrap_or(sys.rows.len());
         for i in first..sys.rows.len() {

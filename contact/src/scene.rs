@@ -8,10 +8,12 @@
 //! dt = 0.01                      # time step, s
 //! steps = 100                    # steps of a run
 //! gravity = [0.0, 0.0, -9.81]    # m/s²
-//! friction_model = "box"         # "none" | "box" | "pyramid"
+//! friction_model = "box"         # "none" | "box" | "pyramid" | "cone" (exact Coulomb cone)
 //! pyramid_directions = 4         # friction directions of the pyramid model (>= 3)
-//! solver = "pgs"                 # a matrix solver (pgs, sor, lemke, dantzig, clarabel, micro)
-//!                                # or a body-level one (si, body-micro, penalty)
+//! solver = "pgs"                 # a matrix solver (pgs, sor, lemke, dantzig, clarabel, micro, ...)
+//!                                # or a body-level one (si, body-micro, penalty); with
+//!                                # friction_model = "cone" a cone solver (nsgs-cone, the
+//!                                # default there, or newton-ac)
 //! tolerance = 1e-6               # on the relative natural-map residual
 //! max_iterations = 1000          # sweeps / pivots / iterations per step
 //! warm_start = true              # start iterative solvers from last step's impulses
@@ -180,7 +182,7 @@ struct SettingsFile {
     gravity: [f64; 3],
     friction_model: String,
     pyramid_directions: usize,
-    solver: String,
+    solver: Option<String>,
     tolerance: f64,
     max_iterations: usize,
     warm_start: bool,
@@ -207,7 +209,7 @@ impl Default for SettingsFile {
             gravity: s.gravity.into(),
             friction_model: "box".into(),
             pyramid_directions: 4,
-            solver: s.solver.name().into(),
+            solver: None,
             tolerance: s.tolerance,
             max_iterations: s.max_iterations,
             warm_start: s.warm_start,
@@ -525,14 +527,18 @@ impl Scene {
     }
 }
 
-/// Check that `solver` can run the scene's friction model.
+/// Check that `solver` can run the scene's friction model ([`SolverChoice::supports`]): a
+/// body-level solver takes `none` or `box`, a matrix solver every model but `cone`, a cone
+/// solver only `cone`.
 pub fn check_solver(solver: SolverChoice, friction: FrictionModel) -> Result<(), String> {
-    match (solver, friction) {
-        (SolverChoice::Body(k), FrictionModel::Pyramid { .. }) => Err(format!(
-            "body-level solver `{}` supports friction_model \"none\" or \"box\", not \"pyramid\"",
-            k.name()
-        )),
-        _ => Ok(()),
+    solver.supports(friction)
+}
+
+/// The solver of a scene that names none: `pgs`, or `nsgs-cone` for the cone model.
+pub fn default_solver(friction: FrictionModel) -> SolverChoice {
+    match friction {
+        FrictionModel::Cone => SolverChoice::Cone(lcpbench_solvers::ConeSolverKind::NsgsCone),
+        _ => SimSettings::default().solver,
     }
 }
 
@@ -586,6 +592,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
     let friction_model = match s.friction_model.as_str() {
         "none" => FrictionModel::None,
         "box" => FrictionModel::Box,
+        "cone" => FrictionModel::Cone,
         "pyramid" => {
             if !(3..=MAX_PYRAMID_DIRECTIONS).contains(&s.pyramid_directions) {
                 return Err(err(
@@ -603,7 +610,9 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
         other => {
             return Err(err(
                 "friction_model",
-                format!("unknown model \"{other}\" (expected \"none\", \"box\" or \"pyramid\")"),
+                format!(
+                "unknown model \"{other}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
+            ),
             ))
         }
     };
@@ -620,16 +629,18 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             ))
         }
     };
-    let solver = SolverChoice::from_name(&s.solver).ok_or_else(|| {
-        err(
-            "solver",
-            format!(
-                "unknown solver \"{}\" (known: {})",
-                s.solver,
-                SolverChoice::all_names()
-            ),
-        )
-    })?;
+    let solver = match &s.solver {
+        None => default_solver(friction_model),
+        Some(name) => SolverChoice::from_name(name).ok_or_else(|| {
+            err(
+                "solver",
+                format!(
+                    "unknown solver \"{name}\" (known: {})",
+                    SolverChoice::all_names()
+                ),
+            )
+        })?,
+    };
     check_solver(solver, friction_model).map_err(|m| err("solver", m))?;
     let baumgarte = non_negative("baumgarte", s.baumgarte)?;
     if baumgarte > 1.0 {

@@ -7,7 +7,9 @@
 //! 2. **build** the contact system at the free velocity `u* = u + h M⁻¹ f_ext`
 //!    ([`builder::build`]);
 //! 3. **solve** it for the impulse `f` with the chosen solver (a matrix solver on
-//!    `A = J M⁻¹ Jᵀ`, or a body-level solver on the matrix-free operator);
+//!    `A = J M⁻¹ Jᵀ`, a body-level solver on the matrix-free operator, or, for the friction
+//!    model `cone`, a cone solver on the FC3D problem `W = A`, `q = b`); islands are solved
+//!    separately, in parallel;
 //! 4. **apply** the impulses to the momenta and **integrate** the positions
 //!    ([`integrate`]: symplectic Euler for bodies that received an impulse, RK4 for free
 //!    flight), moving by the split-impulse pseudo-velocity too when that correction is chosen;
@@ -44,6 +46,7 @@
 
 use crate::body::RigidBody;
 use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
+use crate::builder::FrictionModel;
 use crate::builder::PositionCorrection;
 use crate::builder::{
     self, BodyVelocity, BuilderParams, ContactSystem, Material, Partition, WarmStartCache,
@@ -52,28 +55,33 @@ use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, HistoryPoint, Problem, ProjectedSor, Residuals, Settings, SolveResult, Solver,
-    SolverKind, Status,
+    residuals, ConeProblem, ConeSolver, ConeSolverKind, HistoryPoint, Problem, ProjectedSor,
+    Residuals, Settings, SolveResult, Solver, SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::time::Instant;
 
-/// A contact solver for a scene: a matrix solver of `lcpbench-solvers` or a body-level one.
+/// A contact solver for a scene: a matrix solver of `lcpbench-solvers`, a body-level one, or a
+/// solver of the exact Coulomb cone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SolverChoice {
-    /// A solver on the assembled LCP.
+    /// A solver on the assembled LCP (friction models `none`, `box`, `pyramid`).
     Matrix(SolverKind),
-    /// A solver on bodies (matrix-free).
+    /// A solver on bodies (matrix-free; friction models `none`, `box`).
     Body(BodySolverKind),
+    /// A solver of the FC3D cone problem (friction model `cone` only).
+    Cone(ConeSolverKind),
 }
 
 impl SolverChoice {
-    /// Look a solver up by name: the matrix solvers' names, then `si`, `body-micro`, `penalty`.
+    /// Look a solver up by name: the matrix solvers' names, then `si`, `body-micro`, `penalty`,
+    /// then the cone solvers `nsgs-cone`, `newton-ac`.
     pub fn from_name(name: &str) -> Option<Self> {
         SolverKind::from_name(name)
             .map(SolverChoice::Matrix)
             .or_else(|| BodySolverKind::from_name(name).map(SolverChoice::Body))
+            .or_else(|| ConeSolverKind::from_name(name).map(SolverChoice::Cone))
     }
 
     /// The solver's name.
@@ -81,7 +89,43 @@ impl SolverChoice {
         match self {
             SolverChoice::Matrix(k) => k.name(),
             SolverChoice::Body(k) => k.name(),
+            SolverChoice::Cone(k) => k.name(),
         }
+    }
+
+    /// `Ok` when this solver takes the problems of `model`; otherwise why not. A step whose
+    /// solver does not take the friction model is `Unsupported` with this reason (and applies
+    /// no impulse); scene files and the command line refuse the pair up front
+    /// ([`crate::scene::check_solver`]).
+    pub fn supports(self, model: FrictionModel) -> Result<(), String> {
+        match (self, model) {
+            (SolverChoice::Body(k), FrictionModel::Pyramid { .. }) => Err(format!(
+                "body-level solver `{}` supports friction_model \"none\" or \"box\", not \"pyramid\"",
+                k.name()
+            )),
+            (SolverChoice::Matrix(_) | SolverChoice::Body(_), FrictionModel::Cone) => Err(format!(
+                "solver `{}` solves the LCP models (friction_model \"none\", \"box\", \"pyramid\"), \
+                 not the exact Coulomb cone of friction_model \"cone\": use a cone solver ({})",
+                self.name(),
+                Self::cone_names()
+            )),
+            (SolverChoice::Cone(k), m) if m != FrictionModel::Cone => Err(format!(
+                "cone solver `{}` solves friction_model \"cone\" only, not \"{}\" (use a matrix or \
+                 body-level solver, or friction_model \"cone\")",
+                k.name(),
+                m.name()
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// Comma-separated names of the cone solvers.
+    pub fn cone_names() -> String {
+        ConeSolverKind::ALL
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// Every solver a scene can use.
@@ -90,6 +134,7 @@ impl SolverChoice {
             .into_iter()
             .map(SolverChoice::Matrix)
             .chain(BodySolverKind::ALL.into_iter().map(SolverChoice::Body))
+            .chain(ConeSolverKind::ALL.into_iter().map(SolverChoice::Cone))
             .collect()
     }
 
@@ -258,9 +303,14 @@ pub struct StepReport {
     /// solver records one (matrix solvers).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub history: Vec<HistoryPoint>,
-    /// The step's LCP, when [`SimSettings::keep_problem`] is set.
+    /// The step's LCP, when [`SimSettings::keep_problem`] is set (and the solver is not a cone
+    /// solver).
     #[serde(skip)]
     pub problem: Option<Problem>,
+    /// The step's cone problem, when [`SimSettings::keep_problem`] is set and a cone solver
+    /// solved the step (friction model `cone`).
+    #[serde(skip)]
+    pub cone_problem: Option<ConeProblem>,
 }
 
 /// The solved impulse of one step.
@@ -272,6 +322,7 @@ struct Solved {
     wall_s: f64,
     residuals: Option<Residuals>,
     problem: Option<Problem>,
+    cone_problem: Option<ConeProblem>,
     history: Vec<HistoryPoint>,
 }
 
@@ -291,29 +342,57 @@ fn solve_whole(solver: &mut dyn Solver, system: &ContactSystem, settings: &Setti
         wall_s: 0.0,
         residuals: Some(result.residuals),
         problem: Some(problem),
+        cone_problem: None,
         history: result.history,
     }
 }
 
-/// Solve each island of `partition` on its own (one solver of `kind` per island, in parallel
-/// with rayon) and scatter the impulses back. The step's residuals are those of the whole:
-/// every measure is a maximum over rows except the complementarity gap, a sum, and `A` has no
-/// entry between islands. The status is the worst island's.
-fn solve_islands(
-    kind: SolverKind,
+/// Solve the whole step as one cone problem with `solver`.
+fn solve_whole_cone(
+    solver: &mut dyn ConeSolver,
+    system: &ContactSystem,
+    settings: &Settings,
+) -> Solved {
+    let n = system.n();
+    let problem = match system.cone_problem() {
+        Ok(p) => p,
+        Err(e) => return Solved::invalid(n, &e),
+    };
+    let result = solver.solve_cone(&problem, settings);
+    Solved {
+        f: usable_impulse(&result, n),
+        status: result.status,
+        iterations: result.iterations,
+        time_s: result.time.as_secs_f64(),
+        wall_s: 0.0,
+        residuals: Some(result.residuals),
+        problem: None,
+        cone_problem: Some(problem),
+        history: result.history,
+    }
+}
+
+/// Solve each island of `partition` on its own with `solve_island(k, settings)` (a fresh solver
+/// per island, in parallel with rayon) and scatter the impulses back. The island's settings
+/// carry its part of the warm start. The step's residuals are those of the whole: every
+/// measure is a maximum over rows (or contacts, for the cone residual) except the
+/// complementarity gap, a sum, and `A` has no entry between islands. The status is the worst
+/// island's.
+fn solve_islands<F>(
     system: &ContactSystem,
     partition: &Partition,
     settings: &Settings,
-) -> Solved {
+    solve_island: F,
+) -> Solved
+where
+    F: Fn(usize, &Settings) -> Result<SolveResult, String> + Sync,
+{
     use rayon::prelude::*;
     let n = system.n();
     let results: Vec<Result<SolveResult, String>> = (0..partition.len())
         .into_par_iter()
         .map(|k| {
             let rows = &partition.islands[k].rows;
-            let problem = system
-                .island_problem(partition, k)
-                .map_err(|e| e.to_string())?;
             let island_settings = Settings {
                 warm_start: settings
                     .warm_start
@@ -321,7 +400,7 @@ fn solve_islands(
                     .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
                 ..settings.clone()
             };
-            Ok(kind.create().solve(&problem, &island_settings))
+            solve_island(k, &island_settings)
         })
         .collect();
     let mut f = vec![0.0; n];
@@ -370,6 +449,7 @@ fn solve_islands(
         wall_s: 0.0,
         residuals: Some(res),
         problem: None,
+        cone_problem: None,
         history,
     }
 }
@@ -412,7 +492,16 @@ impl Solved {
             wall_s: 0.0,
             residuals: None,
             problem: None,
+            cone_problem: None,
             history: Vec::new(),
+        }
+    }
+
+    /// No impulse: the solver does not take the step's friction model.
+    fn unsupported(n: usize, reason: String) -> Self {
+        Solved {
+            status: Status::Unsupported { reason },
+            ..Self::invalid(n, &"")
         }
     }
 }
@@ -438,6 +527,7 @@ pub struct World {
     /// Simulated time, s.
     pub time: f64,
     matrix_solver: Option<Box<dyn Solver + Send>>,
+    cone_solver: Option<Box<dyn ConeSolver + Send>>,
 }
 
 impl World {
@@ -455,6 +545,7 @@ impl World {
             step_index: 0,
             time: 0.0,
             matrix_solver: None,
+            cone_solver: None,
         };
         world.set_solver(world.settings.solver);
         world
@@ -465,7 +556,11 @@ impl World {
         self.settings.solver = solver;
         self.matrix_solver = match solver {
             SolverChoice::Matrix(kind) => Some(kind.create()),
-            SolverChoice::Body(_) => None,
+            SolverChoice::Body(_) | SolverChoice::Cone(_) => None,
+        };
+        self.cone_solver = match solver {
+            SolverChoice::Cone(kind) => Some(kind.create()),
+            SolverChoice::Matrix(_) | SolverChoice::Body(_) => None,
         };
     }
 
@@ -551,8 +646,19 @@ impl World {
                 wall_s: 0.0,
                 residuals: None,
                 problem: None,
+                cone_problem: None,
                 history: Vec::new(),
             };
+        }
+        if let Err(reason) = self
+            .settings
+            .solver
+            .supports(self.settings.builder.friction_model)
+        {
+            self.warm.clear();
+            let mut solved = Solved::unsupported(n, reason);
+            solved.wall_s = wall.elapsed().as_secs_f64();
+            return solved;
         }
         let warm_start = self
             .settings
@@ -566,13 +672,40 @@ impl World {
                     settings.warm_start = warm_start;
                 }
                 let mut solved = if self.settings.islands && partition.len() > 1 {
-                    solve_islands(kind, system, partition, &settings)
+                    solve_islands(system, partition, &settings, |k, s| {
+                        let problem = system
+                            .island_problem(partition, k)
+                            .map_err(|e| e.to_string())?;
+                        Ok(kind.create().solve(&problem, s))
+                    })
                 } else {
                     let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
                     solve_whole(solver.as_mut(), system, &settings)
                 };
                 if self.settings.keep_problem && solved.problem.is_none() {
                     solved.problem = system.problem().ok();
+                }
+                self.warm.store(system, &solved.f);
+                solved.wall_s = wall.elapsed().as_secs_f64();
+                solved
+            }
+            SolverChoice::Cone(kind) => {
+                let mut settings = self.solver_settings();
+                settings.record_history = self.settings.record_history;
+                settings.warm_start = warm_start;
+                let mut solved = if self.settings.islands && partition.len() > 1 {
+                    solve_islands(system, partition, &settings, |k, s| {
+                        let problem = system
+                            .island_cone_problem(partition, k)
+                            .map_err(|e| e.to_string())?;
+                        Ok(kind.create().solve_cone(&problem, s))
+                    })
+                } else {
+                    let solver = self.cone_solver.get_or_insert_with(|| kind.create());
+                    solve_whole_cone(solver.as_mut(), system, &settings)
+                };
+                if self.settings.keep_problem && solved.cone_problem.is_none() {
+                    solved.cone_problem = system.cone_problem().ok();
                 }
                 self.warm.store(system, &solved.f);
                 solved.wall_s = wall.elapsed().as_secs_f64();
@@ -645,6 +778,7 @@ impl World {
                     wall_s: wall.elapsed().as_secs_f64(),
                     residuals: res,
                     problem,
+                    cone_problem: None,
                     history: Vec::new(),
                 }
             }
@@ -816,6 +950,11 @@ impl World {
             time_of_impact,
             problem: if self.settings.keep_problem {
                 solved.problem
+            } else {
+                None
+            },
+            cone_problem: if self.settings.keep_problem {
+                solved.cone_problem
             } else {
                 None
             },

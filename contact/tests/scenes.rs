@@ -129,8 +129,16 @@ fn errors_name_file_field_and_problem() {
             &["settings.solver", "unknown solver \"pgz\"", "body-micro"],
         ),
         (
-            "[settings]\nfriction_model = \"cone\"\n",
-            &["settings.friction_model", "\"cone\""],
+            "[settings]\nfriction_model = \"ellipse\"\n",
+            &["settings.friction_model", "\"ellipse\"", "\"cone\""],
+        ),
+        (
+            "[settings]\nfriction_model = \"cone\"\nsolver = \"pgs\"\n",
+            &["settings.solver", "`pgs`", "cone solver (nsgs-cone, newton-ac)"],
+        ),
+        (
+            "[settings]\nsolver = \"nsgs-cone\"\n",
+            &["settings.solver", "`nsgs-cone`", "\"box\""],
         ),
         (
             "[settings]\nfriction_model = \"pyramid\"\nsolver = \"si\"\n",
@@ -224,6 +232,23 @@ fn rows_follow_the_friction_model() {
     assert_eq!(rows.len(), 1 + 6 + 1);
     assert!(standard, "the pyramid model is a standard LCP");
     assert!(matches!(rows[7], RowKind::Slack { .. }));
+
+    let (_, rows, _) = rows_of("cone");
+    assert_eq!(rows.len(), 3, "the cone: a normal and two tangent rows");
+    assert!(matches!(rows[0], RowKind::Normal { .. }));
+    assert!(matches!(rows[2], RowKind::Tangent { index: 1, .. }));
+}
+
+#[test]
+fn a_cone_scene_defaults_to_nsgs_cone() {
+    let s = parse(&format!("[settings]\nfriction_model = \"cone\"\n{BALL}")).unwrap();
+    assert_eq!(s.settings.builder.friction_model, FrictionModel::Cone);
+    assert_eq!(s.settings.solver.name(), "nsgs-cone");
+    for name in ["none", "box", "pyramid", "pyramid-8", "cone"] {
+        let m = FrictionModel::from_name(name).unwrap();
+        assert_eq!(m.name(), name);
+    }
+    assert!(FrictionModel::from_name("pyramid-2").is_none());
 }
 
 #[test]

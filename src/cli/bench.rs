@@ -9,7 +9,8 @@ use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::{cross_product, run_sweep, Case, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_solvers::SolverKind;
+use lcpbench_contact::FrictionModel;
+use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
 
 /// Arguments of `lcpbench bench`.
@@ -22,9 +23,14 @@ pub struct BenchArgs {
     /// `matrix` for the generated families of the report. Default: `matrix` when no `--scenes`.
     #[arg(long, value_delimiter = ',')]
     pub lcps: Vec<String>,
-    /// Solvers, comma-separated: names (`pgs`, `lemke`, …, and for scenes `si`, `body-micro`,
-    /// `penalty`), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers) or `body` (the
-    /// body-level ones).
+    /// Friction models the `--scenes` run under, comma-separated (none, box, pyramid,
+    /// pyramid-K, cone): one case per scene and model (`scene:PATH?friction=MODEL`). Default:
+    /// each scene's own. A solver that does not take a model is recorded `unsupported`.
+    #[arg(long, value_delimiter = ',')]
+    pub friction_models: Vec<String>,
+    /// Solvers, comma-separated: names (`pgs`, `lemke`, …, for scenes `si`, `body-micro`,
+    /// `penalty`, and the cone solvers `nsgs-cone`, `newton-ac`), `sor@OMEGA`, `NAME+warm`,
+    /// `all` (the matrix solvers), `body` (the body-level ones) or `cone` (the cone solvers).
     #[arg(long, value_delimiter = ',', default_value = "all")]
     pub solvers: Vec<String>,
     /// Budgets, comma-separated: presets (loose, default, tight, realtime) or TOL:ITER:SECONDS.
@@ -94,6 +100,8 @@ fn parse_solvers(list: &[String]) -> Result<Vec<SolverSpec>> {
             out.extend(SolverKind::ALL.into_iter().map(SolverSpec::plain));
         } else if s == "body" {
             out.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+        } else if s == "cone" {
+            out.extend(ConeSolverKind::ALL.into_iter().map(SolverSpec::cone));
         } else {
             out.push(s.parse()?);
         }
@@ -129,7 +137,31 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
         if scenes.is_empty() {
             bail!("--scenes `{pattern}` matches no files");
         }
-        cases.extend(scenes.into_iter().map(|p| Case::scene(p, None)));
+        let models = args
+            .friction_models
+            .iter()
+            .map(|m| {
+                FrictionModel::from_name(m).with_context(|| {
+                    format!(
+                        "--friction-models: unknown model `{m}` (known: {})",
+                        FrictionModel::NAMES
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        for p in scenes {
+            if models.is_empty() {
+                cases.push(Case::scene(p, None));
+            } else {
+                cases.extend(
+                    models
+                        .iter()
+                        .map(|m| Case::scene_with_friction(&p, None, *m)),
+                );
+            }
+        }
+    } else if !args.friction_models.is_empty() {
+        bail!("--friction-models applies to --scenes");
     }
     if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {
         bail!("nothing to run: need at least one case, solver and budget");

@@ -6,7 +6,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
 use lcpbench_contact::step::{SolverChoice, World};
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::write_problem;
+use lcpbench_solvers::{cone_problem_to_json, write_problem};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -17,11 +17,13 @@ use std::path::{Path, PathBuf};
 pub struct SimulateArgs {
     /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
-    /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`) or a
-    /// body-level one (si, body-micro, penalty).
+    /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
+    /// body-level one (si, body-micro, penalty), or, for friction model cone, a cone solver
+    /// (nsgs-cone, newton-ac). A solver that does not take the friction model is refused.
     #[arg(long, short)]
     pub solver: Option<String>,
-    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K
+    /// (K directions), or cone (the exact Coulomb cone; needs a cone solver).
     #[arg(long)]
     pub friction_model: Option<String>,
     /// Number of steps (overrides the scene's).
@@ -63,10 +65,12 @@ pub struct ExportArgs {
     /// The step whose LCP is written (0-based; earlier steps are simulated first).
     #[arg(long, default_value_t = 0)]
     pub step: usize,
-    /// Solver used for the steps before `--step` (overrides the scene's).
+    /// Solver used for the steps before `--step` (overrides the scene's; a cone solver for
+    /// friction model cone).
     #[arg(long, short)]
     pub solver: Option<String>,
-    /// Friction model (overrides the scene's): none, box, or pyramid (4 directions).
+    /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K, or
+    /// cone (writes the step's cone problem, which `lcpbench solve` reads too).
     #[arg(long)]
     pub friction_model: Option<String>,
     /// Output problem file (JSON, the `lcpbench solve` format).
@@ -110,12 +114,13 @@ fn load_world(
 ) -> Result<(Scene, World)> {
     let mut scene = Scene::load(path)?;
     if let Some(model) = friction_model {
-        scene.settings.builder.friction_model = match model {
-            "none" => FrictionModel::None,
-            "box" => FrictionModel::Box,
-            "pyramid" => FrictionModel::Pyramid { directions: 4 },
-            other => bail!("unknown friction model `{other}` (known: none, box, pyramid)"),
-        };
+        scene.settings.builder.friction_model =
+            FrictionModel::from_name(model).with_context(|| {
+                format!(
+                    "unknown friction model `{model}` (known: {})",
+                    FrictionModel::NAMES
+                )
+            })?;
     }
     if let Some(name) = solver {
         let choice = SolverChoice::from_name(name).with_context(|| {
@@ -126,10 +131,75 @@ fn load_world(
         })?;
         scene.settings.solver = choice;
     }
-    check_solver(scene.settings.solver, scene.settings.builder.friction_model)
-        .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+    check_solver(scene.settings.solver, scene.settings.builder.friction_model).map_err(|m| {
+        anyhow::anyhow!(
+            "{}: unsupported solver for this friction model: {m}{}",
+            path.display(),
+            match scene.settings.solver {
+                SolverChoice::Cone(_) => " (--friction-model cone selects the cone)",
+                _ => "",
+            }
+        )
+    })?;
     let world = scene.world();
     Ok((scene, world))
+}
+
+/// The highest dynamic body at the start and the height the scene expects it to keep
+/// (`[metrics] expected_top_height` or `expected_rest_height`), for the sag and lateral drift
+/// of stacks (the same measure as the harness's scene rows).
+struct TopBody {
+    name: String,
+    start: nalgebra::Point3<f64>,
+    expected: f64,
+    up: nalgebra::Vector3<f64>,
+}
+
+impl TopBody {
+    fn of(scene: &Scene, world: &World) -> Option<Self> {
+        let expected = ["expected_top_height", "expected_rest_height"]
+            .iter()
+            .find_map(|k| match scene.metrics.get(*k)? {
+                toml::Value::Float(v) => Some(*v),
+                toml::Value::Integer(v) => Some(*v as f64),
+                _ => None,
+            })?;
+        let g = world.settings.gravity;
+        let up = if g.norm() > 0.0 {
+            -g / g.norm()
+        } else {
+            nalgebra::Vector3::z()
+        };
+        let top = world
+            .bodies
+            .iter()
+            .filter(|b| !b.is_static)
+            .max_by(|a, b| {
+                a.position
+                    .coords
+                    .dot(&up)
+                    .total_cmp(&b.position.coords.dot(&up))
+            })?;
+        Some(Self {
+            name: top.name.clone(),
+            start: top.position,
+            expected,
+            up,
+        })
+    }
+
+    /// `(sag, lateral drift)`: expected minus final height, and the horizontal displacement.
+    fn measure(&self, world: &World) -> (Option<f64>, Option<f64>) {
+        let Some(i) = world.body_index(&self.name) else {
+            return (None, None);
+        };
+        let p = world.bodies[i].position;
+        let d = p - self.start;
+        (
+            Some(self.expected - p.coords.dot(&self.up)),
+            Some((d - d.dot(&self.up) * self.up).norm()),
+        )
+    }
 }
 
 /// Run `lcpbench simulate`.
@@ -185,6 +255,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let mut max_res: Option<f64> = None;
     let (mut islands, mut largest_island, mut solve_wall) = (0usize, 0usize, 0.0);
     let mut last_energy = energy0;
+    let top = TopBody::of(&scene, &world);
     let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
         bar.inc(1);
@@ -196,7 +267,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
                 report.solver,
                 report.step,
                 report.rows,
-                if reason.contains("friction") {
+                if reason.contains("friction row") {
                     " (try friction_model = \"pyramid\" or \"none\")"
                 } else {
                     ""
@@ -243,6 +314,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         super::view::write_page(path, &html)?;
     }
     let n = steps.max(1) as f64;
+    let (sag, drift) = top.as_ref().map_or((None, None), |t| t.measure(&world));
     if args.json {
         let out = json!({
             "scene": scene.name,
@@ -266,6 +338,8 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             "max_friction_cone_violation": max_cone,
             "initial_energy": energy0,
             "final_energy": last_energy,
+            "sag": sag,
+            "lateral_drift": drift,
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -307,6 +381,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         None => println!("max residual      not measured"),
     }
     println!("max penetration   {max_pen:.3e} m");
+    if let (Some(sag), Some(drift)) = (sag, drift) {
+        println!("top body          sag {sag:.3e} m, lateral drift {drift:.3e} m");
+    }
     println!("cone violation    {max_cone:.3e} N s");
     println!(
         "energy            {energy0:.6} J -> {last_energy:.6} J ({:+.3e} J)",
@@ -331,6 +408,20 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
     bar.finish_and_clear();
     world.settings.keep_problem = true;
     let report = world.step();
+    if let Some(cone) = report.cone_problem {
+        let cone = cone.with_name(format!("{} step {}", scene.name, args.step));
+        std::fs::write(&args.output, cone_problem_to_json(&cone))
+            .with_context(|| format!("cannot write {}", args.output.display()))?;
+        println!(
+            "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
+            args.output.display(),
+            cone.contacts(),
+            cone.n(),
+            args.step,
+            scene.name
+        );
+        return Ok(());
+    }
     let Some(problem) = report.problem else {
         bail!(
             "step {} of {} has no contacts, so there is no LCP to export",

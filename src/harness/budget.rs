@@ -2,7 +2,8 @@
 //! its variant: SOR relaxation, warm or cold start).
 
 use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_solvers::{ProjectedSor, Settings, Solver, SolverKind};
+use lcpbench_contact::SolverChoice;
+use lcpbench_solvers::{ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
 use std::time::Duration;
 use thiserror::Error;
@@ -260,14 +261,19 @@ impl Fault {
 }
 
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
-/// `si+warm`. Names are the matrix solvers of `lcpbench-solvers` and the body-level solvers of
-/// `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only).
+/// `si+warm`, `nsgs-cone+warm`. Names are the matrix solvers of `lcpbench-solvers`, the
+/// body-level solvers of `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only) and
+/// the cone solvers (`nsgs-cone`, `newton-ac`: scenes with friction model `cone`, and LCP cases
+/// whose rows are (normal, tangent, tangent) triples, solved as the cone).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverSpec {
-    /// The matrix solver, or `None` for a body-level solver or a fault-injection pseudo-solver.
+    /// The matrix solver, or `None` for a body-level or cone solver or a fault-injection
+    /// pseudo-solver.
     pub kind: Option<SolverKind>,
     /// The body-level solver (scenes only).
     pub body: Option<BodySolverKind>,
+    /// The cone solver.
+    pub cone: Option<ConeSolverKind>,
     /// SOR relaxation (only for `sor`).
     pub omega: Option<f64>,
     /// Warm start (iterative solvers): from a nearby solution for LCP cases, from the previous
@@ -283,6 +289,7 @@ impl SolverSpec {
         Self {
             kind: Some(kind),
             body: None,
+            cone: None,
             omega: None,
             warm: false,
             fault: None,
@@ -294,15 +301,39 @@ impl SolverSpec {
         Self {
             kind: None,
             body: Some(kind),
+            cone: None,
             omega: None,
             warm: false,
             fault: None,
         }
     }
 
+    /// Plain cone solver, cold start.
+    pub fn cone(kind: ConeSolverKind) -> Self {
+        Self {
+            kind: None,
+            body: None,
+            cone: Some(kind),
+            omega: None,
+            warm: false,
+            fault: None,
+        }
+    }
+
+    /// The solver as the stepper names it (`None` for a fault pseudo-solver).
+    pub fn scene_choice(&self) -> Option<SolverChoice> {
+        match (self.kind, self.body, self.cone) {
+            (Some(kind), _, _) => Some(SolverChoice::Matrix(kind)),
+            (None, Some(body), _) => Some(SolverChoice::Body(body)),
+            (None, None, Some(cone)) => Some(SolverChoice::Cone(cone)),
+            (None, None, None) => None,
+        }
+    }
+
     /// True when the solver iterates from a starting impulse (so `+warm` means something).
     pub fn is_iterative(&self) -> bool {
         self.kind.is_some_and(SolverKind::is_iterative)
+            || self.cone.is_some()
             || matches!(
                 self.body,
                 Some(BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses)
@@ -311,11 +342,10 @@ impl SolverSpec {
 
     /// The solver kind's name, or `fault-…`.
     pub fn base_name(&self) -> String {
-        match (self.kind, self.body, self.fault) {
-            (Some(kind), _, _) => kind.name().to_owned(),
-            (None, Some(body), _) => body.name().to_owned(),
-            (None, None, Some(f)) => format!("fault-{}", f.name()),
-            (None, None, None) => "none".to_owned(),
+        match (self.scene_choice(), self.fault) {
+            (Some(choice), _) => choice.name().to_owned(),
+            (None, Some(f)) => format!("fault-{}", f.name()),
+            (None, None) => "none".to_owned(),
         }
     }
 
@@ -368,15 +398,23 @@ impl std::str::FromStr for SolverSpec {
             return Ok(Self {
                 kind: None,
                 body: None,
+                cone: None,
                 omega: None,
                 warm: false,
                 fault: Some(fault),
             });
         }
-        let mut out = match BodySolverKind::from_name(name) {
-            Some(body) => Self::body(body),
-            None => Self::plain(name.parse().map_err(|e: String| {
-                err(format!("{e}; body-level solvers: si, body-micro, penalty"))
+        let mut out = match (
+            BodySolverKind::from_name(name),
+            ConeSolverKind::from_name(name),
+        ) {
+            (Some(body), _) => Self::body(body),
+            (None, Some(cone)) => Self::cone(cone),
+            (None, None) => Self::plain(name.parse().map_err(|e: String| {
+                err(format!(
+                    "{e}; body-level solvers: si, body-micro, penalty; cone solvers: {}",
+                    SolverChoice::cone_names()
+                ))
             })?),
         };
         if omega.is_some() && out.kind != Some(SolverKind::Sor) {
@@ -411,6 +449,8 @@ mod tests {
             "sor@0.9+warm",
             "fault-hang",
             "lemke",
+            "nsgs-cone",
+            "newton-ac+warm",
         ] {
             let spec: SolverSpec = s.parse().unwrap();
             assert_eq!(spec.to_string(), s);

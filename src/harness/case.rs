@@ -17,7 +17,10 @@
 //! | `file:PATH`                           | a problem file: JSON (e.g. from `lcpbench export`), Siconos `.dat`, FCLIB `.hdf5` |
 //! | `scene:PATH`                          | a scene file, stepped with the chosen solver           |
 //! | `scene:PATH?steps=N`                  | the same, at most `N` steps                            |
+//! | `scene:PATH?friction=MODEL`           | the scene with its friction model replaced (`none`, `box`, `pyramid`, `pyramid-K`, `cone`) |
+//! | `scene:PATH?steps=N&friction=MODEL`   | both                                                   |
 
+use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::generate::{self, generate, Family, Generated};
 use lcpbench_solvers::{read_problem, Problem};
 use rand::{Rng, SeedableRng};
@@ -147,6 +150,8 @@ pub enum Case {
         path: PathBuf,
         /// Cap on the steps taken (the scene's own step count when `None`).
         steps: Option<usize>,
+        /// Friction model replacing the scene's (the scene's own when `None`).
+        friction: Option<FrictionModel>,
     },
 }
 
@@ -183,11 +188,24 @@ impl fmt::Display for Case {
                 GenFamily::Infeasible => write!(out, "infeasible:n={n}:seed={seed}"),
             },
             Case::File(p) => write!(out, "file:{}", p.display()),
-            Case::Scene { path, steps: None } => write!(out, "scene:{}", path.display()),
             Case::Scene {
                 path,
-                steps: Some(n),
-            } => write!(out, "scene:{}?steps={n}", path.display()),
+                steps,
+                friction,
+            } => {
+                write!(out, "scene:{}", path.display())?;
+                let mut query = Vec::new();
+                if let Some(n) = steps {
+                    query.push(format!("steps={n}"));
+                }
+                if let Some(m) = friction {
+                    query.push(format!("friction={}", m.name()));
+                }
+                if !query.is_empty() {
+                    write!(out, "?{}", query.join("&"))?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -204,21 +222,36 @@ impl std::str::FromStr for Case {
             return Ok(Case::File(PathBuf::from(path)));
         }
         if let Some(rest) = key.strip_prefix("scene:") {
-            let (path, steps) = match rest.rsplit_once("?steps=") {
-                Some((p, n)) => (
-                    p,
-                    Some(
-                        n.parse::<usize>()
-                            .ok()
-                            .filter(|&s| s >= 1)
-                            .ok_or_else(|| err(format!("`{n}` is not a step count (>= 1)")))?,
-                    ),
-                ),
-                None => (rest, None),
+            let (path, query) = match rest.rsplit_once('?') {
+                Some((p, q)) if q.starts_with("steps=") || q.starts_with("friction=") => (p, q),
+                _ => (rest, ""),
             };
+            let (mut steps, mut friction) = (None, None);
+            for part in query.split('&').filter(|p| !p.is_empty()) {
+                match part.split_once('=') {
+                    Some(("steps", n)) => {
+                        steps = Some(
+                            n.parse::<usize>()
+                                .ok()
+                                .filter(|&s| s >= 1)
+                                .ok_or_else(|| err(format!("`{n}` is not a step count (>= 1)")))?,
+                        )
+                    }
+                    Some(("friction", m)) => {
+                        friction = Some(FrictionModel::from_name(m).ok_or_else(|| {
+                            err(format!(
+                                "unknown friction model `{m}` (known: {})",
+                                FrictionModel::NAMES
+                            ))
+                        })?)
+                    }
+                    _ => return Err(err(format!("`{part}` is not steps=N or friction=MODEL"))),
+                }
+            }
             return Ok(Case::Scene {
                 path: PathBuf::from(path),
                 steps,
+                friction,
             });
         }
         let mut parts = key.split(':');
@@ -330,11 +363,25 @@ impl Case {
         matches!(self, Case::Scene { .. })
     }
 
-    /// A scene case.
+    /// A scene case with the scene's own friction model.
     pub fn scene(path: impl Into<PathBuf>, steps: Option<usize>) -> Self {
         Case::Scene {
             path: path.into(),
             steps,
+            friction: None,
+        }
+    }
+
+    /// A scene case with its friction model replaced by `friction`.
+    pub fn scene_with_friction(
+        path: impl Into<PathBuf>,
+        steps: Option<usize>,
+        friction: FrictionModel,
+    ) -> Self {
+        Case::Scene {
+            path: path.into(),
+            steps,
+            friction: Some(friction),
         }
     }
 
@@ -452,6 +499,8 @@ mod tests {
             "file:reports/lcps/tower.json",
             "scene:bench_scenes/tower_10.toml",
             "scene:bench_scenes/tower_10.toml?steps=50",
+            "scene:bench_scenes/tower_10.toml?friction=cone",
+            "scene:bench_scenes/tower_10.toml?steps=50&friction=pyramid-8",
         ] {
             let case: Case = key.parse().unwrap();
             assert_eq!(case.to_string(), key);
@@ -459,6 +508,8 @@ mod tests {
         assert!("spd:n=0".parse::<Case>().is_err());
         assert!("spd:n=100000000".parse::<Case>().is_err());
         assert!("scene:a.toml?steps=0".parse::<Case>().is_err());
+        assert!("scene:a.toml?friction=ellipse".parse::<Case>().is_err());
+        assert!("scene:a.toml?steps=5&colour=red".parse::<Case>().is_err());
         assert!("spd:cond=1e3".parse::<Case>().is_err());
         assert!("cube:n=3".parse::<Case>().is_err());
     }

@@ -6,7 +6,9 @@ use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::{Case, GenFamily, LoadedLcp};
 use crate::harness::record::{RunRecord, TTA_LEVELS};
 use crate::harness::scene;
-use lcpbench_solvers::{HistoryPoint, ProjectedSor, Settings, SolveResult, Solver};
+use lcpbench_solvers::{
+    ConeProblem, ConeSolverKind, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
+};
 use std::time::Instant;
 
 /// What a run produced: the row and the convergence history (LCP cases; thinned).
@@ -72,6 +74,9 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     if let Case::File(_) = case {
         record.class = Case::class_of_problem(&lcp.problem).name().to_owned();
     }
+    if let Some(kind) = spec.cone {
+        return run_cone_lcp(kind, &lcp, spec, budget, record);
+    }
     let Some(mut solver) = spec.create() else {
         record.status = "error".into();
         record.reason = "no solver".into();
@@ -102,6 +107,42 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
             record.solution_error = Some(err / scale);
         }
     }
+    RunOutput {
+        record,
+        history: thin_history(&result.history, HISTORY_POINTS),
+    }
+}
+
+/// A cone solver on an LCP case: the box-friction problem read as the cone of its
+/// (normal, tangent, tangent) triples; any other problem is `unsupported`.
+fn run_cone_lcp(
+    kind: ConeSolverKind,
+    lcp: &LoadedLcp,
+    spec: &SolverSpec,
+    budget: &NamedBudget,
+    mut record: RunRecord,
+) -> RunOutput {
+    let problem = match ConeProblem::from_box(&lcp.problem) {
+        Ok(p) => p,
+        Err(e) => {
+            record.status = "unsupported".into();
+            record.reason = format!(
+                "{} takes the exact Coulomb cone: the problem is not one of contact triples ({e})",
+                kind.name()
+            );
+            return RunOutput {
+                record,
+                history: Vec::new(),
+            };
+        }
+    };
+    let mut settings = budget.budget.settings();
+    settings.record_history = true;
+    if spec.warm {
+        settings.warm_start = Some(warm_start_for(lcp));
+    }
+    let result = kind.create().solve_cone(&problem, &settings);
+    fill_from_result(&mut record, &result);
     RunOutput {
         record,
         history: thin_history(&result.history, HISTORY_POINTS),

@@ -5,7 +5,9 @@
 //! run stops stepping after [`Budget::scene_time_limit`](crate::harness::Budget::scene_time_limit)
 //! of wall time and is then recorded as `time_limit` with the steps it took. A plain solver
 //! steps cold (no warm start across steps); `NAME+warm` warm-starts from the previous step's
-//! impulses, as real-time engines do.
+//! impulses, as real-time engines do. A case key `scene:PATH?friction=MODEL` replaces the
+//! scene's friction model (`cone` needs a cone solver, `nsgs-cone` or `newton-ac`); a solver
+//! that does not take the model is recorded `unsupported` without stepping.
 //!
 //! Per-run metrics come from the step reports (solver time, iterations, residual, penetration,
 //! energy, momenta, friction-cone violation) and from the body states between steps. Scenes
@@ -24,6 +26,7 @@
 //! | `removed_at_step`           | largest body speed after that step (a removed body must not launch the rest) |
 //! | `stick_bodies`              | names of bodies that must not creep (creep speed = their largest final speed) |
 //! | `at_rest = true`            | marks a scene that should come to rest                          |
+//! | `push_direction = [x, y, z]` | angle in degrees between the first dynamic body's displacement and this direction (the sliding-direction error of a pushed body: the box model's anisotropy) |
 //!
 //! For resting scenes the row also gets the creep speed (largest speed in the last tenth of the
 //! run), the kinetic energy at rest (mean over the last tenth) and the support error (summed
@@ -34,7 +37,7 @@ use crate::harness::case::Case;
 use crate::harness::run::{base_record, RunOutput};
 use lcpbench_contact::body::RigidBody;
 use lcpbench_contact::scene::{check_solver, Scene};
-use lcpbench_contact::step::{SolverChoice, StepReport, World};
+use lcpbench_contact::step::{StepReport, World};
 use lcpbench_solvers::{write_problem, Status};
 use nalgebra::{Point3, Vector3};
 use std::path::{Path, PathBuf};
@@ -134,7 +137,12 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
         record,
         history: Vec::new(),
     };
-    let Case::Scene { path, steps } = case else {
+    let Case::Scene {
+        path,
+        steps,
+        friction,
+    } = case
+    else {
         record.status = "error".into();
         record.reason = "not a scene case".into();
         return out(record);
@@ -147,14 +155,13 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
             return out(record);
         }
     };
-    let choice = match (spec.kind, spec.body) {
-        (Some(kind), _) => SolverChoice::Matrix(kind),
-        (None, Some(body)) => SolverChoice::Body(body),
-        (None, None) => {
-            record.status = "error".into();
-            record.reason = "no solver".into();
-            return out(record);
-        }
+    if let Some(model) = friction {
+        scene.settings.builder.friction_model = *model;
+    }
+    let Some(choice) = spec.scene_choice() else {
+        record.status = "error".into();
+        record.reason = "no solver".into();
+        return out(record);
     };
     if let Err(reason) = check_solver(choice, scene.settings.builder.friction_model) {
         record.status = "unsupported".into();
@@ -497,6 +504,16 @@ fn analytic(
             if forces.len() >= 2 {
                 r.symmetry_error = Some((forces[0] - forces[1]).abs() / e);
             }
+        }
+    }
+    let push = numbers(metrics, "push_direction");
+    if let (Some(&[x, y, z]), Some((b, p0))) = (push.as_deref(), body) {
+        let push = Vector3::new(x, y, z);
+        let d = b.position - p0;
+        if push.norm() > 0.0 && d.norm() > 0.0 {
+            let cos = (d.dot(&push) / (d.norm() * push.norm())).clamp(-1.0, 1.0);
+            r.analytic_metric = "slide direction error (deg)".into();
+            r.analytic_error = Some(cos.acos().to_degrees());
         }
     }
     let sim = numbers(metrics, "simultaneous_velocities");

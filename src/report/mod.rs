@@ -15,6 +15,7 @@
 //! replays/*.html       self-contained replay pages of the scenes that are not large
 //! ```
 
+mod friction;
 pub mod machine;
 pub mod plots;
 pub mod replays;

@@ -15,12 +15,16 @@
 //!   (budget `default`); large scenes run under `default` only (cold, and warm for the iterative
 //!   solvers), at most [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
 //!   solver × budgets `default`, `tight`.
+//! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
+//!   friction models box, pyramid and cone, each with the solvers of [`FRICTION_MODELS`] warm
+//!   started, budget [`FRICTION_BUDGET`], at most [`FRICTION_STEPS`] steps (about 15 s in all).
 //! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
 //!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
 //!   [`SCALING_STEPS`] steps: solver time per step against contacts (full suite only).
 
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::SolverKind;
 use std::path::PathBuf;
 
@@ -65,6 +69,57 @@ pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
     crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
 }
 
+/// Scenes of the friction-model comparison (by file stem): a slide on an incline, boxes
+/// straddling the friction angle, a tower, and a box pushed diagonally (the box model's
+/// anisotropy).
+pub const FRICTION_SCENES: [&str; 4] = [
+    "incline_slide",
+    "friction_ramp",
+    "tower_10_60hz",
+    "diagonal_push",
+];
+
+/// Steps of each run of the friction-model comparison (the scene's own count when smaller).
+pub const FRICTION_STEPS: usize = 100;
+
+/// Budget of the friction-model comparison: tolerance `1e-8` with at most 1000 sweeps or
+/// iterations per step, so that a tower's Gauss–Seidel runs stay short (they rarely reach
+/// `1e-8`, which the converged-step counts show), and 30 s (15 s of stepping) per run.
+pub const FRICTION_BUDGET: &str = "1e-8:1000:30";
+
+/// The friction models compared and the solvers run on each: a Gauss–Seidel method (warm
+/// started) and a Newton or pivoting method. PGS is left out of the pyramid: its LCP matrix is
+/// not symmetric and PGS does not converge on it.
+pub const FRICTION_MODELS: [(FrictionModel, &[&str]); 3] = [
+    (
+        FrictionModel::Box,
+        &["pgs+warm", "nsgs+warm", "newton-fb+warm"],
+    ),
+    (
+        FrictionModel::Pyramid { directions: 4 },
+        &["newton-fb+warm", "lemke"],
+    ),
+    (
+        FrictionModel::Cone,
+        &["nsgs-cone+warm", "newton-ac+warm", "clarabel-socp"],
+    ),
+];
+
+/// The friction-model cases of `scenes`: each of [`FRICTION_SCENES`] found among them, under
+/// each model of [`FRICTION_MODELS`], in that order (scene-major).
+pub fn friction_cases(scenes: &[PathBuf], steps: usize) -> Vec<Case> {
+    let stem = |p: &PathBuf| p.file_stem().map(|s| s.to_string_lossy().into_owned());
+    FRICTION_SCENES
+        .iter()
+        .filter_map(|name| scenes.iter().find(|p| stem(p).as_deref() == Some(*name)))
+        .flat_map(|path| {
+            FRICTION_MODELS
+                .iter()
+                .map(move |(model, _)| Case::scene_with_friction(path, Some(steps), *model))
+        })
+        .collect()
+}
+
 /// A suite: jobs plus the case lists the report groups them by.
 #[derive(Debug, Clone, Default)]
 pub struct Suite {
@@ -84,6 +139,8 @@ pub struct Suite {
     pub scene_cases: Vec<Case>,
     /// Cases of the scene scaling family (time per step against contacts).
     pub scene_scaling_cases: Vec<Case>,
+    /// Cases of the friction-model comparison ([`friction_cases`]).
+    pub friction_cases: Vec<Case>,
     /// LCPs exported from scenes.
     pub exported_cases: Vec<Case>,
     /// Cases whose convergence histories are plotted.
@@ -253,6 +310,28 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         .map(warm)
         .collect();
     push(&suite.scene_cases.clone(), &warm_only, &[budget("default")]);
+    suite.friction_cases = friction_cases(scenes, if quick { 20 } else { FRICTION_STEPS });
+    for case in &suite.friction_cases {
+        let Case::Scene {
+            friction: Some(model),
+            ..
+        } = case
+        else {
+            continue;
+        };
+        let specs = FRICTION_MODELS
+            .iter()
+            .find(|(m, _)| m == model)
+            .map(|(_, specs)| specs.iter().map(|s| s.parse().expect("suite solver spec")))
+            .into_iter()
+            .flatten()
+            .collect::<Vec<SolverSpec>>();
+        suite.jobs.extend(crate::harness::cross_product(
+            std::slice::from_ref(case),
+            &specs,
+            &[budget(FRICTION_BUDGET)],
+        ));
+    }
     if !quick {
         suite.tower_cases = scenes
             .iter()
@@ -297,5 +376,33 @@ mod tests {
         assert!(
             default_suite(true, &[], &[]).jobs.len() < default_suite(false, &[], &[]).jobs.len()
         );
+    }
+
+    #[test]
+    fn friction_cases_cover_each_model_of_the_scenes_present() {
+        let scenes: Vec<PathBuf> = [
+            "bench_scenes/tower_10_60hz.toml",
+            "bench_scenes/tower_5.toml",
+        ]
+        .iter()
+        .map(PathBuf::from)
+        .collect();
+        let s = default_suite(true, &scenes, &[]);
+        let keys: Vec<String> = s.friction_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(
+            keys,
+            [
+                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=box",
+                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=pyramid",
+                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=cone",
+            ]
+        );
+        let cone_jobs: Vec<String> = s
+            .jobs
+            .iter()
+            .filter(|j| j.case == s.friction_cases[2])
+            .map(|j| j.solver.to_string())
+            .collect();
+        assert_eq!(cone_jobs, ["nsgs-cone+warm", "newton-ac+warm"]);
     }
 }

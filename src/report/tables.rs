@@ -196,6 +196,11 @@ pub fn write_report(
         md.push_str(&super::towers::section(&data, suite, &tables_dir)?);
     }
 
+    // Friction models.
+    if !suite.friction_cases.is_empty() {
+        super::friction::friction_section(&mut md, &data, suite, &tables_dir)?;
+    }
+
     // Robustness matrix.
     let mut classes: Vec<ProblemClass> = ProblemClass::MATRIX.to_vec();
     if suite.exported_cases.is_empty() {
