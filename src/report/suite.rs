@@ -14,7 +14,8 @@
 //!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
 //!   (budget `default`); large scenes run under `default` only (cold, and warm for the iterative
 //!   solvers), at most [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
-//!   solver × budgets `default`, `tight`.
+//!   solver × budgets `default`, `tight`, and their cone form × every cone solver × budget
+//!   `tight` (the cone solvers' performance profiles).
 //! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
 //!   friction models box, pyramid and cone, each with the solvers of [`FRICTION_MODELS`] warm
 //!   started, budget [`FRICTION_BUDGET`], at most [`FRICTION_STEPS`] steps (about 15 s in all).
@@ -25,7 +26,7 @@
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::SolverKind;
+use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
 
 /// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
@@ -166,6 +167,14 @@ pub fn all_solvers() -> Vec<SolverSpec> {
     SolverKind::ALL.into_iter().map(SolverSpec::plain).collect()
 }
 
+/// Every cone solver, cold start.
+pub fn cone_solvers() -> Vec<SolverSpec> {
+    ConeSolverKind::ALL
+        .into_iter()
+        .map(SolverSpec::cone)
+        .collect()
+}
+
 /// Every solver a scene can use: the matrix solvers and the body-level ones, cold start.
 pub fn scene_solvers() -> Vec<SolverSpec> {
     let mut v = all_solvers();
@@ -270,6 +279,9 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     };
     push(&suite.matrix_cases, &solvers, &matrix_budgets);
     push(&suite.exported_cases, &solvers, &matrix_budgets);
+    // The cone form of the same exported steps (each contact's normal and two tangent rows as
+    // one Coulomb cone), for the cone solvers' performance profiles.
+    push(&suite.exported_cases, &cone_solvers(), &[budget("tight")]);
     push(&suite.scaling_cases, &solvers, &[budget("default")]);
     let omega_specs: Vec<SolverSpec> = suite
         .omegas
