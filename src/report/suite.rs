@@ -415,6 +415,9 @@ mod tests {
             .filter(|j| j.case == s.friction_cases[2])
             .map(|j| j.solver.to_string())
             .collect();
-        assert_eq!(cone_jobs, ["nsgs-cone+warm", "newton-ac+warm"]);
+        assert_eq!(
+            cone_jobs,
+            ["nsgs-cone+warm", "newton-ac+warm", "clarabel-socp"]
+        );
     }
 }
