@@ -678,10 +678,14 @@ impl Newton {
         if let Some(Jacobian::Sparse(j)) = jacobian {
             self.workspace.symbolic = Some(j.pattern);
         }
-        let mut fp = f.clone();
-        project(problem, &mut fp);
-        if residuals(problem, &fp).natural_map_rel <= residuals(problem, &f).natural_map_rel {
-            f = fp;
+        // A stop within tolerance returns the projected iterate already; otherwise the better
+        // of the iterate and its projection.
+        if outcome != Outcome::Stopped {
+            let mut fp = f.clone();
+            project(problem, &mut fp);
+            if residuals(problem, &fp).natural_map_rel <= residuals(problem, &f).natural_map_rel {
+                f = fp;
+            }
         }
         monitor.finish(f, iterations, outcome)
     }
