@@ -377,17 +377,9 @@ pub fn write_report(
     for (level, label) in [(1e-4, "1e-4"), (1e-8, "1e-8")] {
         let path = plots_dir.join(format!("profile_{label}.svg"));
         let series = performance_profile(&data, &feasible, &lcp_solvers, level);
-        plot(
+        profile_plot(
             &path,
-            &PlotSpec {
-                title: format!("Performance profile, time to relative residual {label}"),
-                x_label: "τ (time / best time)".into(),
-                y_label: "fraction of problems solved within τ × best".into(),
-                log_x: true,
-                log_y: false,
-                y_range: Some((0.0, 1.02)),
-                legend: LegendAt::LowerRight,
-            },
+            format!("Performance profile, time to relative residual {label}"),
             &series,
         )?;
         figures.push((format!("Dolan–Moré performance profile at {label}"), path));
@@ -782,6 +774,23 @@ fn performance_profile(
     out
 }
 
+/// A Dolan–Moré profile figure (log τ, fraction solved).
+fn profile_plot(path: &Path, title: String, series: &[Series]) -> Result<()> {
+    plot(
+        path,
+        &PlotSpec {
+            title,
+            x_label: "τ (time / best time)".into(),
+            y_label: "fraction of problems solved within τ × best".into(),
+            log_x: true,
+            log_y: false,
+            y_range: Some((0.0, 1.02)),
+            legend: LegendAt::LowerRight,
+        },
+        series,
+    )
+}
+
 /// The cone solvers on the cone form of the exported scene steps (budget `tight`): how many
 /// each brought to the cone residual 1e-4 and 1e-8, and Dolan–Moré profiles at both levels.
 fn cone_profiles(
@@ -840,17 +849,9 @@ fn cone_profiles(
     for (level, label) in [(1e-4, "1e-4"), (1e-8, "1e-8")] {
         let path = plots_dir.join(format!("profile_cone_{label}.svg"));
         let series = performance_profile(data, &cases, &solvers, level);
-        plot(
+        profile_plot(
             &path,
-            &PlotSpec {
-                title: format!("Cone solvers: performance profile, cone residual {label}"),
-                x_label: "τ (time / best time)".into(),
-                y_label: "fraction of problems solved within τ × best".into(),
-                log_x: true,
-                log_y: false,
-                y_range: Some((0.0, 1.02)),
-                legend: LegendAt::LowerRight,
-            },
+            format!("Cone solvers: performance profile, cone residual {label}"),
             &series,
         )?;
         figures.push((
