@@ -33,7 +33,8 @@
 //!   carries over. The standard LCP maps to itself (`M = A`, `q = b`).
 //! * **Cost**: revised form with an explicit `B⁻¹`: `O(m²)` per pivot (`m` the size of the
 //!   reduced LCP), plus an `O(m³)` refactorisation of the basis every `max(50, m)` pivots and at
-//!   the end (followed by iterative refinement). The number of pivots is usually a
+//!   the end (followed by iterative refinement; skipped at the end when the basic solution
+//!   already meets the tolerance in the shared residual, one `O(m²)` pass). The number of pivots is usually a
 //!   small multiple of `m`, but is `2ⁿ` on Murty's example (below).
 //! * **Failure modes**: ray termination (`NoSolution` or `Stalled` as above, reason
 //!   `ray termination at pivot k …`);
@@ -160,7 +161,7 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
             None => d.to_vec(),
         },
     };
-    let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
+    let (z, pivots, outcome) = pivot(problem, &reduction, &d, settings, &mut monitor);
     let f = degenerate_zeros(problem, &reduction, z, settings.tolerance);
     monitor.finish(f, pivots, outcome)
 }
@@ -511,6 +512,7 @@ impl Tableau<'_> {
 /// Run Lemke on the reduced LCP with covering vector `d`. Returns the unscaled `z`, the pivot
 /// count and the outcome.
 fn pivot(
+    problem: &Problem,
     red: &Reduction,
     d: &[f64],
     settings: &Settings,
@@ -614,11 +616,20 @@ fn pivot(
         }
         record(&tab, monitor, pivots);
     };
-    let outcome = match (outcome, tab.refactor()) {
-        (Outcome::Stopped, Err(reason)) => {
-            Outcome::NumericalFailure(format!("{reason} at the final basis"))
+    // The final refactorisation (`O(k³)`, half the cost of a tiny solve) is skipped when the
+    // product-form basic solution already meets the tolerance in the shared residual.
+    let accurate = outcome == Outcome::Stopped
+        && residuals(problem, &red.impulse(&unscale(tab.z()))).natural_map_rel
+            <= settings.tolerance;
+    let outcome = if accurate {
+        outcome
+    } else {
+        match (outcome, tab.refactor()) {
+            (Outcome::Stopped, Err(reason)) => {
+                Outcome::NumericalFailure(format!("{reason} at the final basis"))
+            }
+            (outcome, _) => outcome,
         }
-        (outcome, _) => outcome,
     };
     (unscale(tab.z()), pivots, outcome)
 }
