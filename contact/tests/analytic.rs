@@ -403,13 +403,11 @@ fn tower_of_10_boxes_stands_for_10_s_pivoting() {
 }
 
 /// Lemke on the 240-row pyramid LCP of the resting tower: highly degenerate (four contacts per
-/// face, opposite friction directions). It used to pivot on a round-off entry at step 265 and
-/// return an impulse without normal force on a whole face; the pivot tolerance and the ratio
-/// test now keep such entries out (see `lemke.rs`). The first failure is now step 476: a ray
-/// at pivot 69 with the basic solution at relative residual 2.5e-7, not a tolerance effect (the
-/// same with pivot tolerances 1e-9 to 1e-7); semismooth Newton solves that step. Still open.
+/// face, opposite friction directions) and nearly singular (the 1e-9 drift of the boxes makes
+/// coplanar contacts almost dependent). It used to pivot on a round-off entry (step 265), then
+/// to take negative steps from round-off negative basic values (step 462: the tower fell); see
+/// `lemke.rs` for both fixes.
 #[test]
-#[ignore = "Lemke ray-terminates at step 476 of the tower's pyramid LCP (see the doc comment)"]
 fn tower_of_10_boxes_stands_for_10_s_lemke_pyramid() {
     let (dx, da) = tower_drift("lemke/pyramid");
     println!("tower 10 (lemke, pyramid, 10 s): drift {dx:.3e} m, rotation {da:.3e} rad");

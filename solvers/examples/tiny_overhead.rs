@@ -2,10 +2,13 @@
 //! allocation, validation and residual bookkeeping dominate. Prints the median wall time per
 //! solve over many repetitions; run under `valgrind --tool=callgrind` for instruction counts.
 //!
-//! `cargo run --release -p lcpbench-solvers --example tiny_overhead [REPS [SOLVER]]`
+//! The three Siconos numerics LCPs in `tests/data/siconos/` follow the planted families.
+//!
+//! `cargo run --release -p lcpbench-solvers --example tiny_overhead [REPS [SOLVER [CASE]]]`
 
 use lcpbench_solvers::generate::{generate, Family};
-use lcpbench_solvers::{Settings, SolverKind};
+use lcpbench_solvers::{read_problem, Problem, Settings, SolverKind};
+use std::path::Path;
 use std::time::Instant;
 
 fn main() {
@@ -15,25 +18,46 @@ fn main() {
         .unwrap_or(2000);
     // Optional filter: `REPS SOLVER` times one solver only.
     let only = std::env::args().nth(2);
+    // And `REPS SOLVER CASE` one case (`spd-4`, `lcp_CPS_1-2`, …), for instruction counts.
+    let only_case = std::env::args().nth(3);
     let settings = Settings::default();
     println!("family n solver status median_us");
+    let mut cases: Vec<(String, Problem)> = Vec::new();
     for (family_name, family) in [
         ("spd", Family::Spd { cond: 1e3 }),
         ("pmatrix", Family::PMatrix),
     ] {
         for n in [4, 10, 20] {
-            let problem = generate(family, n, 1).problem;
+            cases.push((family_name.to_string(), generate(family, n, 1).problem));
+        }
+    }
+    let siconos = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/siconos");
+    for name in ["lcp_CPS_1", "lcp_CPS_4", "lcp_deudeu_block"] {
+        match read_problem(&siconos.join(format!("{name}.dat"))) {
+            Ok(p) => cases.push((name.to_string(), p)),
+            Err(e) => eprintln!("{name}: {e}"),
+        }
+    }
+    {
+        for (family_name, problem) in &cases {
+            let n = problem.n();
+            if only_case
+                .as_deref()
+                .is_some_and(|c| c != format!("{family_name}-{n}"))
+            {
+                continue;
+            }
             for kind in SolverKind::ALL {
                 if only.as_deref().is_some_and(|o| o != kind.name()) {
                     continue;
                 }
                 let mut solver = kind.create();
-                let status = solver.solve(&problem, &settings).status;
+                let status = solver.solve(problem, &settings).status;
                 let mut times: Vec<f64> = (0..reps)
                     .map(|_| {
                         let t0 = Instant::now();
                         std::hint::black_box(
-                            solver.solve(std::hint::black_box(&problem), &settings),
+                            solver.solve(std::hint::black_box(problem), &settings),
                         );
                         t0.elapsed().as_secs_f64() * 1e6
                     })
