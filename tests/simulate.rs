@@ -212,8 +212,16 @@ fn simulate_a_cone_scene_with_a_cone_solver_converges_every_step() {
 #[test]
 fn solvers_that_do_not_take_the_friction_model_are_unsupported() {
     for (model, solver, needle) in [
-        ("cone", "pgs", "cone solver (nsgs-cone, newton-ac, clarabel-socp)"),
-        ("cone", "si", "cone solver (nsgs-cone, newton-ac, clarabel-socp)"),
+        (
+            "cone",
+            "pgs",
+            "cone solver (nsgs-cone, newton-ac, clarabel-socp)",
+        ),
+        (
+            "cone",
+            "si",
+            "cone solver (nsgs-cone, newton-ac, clarabel-socp)",
+        ),
         ("box", "nsgs-cone", "--friction-model cone"),
         ("pyramid", "newton-ac", "--friction-model cone"),
     ] {

@@ -134,7 +134,7 @@ fn errors_name_file_field_and_problem() {
         ),
         (
             "[settings]\nfriction_model = \"cone\"\nsolver = \"pgs\"\n",
-            &["settings.solver", "`pgs`", "cone solver (nsgs-cone, newton-ac)"],
+            &["settings.solver", "`pgs`", "cone solver (nsgs-cone, newton-ac, clarabel-socp)"],
         ),
         (
             "[settings]\nsolver = \"nsgs-cone\"\n",
