@@ -69,7 +69,7 @@ use crate::solver::{
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Col, Mat};
+use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
@@ -610,12 +610,13 @@ impl Newton {
                     Err(e) => break Outcome::NumericalFailure(e),
                 }
             }
-            let (newton_dir, grad) = match jacobian.as_mut() {
+            let grad = merit_gradient(problem, &alpha, &beta, &gamma, &phi);
+            let newton_dir = match jacobian.as_mut() {
                 Some(Jacobian::Dense(a)) => {
                     dense_direction(problem, a, &alpha, &beta, &gamma, &phi, mu_reg)
                 }
                 Some(Jacobian::Sparse(j)) => {
-                    sparse_direction(problem, j, &alpha, &beta, &gamma, &phi, mu_reg)
+                    sparse_direction(j, &alpha, &beta, &gamma, &phi, mu_reg)
                 }
                 None => break Outcome::NumericalFailure("no Newton system was formed".into()),
             };
@@ -705,50 +706,15 @@ impl Newton {
     }
 }
 
-/// The Newton direction `(H + μI)⁻¹(−Φ)` and the merit gradient `∇θ = HᵀΦ`, dense.
-fn dense_direction(
+/// The merit gradient `∇θ = HᵀΦ` for `H = diag(α) + diag(β) D⁻¹A + coupling` (`beta` holds
+/// `β_i / d_i`), in one pass over the stored entries of `A`, whatever its storage.
+fn merit_gradient(
     problem: &Problem,
-    a: &Mat<f64>,
     alpha: &[f64],
     beta: &[f64],
     gamma: &[f64],
     phi: &[f64],
-    mu_reg: f64,
-) -> (Vec<f64>, Vec<f64>) {
-    let n = phi.len();
-    let mut h = Mat::from_fn(n, n, |i, j| beta[i] * a[(i, j)]);
-    for i in 0..n {
-        h[(i, i)] += alpha[i];
-        if gamma[i] != 0.0 {
-            if let Some((k, _)) = problem.friction_of(i) {
-                h[(i, k)] += gamma[i];
-            }
-        }
-    }
-    let phi_col = Col::from_fn(n, |i| phi[i]);
-    let grad = h.transpose() * &phi_col;
-    for i in 0..n {
-        h[(i, i)] += mu_reg;
-    }
-    let mut dir = Mat::from_fn(n, 1, |i, _| -phi[i]);
-    h.partial_piv_lu().solve_in_place(&mut dir);
-    (
-        (0..n).map(|i| dir[(i, 0)]).collect(),
-        (0..n).map(|i| grad[i]).collect(),
-    )
-}
-
-/// The Newton direction and the merit gradient `∇θ = HᵀΦ` with the sparse LU. A failed
-/// numeric factorisation gives a non-finite direction (the gradient step is then taken).
-fn sparse_direction(
-    problem: &Problem,
-    j: &mut SparseJacobian,
-    alpha: &[f64],
-    beta: &[f64],
-    gamma: &[f64],
-    phi: &[f64],
-    mu_reg: f64,
-) -> (Vec<f64>, Vec<f64>) {
+) -> Vec<f64> {
     let n = phi.len();
     let mut grad = vec![0.0; n];
     for i in 0..n {
@@ -765,6 +731,45 @@ fn sparse_direction(
             }
         }
     }
+    grad
+}
+
+/// The Newton direction `(H + μI)⁻¹(−Φ)`, dense.
+fn dense_direction(
+    problem: &Problem,
+    a: &Mat<f64>,
+    alpha: &[f64],
+    beta: &[f64],
+    gamma: &[f64],
+    phi: &[f64],
+    mu_reg: f64,
+) -> Vec<f64> {
+    let n = phi.len();
+    let mut h = Mat::from_fn(n, n, |i, j| beta[i] * a[(i, j)]);
+    for i in 0..n {
+        h[(i, i)] += alpha[i] + mu_reg;
+        if gamma[i] != 0.0 {
+            if let Some((k, _)) = problem.friction_of(i) {
+                h[(i, k)] += gamma[i];
+            }
+        }
+    }
+    let mut dir = Mat::from_fn(n, 1, |i, _| -phi[i]);
+    h.partial_piv_lu().solve_in_place(&mut dir);
+    (0..n).map(|i| dir[(i, 0)]).collect()
+}
+
+/// The Newton direction `(H + μI)⁻¹(−Φ)` with the sparse LU. A failed numeric factorisation
+/// gives a non-finite direction (the gradient step is then taken).
+fn sparse_direction(
+    j: &mut SparseJacobian,
+    alpha: &[f64],
+    beta: &[f64],
+    gamma: &[f64],
+    phi: &[f64],
+    mu_reg: f64,
+) -> Vec<f64> {
+    let n = phi.len();
     for (v, &(i, _, kind)) in j.values.iter_mut().zip(&j.entries) {
         *v = match kind {
             EntryKind::A(a) | EntryKind::Jacobian(a) => beta[i] * a,
@@ -773,17 +778,17 @@ fn sparse_direction(
             EntryKind::Fixed(v) => v,
         };
     }
-    let failed = |grad: Vec<f64>| (vec![f64::NAN; n], grad);
+    let failed = || vec![f64::NAN; n];
     let p = &j.pattern;
     let Ok(h) = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &j.values) else {
-        return failed(grad);
+        return failed();
     };
     let Ok(lu) = Lu::try_new_with_symbolic(p.lu.clone(), h.as_ref()) else {
-        return failed(grad);
+        return failed();
     };
     let mut dir = Mat::from_fn(j.size, 1, |i, _| if i < n { -phi[i] } else { 0.0 });
     lu.solve_in_place(&mut dir);
-    ((0..n).map(|i| dir[(i, 0)]).collect(), grad)
+    (0..n).map(|i| dir[(i, 0)]).collect()
 }
 
 #[cfg(test)]
