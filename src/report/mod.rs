@@ -15,16 +15,17 @@
 //! replays/*.html       self-contained replay pages of the scenes that are not large
 //! ```
 
-mod friction;
+mod context;
 pub mod machine;
 pub mod plots;
 pub mod replays;
+mod sections;
+mod status;
 pub mod suite;
-mod tables;
-mod towers;
+mod table;
 
 pub use machine::Header;
-pub use tables::write_report;
+pub use sections::write_report;
 
 use crate::harness::sweep::{lock_dir, run_sweep_locked};
 use crate::harness::{SweepConfig, SweepSummary};

@@ -1,0 +1,120 @@
+//! What every section reads and the interface each implements.
+//!
+//! [`ReportContext`] holds the suite, the header, the result rows indexed once by run key
+//! (case, solver, budget), the convergence histories and the output directories; a
+//! [`Section`] renders its Markdown into the README, writes its tables and figures, and
+//! returns the figures for the gallery at the end.
+
+use super::machine::Header;
+use super::suite::Suite;
+use super::table::Table;
+use crate::harness::{Case, HistoryRow, ProblemClass, RunRecord};
+use anyhow::Result;
+use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_solvers::SolverKind;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// One part of the report: a heading (or none), text, tables and figures.
+pub(super) trait Section: Sync {
+    /// What the section is about (its heading, or a short description when it has none).
+    fn title(&self) -> &'static str;
+
+    /// Append the section's Markdown to `md` (nothing when the suite has no runs for it),
+    /// write its tables under `ctx.tables_dir` and figures under `ctx.plots_dir`, and return
+    /// the figures in the order they are shown.
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>>;
+}
+
+/// A figure of the gallery: its caption and SVG (with the CSV of its points next to it).
+pub(super) struct Figure {
+    pub(super) caption: String,
+    pub(super) path: PathBuf,
+}
+
+impl Figure {
+    pub(super) fn new(caption: impl Into<String>, path: PathBuf) -> Self {
+        Self {
+            caption: caption.into(),
+            path,
+        }
+    }
+}
+
+/// The data of one report.
+pub(super) struct ReportContext<'a> {
+    pub(super) suite: &'a Suite,
+    pub(super) header: &'a Header,
+    /// Seconds the sweep took (0 when the report is redrawn from existing data).
+    pub(super) sweep_seconds: f64,
+    /// Every result row.
+    pub(super) rows: &'a [RunRecord],
+    /// Every convergence-history row.
+    pub(super) histories: &'a [HistoryRow],
+    /// The generated problems of the matrix and the exported scene LCPs.
+    pub(super) lcp_cases: Vec<&'a Case>,
+    /// The same without the infeasible class.
+    pub(super) feasible_cases: Vec<&'a Case>,
+    pub(super) tables_dir: PathBuf,
+    pub(super) plots_dir: PathBuf,
+    by_key: HashMap<(String, String, String), &'a RunRecord>,
+}
+
+impl<'a> ReportContext<'a> {
+    pub(super) fn new(
+        suite: &'a Suite,
+        header: &'a Header,
+        sweep_seconds: f64,
+        rows: &'a [RunRecord],
+        histories: &'a [HistoryRow],
+        out_dir: &Path,
+    ) -> Self {
+        let lcp_cases: Vec<&Case> = suite
+            .matrix_cases
+            .iter()
+            .chain(&suite.exported_cases)
+            .collect();
+        let feasible_cases = lcp_cases
+            .iter()
+            .copied()
+            .filter(|c| c.class() != ProblemClass::Infeasible)
+            .collect();
+        Self {
+            suite,
+            header,
+            sweep_seconds,
+            rows,
+            histories,
+            lcp_cases,
+            feasible_cases,
+            tables_dir: out_dir.join("tables"),
+            plots_dir: out_dir.join("plots"),
+            by_key: rows.iter().map(|r| (r.key(), r)).collect(),
+        }
+    }
+
+    /// The run of `case` by `solver` under `budget`, if there is one.
+    pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
+        self.by_key
+            .get(&(case.to_string(), solver.to_owned(), budget.to_owned()))
+            .copied()
+    }
+
+    /// Write the table's CSV under `tables/` and return its Markdown.
+    pub(super) fn table(&self, table: &Table) -> Result<String> {
+        table.write_csv(&self.tables_dir)?;
+        Ok(table.markdown())
+    }
+}
+
+/// The matrix solvers, in their order.
+pub(super) fn solver_names() -> Vec<&'static str> {
+    SolverKind::ALL.iter().map(|k| k.name()).collect()
+}
+
+/// Every solver a scene can use: the matrix solvers, then the body-level ones.
+pub(super) fn scene_solver_names() -> Vec<&'static str> {
+    let mut v = solver_names();
+    v.extend(BodySolverKind::ALL.iter().map(|k| k.name()));
+    v
+}

@@ -1,0 +1,68 @@
+//! The fastest matrix solver per feasible problem: the solver whose residual history (budget
+//! `tight`) first reached the relative residual 1e-4, and 1e-8, and when.
+
+use crate::harness::{Case, ProblemClass};
+use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::report::table::{fmt_time, Table};
+use anyhow::Result;
+use std::fmt::Write as _;
+
+pub(super) struct Fastest;
+
+impl Section for Fastest {
+    fn title(&self) -> &'static str {
+        "Fastest solver per problem"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        let mut fastest = Table::new(
+            "fastest",
+            &[
+                "case",
+                "n",
+                "fastest to 1e-4",
+                "time",
+                "fastest to 1e-8",
+                "time",
+            ],
+        );
+        for case in &ctx.lcp_cases {
+            if case.class() != ProblemClass::Infeasible {
+                fastest.rows.push(row(ctx, case));
+            }
+        }
+        let _ = writeln!(
+            md,
+            "## Fastest solver per problem\n\nSolver time until the shared relative residual first \
+             reached 1e-4 and 1e-8 (from the residual history of each solve under budget `tight`).\n\n{}",
+            ctx.table(&fastest)?
+        );
+        Ok(Vec::new())
+    }
+}
+
+fn row(ctx: &ReportContext, case: &Case) -> Vec<String> {
+    let mut row = vec![format!("`{case}`")];
+    let n = solver_names()
+        .iter()
+        .find_map(|s| ctx.get(case, s, "tight").and_then(|r| r.n));
+    row.push(n.map(|n| n.to_string()).unwrap_or_default());
+    for level in [1e-4, 1e-8] {
+        let best = solver_names()
+            .into_iter()
+            .filter_map(|s| ctx.get(case, s, "tight"))
+            .filter_map(|r| r.tta(level).map(|t| (r.solver.clone(), t)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match best {
+            Some((s, t)) => {
+                row.push(s);
+                row.push(fmt_time(Some(t)));
+            }
+            None => {
+                row.push("none".into());
+                row.push("–".into());
+            }
+        }
+    }
+    row
+}

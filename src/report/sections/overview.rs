@@ -1,0 +1,67 @@
+//! The report's opening: the title, how to regenerate it, the header table (date, commit,
+//! machine, command, and the sweep: rows, isolation failures, seconds, and the number of
+//! worker processes it actually ran on), and how residuals and times are measured.
+
+use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::table::Table;
+use anyhow::Result;
+use std::fmt::Write as _;
+
+pub(super) struct Overview;
+
+impl Section for Overview {
+    fn title(&self) -> &'static str {
+        "lcpbench report"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        let _ = writeln!(md, "# lcpbench report\n");
+        let _ = writeln!(
+            md,
+            "Regenerate with `cargo run --release -- report` (about twenty minutes on two cores; \
+             `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
+        );
+        md.push_str(&ctx.table(&header_table(ctx))?);
+        let _ = writeln!(
+            md,
+            "\nEvery run is one child process (a panic, abort or hang is recorded, not fatal). \
+             Residuals are the shared relative natural-map residual of the returned impulse, \
+             `max_i |f_i − mid(lo_i, hi_i, f_i − w_i/A_ii)| / ((|b_i| + Σ_j |A_ij f_j|) / A_ii)`: \
+             each row measured against the magnitudes its own velocity is made of, so no row, bound \
+             or scale can hide another row's error (see the README); times are solver wall time with residual measurement excluded. Raw rows: \
+             [`data/results.csv`](data/results.csv); convergence histories: \
+             [`data/histories.csv`](data/histories.csv); every table below is also in `tables/`, \
+             every figure's points next to it in `plots/`.\n"
+        );
+        Ok(Vec::new())
+    }
+}
+
+fn header_table(ctx: &ReportContext) -> Table {
+    let header = ctx.header;
+    let failures = ctx.rows.iter().filter(|r| r.is_isolation_failure()).count();
+    let mut h = Table::new("header", &["field", "value"]);
+    for (k, v) in [
+        ("date (UTC)", header.date.clone()),
+        ("commit", header.commit.clone()),
+        (
+            "machine",
+            format!("{}, {} cores, {}", header.cpu, header.cores, header.os),
+        ),
+        ("command", format!("`{}`", header.command)),
+        (
+            "runs",
+            format!(
+                "{} rows ({} isolation failures: panic, crash, timeout or error), sweep {:.0} s \
+                 on {} worker processes",
+                ctx.rows.len(),
+                failures,
+                ctx.sweep_seconds,
+                header.workers
+            ),
+        ),
+    ] {
+        h.rows.push(vec![k.to_owned(), v]);
+    }
+    h
+}

@@ -1,0 +1,83 @@
+//! The robustness matrix (as Siconos' expected-failure matrix): for each matrix solver and
+//! problem class, converged runs out of runs under budget `default`; for the infeasible class,
+//! the runs that report infeasibility. Unsupported and crashed runs are counted in the cell.
+
+use crate::harness::{ProblemClass, RunRecord};
+use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::report::status;
+use crate::report::table::{mark, Table};
+use anyhow::Result;
+use std::fmt::Write as _;
+
+pub(super) struct Robustness;
+
+impl Section for Robustness {
+    fn title(&self) -> &'static str {
+        "Robustness matrix"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        let mut classes: Vec<ProblemClass> = ProblemClass::MATRIX.to_vec();
+        if ctx.suite.exported_cases.is_empty() {
+            classes.retain(|c| *c != ProblemClass::Friction);
+        }
+        let mut header = vec!["solver".to_owned()];
+        header.extend(classes.iter().map(|c| c.name().to_owned()));
+        let mut robust = Table::with_header("robustness", header);
+        for solver in solver_names() {
+            let mut row = vec![solver.to_owned()];
+            for class in &classes {
+                let runs: Vec<&RunRecord> = ctx
+                    .lcp_cases
+                    .iter()
+                    .filter_map(|c| ctx.get(c, solver, "default"))
+                    .filter(|r| r.class == class.name())
+                    .collect();
+                row.push(cell(*class, &runs));
+            }
+            robust.rows.push(row);
+        }
+        let _ = writeln!(
+            md,
+            "## Robustness matrix\n\nWhich solver solves which class (budget `default`: tolerance \
+             1e-8, 10 000 iterations, 5 s), as Siconos' expected-failure matrix: converged runs / \
+             runs; for the infeasible class, runs that *report* infeasibility (`no_solution`). \
+             ✓ all, ~ some, ✗ none. Classes: SPD (cond 1e2–1e10), rank-deficient PSD, \
+             non-symmetric P-matrices and Murty's example, degenerate (duplicated rows, weakly \
+             complementary solutions, `b = 0`), infeasible{}.\n\n{}",
+            if classes.contains(&ProblemClass::Friction) {
+                ", friction (boxed LCPs exported from the scenes)"
+            } else {
+                ""
+            },
+            ctx.table(&robust)?
+        );
+        Ok(Vec::new())
+    }
+}
+
+/// One solver's runs of one class.
+fn cell(class: ProblemClass, runs: &[&RunRecord]) -> String {
+    let total = runs.len();
+    if total == 0 {
+        return "–".to_owned();
+    }
+    if class == ProblemClass::Infeasible {
+        let ok = runs
+            .iter()
+            .filter(|r| status::reported_no_solution(r))
+            .count();
+        return format!("{} {ok}/{total} detected", mark(ok, total));
+    }
+    let ok = runs.iter().filter(|r| r.converged).count();
+    let unsupported = runs.iter().filter(|r| status::unsupported(r)).count();
+    let crashed = runs.iter().filter(|r| r.is_isolation_failure()).count();
+    let mut s = format!("{} {ok}/{total}", mark(ok, total));
+    if unsupported > 0 {
+        let _ = write!(s, " ({unsupported} unsupported)");
+    }
+    if crashed > 0 {
+        let _ = write!(s, " ({crashed} crashed)");
+    }
+    s
+}

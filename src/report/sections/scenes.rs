@@ -1,0 +1,275 @@
+//! The scenes: each scene stepped with each matrix and body-level solver.
+//!
+//! * **At a glance**: scene × solver, the solver time per step under budget `default` with a
+//!   mark for how many steps converged, or what stopped the run.
+//! * **One table per scene**: status, steps, contacts, time and iterations per step, the largest
+//!   residual and penetration, energy drift, failures, lift-off and the analytic error (all
+//!   rows also in `tables/scenes.csv`).
+//! * **Fastest solver per scene** among the runs whose every step converged, at budgets
+//!   `loose` and `default`.
+//! * A speed–accuracy figure per scene: time per step against mean residual per step under
+//!   budgets `realtime`, `loose` and `default`, with the Pareto front.
+
+use crate::harness::{Case, RunRecord};
+use crate::report::context::{scene_solver_names, Figure, ReportContext, Section};
+use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
+use crate::report::status;
+use crate::report::table::{fmt_sci, fmt_time, slug, Table};
+use anyhow::Result;
+use std::fmt::Write as _;
+
+pub(super) struct Scenes;
+
+/// Columns of a scene's table (the first, the scene, only in `tables/scenes.csv`).
+const COLUMNS: [&str; 13] = [
+    "scene",
+    "solver",
+    "status",
+    "steps",
+    "contacts",
+    "time/step",
+    "iters/step",
+    "residual max",
+    "penetration max (m)",
+    "energy drift",
+    "failures",
+    "lift-off (m/s)",
+    "analytic error",
+];
+
+impl Section for Scenes {
+    fn title(&self) -> &'static str {
+        "Scenes"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        if ctx.suite.scene_cases.is_empty() {
+            return Ok(Vec::new());
+        }
+        let _ = writeln!(
+            md,
+            "## Scenes\n\nEach scene stepped with each solver (budget `default` per step: tolerance \
+             1e-8, 10 000 iterations; time budget for the whole run). Time/step is solver time; \
+             residual is the largest shared relative residual over the steps; penetration the \
+             largest depth; drift the relative change of total energy; failures count \
+             non-converged steps / NaN steps / blow-up; lift-off is the largest separating normal \
+             speed at a sliding contact after a solve (what a convex relaxation of friction \
+             causes; Baumgarte correction of a penetrating contact shows up here too).\n"
+        );
+        at_a_glance(ctx, md)?;
+        let mut all = Table::new("scenes", &COLUMNS);
+        let mut fastest = Table::new(
+            "scenes_fastest",
+            &[
+                "scene",
+                "fastest at 1e-4 (budget loose)",
+                "time/step",
+                "fastest at 1e-8 (budget default)",
+                "time/step",
+            ],
+        );
+        let mut figures = Vec::new();
+        for case in &ctx.suite.scene_cases {
+            let name = case.short_name();
+            let _ = writeln!(md, "### {name}\n\n{}", scene_table(ctx, case, &mut all));
+            fastest.rows.push(fastest_row(ctx, case));
+            figures.push(pareto_figure(ctx, case)?);
+        }
+        all.write_csv(&ctx.tables_dir)?;
+        let _ = writeln!(
+            md,
+            "### Fastest solver per scene\n\nAmong runs whose every step converged.\n\n{}",
+            ctx.table(&fastest)?
+        );
+        Ok(figures)
+    }
+}
+
+fn at_a_glance(ctx: &ReportContext, md: &mut String) -> Result<()> {
+    let mut header = vec!["scene".to_owned()];
+    header.extend(scene_solver_names().iter().map(|s| s.to_string()));
+    let mut glance = Table::with_header("scenes_at_a_glance", header);
+    for case in &ctx.suite.scene_cases {
+        let mut row = vec![case.short_name()];
+        for solver in scene_solver_names() {
+            row.push(match ctx.get(case, solver, "default") {
+                None => "–".into(),
+                Some(r) => glance_cell(r),
+            });
+        }
+        glance.rows.push(row);
+    }
+    let _ = writeln!(
+        md,
+        "### At a glance\n\nSolver time per step under budget `default`, cold start. ✓ every \
+         step converged; ~ some steps did not (count in brackets); ✗ none did or the solver \
+         declined the problem; `blow-up`, `time limit` (steps done in brackets: the run stops \
+         after half the budget's time), `timeout`, `crash` and `panic` as recorded.\n\n{}",
+        ctx.table(&glance)?
+    );
+    Ok(())
+}
+
+/// The scene's table (budget `default`) as Markdown; its rows are added to `all` too.
+fn scene_table(ctx: &ReportContext, case: &Case, all: &mut Table) -> String {
+    let mut t = Table::new("scene", &COLUMNS[1..]);
+    for solver in scene_solver_names() {
+        if let Some(r) = ctx.get(case, solver, "default") {
+            let cells = scene_cells(r);
+            t.rows.push(cells.clone());
+            let mut full = vec![case.to_string()];
+            full.extend(cells);
+            all.rows.push(full);
+        }
+    }
+    t.markdown()
+}
+
+/// The fastest solver whose every step converged, at budgets `loose` and `default`.
+fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
+    let mut row = vec![case.short_name()];
+    for budget in ["loose", "default"] {
+        let best = scene_solver_names()
+            .into_iter()
+            .filter_map(|s| ctx.get(case, s, budget))
+            .filter(|r| r.converged && r.blow_up != Some(true))
+            .filter_map(|r| Some((r.solver.clone(), r.time_per_step_s?)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match best {
+            Some((s, tm)) => {
+                row.push(s);
+                row.push(fmt_time(Some(tm)));
+            }
+            None => {
+                row.push("none converged".into());
+                row.push("–".into());
+            }
+        }
+    }
+    row
+}
+
+/// Time per step against mean residual per step of every solver and budget, with the Pareto
+/// front over all of them.
+fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
+    let mut pareto = Vec::new();
+    for solver in scene_solver_names() {
+        let pts: Vec<(f64, f64)> = ["realtime", "loose", "default"]
+            .iter()
+            .filter_map(|b| ctx.get(case, solver, b))
+            .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel_mean?)))
+            .collect();
+        if !pts.is_empty() {
+            pareto.push(Series {
+                name: solver.to_owned(),
+                color_key: solver.to_owned(),
+                points: pts,
+                mark: Mark::Points,
+            });
+        }
+    }
+    let front = pareto_front(&pareto);
+    if front.len() > 1 {
+        pareto.push(Series {
+            name: "Pareto front".into(),
+            color_key: "front".into(),
+            points: front,
+            mark: Mark::Reference,
+        });
+    }
+    for s in &mut pareto {
+        for p in &mut s.points {
+            p.1 = p.1.max(1e-17);
+        }
+    }
+    let name = case.short_name();
+    let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
+    plot(
+        &path,
+        &PlotSpec {
+            title: format!("{name}: speed against accuracy (budgets realtime, loose, default)"),
+            x_label: "solver time per step (s)".into(),
+            y_label: "mean relative residual per step".into(),
+            log_x: true,
+            log_y: true,
+            y_range: None,
+            legend: LegendAt::LowerLeft,
+        },
+        &pareto,
+    )?;
+    Ok(Figure::new(format!("Speed–accuracy on scene {name}"), path))
+}
+
+/// The points no other point beats in both time and residual, by increasing time.
+fn pareto_front(series: &[Series]) -> Vec<(f64, f64)> {
+    let mut every: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.clone()).collect();
+    every.retain(|(x, y)| *x > 0.0 && *y >= 0.0);
+    every.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for (x, y) in every {
+        if y < best {
+            best = y;
+            front.push((x, y.max(1e-17)));
+        }
+    }
+    front
+}
+
+fn glance_cell(r: &RunRecord) -> String {
+    let t = fmt_time(r.time_per_step_s);
+    let steps = r.steps.unwrap_or(0);
+    let nc = r.nonconverged_steps.unwrap_or(0);
+    if r.is_isolation_failure() {
+        r.status.clone()
+    } else if status::blew_up(r) {
+        format!("blow-up ({steps} steps)")
+    } else if status::hit_time_limit(r) {
+        format!("time limit ({steps} steps, {t})")
+    } else if status::unsupported(r) && steps == 0 {
+        "✗ unsupported".into()
+    } else if nc == 0 {
+        format!("✓ {t}")
+    } else if nc >= steps {
+        format!("✗ {t} ({})", r.status)
+    } else {
+        format!("~ {t} ({nc} nc)")
+    }
+}
+
+fn scene_cells(r: &RunRecord) -> Vec<String> {
+    let failures = format!(
+        "{} / {} / {}",
+        r.nonconverged_steps.unwrap_or(0),
+        r.nan_steps.unwrap_or(0),
+        if r.blow_up == Some(true) { "yes" } else { "no" }
+    );
+    let analytic = match r.analytic_error {
+        Some(e) => format!("{} {}", r.analytic_metric, fmt_sci(Some(e))),
+        None => "–".into(),
+    };
+    let status = if r.reason.is_empty() {
+        r.status.clone()
+    } else {
+        let reason: String = r.reason.chars().take(60).collect();
+        format!("{} ({reason})", r.status)
+    };
+    vec![
+        r.solver.clone(),
+        status,
+        r.steps.map(|s| s.to_string()).unwrap_or("–".into()),
+        r.contacts_mean
+            .map(|c| format!("{c:.1}"))
+            .unwrap_or("–".into()),
+        fmt_time(r.time_per_step_s),
+        r.iterations_per_step
+            .map(|i| format!("{i:.1}"))
+            .unwrap_or("–".into()),
+        fmt_sci(r.residual_rel),
+        fmt_sci(r.penetration_max),
+        fmt_sci(r.energy_drift),
+        failures,
+        fmt_sci(r.liftoff_speed),
+        analytic,
+    ]
+}

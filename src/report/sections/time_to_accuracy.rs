@@ -1,0 +1,79 @@
+//! Time to accuracy: on how many feasible problems (the matrix and the exported scene LCPs,
+//! budget `tight`) each matrix solver reached the relative residuals 1e-4 … 1e-10, and the
+//! geometric mean of the time it took; per problem in `tables/time_to_accuracy.csv`.
+
+use crate::harness::{RunRecord, TTA_LEVELS};
+use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::report::table::{fmt_time, geo_mean, Table};
+use anyhow::Result;
+use std::fmt::Write as _;
+
+pub(super) struct TimeToAccuracy;
+
+impl Section for TimeToAccuracy {
+    fn title(&self) -> &'static str {
+        "Time to accuracy"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        let mut tta = Table::new(
+            "time_to_accuracy_summary",
+            &["solver", "≤1e-4", "≤1e-6", "≤1e-8", "≤1e-10"],
+        );
+        let mut tta_full = Table::new(
+            "time_to_accuracy",
+            &[
+                "case", "solver", "t_1e-4", "t_1e-6", "t_1e-8", "t_1e-10", "status",
+            ],
+        );
+        for solver in solver_names() {
+            let runs: Vec<&RunRecord> = ctx
+                .feasible_cases
+                .iter()
+                .filter_map(|c| ctx.get(c, solver, "tight"))
+                .collect();
+            tta.rows.push(summary_row(solver, &runs));
+            tta_full.rows.extend(runs.iter().map(|r| full_row(r)));
+        }
+        let summary = ctx.table(&tta)?;
+        tta_full.write_csv(&ctx.tables_dir)?;
+        let _ = writeln!(
+            md,
+            "## Time to accuracy\n\nProblems (feasible ones of the matrix{}) on which each solver \
+             reached the relative residual, and the geometric mean of the time it took on those; \
+             per problem in [`tables/time_to_accuracy.csv`](tables/time_to_accuracy.csv).\n\n{}",
+            if ctx.suite.exported_cases.is_empty() {
+                ""
+            } else {
+                " and the exported scene LCPs"
+            },
+            summary
+        );
+        Ok(Vec::new())
+    }
+}
+
+fn summary_row(solver: &str, runs: &[&RunRecord]) -> Vec<String> {
+    let mut row = vec![solver.to_owned()];
+    for level in TTA_LEVELS {
+        let times: Vec<f64> = runs.iter().filter_map(|r| r.tta(level)).collect();
+        row.push(format!(
+            "{}/{} (geo. mean {})",
+            times.len(),
+            runs.len(),
+            fmt_time(geo_mean(&times))
+        ));
+    }
+    row
+}
+
+fn full_row(r: &RunRecord) -> Vec<String> {
+    let mut row = vec![r.case.clone(), r.solver.clone()];
+    row.extend(
+        TTA_LEVELS
+            .iter()
+            .map(|&l| r.tta(l).map(|t| format!("{t:e}")).unwrap_or_default()),
+    );
+    row.push(r.status.clone());
+    row
+}

@@ -1,0 +1,72 @@
+//! Warm start against cold start: iterations, solver time and status of every iterative matrix
+//! solver, cold and `+warm`, on the suite's warm cases (budget `default`).
+
+use crate::harness::{Case, RunRecord};
+use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::table::{fmt_time, Table};
+use anyhow::Result;
+use lcpbench_solvers::SolverKind;
+use std::fmt::Write as _;
+
+pub(super) struct WarmStart;
+
+impl Section for WarmStart {
+    fn title(&self) -> &'static str {
+        "Warm start versus cold start"
+    }
+
+    fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
+        let mut warm = Table::new(
+            "warm_vs_cold",
+            &[
+                "case",
+                "solver",
+                "iterations cold",
+                "iterations warm",
+                "time cold",
+                "time warm",
+                "status cold / warm",
+            ],
+        );
+        for case in &ctx.suite.warm_cases {
+            for kind in SolverKind::ALL.iter().filter(|k| k.is_iterative()) {
+                let cold = ctx.get(case, kind.name(), "default");
+                let hot = ctx.get(case, &format!("{}+warm", kind.name()), "default");
+                if cold.is_some() || hot.is_some() {
+                    warm.rows.push(row(case, kind.name(), cold, hot));
+                }
+            }
+        }
+        let _ = writeln!(
+            md,
+            "## Warm start versus cold start\n\nIterative solvers, budget `default`. The warm start \
+             of a generated problem is its planted solution perturbed by 1 % (as from the previous \
+             step of a slowly changing scene); of a problem file, 20 cold PGS sweeps.\n\n{}",
+            ctx.table(&warm)?
+        );
+        Ok(Vec::new())
+    }
+}
+
+fn row(
+    case: &Case,
+    solver: &str,
+    cold: Option<&RunRecord>,
+    hot: Option<&RunRecord>,
+) -> Vec<String> {
+    let it = |r: Option<&RunRecord>| {
+        r.and_then(|r| r.iterations)
+            .map(|i| i.to_string())
+            .unwrap_or("–".into())
+    };
+    let st = |r: Option<&RunRecord>| r.map(|r| r.status.clone()).unwrap_or("–".into());
+    vec![
+        format!("`{case}`"),
+        solver.to_owned(),
+        it(cold),
+        it(hot),
+        fmt_time(cold.and_then(|r| r.solve_time_s)),
+        fmt_time(hot.and_then(|r| r.solve_time_s)),
+        format!("{} / {}", st(cold), st(hot)),
+    ]
+}
