@@ -182,77 +182,137 @@ pub fn scene_solvers() -> Vec<SolverSpec> {
     v
 }
 
+/// The sizes and counts that differ between the quick suite (tests) and the full one.
+struct Plan {
+    /// Sizes of the generated families of the matrix.
+    sizes: &'static [usize],
+    /// Condition numbers of its SPD problems.
+    conds: &'static [&'static str],
+    /// Sizes of Murty's example.
+    murty: &'static [usize],
+    /// Sizes of the SPD scaling family.
+    scaling: &'static [usize],
+    /// Size of the omega-sweep and warm-start problems.
+    mid: usize,
+    /// SOR relaxation factors.
+    omegas: &'static [f64],
+    /// Budgets of the scenes that are not large.
+    scene_budgets: &'static [&'static str],
+    /// Steps of a scene run, and of a large scene's.
+    scene_steps: usize,
+    large_scene_steps: usize,
+    /// Steps of a friction-model run.
+    friction_steps: usize,
+    /// Whether the tower comparison and the scene scaling family run.
+    towers_and_scaling: bool,
+}
+
+const QUICK: Plan = Plan {
+    sizes: &[8, 16],
+    conds: &["1e2", "1e8"],
+    murty: &[6],
+    scaling: &[8, 16, 32],
+    mid: 16,
+    omegas: &[0.8, 1.0, 1.4],
+    scene_budgets: &["default"],
+    scene_steps: 20,
+    large_scene_steps: 20,
+    friction_steps: 20,
+    towers_and_scaling: false,
+};
+
+const FULL: Plan = Plan {
+    sizes: &[10, 50, 200],
+    conds: &["1e2", "1e4", "1e6", "1e8", "1e10"],
+    murty: &[6, 10, 14],
+    scaling: &[16, 32, 64, 128, 256, 512],
+    mid: 100,
+    omegas: &[
+        0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9,
+    ],
+    scene_budgets: &SCENE_BUDGETS,
+    scene_steps: SCENE_STEPS,
+    large_scene_steps: LARGE_SCENE_STEPS,
+    friction_steps: FRICTION_STEPS,
+    towers_and_scaling: true,
+};
+
+/// Families of the robustness matrix besides SPD, each at every size with seed 1.
+const MATRIX_FAMILIES: [&str; 6] = ["psd", "pmatrix", "dup", "weak", "zerob", "infeasible"];
+
 /// Build the default suite (`quick`: a much smaller one for tests). `scenes` are scene files and
 /// `exported` problem files exported from scenes.
 pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> Suite {
-    let solvers = all_solvers();
+    let plan = if quick { &QUICK } else { &FULL };
     let mut suite = Suite::default();
-    let sizes: &[usize] = if quick { &[8, 16] } else { &[10, 50, 200] };
-    let conds: &[&str] = if quick {
-        &["1e2", "1e8"]
-    } else {
-        &["1e2", "1e4", "1e6", "1e8", "1e10"]
-    };
-    for &n in sizes {
-        for cond in conds {
+    generated_cases(&mut suite, plan);
+    let large_scenes = scene_cases(&mut suite, plan, scenes);
+    exported_cases(&mut suite, exported);
+    lcp_jobs(&mut suite);
+    scene_jobs(&mut suite, plan, &large_scenes);
+    suite.friction_cases = friction_cases(scenes, plan.friction_steps);
+    friction_jobs(&mut suite);
+    if plan.towers_and_scaling {
+        tower_jobs(&mut suite, scenes);
+        scene_scaling_jobs(&mut suite, scenes);
+    }
+    suite
+}
+
+/// The generated problems: the matrix, the histories, the scaling family, the omega sweep and
+/// the warm-start comparison.
+fn generated_cases(suite: &mut Suite, plan: &Plan) {
+    for &n in plan.sizes {
+        for cond in plan.conds {
             suite
                 .matrix_cases
                 .push(case(&format!("spd:n={n}:cond={cond}:seed=1")));
         }
-        for fam in ["psd", "pmatrix", "dup", "weak", "zerob", "infeasible"] {
+        for fam in MATRIX_FAMILIES {
             suite
                 .matrix_cases
                 .push(case(&format!("{fam}:n={n}:seed=1")));
         }
     }
-    let murty: &[usize] = if quick { &[6] } else { &[6, 10, 14] };
-    for &n in murty {
+    for &n in plan.murty {
         suite.matrix_cases.push(case(&format!("murty:n={n}")));
     }
-    let big = sizes[sizes.len() - 1];
+    let big = plan.sizes[plan.sizes.len() - 1];
+    let cond = plan.conds[plan.conds.len() / 2];
     suite.history_cases = vec![
-        case(&format!(
-            "spd:n={big}:cond={}:seed=1",
-            conds[conds.len() / 2]
-        )),
+        case(&format!("spd:n={big}:cond={cond}:seed=1")),
         case(&format!("psd:n={big}:seed=1")),
         case(&format!("pmatrix:n={big}:seed=1")),
     ];
-    let scaling: &[usize] = if quick {
-        &[8, 16, 32]
-    } else {
-        &[16, 32, 64, 128, 256, 512]
-    };
-    suite.scaling_cases = scaling
+    suite.scaling_cases = plan
+        .scaling
         .iter()
         .map(|n| case(&format!("spd:n={n}:cond=1e3:seed=2")))
         .collect();
-    let mid = if quick { 16 } else { 100 };
+    let mid = plan.mid;
     suite.omega_cases = vec![
         case(&format!("spd:n={mid}:cond=1e2:seed=3")),
         case(&format!("spd:n={mid}:cond=1e4:seed=3")),
         case(&format!("psd:n={mid}:seed=3")),
     ];
-    suite.omegas = if quick {
-        vec![0.8, 1.0, 1.4]
-    } else {
-        (2..=19).map(|k| k as f64 / 10.0).collect()
-    };
+    suite.omegas = plan.omegas.to_vec();
     suite.warm_cases = vec![
         case(&format!("spd:n={mid}:cond=1e2:seed=4")),
         case(&format!("spd:n={mid}:cond=1e4:seed=4")),
         case(&format!("psd:n={mid}:seed=4")),
         case(&format!("dup:n={mid}:seed=4")),
     ];
+}
+
+/// One case per scene file; returns the large ones.
+fn scene_cases(suite: &mut Suite, plan: &Plan, scenes: &[PathBuf]) -> Vec<Case> {
     let mut large_scenes = Vec::new();
     for path in scenes {
         let large = is_large_scene(path);
-        let steps = if quick {
-            20
-        } else if large {
-            LARGE_SCENE_STEPS
+        let steps = if large {
+            plan.large_scene_steps
         } else {
-            SCENE_STEPS
+            plan.scene_steps
         };
         let case = Case::scene(path, Some(steps));
         if large {
@@ -260,29 +320,47 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         }
         suite.scene_cases.push(case);
     }
+    large_scenes
+}
+
+/// The exported scene LCPs, also in the warm-start comparison (all), the omega sweep and the
+/// histories (the first two each).
+fn exported_cases(suite: &mut Suite, exported: &[PathBuf]) {
     suite.exported_cases = exported.iter().cloned().map(Case::File).collect();
+    let first_two = || suite.exported_cases.iter().take(2).cloned();
+    suite.omega_cases.extend(first_two());
+    suite.history_cases.extend(first_two());
     suite
         .warm_cases
         .extend(suite.exported_cases.iter().cloned());
-    suite
-        .omega_cases
-        .extend(suite.exported_cases.iter().take(2).cloned());
-    suite
-        .history_cases
-        .extend(suite.exported_cases.iter().take(2).cloned());
+}
 
+fn push(suite: &mut Suite, cases: &[Case], solvers: &[SolverSpec], budgets: &[NamedBudget]) {
+    suite
+        .jobs
+        .extend(crate::harness::cross_product(cases, solvers, budgets));
+}
+
+fn warm(s: &SolverSpec) -> SolverSpec {
+    SolverSpec {
+        warm: true,
+        ..s.clone()
+    }
+}
+
+/// The LCP jobs: matrix and exported LCPs (budgets `default`, `tight`), the cone form of the
+/// exported ones, the scaling family, the omega sweep, warm against cold.
+fn lcp_jobs(suite: &mut Suite) {
+    let solvers = all_solvers();
     let matrix_budgets = [budget("default"), budget("tight")];
-    let mut push = |cases: &[Case], solvers: &[SolverSpec], budgets: &[NamedBudget]| {
-        suite
-            .jobs
-            .extend(crate::harness::cross_product(cases, solvers, budgets));
-    };
-    push(&suite.matrix_cases, &solvers, &matrix_budgets);
-    push(&suite.exported_cases, &solvers, &matrix_budgets);
+    let (matrix, exported) = (suite.matrix_cases.clone(), suite.exported_cases.clone());
+    push(suite, &matrix, &solvers, &matrix_budgets);
+    push(suite, &exported, &solvers, &matrix_budgets);
     // The cone form of the same exported steps (each contact's normal and two tangent rows as
     // one Coulomb cone), for the cone solvers' performance profiles.
-    push(&suite.exported_cases, &cone_solvers(), &[budget("tight")]);
-    push(&suite.scaling_cases, &solvers, &[budget("default")]);
+    push(suite, &exported, &cone_solvers(), &[budget("tight")]);
+    let scaling = suite.scaling_cases.clone();
+    push(suite, &scaling, &solvers, &[budget("default")]);
     let omega_specs: Vec<SolverSpec> = suite
         .omegas
         .iter()
@@ -291,43 +369,49 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
             ..SolverSpec::plain(SolverKind::Sor)
         })
         .collect();
-    push(&suite.omega_cases, &omega_specs, &[budget("default")]);
-    let warm = |s: &SolverSpec| SolverSpec {
-        warm: true,
-        ..s.clone()
-    };
-    let iterative: Vec<SolverSpec> = all_solvers()
+    let omega = suite.omega_cases.clone();
+    push(suite, &omega, &omega_specs, &[budget("default")]);
+    let iterative: Vec<SolverSpec> = solvers
         .iter()
         .filter(|s| s.is_iterative())
         .flat_map(|s| [s.clone(), warm(s)])
         .collect();
-    push(&suite.warm_cases, &iterative, &[budget("default")]);
-    let scene_budgets: Vec<NamedBudget> = if quick {
-        vec![budget("default")]
-    } else {
-        SCENE_BUDGETS.into_iter().map(budget).collect()
-    };
-    let scene_solvers = scene_solvers();
+    let warm_cases = suite.warm_cases.clone();
+    push(suite, &warm_cases, &iterative, &[budget("default")]);
+}
+
+/// The iterative scene solvers, warm started.
+fn warm_scene_solvers() -> Vec<SolverSpec> {
+    scene_solvers()
+        .iter()
+        .filter(|s| s.is_iterative())
+        .map(warm)
+        .collect()
+}
+
+/// Every scene solver on the scenes that are not large (the plan's budgets) and on the large
+/// ones (`default`), then the iterative ones warm started on every scene (`default`).
+fn scene_jobs(suite: &mut Suite, plan: &Plan, large_scenes: &[Case]) {
+    let scene_budgets: Vec<NamedBudget> = plan.scene_budgets.iter().map(|b| budget(b)).collect();
     let small: Vec<Case> = suite
         .scene_cases
         .iter()
         .filter(|c| !large_scenes.contains(c))
         .cloned()
         .collect();
-    push(&small, &scene_solvers, &scene_budgets);
-    push(&large_scenes, &scene_solvers, &[budget("default")]);
-    let warm_only: Vec<SolverSpec> = scene_solvers
-        .iter()
-        .filter(|s| s.is_iterative())
-        .map(warm)
-        .collect();
-    push(&suite.scene_cases.clone(), &warm_only, &[budget("default")]);
-    suite.friction_cases = friction_cases(scenes, if quick { 20 } else { FRICTION_STEPS });
-    for case in &suite.friction_cases {
+    push(suite, &small, &scene_solvers(), &scene_budgets);
+    push(suite, large_scenes, &scene_solvers(), &[budget("default")]);
+    let all = suite.scene_cases.clone();
+    push(suite, &all, &warm_scene_solvers(), &[budget("default")]);
+}
+
+/// Each friction-model case with the solvers [`FRICTION_MODELS`] gives its model.
+fn friction_jobs(suite: &mut Suite) {
+    for case in suite.friction_cases.clone() {
         let Case::Scene {
             friction: Some(model),
             ..
-        } = case
+        } = &case
         else {
             continue;
         };
@@ -338,40 +422,44 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
             .into_iter()
             .flatten()
             .collect::<Vec<SolverSpec>>();
-        suite.jobs.extend(crate::harness::cross_product(
-            std::slice::from_ref(case),
+        push(
+            suite,
+            std::slice::from_ref(&case),
             &specs,
             &[budget(FRICTION_BUDGET)],
-        ));
+        );
     }
-    if !quick {
-        suite.tower_cases = scenes
-            .iter()
-            .filter(|p| {
-                p.file_name()
-                    .is_some_and(|f| TOWER_SCENES.iter().any(|t| f == *t))
-            })
-            .map(|p| Case::scene(p, None))
-            .collect();
-        suite.tower_solvers = warm_only.clone();
-        suite.tower_budgets = TOWER_BUDGETS.into_iter().map(budget).collect();
-        suite.jobs.extend(crate::harness::cross_product(
-            &suite.tower_cases,
-            &suite.tower_solvers,
-            &suite.tower_budgets,
-        ));
-        suite.scene_scaling_cases = scaling_scenes(scenes)
-            .iter()
-            .map(|p| Case::scene(p, Some(SCALING_STEPS)))
-            .collect();
-        let cases = suite.scene_scaling_cases.clone();
-        suite.jobs.extend(crate::harness::cross_product(
-            &cases,
-            &scene_solvers,
-            &[budget("default")],
-        ));
-    }
-    suite
+}
+
+/// The towers of [`TOWER_SCENES`] found among `scenes`, whole runs, with the warm-started
+/// iterative scene solvers under [`TOWER_BUDGETS`].
+fn tower_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
+    suite.tower_cases = scenes
+        .iter()
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|f| TOWER_SCENES.iter().any(|t| f == *t))
+        })
+        .map(|p| Case::scene(p, None))
+        .collect();
+    suite.tower_solvers = warm_scene_solvers();
+    suite.tower_budgets = TOWER_BUDGETS.into_iter().map(budget).collect();
+    let (cases, solvers, budgets) = (
+        suite.tower_cases.clone(),
+        suite.tower_solvers.clone(),
+        suite.tower_budgets.clone(),
+    );
+    push(suite, &cases, &solvers, &budgets);
+}
+
+/// The scene scaling family × every scene solver, budget `default`.
+fn scene_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
+    suite.scene_scaling_cases = scaling_scenes(scenes)
+        .iter()
+        .map(|p| Case::scene(p, Some(SCALING_STEPS)))
+        .collect();
+    let cases = suite.scene_scaling_cases.clone();
+    push(suite, &cases, &scene_solvers(), &[budget("default")]);
 }
 
 #[cfg(test)]
