@@ -6,6 +6,7 @@
 //! plot but kept in the CSV.
 
 use anyhow::{Context, Result};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -159,10 +160,17 @@ pub fn write_series_csv(path: &Path, series: &[Series]) -> Result<()> {
     Ok(())
 }
 
+/// The chart every plot draws on: linear `f64` axes (log axes plot `log10` of the data).
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+fn draw_err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("{e:?}")
+}
+
 /// Draw `series` to `svg_path` (800×520) and write their data to the same path with `.csv`.
 pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
     write_series_csv(&svg_path.with_extension("csv"), series)?;
-    let mapped: Vec<(Series, Vec<(f64, f64)>)> = series
+    let mapped: Vec<(&Series, Vec<(f64, f64)>)> = series
         .iter()
         .map(|s| {
             let pts = s
@@ -170,9 +178,55 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
                 .iter()
                 .filter_map(|&(x, y)| Some((to_axis(x, spec.log_x)?, to_axis(y, spec.log_y)?)))
                 .collect();
-            (s.clone(), pts)
+            (s, pts)
         })
         .collect();
+    let (x0, x1, y0, y1) = axis_ranges(spec, &mapped);
+    let root = SVGBackend::new(svg_path, (820, 540)).into_drawing_area();
+    root.fill(&WHITE).map_err(draw_err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&spec.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(draw_err)?;
+    let (lx, ly) = (spec.log_x, spec.log_y);
+    chart
+        .configure_mesh()
+        .x_desc(&spec.x_label)
+        .y_desc(&spec.y_label)
+        .x_label_formatter(&|v| tick_label(*v, lx))
+        .y_label_formatter(&|v| tick_label(*v, ly))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(draw_err)?;
+    for (s, pts) in &mapped {
+        if !pts.is_empty() {
+            draw_one(&mut chart, s, pts, x1)?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .position(match spec.legend {
+            LegendAt::UpperRight => SeriesLabelPosition::UpperRight,
+            LegendAt::LowerLeft => SeriesLabelPosition::LowerLeft,
+            LegendAt::LowerRight => SeriesLabelPosition::LowerRight,
+        })
+        .draw()
+        .map_err(draw_err)?;
+    root.present().map_err(draw_err)?;
+    Ok(())
+}
+
+/// The x and y ranges (in axis units) covering every shown point with a 5 % margin, or the
+/// spec's fixed y range; the unit square when nothing is shown.
+fn axis_ranges(spec: &PlotSpec, mapped: &[(&Series, Vec<(f64, f64)>)]) -> (f64, f64, f64, f64) {
     let all: Vec<(f64, f64)> = mapped.iter().flat_map(|(_, p)| p.iter().copied()).collect();
     let (mut x0, mut x1, mut y0, mut y1) = all.iter().fold(
         (
@@ -202,98 +256,57 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
     } else {
         pad(y0, y1)
     };
+    (x0, x1, y0, y1)
+}
 
-    let root = SVGBackend::new(svg_path, (820, 540)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&spec.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let (lx, ly) = (spec.log_x, spec.log_y);
-    chart
-        .configure_mesh()
-        .x_desc(&spec.x_label)
-        .y_desc(&spec.y_label)
-        .x_label_formatter(&|v| tick_label(*v, lx))
-        .y_label_formatter(&|v| tick_label(*v, ly))
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 15))
-        .light_line_style(WHITE.mix(0.0))
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    for (s, pts) in &mapped {
-        if pts.is_empty() {
-            continue;
-        }
-        let color = if s.mark == Mark::Reference {
-            RGBColor(90, 90, 90)
-        } else {
-            color_for(&s.color_key)
-        };
-        let style = ShapeStyle::from(&color).stroke_width(2);
-        let legend_style = style;
-        let mark = if pts.len() == 1 && matches!(s.mark, Mark::Line | Mark::Step) {
-            Mark::Points
-        } else {
-            s.mark
-        };
-        let anno = match mark {
-            Mark::Line | Mark::Reference => chart
-                .draw_series(LineSeries::new(pts.clone(), style))
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
-            Mark::Step => {
-                let mut stair = Vec::with_capacity(2 * pts.len());
-                for (i, &(x, y)) in pts.iter().enumerate() {
-                    if i > 0 {
-                        stair.push((x, pts[i - 1].1));
-                    }
-                    stair.push((x, y));
-                }
-                stair.push((x1, pts[pts.len() - 1].1));
-                chart
-                    .draw_series(LineSeries::new(stair, style))
-                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
-            }
-            Mark::Points => chart
-                .draw_series(
-                    pts.iter()
-                        .map(|&p| Circle::new(p, 4, ShapeStyle::from(&color).filled())),
-                )
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
-            Mark::LinePoints => {
-                chart
-                    .draw_series(LineSeries::new(pts.clone(), style))
-                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-                chart
-                    .draw_series(
-                        pts.iter()
-                            .map(|&p| Circle::new(p, 3, ShapeStyle::from(&color).filled())),
-                    )
-                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
-            }
-        };
-        if !s.name.is_empty() {
-            anno.label(s.name.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
+/// Draw one series' points (in axis units, not empty) in its mark, and its legend entry when
+/// it has a name; `x_end` is where a staircase's last step ends.
+fn draw_one(chart: &mut Chart, s: &Series, pts: &[(f64, f64)], x_end: f64) -> Result<()> {
+    let color = if s.mark == Mark::Reference {
+        RGBColor(90, 90, 90)
+    } else {
+        color_for(&s.color_key)
+    };
+    let style = ShapeStyle::from(&color).stroke_width(2);
+    let dots = |r: u32| {
+        pts.iter()
+            .map(move |&p| Circle::new(p, r, ShapeStyle::from(&color).filled()))
+    };
+    let mark = if pts.len() == 1 && matches!(s.mark, Mark::Line | Mark::Step) {
+        Mark::Points
+    } else {
+        s.mark
+    };
+    let anno = match mark {
+        Mark::Line | Mark::Reference => chart.draw_series(LineSeries::new(pts.to_vec(), style)),
+        Mark::Step => chart.draw_series(LineSeries::new(staircase(pts, x_end), style)),
+        Mark::Points => chart.draw_series(dots(4)),
+        Mark::LinePoints => {
+            chart
+                .draw_series(LineSeries::new(pts.to_vec(), style))
+                .map_err(draw_err)?;
+            chart.draw_series(dots(3))
         }
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(match spec.legend {
-            LegendAt::UpperRight => SeriesLabelPosition::UpperRight,
-            LegendAt::LowerLeft => SeriesLabelPosition::LowerLeft,
-            LegendAt::LowerRight => SeriesLabelPosition::LowerRight,
-        })
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    .map_err(draw_err)?;
+    if !s.name.is_empty() {
+        anno.label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+    }
     Ok(())
+}
+
+/// The corners of a staircase through `pts` (not empty), its last step extended to `x_end`.
+fn staircase(pts: &[(f64, f64)], x_end: f64) -> Vec<(f64, f64)> {
+    let mut stair = Vec::with_capacity(2 * pts.len());
+    for (i, &(x, y)) in pts.iter().enumerate() {
+        if i > 0 {
+            stair.push((x, pts[i - 1].1));
+        }
+        stair.push((x, y));
+    }
+    stair.push((x_end, pts[pts.len() - 1].1));
+    stair
 }
 
 /// Least-squares slope and intercept of `log10 y` against `log10 x` (positive points only).
