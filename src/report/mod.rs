@@ -14,6 +14,34 @@
 //! lcps/*.json          LCPs exported from the scenes (when scenes are available)
 //! replays/*.html       self-contained replay pages of the scenes that are not large
 //! ```
+//!
+//! Layout of the module, in the order data flows through it:
+//!
+//! ```text
+//! suite.rs             which cases × solvers × budgets the report runs
+//! context.rs           ReportContext (the rows indexed once by run key) and the Section trait
+//! sections/            one module per section of the README, listed in sections/mod.rs:
+//!   overview           title, header table (machine, commit, command, sweep), how to read it
+//!   budgets            the budget presets
+//!   scenes             scenes at a glance, one table per scene, fastest per scene, Pareto plots
+//!   towers             60 Hz towers under low iteration budgets: sag, drift, time, steps short
+//!   friction           box, pyramid and cone friction on the same scenes
+//!   robustness         converged / runs per solver and problem class
+//!   fastest            fastest solver to 1e-4 and 1e-8 per problem
+//!   time_to_accuracy   problems reaching 1e-4 … 1e-10 and geometric-mean times
+//!   profiles           Dolan–Moré performance profiles of the matrix solvers
+//!   cone_profiles      the cone solvers on the exported scene steps, with profiles
+//!   convergence        residual against iterations and time
+//!   warm_start         warm against cold start of the iterative solvers
+//!   sor_omega          SOR sweeps against omega
+//!   scaling            log–log slopes of time against rows and against contacts
+//! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
+//! status.rs            the run-status predicates the sections use
+//! machine.rs           the header's machine, commit and date
+//! replays.rs           the replay pages and the section linking them (appended after a run)
+//! ```
+//!
+//! A new table is a new module under `sections/` and one line in its `SECTIONS` list.
 
 mod context;
 pub mod machine;
