@@ -94,7 +94,10 @@ fn gallery(md: &mut String, figures: &[Figure], out_dir: &Path) {
 
 #[cfg(test)]
 mod tests {
-    use super::SECTIONS;
+    use super::{write_report, SECTIONS};
+    use crate::harness::{Case, RunRecord};
+    use crate::report::machine::Header;
+    use crate::report::suite::Suite;
 
     #[test]
     fn section_titles_are_distinct() {
@@ -102,5 +105,99 @@ mod tests {
         titles.sort();
         titles.dedup();
         assert_eq!(titles.len(), SECTIONS.len());
+    }
+
+    fn record(case: &Case, solver: &str, status: &str, converged: bool) -> RunRecord {
+        RunRecord {
+            case: case.to_string(),
+            class: case.class().name().to_owned(),
+            solver: solver.to_owned(),
+            solver_base: solver.to_owned(),
+            budget: "default".to_owned(),
+            status: status.to_owned(),
+            converged,
+            iterations: Some(3),
+            solve_time_s: Some(1e-4),
+            n: Some(8),
+            ..RunRecord::default()
+        }
+    }
+
+    /// A README from two hand-made rows: the sections in their order, the scene sections left
+    /// out (no scenes), the robustness cells counting what the rows say, the figures in the
+    /// order their sections come.
+    #[test]
+    fn the_report_is_its_sections_in_order_then_the_figures() {
+        let dir = tempfile::tempdir().unwrap();
+        let spd: Case = "spd:n=8:cond=1e2:seed=1".parse().unwrap();
+        let infeasible: Case = "infeasible:n=8:seed=1".parse().unwrap();
+        let rows = [
+            record(&spd, "pgs", "converged", true),
+            record(&infeasible, "lemke", "no_solution", false),
+            record(&infeasible, "pgs", "max_iterations", false),
+        ];
+        std::fs::create_dir_all(dir.path().join("data")).unwrap();
+        let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();
+        for r in &rows {
+            w.serialize(r).unwrap();
+        }
+        w.flush().unwrap();
+        let suite = Suite {
+            matrix_cases: vec![spd, infeasible],
+            ..Suite::default()
+        };
+        let header = Header {
+            cpu: "cpu".into(),
+            cores: 2,
+            os: "os".into(),
+            commit: "abc".into(),
+            date: "today".into(),
+            command: "lcpbench report".into(),
+            workers: 3,
+        };
+        let readme = write_report(dir.path(), &suite, &header, 12.0).unwrap();
+        let md = std::fs::read_to_string(readme).unwrap();
+        let headings: Vec<&str> = md.lines().filter(|l| l.starts_with('#')).collect();
+        assert_eq!(
+            headings,
+            [
+                "# lcpbench report",
+                "## Budgets",
+                "## Robustness matrix",
+                "## Fastest solver per problem",
+                "## Time to accuracy",
+                "## Warm start versus cold start",
+                "## SOR relaxation sweep",
+                "## Scaling",
+                "## Figures",
+            ]
+        );
+        assert!(md.contains("3 rows (0 isolation failures"));
+        assert!(md.contains("sweep 12 s on 3 worker processes"));
+        let robust = std::fs::read_to_string(dir.path().join("tables/robustness.csv")).unwrap();
+        let line = |solver: &str| {
+            robust
+                .lines()
+                .find(|l| l.starts_with(&format!("{solver},")))
+                .unwrap()
+                .to_owned()
+        };
+        assert!(line("pgs").contains("✓ 1/1"), "{robust}");
+        assert!(line("pgs").contains("✗ 0/1 detected"), "{robust}");
+        assert!(line("lemke").contains("✓ 1/1 detected"), "{robust}");
+        let figures: Vec<&str> = md
+            .lines()
+            .filter_map(|l| l.strip_prefix("![").and_then(|l| l.split_once("](")))
+            .map(|(_, path)| path.trim_end_matches(')'))
+            .collect();
+        assert_eq!(
+            figures,
+            [
+                "plots/profile_1e-4.svg",
+                "plots/profile_1e-8.svg",
+                "plots/sor_omega.svg",
+                "plots/scaling_lcp.svg",
+            ]
+        );
     }
 }

@@ -273,3 +273,55 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         analytic,
     ]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(status: &str, steps: usize, nonconverged: usize) -> RunRecord {
+        RunRecord {
+            status: status.into(),
+            steps: Some(steps),
+            nonconverged_steps: Some(nonconverged),
+            time_per_step_s: Some(2e-3),
+            ..RunRecord::default()
+        }
+    }
+
+    #[test]
+    fn glance_cells_name_what_stopped_the_run_or_how_many_steps_converged() {
+        assert_eq!(glance_cell(&run("crash", 0, 0)), "crash");
+        assert_eq!(glance_cell(&run("blow_up", 7, 1)), "blow-up (7 steps)");
+        assert_eq!(
+            glance_cell(&run("time_limit", 9, 0)),
+            "time limit (9 steps, 2.00 ms)"
+        );
+        assert_eq!(glance_cell(&run("unsupported", 0, 0)), "✗ unsupported");
+        assert_eq!(glance_cell(&run("converged", 10, 0)), "✓ 2.00 ms");
+        assert_eq!(
+            glance_cell(&run("max_iterations", 10, 3)),
+            "~ 2.00 ms (3 nc)"
+        );
+        assert_eq!(
+            glance_cell(&run("max_iterations", 10, 10)),
+            "✗ 2.00 ms (max_iterations)"
+        );
+        // Unsupported after some steps: judged by the steps, like any other run.
+        assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (1 nc)");
+    }
+
+    #[test]
+    fn the_pareto_front_keeps_the_points_nothing_beats() {
+        let series = |points: Vec<(f64, f64)>| Series {
+            name: "s".into(),
+            color_key: "s".into(),
+            points,
+            mark: Mark::Points,
+        };
+        let front = pareto_front(&[
+            series(vec![(1.0, 1e-3), (3.0, 1e-4)]),
+            series(vec![(2.0, 1e-5), (0.5, 1e-2), (0.0, 1e-9), (4.0, 0.0)]),
+        ]);
+        assert_eq!(front, [(0.5, 1e-2), (1.0, 1e-3), (2.0, 1e-5), (4.0, 1e-17)]);
+    }
+}
