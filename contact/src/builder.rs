@@ -433,6 +433,9 @@ pub struct ContactSystem {
     pub friction: Vec<FrictionRow>,
     /// Time step.
     pub h: f64,
+    /// Closing speeds below this get no restitution, m/s (from
+    /// [`BuilderParams::restitution_threshold`]; the body-level solvers' bounce test uses it too).
+    pub restitution_threshold: f64,
 }
 
 impl ContactSystem {
@@ -450,7 +453,8 @@ impl ContactSystem {
             .collect()
     }
 
-    /// True when the rows form a standard LCP (no box-friction rows, all `lo = 0`, `hi = ∞`).
+    /// True when the system has no friction rows. Its normal rows always have `lo = 0`,
+    /// `hi = ∞`, so this is the test for a standard LCP; the bounds are not inspected.
     pub fn is_standard(&self) -> bool {
         self.friction.is_empty()
     }
@@ -1095,6 +1099,7 @@ pub fn build(
         hi: Vec::new(),
         friction: Vec::new(),
         h,
+        restitution_threshold: params.restitution_threshold,
     };
     let default_material = Material::default();
     let material = |k: usize| materials.get(k).unwrap_or(&default_material);

@@ -71,11 +71,11 @@
 //! and what is wrong (with the line for syntax and type errors).
 
 use crate::body::{MassSpec, RigidBody};
-use crate::body_solvers::BodySolverSettings;
+use crate::body_solvers::Penalty;
 use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection};
 use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
-use crate::step::{Event, SimSettings, SolverChoice, World};
+use crate::step::{ContactSolver, Event, SimSettings, World};
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -201,7 +201,7 @@ struct SettingsFile {
 impl Default for SettingsFile {
     fn default() -> Self {
         let s = SimSettings::default();
-        let b = BodySolverSettings::default();
+        let b = Penalty::default();
         let p = BuilderParams::default();
         Self {
             dt: s.dt,
@@ -219,8 +219,8 @@ impl Default for SettingsFile {
             baumgarte: p.baumgarte,
             slop: p.slop,
             prediction_distance: s.prediction_distance,
-            penalty_omega_h: b.penalty_omega_h,
-            penalty_damping_ratio: b.penalty_damping_ratio,
+            penalty_omega_h: b.omega_h,
+            penalty_damping_ratio: b.damping_ratio,
             penalty_stiffness: None,
             ccd: "none".into(),
         }
@@ -314,6 +314,9 @@ pub struct Scene {
     pub groups: Vec<String>,
     /// Events.
     pub events: Vec<Event>,
+    /// The penalty parameters of `[settings]` (`penalty_*`), used whenever the scene runs the
+    /// `penalty` solver ([`Scene::solver_from_name`]).
+    pub penalty: Penalty,
     /// The `[metrics]` table, untouched.
     pub metrics: toml::Table,
 }
@@ -397,7 +400,8 @@ impl Scene {
             field,
             message,
         };
-        let settings = convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
+        let (settings, penalty) =
+            convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
 
         let mut materials = Vec::new();
         for (i, m) in file.materials.iter().enumerate() {
@@ -510,8 +514,15 @@ impl Scene {
             bodies,
             groups,
             events,
+            penalty,
             metrics: file.metrics,
         })
+    }
+
+    /// The solver of this name with default parameters, except `penalty`, which takes the
+    /// scene's `penalty_*` settings.
+    pub fn solver_from_name(&self, name: &str) -> Option<ContactSolver> {
+        solver_from_name(name, self.penalty)
     }
 
     /// A world ready to step.
@@ -527,24 +538,32 @@ impl Scene {
     }
 }
 
-/// Check that `solver` can run the scene's friction model ([`SolverChoice::supports`]): a
+/// Check that `solver` can run the scene's friction model ([`ContactSolver::supports`]): a
 /// body-level solver takes `none` or `box`, a matrix solver every model but `cone`, a cone
 /// solver only `cone`.
-pub fn check_solver(solver: SolverChoice, friction: FrictionModel) -> Result<(), String> {
+pub fn check_solver(solver: &ContactSolver, friction: FrictionModel) -> Result<(), String> {
     solver.supports(friction)
 }
 
 /// The solver of a scene that names none: `pgs`, or `nsgs-cone` for the cone model.
-pub fn default_solver(friction: FrictionModel) -> SolverChoice {
+pub fn default_solver(friction: FrictionModel) -> ContactSolver {
     match friction {
-        FrictionModel::Cone => SolverChoice::Cone(lcpbench_solvers::ConeSolverKind::NsgsCone),
+        FrictionModel::Cone => lcpbench_solvers::ConeSolverKind::NsgsCone.into(),
         _ => SimSettings::default().solver,
     }
 }
 
+/// [`ContactSolver::from_name`], with `penalty` built from the given parameters.
+fn solver_from_name(name: &str, penalty: Penalty) -> Option<ContactSolver> {
+    if name == crate::BodySolverKind::Penalty.name() {
+        return Some(ContactSolver::Body(Box::new(penalty)));
+    }
+    ContactSolver::from_name(name)
+}
+
 type FieldError = (String, String);
 
-fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
+fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldError> {
     let err = |f: &str, m: String| (format!("settings.{f}"), m);
     let positive = |f: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
@@ -629,19 +648,24 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             ))
         }
     };
+    let penalty = Penalty {
+        omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
+        damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
+        stiffness: s.penalty_stiffness,
+    };
     let solver = match &s.solver {
         None => default_solver(friction_model),
-        Some(name) => SolverChoice::from_name(name).ok_or_else(|| {
+        Some(name) => solver_from_name(name, penalty).ok_or_else(|| {
             err(
                 "solver",
                 format!(
                     "unknown solver \"{name}\" (known: {})",
-                    SolverChoice::all_names()
+                    ContactSolver::all_names()
                 ),
             )
         })?,
     };
-    check_solver(solver, friction_model).map_err(|m| err("solver", m))?;
+    check_solver(&solver, friction_model).map_err(|m| err("solver", m))?;
     let baumgarte = non_negative("baumgarte", s.baumgarte)?;
     if baumgarte > 1.0 {
         return Err(err(
@@ -668,7 +692,7 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }
-    Ok(SimSettings {
+    let settings = SimSettings {
         dt,
         steps: s.steps,
         gravity: s.gravity.into(),
@@ -685,17 +709,12 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             baumgarte,
             slop: non_negative("slop", s.slop)?,
         },
-        body: BodySolverSettings {
-            penalty_omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
-            penalty_damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
-            penalty_stiffness: s.penalty_stiffness,
-            ..BodySolverSettings::default()
-        },
         ccd,
         keep_problem: false,
         residuals: true,
         record_history: false,
-    })
+    };
+    Ok((settings, penalty))
 }
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met

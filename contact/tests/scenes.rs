@@ -3,7 +3,7 @@
 //! friction model.
 
 use lcpbench_contact::builder::{self, FrictionModel, RowKind};
-use lcpbench_contact::{Scene, SceneError, SolverChoice};
+use lcpbench_contact::{Scene, SceneError, ContactSolver};
 use std::path::{Path, PathBuf};
 
 fn bench_scenes() -> PathBuf {
@@ -56,7 +56,7 @@ fn defaults_and_metrics_pass_through() {
     .unwrap();
     assert_eq!(s.name, "test");
     assert_eq!(s.settings.dt, 0.01);
-    assert_eq!(s.settings.solver, SolverChoice::from_name("pgs").unwrap());
+    assert_eq!(s.settings.solver.name(), "pgs");
     assert_eq!(s.settings.builder.friction_model, FrictionModel::Box);
     assert_eq!(s.metrics["answer"].as_integer(), Some(42));
     assert!(s.metrics["nested"].is_table());

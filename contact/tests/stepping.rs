@@ -1,7 +1,7 @@
 //! Stepping behaviour beyond the analytic scenes: continuous collision detection against
 //! tunnelling, split impulses, the penalty baseline and warm starting.
 
-use lcpbench_contact::{Scene, SolverChoice};
+use lcpbench_contact::{Scene, ContactSolver};
 use std::path::Path;
 
 fn bullet(ccd: &str) -> Scene {
@@ -98,7 +98,7 @@ fn penalty_baseline_holds_a_box_with_small_penetration() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes/box_on_ground.toml");
     let s = Scene::load(path).unwrap();
     let mut w = s.world();
-    w.set_solver(SolverChoice::from_name("penalty").unwrap());
+    w.set_solver(ContactSolver::from_name("penalty").unwrap());
     let reports = w.run(300);
     let pen = reports.last().unwrap().max_penetration;
     let z = w.bodies[1].position.z;
@@ -116,7 +116,7 @@ fn warm_starting_cuts_sequential_impulse_sweeps() {
     let mut sweeps = Vec::new();
     for warm in [false, true] {
         let mut w = s.world();
-        w.set_solver(SolverChoice::from_name("si").unwrap());
+        w.set_solver(ContactSolver::from_name("si").unwrap());
         w.settings.warm_start = warm;
         let reports = w.run(100);
         let mean = reports[50..].iter().map(|r| r.iterations).sum::<usize>() as f64 / 50.0;
@@ -146,7 +146,7 @@ fn overflowing_body_level_step_is_a_numerical_failure_not_stalled() {
     let scene = Scene::parse(text, Path::new("overflow.toml")).unwrap();
     for solver in ["si", "body-micro", "penalty"] {
         let mut world = scene.world();
-        world.set_solver(SolverChoice::from_name(solver).unwrap());
+        world.set_solver(ContactSolver::from_name(solver).unwrap());
         let ball = &mut world.bodies[1];
         ball.linear_momentum = nalgebra::Vector3::new(0.0, 0.0, -1e308 * ball.mass);
         let report = world.step();

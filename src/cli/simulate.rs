@@ -4,7 +4,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
-use lcpbench_contact::step::{SolverChoice, World};
+use lcpbench_contact::step::{ContactSolver, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{cone_problem_to_json, write_problem};
 use serde_json::json;
@@ -123,21 +123,22 @@ fn load_world(
             })?;
     }
     if let Some(name) = solver {
-        let choice = SolverChoice::from_name(name).with_context(|| {
+        let choice = scene.solver_from_name(name).with_context(|| {
             format!(
                 "unknown solver `{name}` (known: {})",
-                SolverChoice::all_names()
+                ContactSolver::all_names()
             )
         })?;
         scene.settings.solver = choice;
     }
-    check_solver(scene.settings.solver, scene.settings.builder.friction_model).map_err(|m| {
+    check_solver(&scene.settings.solver, scene.settings.builder.friction_model).map_err(|m| {
         anyhow::anyhow!(
             "{}: unsupported solver for this friction model: {m}{}",
             path.display(),
-            match scene.settings.solver {
-                SolverChoice::Cone(_) => " (--friction-model cone selects the cone)",
-                _ => "",
+            if scene.settings.solver.is_cone() {
+                " (--friction-model cone selects the cone)"
+            } else {
+                ""
             }
         )
     })?;

@@ -163,7 +163,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
         record.reason = "no solver".into();
         return out(record);
     };
-    if let Err(reason) = check_solver(choice, scene.settings.builder.friction_model) {
+    if let Err(reason) = check_solver(&choice, scene.settings.builder.friction_model) {
         record.status = "unsupported".into();
         record.reason = reason;
         return out(record);
