@@ -342,7 +342,12 @@ impl BodySolver for Penalty {
 
 /// Solve the step's contact system with the body-level solver `kind` (default parameters),
 /// without measuring the shared residual; `warm` is the warm start (empty for none).
-pub fn solve(kind: BodySolverKind, system: &ContactSystem, warm: &[f64], settings: &Settings) -> BodySweep {
+pub fn solve(
+    kind: BodySolverKind,
+    system: &ContactSystem,
+    warm: &[f64],
+    settings: &Settings,
+) -> BodySweep {
     let settings = Settings {
         warm_start: (!warm.is_empty()).then(|| warm.to_vec()),
         ..settings.clone()
@@ -517,8 +522,7 @@ fn micro_impulses(
             let vn = op.row_dot(i, &u);
             let dist = system.contacts[c].dist;
             let closes = dist <= 0.0 || dist + h * vn <= 0.0;
-            let target = if info.restitution > 0.0 && closes && vn < -system.restitution_threshold
-            {
+            let target = if info.restitution > 0.0 && closes && vn < -system.restitution_threshold {
                 -info.restitution * vn
             } else if info.bouncing {
                 0.0

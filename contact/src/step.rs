@@ -130,7 +130,9 @@ impl ContactSolver {
     /// solver. Pivoting and interior-point solvers start cold.
     pub fn takes_warm_start(&self) -> bool {
         match self {
-            ContactSolver::Matrix(s) => SolverKind::from_name(s.name()).is_some_and(|k| k.is_iterative()),
+            ContactSolver::Matrix(s) => {
+                SolverKind::from_name(s.name()).is_some_and(|k| k.is_iterative())
+            }
             ContactSolver::Body(_) | ContactSolver::Cone(_) => true,
         }
     }
@@ -175,7 +177,11 @@ impl ContactSolver {
         let matrix = SolverKind::ALL.iter().map(|k| k.name());
         let body = BodySolverKind::ALL.iter().map(|k| k.name());
         let cone = ConeSolverKind::ALL.iter().map(|k| k.name());
-        matrix.chain(body).chain(cone).collect::<Vec<_>>().join(", ")
+        matrix
+            .chain(body)
+            .chain(cone)
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// Solve island `k` of `partition` with this (matrix or cone) solver.
@@ -188,7 +194,9 @@ impl ContactSolver {
     ) -> Result<SolveResult, String> {
         match self {
             ContactSolver::Matrix(s) => {
-                let problem = system.island_problem(partition, k).map_err(|e| e.to_string())?;
+                let problem = system
+                    .island_problem(partition, k)
+                    .map_err(|e| e.to_string())?;
                 Ok(s.solve(&problem, settings))
             }
             ContactSolver::Cone(s) => {
@@ -197,7 +205,9 @@ impl ContactSolver {
                     .map_err(|e| e.to_string())?;
                 Ok(s.solve_cone(&problem, settings))
             }
-            ContactSolver::Body(s) => Err(format!("body-level solver `{}` has no islands", s.name())),
+            ContactSolver::Body(s) => {
+                Err(format!("body-level solver `{}` has no islands", s.name()))
+            }
         }
     }
 

@@ -3,7 +3,7 @@
 //! `Unsupported` status of solvers that do not take the model.
 
 use lcpbench_contact::builder::FrictionModel;
-use lcpbench_contact::{Scene, ContactSolver, World};
+use lcpbench_contact::{ContactSolver, Scene, World};
 use lcpbench_solvers::Status;
 use nalgebra::Vector3;
 use std::path::PathBuf;

@@ -131,7 +131,11 @@ fn load_world(
         })?;
         scene.settings.solver = choice;
     }
-    check_solver(&scene.settings.solver, scene.settings.builder.friction_model).map_err(|m| {
+    check_solver(
+        &scene.settings.solver,
+        scene.settings.builder.friction_model,
+    )
+    .map_err(|m| {
         anyhow::anyhow!(
             "{}: unsupported solver for this friction model: {m}{}",
             path.display(),
