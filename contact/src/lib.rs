@@ -29,5 +29,5 @@ pub use body_solvers::{BodySolver, BodySolverKind, MicroImpulses, Penalty, Seque
 pub use builder::{
     BuilderParams, ContactSystem, DelassusOperator, FrictionModel, Material, PositionCorrection,
 };
-pub use scene::{Scene, SceneError};
+pub use scene::{Scene, SceneError, SceneMetrics};
 pub use step::{ContactSolver, SimSettings, StepReport, World};

@@ -171,7 +171,62 @@ struct SceneFile {
     #[serde(default)]
     events: Vec<EventFile>,
     #[serde(default)]
-    metrics: toml::Table,
+    metrics: SceneMetrics,
+}
+
+/// The `[metrics]` table of a scene: the analytic answers the harness checks a run against
+/// (`docs/scenes.md` says what each measures), and a few informational keys that describe the
+/// setup for readers and are not checked. Every key is optional; a key not listed here is an
+/// error naming the file and the key.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneMetrics {
+    /// Height the top body of a stack keeps, m (sag and lateral drift are measured from it).
+    pub expected_top_height: Option<f64>,
+    /// Height a resting body keeps, m (used like `expected_top_height` when that is absent).
+    pub expected_rest_height: Option<f64>,
+    /// Displacement of the first dynamic body over the run, m (`0`: it must not move).
+    pub expected_displacement: Option<f64>,
+    /// Acceleration of the first dynamic body along its motion, m/s² (`0`: it must stick).
+    pub expected_acceleration: Option<f64>,
+    /// Height of the first bounce, m.
+    pub expected_rebound_height: Option<f64>,
+    /// Normal force on each wall of a groove, N.
+    pub expected_wall_force: Option<f64>,
+    /// Final velocities of the bodies under the simultaneous collision model, m/s.
+    pub simultaneous_velocities: Option<Vec<f64>>,
+    /// Final velocities of the bodies under the sequential collision model, m/s.
+    pub sequential_velocities: Option<Vec<f64>>,
+    /// Step at which the scene's event removes a body.
+    pub removed_at_step: Option<usize>,
+    /// Bodies that must not slide.
+    pub stick_bodies: Option<Vec<String>>,
+    /// The scene must come to rest.
+    pub at_rest: Option<bool>,
+    /// Direction of the push (for the displacement of a pushed body).
+    pub push_direction: Option<[f64; 3]>,
+    /// Informational: height a body is dropped from, m.
+    pub drop_height: Option<f64>,
+    /// Informational: slope of the incline, degrees.
+    pub incline_degrees: Option<f64>,
+    /// Informational: friction coefficient(s) of the setup.
+    pub mu: Option<OneOrMany>,
+    /// Informational: restitution of the setup.
+    pub restitution: Option<f64>,
+    /// Informational: speed of the striking body, m/s.
+    pub striker_speed: Option<f64>,
+    /// Informational: angle of the walls, degrees.
+    pub wall_angle_degrees: Option<f64>,
+}
+
+/// One number or a list of them (an informational metric that varies across bodies).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    /// One value.
+    One(f64),
+    /// One value per body or case.
+    Many(Vec<f64>),
 }
 
 #[derive(Deserialize)]
@@ -295,7 +350,7 @@ struct EventFile {
     remove: String,
 }
 
-/// A loaded scene: ready-made bodies and settings, plus the pass-through metrics table.
+/// A loaded scene: ready-made bodies and settings, plus the metrics table.
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The file it came from.
@@ -317,8 +372,8 @@ pub struct Scene {
     /// The penalty parameters of `[settings]` (`penalty_*`), used whenever the scene runs the
     /// `penalty` solver ([`Scene::solver_from_name`]).
     pub penalty: Penalty,
-    /// The `[metrics]` table, untouched.
-    pub metrics: toml::Table,
+    /// The `[metrics]` table.
+    pub metrics: SceneMetrics,
 }
 
 /// 1-based line and column of a byte offset.

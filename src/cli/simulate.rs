@@ -162,13 +162,8 @@ struct TopBody {
 
 impl TopBody {
     fn of(scene: &Scene, world: &World) -> Option<Self> {
-        let expected = ["expected_top_height", "expected_rest_height"]
-            .iter()
-            .find_map(|k| match scene.metrics.get(*k)? {
-                toml::Value::Float(v) => Some(*v),
-                toml::Value::Integer(v) => Some(*v as f64),
-                _ => None,
-            })?;
+        let m = &scene.metrics;
+        let expected = m.expected_top_height.or(m.expected_rest_height)?;
         let g = world.settings.gravity;
         let up = if g.norm() > 0.0 {
             -g / g.norm()
