@@ -110,17 +110,41 @@ impl FrictionModel {
 
     /// Inverse of [`FrictionModel::name`] (`pyramid-K` for `K` in 3 to 64).
     pub fn from_name(name: &str) -> Option<Self> {
+        Self::parse(name, 4).ok()
+    }
+
+    /// The one parser of friction-model names, for scene files and the command line: `none`,
+    /// `box`, `cone`, `pyramid` with `pyramid_directions` directions, or `pyramid-K`. The
+    /// error says which part is wrong: `Err((true, message))` for the directions,
+    /// `Err((false, message))` for the name.
+    pub fn parse(name: &str, pyramid_directions: usize) -> Result<Self, (bool, String)> {
+        let directions = |k: usize| {
+            if (3..=MAX_PYRAMID_DIRECTIONS).contains(&k) {
+                Ok(FrictionModel::Pyramid { directions: k })
+            } else {
+                Err((
+                    true,
+                    format!("must be between 3 and {MAX_PYRAMID_DIRECTIONS}, got {k}"),
+                ))
+            }
+        };
+        let unknown = || {
+            (
+                false,
+                format!(
+                    "unknown model \"{name}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
+                ),
+            )
+        };
         match name {
-            "none" => Some(FrictionModel::None),
-            "box" => Some(FrictionModel::Box),
-            "pyramid" => Some(FrictionModel::Pyramid { directions: 4 }),
-            "cone" => Some(FrictionModel::Cone),
-            _ => name
-                .strip_prefix("pyramid-")?
-                .parse()
-                .ok()
-                .filter(|k| (3..=64).contains(k))
-                .map(|directions| FrictionModel::Pyramid { directions }),
+            "none" => Ok(FrictionModel::None),
+            "box" => Ok(FrictionModel::Box),
+            "cone" => Ok(FrictionModel::Cone),
+            "pyramid" => directions(pyramid_directions),
+            _ => match name.strip_prefix("pyramid-").map(str::parse::<usize>) {
+                Some(Ok(k)) => directions(k).map_err(|_| unknown()),
+                _ => Err(unknown()),
+            },
         }
     }
 
@@ -141,6 +165,25 @@ pub enum PositionCorrection {
     /// but adds no momentum.
     Split,
 }
+
+impl PositionCorrection {
+    /// The method of a scene file's `position_correction` (`none`, `baumgarte`, `split`), or
+    /// why not.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "none" => Ok(PositionCorrection::None),
+            "baumgarte" => Ok(PositionCorrection::Baumgarte),
+            "split" => Ok(PositionCorrection::Split),
+            other => Err(format!(
+                "unknown method \"{other}\" (expected \"baumgarte\", \"split\" or \"none\")"
+            )),
+        }
+    }
+}
+
+/// Largest number of pyramid friction directions: each contact of the pyramid model has
+/// `directions + 2` rows.
+pub const MAX_PYRAMID_DIRECTIONS: usize = 64;
 
 /// Parameters of the builder. Defaults in brackets.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -90,7 +90,7 @@ pub const MAX_BODIES: usize = 10_000;
 pub const MAX_STEPS: usize = 1_000_000;
 
 /// Largest `pyramid_directions`: each contact of the pyramid model has `directions + 2` rows.
-pub const MAX_PYRAMID_DIRECTIONS: usize = 64;
+pub use crate::builder::MAX_PYRAMID_DIRECTIONS;
 
 /// Smallest and largest time step `dt`, s.
 pub const DT_RANGE: (f64, f64) = (1e-6, 0.1);
@@ -663,46 +663,18 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
             ),
         ));
     }
-    let friction_model = match s.friction_model.as_str() {
-        "none" => FrictionModel::None,
-        "box" => FrictionModel::Box,
-        "cone" => FrictionModel::Cone,
-        "pyramid" => {
-            if !(3..=MAX_PYRAMID_DIRECTIONS).contains(&s.pyramid_directions) {
-                return Err(err(
-                    "pyramid_directions",
-                    format!(
-                        "must be between 3 and {MAX_PYRAMID_DIRECTIONS}, got {}",
-                        s.pyramid_directions
-                    ),
-                ));
-            }
-            FrictionModel::Pyramid {
-                directions: s.pyramid_directions,
-            }
-        }
-        other => {
-            return Err(err(
-                "friction_model",
-                format!(
-                "unknown model \"{other}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
-            ),
-            ))
-        }
-    };
-    let position_correction = match s.position_correction.as_str() {
-        "none" => PositionCorrection::None,
-        "baumgarte" => PositionCorrection::Baumgarte,
-        "split" => PositionCorrection::Split,
-        other => {
-            return Err(err(
-                "position_correction",
-                format!(
-                    "unknown method \"{other}\" (expected \"baumgarte\", \"split\" or \"none\")"
-                ),
-            ))
-        }
-    };
+    let friction_model = FrictionModel::parse(&s.friction_model, s.pyramid_directions).map_err(
+        |(directions, m)| {
+            let field = if directions {
+                "pyramid_directions"
+            } else {
+                "friction_model"
+            };
+            err(field, m)
+        },
+    )?;
+    let position_correction = PositionCorrection::from_name(&s.position_correction)
+        .map_err(|m| err("position_correction", m))?;
     let penalty = Penalty {
         omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
         damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
@@ -731,19 +703,7 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
     if let Some(k) = s.penalty_stiffness {
         positive("penalty_stiffness", k)?;
     }
-    let ccd = match s.ccd.as_str() {
-        "none" => None,
-        "bisection" => Some(ToiMethod::Bisection),
-        "conservative" => Some(ToiMethod::ConservativeAdvancement),
-        other => {
-            return Err(err(
-                "ccd",
-                format!(
-                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
-            ),
-            ))
-        }
-    };
+    let ccd = ToiMethod::from_ccd_name(&s.ccd).map_err(|m| err("ccd", m))?;
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }

@@ -114,8 +114,13 @@ fn load_world(
 ) -> Result<(Scene, World)> {
     let mut scene = Scene::load(path)?;
     if let Some(model) = friction_model {
-        scene.settings.builder.friction_model =
-            FrictionModel::from_name(model).with_context(|| {
+        let directions = match scene.settings.builder.friction_model {
+            FrictionModel::Pyramid { directions } => directions,
+            _ => 4,
+        };
+        scene.settings.builder.friction_model = FrictionModel::parse(model, directions)
+            .map_err(|(_, m)| anyhow::anyhow!("{m}"))
+            .with_context(|| {
                 format!(
                     "unknown friction model `{model}` (known: {})",
                     FrictionModel::NAMES
