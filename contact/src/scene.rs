@@ -1,74 +1,12 @@
-//! Scene files (TOML): bodies, materials, settings and events of a simulation, as data.
+//! Scene files (TOML): bodies, materials, settings, events and expected metrics of a
+//! simulation, as data. The format is documented once, in `docs/scenes.md` (every key, its
+//! default and its limits); [`Scene::load`] reads it.
 //!
-//! ```toml
-//! name = "box_on_ground"
-//! description = "A unit box resting on the ground."
-//!
-//! [settings]                     # every key optional; defaults shown
-//! dt = 0.01                      # time step, s
-//! steps = 100                    # steps of a run
-//! gravity = [0.0, 0.0, -9.81]    # m/s²
-//! friction_model = "box"         # "none" | "box" | "pyramid" | "cone" (exact Coulomb cone)
-//! pyramid_directions = 4         # friction directions of the pyramid model (>= 3)
-//! solver = "pgs"                 # a matrix solver (pgs, sor, lemke, dantzig, clarabel, micro, ...)
-//!                                # or a body-level one (si, body-micro, penalty); with
-//!                                # friction_model = "cone" a cone solver (nsgs-cone, the
-//!                                # default there, or newton-ac)
-//! tolerance = 1e-6               # on the relative natural-map residual
-//! max_iterations = 1000          # sweeps / pivots / iterations per step
-//! warm_start = true              # start iterative solvers from last step's impulses
-//! islands = true                 # solve independent contact groups separately (in parallel)
-//! restitution_threshold = 0.1    # closing speeds below this do not bounce, m/s
-//! position_correction = "baumgarte"  # "baumgarte" | "split" | "none"
-//! baumgarte = 0.2                # fraction of the penetration removed per step
-//! slop = 0.001                   # penetration left uncorrected, m
-//! prediction_distance = 0.01     # contacts closer than this enter the problem, m
-//! penalty_omega_h = 0.3          # penalty: spring frequency × dt
-//! penalty_damping_ratio = 0.7    # penalty: damping ratio
-//! # penalty_stiffness = 1e5      # penalty: fixed stiffness, N/m (default: from the mass)
-//! ccd = "none"                   # "none" | "bisection" | "conservative": stop each step at
-//!                                # the first time of impact so fast bodies cannot tunnel
-//!
-//! [[materials]]                  # optional; bodies without `material` use the first
-//! name = "wood"
-//! mu = 0.5                       # friction (a contact uses sqrt(mu_a mu_b))
-//! restitution = 0.0              # a contact uses max(e_a, e_b)
-//!
-//! [[bodies]]
-//! name = "ground"
-//! shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
-//! static = true
-//!
-//! [[bodies]]
-//! name = "box"
-//! shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
-//! density = 1000.0               # or `mass = ...` (not both; default density 1000)
-//! position = [0.0, 0.0, 0.5]     # centre of mass, m
-//! orientation = [1.0, 0.0, 0.0, 0.0]          # unit quaternion [w, x, y, z], or instead
-//! # axis_angle = { axis = [0, 1, 0], degrees = 30 }
-//! velocity = [0.0, 0.0, 0.0]
-//! angular_velocity = [0.0, 0.0, 0.0]
-//! material = "wood"
-//! # repeat = { count = [nx, ny, nz], spacing = [dx, dy, dz] }   # a grid of copies
-//!
-//! [[events]]
-//! at_step = 300
-//! remove = "box"                 # a body, or every copy of a repeated body
-//!
-//! [metrics]                      # free-form; passed through untouched to the harness
-//! expected_rest_height = 0.5
-//! ```
-//!
-//! Shapes: `{ type = "sphere", radius }`, `{ type = "box", half_extents }`,
-//! `{ type = "capsule", half_height, radius }` (axis along body z),
-//! `{ type = "convex", points = [[x, y, z], ...] }` (convex hull),
-//! `{ type = "particle", radius = 0.01 }`, `{ type = "plane", normal }` (static only; the solid
-//! is the half-space below the plane through `position`), `{ type = "mesh", file = "m.obj" }`
-//! (Wavefront OBJ, path relative to the scene file).
-//!
-//! A repeated body named `n` yields bodies `n_0`, `n_1`, … at `position + (i dx, j dy, k dz)`,
-//! numbered with `i` fastest. Unknown keys are errors; every error names the file, the field
-//! and what is wrong (with the line for syntax and type errors).
+//! Every table rejects unknown keys; every error names the file, the field and what is wrong
+//! (with the line for syntax and type errors). Each setting with a set of names is parsed by one
+//! function that the command line shares: [`FrictionModel::parse`],
+//! [`PositionCorrection::from_name`], [`ToiMethod::from_ccd_name`],
+//! [`ContactSolver::from_name`].
 
 use crate::body::{MassSpec, RigidBody};
 use crate::body_solvers::Penalty;

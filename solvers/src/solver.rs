@@ -19,8 +19,12 @@ pub struct Settings {
     pub max_iterations: usize,
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
-    /// Initial impulse for solvers that can use one (iterative solvers; pivoting solvers use it to
-    /// guess the initial active set or ignore it, as their docs say). Default `None` (zero).
+    /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
+    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and the cone
+    /// solvers NSGS-cone and Newton-AC; enumeration uses it only to order its first guesses of
+    /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
+    /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
+    /// and cone solvers only. Default `None` (zero).
     pub warm_start: Option<Vec<f64>>,
     /// Record the shared residual after every iteration (time spent measuring it is excluded from
     /// the reported wall time). Default `false`.
