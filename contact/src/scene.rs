@@ -395,98 +395,13 @@ impl Scene {
         };
         let (settings, penalty) =
             convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
-
-        let mut materials = Vec::new();
-        for (i, m) in file.materials.iter().enumerate() {
-            let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
-            if !(m.mu.is_finite() && m.mu >= 0.0) {
-                return Err(invalid(field("mu"), format!("must be >= 0, got {}", m.mu)));
-            }
-            if !(0.0..=1.0).contains(&m.restitution) {
-                return Err(invalid(
-                    field("restitution"),
-                    format!("must be in [0, 1], got {}", m.restitution),
-                ));
-            }
-            if materials.iter().any(|x: &Material| x.name == m.name) {
-                return Err(invalid(field("name"), "is defined twice".into()));
-            }
-            materials.push(Material {
-                name: m.name.clone(),
-                mu: m.mu,
-                restitution: m.restitution,
-            });
-        }
-        if materials.is_empty() {
-            materials.push(Material::default());
-        }
-
-        let mut total: usize = 0;
-        for (i, b) in file.bodies.iter().enumerate() {
-            let copies = match &b.repeat {
-                Some(r) => r.count.iter().try_fold(1usize, |p, &c| p.checked_mul(c)),
-                None => Some(1),
-            };
-            total = match copies.and_then(|c| total.checked_add(c)) {
-                Some(t) if t <= MAX_BODIES => t,
-                _ => {
-                    let field = if b.repeat.is_some() {
-                        format!("bodies[{i}] (\"{}\").repeat.count", b.name)
-                    } else {
-                        "bodies".into()
-                    };
-                    return Err(invalid(
-                        field,
-                        format!(
-                            "the scene would have more than {MAX_BODIES} bodies (the limit; \
-                             the contact problem of more would not fit in memory)"
-                        ),
-                    ));
-                }
-            };
-        }
+        let materials = convert_materials(&file.materials).map_err(|(f, m)| invalid(f, m))?;
+        let total = count_bodies(&file.bodies).map_err(|(f, m)| invalid(f, m))?;
         let dir = path.parent().unwrap_or(Path::new("."));
-        let mut bodies = Vec::with_capacity(total);
-        let mut groups = Vec::with_capacity(total);
-        let mut names = std::collections::HashSet::with_capacity(total);
-        for (i, b) in file.bodies.iter().enumerate() {
-            let at = |f: &str| {
-                if f.is_empty() {
-                    format!("bodies[{i}] (\"{}\")", b.name)
-                } else {
-                    format!("bodies[{i}] (\"{}\").{f}", b.name)
-                }
-            };
-            let made = convert_body(b, &materials, dir).map_err(|(f, m)| invalid(at(&f), m))?;
-            for body in made {
-                if !names.insert(body.name.clone()) {
-                    return Err(invalid(
-                        at("name"),
-                        format!("body name \"{}\" is used twice", body.name),
-                    ));
-                }
-                bodies.push(body);
-                groups.push(b.name.clone());
-            }
-        }
-
-        let mut events = Vec::new();
-        for (i, e) in file.events.iter().enumerate() {
-            if !bodies
-                .iter()
-                .zip(&groups)
-                .any(|(b, g)| b.name == e.remove || *g == e.remove)
-            {
-                return Err(invalid(
-                    format!("events[{i}].remove"),
-                    format!("no body named \"{}\"", e.remove),
-                ));
-            }
-            events.push(Event {
-                at_step: e.at_step,
-                remove: e.remove.clone(),
-            });
-        }
+        let (bodies, groups) = convert_bodies(&file.bodies, &materials, dir, total)
+            .map_err(|(f, m)| invalid(f, m))?;
+        let events =
+            convert_events(&file.events, &bodies, &groups).map_err(|(f, m)| invalid(f, m))?;
 
         if bodies.is_empty() {
             return Err(invalid(
@@ -555,6 +470,124 @@ fn solver_from_name(name: &str, penalty: Penalty) -> Option<ContactSolver> {
 }
 
 type FieldError = (String, String);
+
+/// The `[[materials]]` tables (one default material when there are none).
+fn convert_materials(files: &[MaterialFile]) -> Result<Vec<Material>, FieldError> {
+    let mut materials = Vec::new();
+    for (i, m) in files.iter().enumerate() {
+        let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
+        if !(m.mu.is_finite() && m.mu >= 0.0) {
+            return Err((field("mu"), format!("must be >= 0, got {}", m.mu)));
+        }
+        if !(0.0..=1.0).contains(&m.restitution) {
+            return Err((
+                field("restitution"),
+                format!("must be in [0, 1], got {}", m.restitution),
+            ));
+        }
+        if materials.iter().any(|x: &Material| x.name == m.name) {
+            return Err((field("name"), "is defined twice".into()));
+        }
+        materials.push(Material {
+            name: m.name.clone(),
+            mu: m.mu,
+            restitution: m.restitution,
+        });
+    }
+    if materials.is_empty() {
+        materials.push(Material::default());
+    }
+    Ok(materials)
+}
+
+/// The number of bodies with repeats expanded, refused above [`MAX_BODIES`] before any is
+/// built.
+fn count_bodies(files: &[BodyFile]) -> Result<usize, FieldError> {
+    let mut total: usize = 0;
+    for (i, b) in files.iter().enumerate() {
+        let copies = match &b.repeat {
+            Some(r) => r.count.iter().try_fold(1usize, |p, &c| p.checked_mul(c)),
+            None => Some(1),
+        };
+        total = match copies.and_then(|c| total.checked_add(c)) {
+            Some(t) if t <= MAX_BODIES => t,
+            _ => {
+                let field = if b.repeat.is_some() {
+                    format!("bodies[{i}] (\"{}\").repeat.count", b.name)
+                } else {
+                    "bodies".into()
+                };
+                return Err((
+                    field,
+                    format!(
+                        "the scene would have more than {MAX_BODIES} bodies (the limit; \
+                         the contact problem of more would not fit in memory)"
+                    ),
+                ));
+            }
+        };
+    }
+    Ok(total)
+}
+
+/// The `[[bodies]]` tables, repeats expanded: the bodies and, for each, its entry's name.
+fn convert_bodies(
+    files: &[BodyFile],
+    materials: &[Material],
+    dir: &Path,
+    total: usize,
+) -> Result<(Vec<RigidBody>, Vec<String>), FieldError> {
+    let mut bodies = Vec::with_capacity(total);
+    let mut groups = Vec::with_capacity(total);
+    let mut names = std::collections::HashSet::with_capacity(total);
+    for (i, b) in files.iter().enumerate() {
+        let at = |f: &str| {
+            if f.is_empty() {
+                format!("bodies[{i}] (\"{}\")", b.name)
+            } else {
+                format!("bodies[{i}] (\"{}\").{f}", b.name)
+            }
+        };
+        let made = convert_body(b, materials, dir).map_err(|(f, m)| (at(&f), m))?;
+        for body in made {
+            if !names.insert(body.name.clone()) {
+                return Err((
+                    at("name"),
+                    format!("body name \"{}\" is used twice", body.name),
+                ));
+            }
+            bodies.push(body);
+            groups.push(b.name.clone());
+        }
+    }
+    Ok((bodies, groups))
+}
+
+/// The `[[events]]` tables; each must remove a body (or repeated entry) that exists.
+fn convert_events(
+    files: &[EventFile],
+    bodies: &[RigidBody],
+    groups: &[String],
+) -> Result<Vec<Event>, FieldError> {
+    let mut events = Vec::new();
+    for (i, e) in files.iter().enumerate() {
+        if !bodies
+            .iter()
+            .zip(groups)
+            .any(|(b, g)| b.name == e.remove || *g == e.remove)
+        {
+            return Err((
+                format!("events[{i}].remove"),
+                format!("no body named \"{}\"", e.remove),
+            ));
+        }
+        events.push(Event {
+            at_step: e.at_step,
+            remove: e.remove.clone(),
+        });
+    }
+    Ok(events)
+}
 
 fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldError> {
     let err = |f: &str, m: String| (format!("settings.{f}"), m);
