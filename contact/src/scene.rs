@@ -398,8 +398,8 @@ impl Scene {
         let materials = convert_materials(&file.materials).map_err(|(f, m)| invalid(f, m))?;
         let total = count_bodies(&file.bodies).map_err(|(f, m)| invalid(f, m))?;
         let dir = path.parent().unwrap_or(Path::new("."));
-        let (bodies, groups) = convert_bodies(&file.bodies, &materials, dir, total)
-            .map_err(|(f, m)| invalid(f, m))?;
+        let (bodies, groups) =
+            convert_bodies(&file.bodies, &materials, dir, total).map_err(|(f, m)| invalid(f, m))?;
         let events =
             convert_events(&file.events, &bodies, &groups).map_err(|(f, m)| invalid(f, m))?;
 
@@ -752,8 +752,17 @@ fn convert_body(
     materials: &[Material],
     dir: &Path,
 ) -> Result<Vec<RigidBody>, FieldError> {
-    let err = |f: &str, m: String| (f.to_owned(), m);
     let shape = convert_shape(&b.shape, dir)?;
+    check_motion(b)?;
+    let mass = body_mass(b)?;
+    let orientation = body_orientation(b)?;
+    let material = body_material(b, materials)?;
+    expand_repeats(b, &shape, mass, orientation, material)
+}
+
+/// Position, velocity and angular velocity within the scene limits.
+fn check_motion(b: &BodyFile) -> Result<(), FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     let limit = |field: &str, v: [f64; 3], max: f64, unit: &str| {
         let norm = magnitude(v);
         if norm.is_finite() && norm <= max {
@@ -782,6 +791,12 @@ fn convert_body(
     }
     limit("velocity", b.velocity, MAX_SPEED, "m/s")?;
     limit("angular_velocity", b.angular_velocity, MAX_SPEED, "rad/s")?;
+    Ok(())
+}
+
+/// `density` or `mass` (default density 1000), checked.
+fn body_mass(b: &BodyFile) -> Result<MassSpec, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     // Checked for static bodies too: a static body ignores its mass, but a negative one is
     // still a mistake in the file.
     for (field, v) in [("density", b.density), ("mass", b.mass)] {
@@ -806,15 +821,20 @@ fn convert_body(
             ),
         ));
     }
-    let mass = match (b.density, b.mass) {
+    Ok(match (b.density, b.mass) {
         (Some(_), Some(_)) => {
             return Err(err("mass", "give `density` or `mass`, not both".into()));
         }
         (Some(d), None) => MassSpec::Density(d),
         (None, Some(m)) => MassSpec::Mass(m),
         (None, None) => MassSpec::Density(1000.0),
-    };
-    let orientation = match (&b.orientation, &b.axis_angle) {
+    })
+}
+
+/// `orientation` (a quaternion) or `axis_angle`; identity when neither is given.
+fn body_orientation(b: &BodyFile) -> Result<UnitQuaternion<f64>, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
+    Ok(match (&b.orientation, &b.axis_angle) {
         (Some(_), Some(_)) => {
             return Err(err(
                 "orientation",
@@ -840,8 +860,13 @@ fn convert_body(
             UnitQuaternion::from_axis_angle(&axis, aa.degrees.to_radians())
         }
         (None, None) => UnitQuaternion::identity(),
-    };
-    let material = match &b.material {
+    })
+}
+
+/// Index of the body's material (the first when none is named).
+fn body_material(b: &BodyFile, materials: &[Material]) -> Result<usize, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
+    Ok(match &b.material {
         None => 0,
         Some(name) => materials
             .iter()
@@ -853,7 +878,18 @@ fn convert_body(
                     format!("no material named \"{name}\" (known: {})", known.join(", ")),
                 )
             })?,
-    };
+    })
+}
+
+/// The body, or its grid of copies `name_0, name_1, …` (`i` fastest) when repeated.
+fn expand_repeats(
+    b: &BodyFile,
+    shape: &Shape,
+    mass: MassSpec,
+    orientation: UnitQuaternion<f64>,
+    material: usize,
+) -> Result<Vec<RigidBody>, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     let (count, spacing) = match &b.repeat {
         None => ([1, 1, 1], [0.0; 3]),
         Some(r) => {
