@@ -589,22 +589,33 @@ fn convert_events(
     Ok(events)
 }
 
-fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldError> {
+/// `settings.{field}` must be a positive finite number.
+fn positive(field: &str, v: f64) -> Result<f64, FieldError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err((
+            format!("settings.{field}"),
+            format!("must be a positive number, got {v}"),
+        ))
+    }
+}
+
+/// `settings.{field}` must be a finite number `>= 0`.
+fn non_negative(field: &str, v: f64) -> Result<f64, FieldError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err((
+            format!("settings.{field}"),
+            format!("must be >= 0, got {v}"),
+        ))
+    }
+}
+
+/// `dt`, `steps` and `gravity` within their limits; returns `dt`.
+fn check_clock(s: &SettingsFile) -> Result<f64, FieldError> {
     let err = |f: &str, m: String| (format!("settings.{f}"), m);
-    let positive = |f: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(err(f, format!("must be a positive number, got {v}")))
-        }
-    };
-    let non_negative = |f: &str, v: f64| {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(err(f, format!("must be >= 0, got {v}")))
-        }
-    };
     let dt = positive("dt", s.dt)?;
     if !(DT_RANGE.0..=DT_RANGE.1).contains(&dt) {
         return Err(err(
@@ -634,6 +645,12 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
             ),
         ));
     }
+    Ok(dt)
+}
+
+fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldError> {
+    let err = |f: &str, m: String| (format!("settings.{f}"), m);
+    let dt = check_clock(s)?;
     let friction_model = FrictionModel::parse(&s.friction_model, s.pyramid_directions).map_err(
         |(directions, m)| {
             let field = if directions {
