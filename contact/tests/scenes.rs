@@ -3,7 +3,7 @@
 //! friction model.
 
 use lcpbench_contact::builder::{self, FrictionModel, RowKind};
-use lcpbench_contact::{ContactSolver, Scene, SceneError};
+use lcpbench_contact::{Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 fn bench_scenes() -> PathBuf {
