@@ -29,12 +29,25 @@
 //!   use the velocities at the start of the step (one Jacobi pass). It ignores restitution and
 //!   position correction (its spring does both) and does not solve the LCP: its shared residual
 //!   is reported honestly and is large.
+//!
+//! Each is a type implementing [`BodySolver`] ([`SequentialImpulses`], [`MicroImpulses`],
+//! [`Penalty`]). They take the shared [`Settings`] of `lcpbench-solvers` (`tolerance` is both
+//! their own stopping scale, a sweep's largest impulse change against `tolerance` times the
+//! impulse scale, and the shared residual's tolerance; `max_iterations` caps sweeps; the warm
+//! start is `Settings::warm_start`), and [`BodySolver::solve`] decides the status with the same
+//! rule as every matrix solver ([`lcpbench_solvers::decide`]) from the shared residual of the
+//! step's LCP, when that LCP is given to measure on. The bounce threshold is the builder's
+//! ([`ContactSystem::restitution_threshold`]).
 
 use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
+use lcpbench_solvers::{
+    decide, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals, Settings,
+    SolveResult, Status,
+};
 use nalgebra::{Matrix2, Vector2};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-/// A body-level solver.
+/// A body-level solver (the catalogue of names; [`BodySolverKind::create`] makes the solver).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BodySolverKind {
     /// Sequential impulses with accumulated clamping and warm starting.
@@ -62,81 +75,284 @@ impl BodySolverKind {
         }
     }
 
+    /// One line saying what the solver is (for solver listings).
+    pub fn description(self) -> &'static str {
+        match self {
+            BodySolverKind::SequentialImpulses => {
+                "sequential impulses (Catto 2005): restitution sweeps, then projected Gauss-Seidel \
+                 on accumulated impulses, warm-started"
+            }
+            BodySolverKind::MicroImpulses => {
+                "micro-impulses (Mirtich 1996): every closing contact a collision, no impulse \
+                 taken back"
+            }
+            BodySolverKind::Penalty => {
+                "spring-damper penalty forces: one Jacobi pass, does not solve the LCP"
+            }
+        }
+    }
+
+    /// True for the solvers that sweep until a stopping rule (`si`, `body-micro`); `penalty`
+    /// takes one pass.
+    pub fn is_iterative(self) -> bool {
+        !matches!(self, BodySolverKind::Penalty)
+    }
+
     /// Look a solver up by name.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
-}
 
-/// Settings of the body-level solvers. Defaults in brackets.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BodySolverSettings {
-    /// Stop when the largest impulse change of a sweep is below `tolerance` times the impulse
-    /// scale \[`1e-8`\].
-    pub tolerance: f64,
-    /// Cap on sweeps \[`10_000`\].
-    pub max_iterations: usize,
-    /// Closing speeds below this get no restitution, m/s \[`0.1`\].
-    pub restitution_threshold: f64,
-    /// Penalty: `ω h`, the spring's natural frequency times the step \[`0.3`\].
-    pub penalty_omega_h: f64,
-    /// Penalty: fixed stiffness in N/m instead of `m_eff ω²` \[`None`\].
-    pub penalty_stiffness: Option<f64>,
-    /// Penalty: damping ratio `ζ` \[`0.7`\].
-    pub penalty_damping_ratio: f64,
-}
-
-impl Default for BodySolverSettings {
-    fn default() -> Self {
-        Self {
-            tolerance: 1e-8,
-            max_iterations: 10_000,
-            restitution_threshold: 0.1,
-            penalty_omega_h: 0.3,
-            penalty_stiffness: None,
-            penalty_damping_ratio: 0.7,
+    /// The solver with default parameters.
+    pub fn create(self) -> Box<dyn BodySolver + Send> {
+        match self {
+            BodySolverKind::SequentialImpulses => Box::new(SequentialImpulses),
+            BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
+            BodySolverKind::Penalty => Box::new(Penalty::default()),
         }
     }
 }
 
-/// What a body-level solve returns.
+/// What a body-level solver's own loop returns, before the status is decided.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BodySolveOutput {
+pub struct BodySweep {
     /// Total impulse per row of the system.
     pub f: Vec<f64>,
     /// The part of `f` to keep for warm starting the next step.
     pub warm: Vec<f64>,
     /// Sweeps used.
     pub iterations: usize,
-    /// Wall time.
-    pub time: Duration,
     /// True when the solver's own stopping rule was met.
     pub stopped: bool,
 }
 
-/// Solve the step's contact system on bodies. `warm` is the warm start (zeros for none).
+/// What [`BodySolver::solve`] returns: the shared [`SolveResult`] and the warm-start part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodySolveResult {
+    /// Impulse, status, sweeps and time. `residuals` and `w` are those of the LCP the result
+    /// was measured on; when none was given, `residuals` is [`Residuals::INFINITE`] and `w`
+    /// is empty.
+    pub result: SolveResult,
+    /// The part of `f` to keep for warm starting the next step.
+    pub warm: Vec<f64>,
+}
+
+/// The LCP a body-level result is measured on.
+#[derive(Debug, Clone, Copy)]
+pub enum Measure<'a> {
+    /// The step's assembled LCP: the shared residual decides the status.
+    Lcp(&'a Problem),
+    /// Not measured: convergence cannot be claimed.
+    Skip,
+    /// The contact system could not be assembled (why): a numerical failure.
+    Invalid(&'a str),
+}
+
+/// A contact solver that works on bodies through the [`DelassusOperator`] (matrix-free).
+///
+/// Every body-level solver is `Clone` (through [`BodySolverClone`]); none keeps a workspace,
+/// so a clone answers exactly as a fresh solver of the same parameters.
+pub trait BodySolver: BodySolverClone {
+    /// Which solver of the catalogue this is.
+    fn kind(&self) -> BodySolverKind;
+
+    /// The solver's own loop on the step's system; `settings.warm_start` is the warm start.
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep;
+
+    /// Short name (`si`, `body-micro`, `penalty`).
+    fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+
+    /// Solve and decide the status from the shared residual of `measure` ([`body_status`]).
+    fn solve(
+        &mut self,
+        system: &ContactSystem,
+        settings: &Settings,
+        measure: Measure<'_>,
+    ) -> BodySolveResult {
+        let start = Instant::now();
+        let out = self.sweep(system, settings);
+        let time = start.elapsed();
+        let (w, residuals) = match measure {
+            Measure::Lcp(p) => {
+                let mut w = vec![0.0; p.n()];
+                let r = residuals_and_velocity(p, &out.f, &mut w);
+                (w, Some(r))
+            }
+            Measure::Skip | Measure::Invalid(_) => (Vec::new(), None),
+        };
+        let invalid = match measure {
+            Measure::Invalid(e) => Some(e),
+            _ => None,
+        };
+        let status = body_status(self.name(), &out, residuals.as_ref(), invalid, settings);
+        BodySolveResult {
+            result: SolveResult {
+                f: out.f,
+                w,
+                status,
+                iterations: out.iterations,
+                time,
+                residuals: residuals.unwrap_or(Residuals::INFINITE),
+                history: Vec::new(),
+                active_sets: Vec::new(),
+            },
+            warm: out.warm,
+        }
+    }
+}
+
+/// A boxed copy of a [`BodySolver`] (the dyn-clone pattern); implemented for every
+/// `BodySolver + Clone + Send + 'static`.
+pub trait BodySolverClone {
+    /// A boxed clone of this solver.
+    fn clone_box(&self) -> Box<dyn BodySolver + Send>;
+}
+
+impl<T: BodySolver + Clone + Send + 'static> BodySolverClone for T {
+    fn clone_box(&self) -> Box<dyn BodySolver + Send> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn BodySolver + Send> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+impl std::fmt::Debug for dyn BodySolver + Send {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The status of a body-level result: a system that could not be assembled, a non-finite
+/// impulse or a non-finite residual are numerical failures; otherwise the shared rule
+/// ([`decide`]) on the relative residual (NaN when not measured, so never `Converged`), with
+/// the solver's own stop as a stall that says at which residual it stopped.
+pub fn body_status(
+    name: &str,
+    out: &BodySweep,
+    residuals: Option<&Residuals>,
+    invalid: Option<&str>,
+    settings: &Settings,
+) -> Status {
+    if let Some(e) = invalid {
+        return Status::NumericalFailure {
+            reason: format!("contact system is invalid: {e}"),
+        };
+    }
+    if let Some(reason) = non_finite_reason(&out.f, "impulse", "f") {
+        return Status::NumericalFailure { reason };
+    }
+    let rel = residuals.map_or(f64::NAN, |r| r.natural_map_rel);
+    if residuals.is_some() && !rel.is_finite() {
+        return Status::NumericalFailure {
+            reason: format!("the residual of the step's LCP is not finite ({rel})"),
+        };
+    }
+    let outcome = match (out.stopped, residuals) {
+        (false, _) => Outcome::IterationLimit,
+        (true, None) => Outcome::Stalled(format!(
+            "{name} met its own stopping rule; the shared residual was not measured"
+        )),
+        (true, Some(_)) => Outcome::Stalled(format!(
+            "{name} stopped at relative residual {rel:.3e} of the step's LCP"
+        )),
+    };
+    decide(outcome, rel, settings.tolerance)
+}
+
+/// Sequential impulses (`si`). No parameters beyond the shared [`Settings`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SequentialImpulses;
+
+impl BodySolver for SequentialImpulses {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::SequentialImpulses
+    }
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
+        let warm = settings.warm_start.as_deref().unwrap_or(&[]);
+        let (f, warm, iterations, stopped) = sequential_impulses(system, warm, settings);
+        BodySweep {
+            f,
+            warm,
+            iterations,
+            stopped,
+        }
+    }
+}
+
+/// Micro-impulses (`body-micro`). No parameters beyond the shared [`Settings`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MicroImpulses;
+
+impl BodySolver for MicroImpulses {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::MicroImpulses
+    }
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
+        let (f, warm, iterations, stopped) = micro_impulses(system, settings);
+        BodySweep {
+            f,
+            warm,
+            iterations,
+            stopped,
+        }
+    }
+}
+
+/// Spring–damper penalty (`penalty`). Defaults in brackets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Penalty {
+    /// `ω h`, the spring's natural frequency times the step \[`0.3`\].
+    pub omega_h: f64,
+    /// Fixed stiffness in N/m instead of `m_eff ω²` \[`None`\].
+    pub stiffness: Option<f64>,
+    /// Damping ratio `ζ` \[`0.7`\].
+    pub damping_ratio: f64,
+}
+
+impl Default for Penalty {
+    fn default() -> Self {
+        Self {
+            omega_h: 0.3,
+            stiffness: None,
+            damping_ratio: 0.7,
+        }
+    }
+}
+
+impl BodySolver for Penalty {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::Penalty
+    }
+    fn sweep(&mut self, system: &ContactSystem, _settings: &Settings) -> BodySweep {
+        let f = penalty(system, self);
+        BodySweep {
+            warm: f.clone(),
+            f,
+            iterations: 1,
+            stopped: true,
+        }
+    }
+}
+
+/// Solve the step's contact system with the body-level solver `kind` (default parameters),
+/// without measuring the shared residual; `warm` is the warm start (empty for none).
 pub fn solve(
     kind: BodySolverKind,
     system: &ContactSystem,
     warm: &[f64],
-    settings: &BodySolverSettings,
-) -> BodySolveOutput {
-    let start = Instant::now();
-    let (f, warm_out, iterations, stopped) = match kind {
-        BodySolverKind::SequentialImpulses => sequential_impulses(system, warm, settings),
-        BodySolverKind::MicroImpulses => micro_impulses(system, settings),
-        BodySolverKind::Penalty => {
-            let f = penalty(system, settings);
-            (f.clone(), f, 1, true)
-        }
+    settings: &Settings,
+) -> BodySweep {
+    let settings = Settings {
+        warm_start: (!warm.is_empty()).then(|| warm.to_vec()),
+        ..settings.clone()
     };
-    BodySolveOutput {
-        f,
-        warm: warm_out,
-        iterations,
-        time: start.elapsed(),
-        stopped,
-    }
+    kind.create().sweep(system, &settings)
 }
 
 fn diagonals(op: &DelassusOperator<'_>, n: usize) -> Vec<f64> {
@@ -160,7 +376,7 @@ fn restitution_phase(
     k: &[f64],
     u: &mut [BodyVelocity],
     f: &mut [f64],
-    settings: &BodySolverSettings,
+    settings: &Settings,
 ) -> usize {
     let bouncy: Vec<usize> = (0..system.contacts.len())
         .filter(|&c| system.info[c].restitution > 0.0)
@@ -176,7 +392,7 @@ fn restitution_phase(
             let vn = op.row_dot(i, u);
             let dist = system.contacts[c].dist;
             let closes = dist <= 0.0 || dist + h * vn <= 0.0;
-            if closes && vn < -settings.restitution_threshold {
+            if closes && vn < -system.restitution_threshold {
                 let e = system.info[c].restitution;
                 let d = -(1.0 + e) * vn / k[i];
                 op.apply_row(i, d, u);
@@ -194,7 +410,7 @@ fn restitution_phase(
 fn sequential_impulses(
     system: &ContactSystem,
     warm: &[f64],
-    settings: &BodySolverSettings,
+    settings: &Settings,
 ) -> (Vec<f64>, Vec<f64>, usize, bool) {
     let n = system.n();
     let op = system.operator();
@@ -266,7 +482,7 @@ fn sequential_impulses(
 
 fn micro_impulses(
     system: &ContactSystem,
-    settings: &BodySolverSettings,
+    settings: &Settings,
 ) -> (Vec<f64>, Vec<f64>, usize, bool) {
     let n = system.n();
     let op = system.operator();
@@ -306,8 +522,7 @@ fn micro_impulses(
             let vn = op.row_dot(i, &u);
             let dist = system.contacts[c].dist;
             let closes = dist <= 0.0 || dist + h * vn <= 0.0;
-            let target = if info.restitution > 0.0 && closes && vn < -settings.restitution_threshold
-            {
+            let target = if info.restitution > 0.0 && closes && vn < -system.restitution_threshold {
                 -info.restitution * vn
             } else if info.bouncing {
                 0.0
@@ -345,13 +560,13 @@ fn micro_impulses(
     (f.clone(), f, iterations, stopped)
 }
 
-fn penalty(system: &ContactSystem, settings: &BodySolverSettings) -> Vec<f64> {
+fn penalty(system: &ContactSystem, params: &Penalty) -> Vec<f64> {
     let n = system.n();
     let op = system.operator();
     let u = &system.free_velocity;
     let h = system.h;
     let mut f = vec![0.0; n];
-    let omega = settings.penalty_omega_h / h;
+    let omega = params.omega_h / h;
     for (c, info) in system.info.iter().enumerate() {
         let dist = system.contacts[c].dist;
         if dist >= 0.0 {
@@ -363,11 +578,11 @@ fn penalty(system: &ContactSystem, settings: &BodySolverSettings) -> Vec<f64> {
             continue;
         }
         let m_eff = 1.0 / knn;
-        let (stiffness, damping) = match settings.penalty_stiffness {
-            Some(s) => (s, 2.0 * settings.penalty_damping_ratio * (s * m_eff).sqrt()),
+        let (stiffness, damping) = match params.stiffness {
+            Some(s) => (s, 2.0 * params.damping_ratio * (s * m_eff).sqrt()),
             None => (
                 m_eff * omega * omega,
-                2.0 * settings.penalty_damping_ratio * m_eff * omega,
+                2.0 * params.damping_ratio * m_eff * omega,
             ),
         };
         let vn = op.row_dot(i, u);

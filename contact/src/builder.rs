@@ -110,17 +110,41 @@ impl FrictionModel {
 
     /// Inverse of [`FrictionModel::name`] (`pyramid-K` for `K` in 3 to 64).
     pub fn from_name(name: &str) -> Option<Self> {
+        Self::parse(name, 4).ok()
+    }
+
+    /// The one parser of friction-model names, for scene files and the command line: `none`,
+    /// `box`, `cone`, `pyramid` with `pyramid_directions` directions, or `pyramid-K`. The
+    /// error says which part is wrong: `Err((true, message))` for the directions,
+    /// `Err((false, message))` for the name.
+    pub fn parse(name: &str, pyramid_directions: usize) -> Result<Self, (bool, String)> {
+        let directions = |k: usize| {
+            if (3..=MAX_PYRAMID_DIRECTIONS).contains(&k) {
+                Ok(FrictionModel::Pyramid { directions: k })
+            } else {
+                Err((
+                    true,
+                    format!("must be between 3 and {MAX_PYRAMID_DIRECTIONS}, got {k}"),
+                ))
+            }
+        };
+        let unknown = || {
+            (
+                false,
+                format!(
+                    "unknown model \"{name}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
+                ),
+            )
+        };
         match name {
-            "none" => Some(FrictionModel::None),
-            "box" => Some(FrictionModel::Box),
-            "pyramid" => Some(FrictionModel::Pyramid { directions: 4 }),
-            "cone" => Some(FrictionModel::Cone),
-            _ => name
-                .strip_prefix("pyramid-")?
-                .parse()
-                .ok()
-                .filter(|k| (3..=64).contains(k))
-                .map(|directions| FrictionModel::Pyramid { directions }),
+            "none" => Ok(FrictionModel::None),
+            "box" => Ok(FrictionModel::Box),
+            "cone" => Ok(FrictionModel::Cone),
+            "pyramid" => directions(pyramid_directions),
+            _ => match name.strip_prefix("pyramid-").map(str::parse::<usize>) {
+                Some(Ok(k)) => directions(k).map_err(|_| unknown()),
+                _ => Err(unknown()),
+            },
         }
     }
 
@@ -141,6 +165,25 @@ pub enum PositionCorrection {
     /// but adds no momentum.
     Split,
 }
+
+impl PositionCorrection {
+    /// The method of a scene file's `position_correction` (`none`, `baumgarte`, `split`), or
+    /// why not.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "none" => Ok(PositionCorrection::None),
+            "baumgarte" => Ok(PositionCorrection::Baumgarte),
+            "split" => Ok(PositionCorrection::Split),
+            other => Err(format!(
+                "unknown method \"{other}\" (expected \"baumgarte\", \"split\" or \"none\")"
+            )),
+        }
+    }
+}
+
+/// Largest number of pyramid friction directions: each contact of the pyramid model has
+/// `directions + 2` rows.
+pub const MAX_PYRAMID_DIRECTIONS: usize = 64;
 
 /// Parameters of the builder. Defaults in brackets.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -433,6 +476,9 @@ pub struct ContactSystem {
     pub friction: Vec<FrictionRow>,
     /// Time step.
     pub h: f64,
+    /// Closing speeds below this get no restitution, m/s (from
+    /// [`BuilderParams::restitution_threshold`]; the body-level solvers' bounce test uses it too).
+    pub restitution_threshold: f64,
 }
 
 impl ContactSystem {
@@ -450,7 +496,8 @@ impl ContactSystem {
             .collect()
     }
 
-    /// True when the rows form a standard LCP (no box-friction rows, all `lo = 0`, `hi = ∞`).
+    /// True when the system has no friction rows. Its normal rows always have `lo = 0`,
+    /// `hi = ∞`, so this is the test for a standard LCP; the bounds are not inspected.
     pub fn is_standard(&self) -> bool {
         self.friction.is_empty()
     }
@@ -1095,122 +1142,184 @@ pub fn build(
         hi: Vec::new(),
         friction: Vec::new(),
         h,
+        restitution_threshold: params.restitution_threshold,
     };
     let default_material = Material::default();
     let material = |k: usize| materials.get(k).unwrap_or(&default_material);
     for (c, ct) in contacts.iter().enumerate() {
-        let (ba, bb) = (&bodies[ct.body_a], &bodies[ct.body_b]);
-        let (ma, mb) = (material(ba.material), material(bb.material));
+        let pair = (&bodies[ct.body_a], &bodies[ct.body_b]);
+        let (ma, mb) = (material(pair.0.material), material(pair.1.material));
         let mu = (ma.mu * mb.mu).sqrt();
         let restitution = ma.restitution.max(mb.restitution);
-        let n = ct.normal;
-        let ra = ct.point - ba.position;
-        let rb = ct.point - bb.position;
-        let row_for = |dir: Vector3<f64>, kind: RowKind| {
-            let mut blocks = Vec::with_capacity(2);
-            if !ba.is_static {
-                blocks.push(JacobianBlock {
-                    body: ct.body_a,
-                    linear: -dir,
-                    angular: -ra.cross(&dir),
-                });
-            }
-            if !bb.is_static {
-                blocks.push(JacobianBlock {
-                    body: ct.body_b,
-                    linear: dir,
-                    angular: rb.cross(&dir),
-                });
-            }
-            JacobianRow { kind, blocks }
-        };
-        let tangents = tangent_basis(&n);
-
-        // Normal row.
-        let normal_row = sys.rows.len();
-        sys.rows.push(row_for(n, RowKind::Normal { contact: c }));
-        let vn = sys.operator().row_dot(normal_row, &sys.free_velocity);
-        let closes = ct.dist <= 0.0 || ct.dist + h * vn <= 0.0;
-        let bouncing = restitution > 0.0 && closes && vn < -params.restitution_threshold;
-        let position_term = params.baumgarte / h * (ct.dist + params.slop).min(0.0);
-        let (bias, position_bias) = if bouncing {
-            (restitution * vn, 0.0)
-        } else if ct.dist > 0.0 {
-            (ct.dist / h, 0.0)
-        } else {
-            match params.position_correction {
-                PositionCorrection::None => (0.0, 0.0),
-                PositionCorrection::Baumgarte => (position_term, 0.0),
-                PositionCorrection::Split => (0.0, position_term),
-            }
-        };
-        sys.free_rate.push(vn);
-        sys.bias.push(bias);
-        sys.position_bias.push(position_bias);
-        sys.lo.push(0.0);
-        sys.hi.push(f64::INFINITY);
-
-        // Friction rows, only when needed.
-        let first = sys.rows.len();
-        let mut slack_row = None;
-        // The cone keeps its three rows when mu = 0 (the cone is then the normal ray), so that
-        // every contact of a cone problem is a (normal, tangent, tangent) triple.
-        let tangent_rows = match params.friction_model {
-            FrictionModel::Cone => true,
-            FrictionModel::Box => mu > 0.0,
-            FrictionModel::None | FrictionModel::Pyramid { .. } => false,
-        };
-        if tangent_rows {
-            for (index, t) in [tangents.0, tangents.1].into_iter().enumerate() {
-                let i = sys.rows.len();
-                sys.rows
-                    .push(row_for(t, RowKind::Tangent { contact: c, index }));
-                sys.friction.push(FrictionRow {
-                    row: i,
-                    normal: normal_row,
-                    mu,
-                });
-                sys.lo.push(f64::NEG_INFINITY);
-                sys.hi.push(f64::INFINITY);
-            }
-        }
-        if let (FrictionModel::Pyramid { directions }, true) = (params.friction_model, mu > 0.0) {
-            let k = directions.max(3);
-            for index in 0..k {
-                let th = 2.0 * std::f64::consts::PI * index as f64 / k as f64;
-                let d = tangents.0 * th.cos() + tangents.1 * th.sin();
-                sys.rows
-                    .push(row_for(d, RowKind::Direction { contact: c, index }));
-                sys.lo.push(0.0);
-                sys.hi.push(f64::INFINITY);
-            }
-            slack_row = Some(sys.rows.len());
-            sys.rows.push(JacobianRow {
-                kind: RowKind::Slack { contact: c },
-                blocks: Vec::new(),
-            });
-            sys.lo.push(0.0);
-            sys.hi.push(f64::INFINITY);
-        }
-        let friction_end = slack_row.unwrap_or(sys.rows.len());
-        for i in first..sys.rows.len() {
-            let rate = sys.operator().row_dot(i, &sys.free_velocity);
-            sys.free_rate.push(rate);
-            sys.bias.push(0.0);
-            sys.position_bias.push(0.0);
-        }
-        sys.info.push(ContactInfo {
-            normal_row,
-            friction_rows: first..friction_end,
-            slack_row,
-            slack_scale: sys.operator().diagonal(normal_row),
-            mu,
-            restitution,
-            bouncing,
-            tangents,
-        });
+        add_contact(&mut sys, c, ct, pair, mu, restitution, params);
     }
     sys
+}
+
+/// The Jacobian row of `ct` along `dir` (from body a to body b), with a block per dynamic body.
+fn jacobian_row(
+    ct: &Contact,
+    (ba, bb): (&RigidBody, &RigidBody),
+    dir: Vector3<f64>,
+    kind: RowKind,
+) -> JacobianRow {
+    let mut blocks = Vec::with_capacity(2);
+    if !ba.is_static {
+        let ra = ct.point - ba.position;
+        blocks.push(JacobianBlock {
+            body: ct.body_a,
+            linear: -dir,
+            angular: -ra.cross(&dir),
+        });
+    }
+    if !bb.is_static {
+        let rb = ct.point - bb.position;
+        blocks.push(JacobianBlock {
+            body: ct.body_b,
+            linear: dir,
+            angular: rb.cross(&dir),
+        });
+    }
+    JacobianRow { kind, blocks }
+}
+
+/// Contact `c`: its normal row with the restitution, gap and position terms, then its
+/// friction rows for the friction model, then its [`ContactInfo`].
+fn add_contact(
+    sys: &mut ContactSystem,
+    c: usize,
+    ct: &Contact,
+    pair: (&RigidBody, &RigidBody),
+    mu: f64,
+    restitution: f64,
+    params: &BuilderParams,
+) {
+    let tangents = tangent_basis(&ct.normal);
+    let normal_row = sys.rows.len();
+    sys.rows.push(jacobian_row(
+        ct,
+        pair,
+        ct.normal,
+        RowKind::Normal { contact: c },
+    ));
+    let vn = sys.operator().row_dot(normal_row, &sys.free_velocity);
+    let (bias, position_bias, bouncing) = normal_bias(ct, vn, restitution, params, sys.h);
+    sys.free_rate.push(vn);
+    sys.bias.push(bias);
+    sys.position_bias.push(position_bias);
+    sys.lo.push(0.0);
+    sys.hi.push(f64::INFINITY);
+
+    let first = sys.rows.len();
+    let slack_row = add_friction_rows(sys, c, ct, pair, mu, normal_row, tangents, params);
+    let friction_end = slack_row.unwrap_or(sys.rows.len());
+    for i in first..sys.rows.len() {
+        let rate = sys.operator().row_dot(i, &sys.free_velocity);
+        sys.free_rate.push(rate);
+        sys.bias.push(0.0);
+        sys.position_bias.push(0.0);
+    }
+    sys.info.push(ContactInfo {
+        normal_row,
+        friction_rows: first..friction_end,
+        slack_row,
+        slack_scale: sys.operator().diagonal(normal_row),
+        mu,
+        restitution,
+        bouncing,
+        tangents,
+    });
+}
+
+/// The normal row's `(bias, position_bias, bouncing)`: Newton's restitution when the contact
+/// closes faster than the threshold, else the speculative gap term for an open contact, else
+/// the position correction.
+fn normal_bias(
+    ct: &Contact,
+    vn: f64,
+    restitution: f64,
+    params: &BuilderParams,
+    h: f64,
+) -> (f64, f64, bool) {
+    let closes = ct.dist <= 0.0 || ct.dist + h * vn <= 0.0;
+    let bouncing = restitution > 0.0 && closes && vn < -params.restitution_threshold;
+    let position_term = params.baumgarte / h * (ct.dist + params.slop).min(0.0);
+    let (bias, position_bias) = if bouncing {
+        (restitution * vn, 0.0)
+    } else if ct.dist > 0.0 {
+        (ct.dist / h, 0.0)
+    } else {
+        match params.position_correction {
+            PositionCorrection::None => (0.0, 0.0),
+            PositionCorrection::Baumgarte => (position_term, 0.0),
+            PositionCorrection::Split => (0.0, position_term),
+        }
+    };
+    (bias, position_bias, bouncing)
+}
+
+/// The friction rows of contact `c`, only when needed: two tangent rows (box, cone) or the
+/// pyramid's directions and slack row. Returns the slack row.
+#[allow(clippy::too_many_arguments)]
+fn add_friction_rows(
+    sys: &mut ContactSystem,
+    c: usize,
+    ct: &Contact,
+    pair: (&RigidBody, &RigidBody),
+    mu: f64,
+    normal_row: usize,
+    tangents: (Vector3<f64>, Vector3<f64>),
+    params: &BuilderParams,
+) -> Option<usize> {
+    // The cone keeps its three rows when mu = 0 (the cone is then the normal ray), so that
+    // every contact of a cone problem is a (normal, tangent, tangent) triple.
+    let tangent_rows = match params.friction_model {
+        FrictionModel::Cone => true,
+        FrictionModel::Box => mu > 0.0,
+        FrictionModel::None | FrictionModel::Pyramid { .. } => false,
+    };
+    if tangent_rows {
+        for (index, t) in [tangents.0, tangents.1].into_iter().enumerate() {
+            let i = sys.rows.len();
+            sys.rows.push(jacobian_row(
+                ct,
+                pair,
+                t,
+                RowKind::Tangent { contact: c, index },
+            ));
+            sys.friction.push(FrictionRow {
+                row: i,
+                normal: normal_row,
+                mu,
+            });
+            sys.lo.push(f64::NEG_INFINITY);
+            sys.hi.push(f64::INFINITY);
+        }
+    }
+    let (FrictionModel::Pyramid { directions }, true) = (params.friction_model, mu > 0.0) else {
+        return None;
+    };
+    let k = directions.max(3);
+    for index in 0..k {
+        let th = 2.0 * std::f64::consts::PI * index as f64 / k as f64;
+        let d = tangents.0 * th.cos() + tangents.1 * th.sin();
+        sys.rows.push(jacobian_row(
+            ct,
+            pair,
+            d,
+            RowKind::Direction { contact: c, index },
+        ));
+        sys.lo.push(0.0);
+        sys.hi.push(f64::INFINITY);
+    }
+    let slack_row = sys.rows.len();
+    sys.rows.push(JacobianRow {
+        kind: RowKind::Slack { contact: c },
+        blocks: Vec::new(),
+    });
+    sys.lo.push(0.0);
+    sys.hi.push(f64::INFINITY);
+    Some(slack_row)
 }
 
 #[cfg(test)]

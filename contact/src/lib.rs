@@ -25,9 +25,9 @@ pub use body::{MassSpec, RigidBody};
 pub use collision::{candidate_pairs, CollisionPipeline, Contact};
 pub use shape::{MassProperties, Shape, ShapeError};
 
-pub use body_solvers::BodySolverKind;
+pub use body_solvers::{BodySolver, BodySolverKind, MicroImpulses, Penalty, SequentialImpulses};
 pub use builder::{
     BuilderParams, ContactSystem, DelassusOperator, FrictionModel, Material, PositionCorrection,
 };
-pub use scene::{Scene, SceneError};
-pub use step::{SimSettings, SolverChoice, StepReport, World};
+pub use scene::{Scene, SceneError, SceneMetrics};
+pub use step::{ContactSolver, SimSettings, StepReport, World};

@@ -1,81 +1,19 @@
-//! Scene files (TOML): bodies, materials, settings and events of a simulation, as data.
+//! Scene files (TOML): bodies, materials, settings, events and expected metrics of a
+//! simulation, as data. The format is documented once, in `docs/scenes.md` (every key, its
+//! default and its limits); [`Scene::load`] reads it.
 //!
-//! ```toml
-//! name = "box_on_ground"
-//! description = "A unit box resting on the ground."
-//!
-//! [settings]                     # every key optional; defaults shown
-//! dt = 0.01                      # time step, s
-//! steps = 100                    # steps of a run
-//! gravity = [0.0, 0.0, -9.81]    # m/s²
-//! friction_model = "box"         # "none" | "box" | "pyramid" | "cone" (exact Coulomb cone)
-//! pyramid_directions = 4         # friction directions of the pyramid model (>= 3)
-//! solver = "pgs"                 # a matrix solver (pgs, sor, lemke, dantzig, clarabel, micro, ...)
-//!                                # or a body-level one (si, body-micro, penalty); with
-//!                                # friction_model = "cone" a cone solver (nsgs-cone, the
-//!                                # default there, or newton-ac)
-//! tolerance = 1e-6               # on the relative natural-map residual
-//! max_iterations = 1000          # sweeps / pivots / iterations per step
-//! warm_start = true              # start iterative solvers from last step's impulses
-//! islands = true                 # solve independent contact groups separately (in parallel)
-//! restitution_threshold = 0.1    # closing speeds below this do not bounce, m/s
-//! position_correction = "baumgarte"  # "baumgarte" | "split" | "none"
-//! baumgarte = 0.2                # fraction of the penetration removed per step
-//! slop = 0.001                   # penetration left uncorrected, m
-//! prediction_distance = 0.01     # contacts closer than this enter the problem, m
-//! penalty_omega_h = 0.3          # penalty: spring frequency × dt
-//! penalty_damping_ratio = 0.7    # penalty: damping ratio
-//! # penalty_stiffness = 1e5      # penalty: fixed stiffness, N/m (default: from the mass)
-//! ccd = "none"                   # "none" | "bisection" | "conservative": stop each step at
-//!                                # the first time of impact so fast bodies cannot tunnel
-//!
-//! [[materials]]                  # optional; bodies without `material` use the first
-//! name = "wood"
-//! mu = 0.5                       # friction (a contact uses sqrt(mu_a mu_b))
-//! restitution = 0.0              # a contact uses max(e_a, e_b)
-//!
-//! [[bodies]]
-//! name = "ground"
-//! shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
-//! static = true
-//!
-//! [[bodies]]
-//! name = "box"
-//! shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
-//! density = 1000.0               # or `mass = ...` (not both; default density 1000)
-//! position = [0.0, 0.0, 0.5]     # centre of mass, m
-//! orientation = [1.0, 0.0, 0.0, 0.0]          # unit quaternion [w, x, y, z], or instead
-//! # axis_angle = { axis = [0, 1, 0], degrees = 30 }
-//! velocity = [0.0, 0.0, 0.0]
-//! angular_velocity = [0.0, 0.0, 0.0]
-//! material = "wood"
-//! # repeat = { count = [nx, ny, nz], spacing = [dx, dy, dz] }   # a grid of copies
-//!
-//! [[events]]
-//! at_step = 300
-//! remove = "box"                 # a body, or every copy of a repeated body
-//!
-//! [metrics]                      # free-form; passed through untouched to the harness
-//! expected_rest_height = 0.5
-//! ```
-//!
-//! Shapes: `{ type = "sphere", radius }`, `{ type = "box", half_extents }`,
-//! `{ type = "capsule", half_height, radius }` (axis along body z),
-//! `{ type = "convex", points = [[x, y, z], ...] }` (convex hull),
-//! `{ type = "particle", radius = 0.01 }`, `{ type = "plane", normal }` (static only; the solid
-//! is the half-space below the plane through `position`), `{ type = "mesh", file = "m.obj" }`
-//! (Wavefront OBJ, path relative to the scene file).
-//!
-//! A repeated body named `n` yields bodies `n_0`, `n_1`, … at `position + (i dx, j dy, k dz)`,
-//! numbered with `i` fastest. Unknown keys are errors; every error names the file, the field
-//! and what is wrong (with the line for syntax and type errors).
+//! Every table rejects unknown keys; every error names the file, the field and what is wrong
+//! (with the line for syntax and type errors). Each setting with a set of names is parsed by one
+//! function that the command line shares: [`FrictionModel::parse`],
+//! [`PositionCorrection::from_name`], [`ToiMethod::from_ccd_name`],
+//! [`ContactSolver::from_name`].
 
 use crate::body::{MassSpec, RigidBody};
-use crate::body_solvers::BodySolverSettings;
+use crate::body_solvers::Penalty;
 use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection};
 use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
-use crate::step::{Event, SimSettings, SolverChoice, World};
+use crate::step::{ContactSolver, Event, SimSettings, World};
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -90,7 +28,7 @@ pub const MAX_BODIES: usize = 10_000;
 pub const MAX_STEPS: usize = 1_000_000;
 
 /// Largest `pyramid_directions`: each contact of the pyramid model has `directions + 2` rows.
-pub const MAX_PYRAMID_DIRECTIONS: usize = 64;
+pub use crate::builder::MAX_PYRAMID_DIRECTIONS;
 
 /// Smallest and largest time step `dt`, s.
 pub const DT_RANGE: (f64, f64) = (1e-6, 0.1);
@@ -171,7 +109,62 @@ struct SceneFile {
     #[serde(default)]
     events: Vec<EventFile>,
     #[serde(default)]
-    metrics: toml::Table,
+    metrics: SceneMetrics,
+}
+
+/// The `[metrics]` table of a scene: the analytic answers the harness checks a run against
+/// (`docs/scenes.md` says what each measures), and a few informational keys that describe the
+/// setup for readers and are not checked. Every key is optional; a key not listed here is an
+/// error naming the file and the key.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneMetrics {
+    /// Height the top body of a stack keeps, m (sag and lateral drift are measured from it).
+    pub expected_top_height: Option<f64>,
+    /// Height a resting body keeps, m (used like `expected_top_height` when that is absent).
+    pub expected_rest_height: Option<f64>,
+    /// Displacement of the first dynamic body over the run, m (`0`: it must not move).
+    pub expected_displacement: Option<f64>,
+    /// Acceleration of the first dynamic body along its motion, m/s² (`0`: it must stick).
+    pub expected_acceleration: Option<f64>,
+    /// Height of the first bounce, m.
+    pub expected_rebound_height: Option<f64>,
+    /// Normal force on each wall of a groove, N.
+    pub expected_wall_force: Option<f64>,
+    /// Final velocities of the bodies under the simultaneous collision model, m/s.
+    pub simultaneous_velocities: Option<Vec<f64>>,
+    /// Final velocities of the bodies under the sequential collision model, m/s.
+    pub sequential_velocities: Option<Vec<f64>>,
+    /// Step at which the scene's event removes a body.
+    pub removed_at_step: Option<usize>,
+    /// Bodies that must not slide.
+    pub stick_bodies: Option<Vec<String>>,
+    /// The scene must come to rest.
+    pub at_rest: Option<bool>,
+    /// Direction of the push (for the displacement of a pushed body).
+    pub push_direction: Option<[f64; 3]>,
+    /// Informational: height a body is dropped from, m.
+    pub drop_height: Option<f64>,
+    /// Informational: slope of the incline, degrees.
+    pub incline_degrees: Option<f64>,
+    /// Informational: friction coefficient(s) of the setup.
+    pub mu: Option<OneOrMany>,
+    /// Informational: restitution of the setup.
+    pub restitution: Option<f64>,
+    /// Informational: speed of the striking body, m/s.
+    pub striker_speed: Option<f64>,
+    /// Informational: angle of the walls, degrees.
+    pub wall_angle_degrees: Option<f64>,
+}
+
+/// One number or a list of them (an informational metric that varies across bodies).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany {
+    /// One value.
+    One(f64),
+    /// One value per body or case.
+    Many(Vec<f64>),
 }
 
 #[derive(Deserialize)]
@@ -201,7 +194,7 @@ struct SettingsFile {
 impl Default for SettingsFile {
     fn default() -> Self {
         let s = SimSettings::default();
-        let b = BodySolverSettings::default();
+        let b = Penalty::default();
         let p = BuilderParams::default();
         Self {
             dt: s.dt,
@@ -219,8 +212,8 @@ impl Default for SettingsFile {
             baumgarte: p.baumgarte,
             slop: p.slop,
             prediction_distance: s.prediction_distance,
-            penalty_omega_h: b.penalty_omega_h,
-            penalty_damping_ratio: b.penalty_damping_ratio,
+            penalty_omega_h: b.omega_h,
+            penalty_damping_ratio: b.damping_ratio,
             penalty_stiffness: None,
             ccd: "none".into(),
         }
@@ -295,7 +288,7 @@ struct EventFile {
     remove: String,
 }
 
-/// A loaded scene: ready-made bodies and settings, plus the pass-through metrics table.
+/// A loaded scene: ready-made bodies and settings, plus the metrics table.
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The file it came from.
@@ -314,8 +307,11 @@ pub struct Scene {
     pub groups: Vec<String>,
     /// Events.
     pub events: Vec<Event>,
-    /// The `[metrics]` table, untouched.
-    pub metrics: toml::Table,
+    /// The penalty parameters of `[settings]` (`penalty_*`), used whenever the scene runs the
+    /// `penalty` solver ([`Scene::solver_from_name`]).
+    pub penalty: Penalty,
+    /// The `[metrics]` table.
+    pub metrics: SceneMetrics,
 }
 
 /// 1-based line and column of a byte offset.
@@ -397,99 +393,15 @@ impl Scene {
             field,
             message,
         };
-        let settings = convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
-
-        let mut materials = Vec::new();
-        for (i, m) in file.materials.iter().enumerate() {
-            let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
-            if !(m.mu.is_finite() && m.mu >= 0.0) {
-                return Err(invalid(field("mu"), format!("must be >= 0, got {}", m.mu)));
-            }
-            if !(0.0..=1.0).contains(&m.restitution) {
-                return Err(invalid(
-                    field("restitution"),
-                    format!("must be in [0, 1], got {}", m.restitution),
-                ));
-            }
-            if materials.iter().any(|x: &Material| x.name == m.name) {
-                return Err(invalid(field("name"), "is defined twice".into()));
-            }
-            materials.push(Material {
-                name: m.name.clone(),
-                mu: m.mu,
-                restitution: m.restitution,
-            });
-        }
-        if materials.is_empty() {
-            materials.push(Material::default());
-        }
-
-        let mut total: usize = 0;
-        for (i, b) in file.bodies.iter().enumerate() {
-            let copies = match &b.repeat {
-                Some(r) => r.count.iter().try_fold(1usize, |p, &c| p.checked_mul(c)),
-                None => Some(1),
-            };
-            total = match copies.and_then(|c| total.checked_add(c)) {
-                Some(t) if t <= MAX_BODIES => t,
-                _ => {
-                    let field = if b.repeat.is_some() {
-                        format!("bodies[{i}] (\"{}\").repeat.count", b.name)
-                    } else {
-                        "bodies".into()
-                    };
-                    return Err(invalid(
-                        field,
-                        format!(
-                            "the scene would have more than {MAX_BODIES} bodies (the limit; \
-                             the contact problem of more would not fit in memory)"
-                        ),
-                    ));
-                }
-            };
-        }
+        let (settings, penalty) =
+            convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
+        let materials = convert_materials(&file.materials).map_err(|(f, m)| invalid(f, m))?;
+        let total = count_bodies(&file.bodies).map_err(|(f, m)| invalid(f, m))?;
         let dir = path.parent().unwrap_or(Path::new("."));
-        let mut bodies = Vec::with_capacity(total);
-        let mut groups = Vec::with_capacity(total);
-        let mut names = std::collections::HashSet::with_capacity(total);
-        for (i, b) in file.bodies.iter().enumerate() {
-            let at = |f: &str| {
-                if f.is_empty() {
-                    format!("bodies[{i}] (\"{}\")", b.name)
-                } else {
-                    format!("bodies[{i}] (\"{}\").{f}", b.name)
-                }
-            };
-            let made = convert_body(b, &materials, dir).map_err(|(f, m)| invalid(at(&f), m))?;
-            for body in made {
-                if !names.insert(body.name.clone()) {
-                    return Err(invalid(
-                        at("name"),
-                        format!("body name \"{}\" is used twice", body.name),
-                    ));
-                }
-                bodies.push(body);
-                groups.push(b.name.clone());
-            }
-        }
-
-        let mut events = Vec::new();
-        for (i, e) in file.events.iter().enumerate() {
-            if !bodies
-                .iter()
-                .zip(&groups)
-                .any(|(b, g)| b.name == e.remove || *g == e.remove)
-            {
-                return Err(invalid(
-                    format!("events[{i}].remove"),
-                    format!("no body named \"{}\"", e.remove),
-                ));
-            }
-            events.push(Event {
-                at_step: e.at_step,
-                remove: e.remove.clone(),
-            });
-        }
+        let (bodies, groups) =
+            convert_bodies(&file.bodies, &materials, dir, total).map_err(|(f, m)| invalid(f, m))?;
+        let events =
+            convert_events(&file.events, &bodies, &groups).map_err(|(f, m)| invalid(f, m))?;
 
         if bodies.is_empty() {
             return Err(invalid(
@@ -510,8 +422,15 @@ impl Scene {
             bodies,
             groups,
             events,
+            penalty,
             metrics: file.metrics,
         })
+    }
+
+    /// The solver of this name with default parameters, except `penalty`, which takes the
+    /// scene's `penalty_*` settings.
+    pub fn solver_from_name(&self, name: &str) -> Option<ContactSolver> {
+        solver_from_name(name, self.penalty)
     }
 
     /// A world ready to step.
@@ -527,39 +446,176 @@ impl Scene {
     }
 }
 
-/// Check that `solver` can run the scene's friction model ([`SolverChoice::supports`]): a
+/// Check that `solver` can run the scene's friction model ([`ContactSolver::supports`]): a
 /// body-level solver takes `none` or `box`, a matrix solver every model but `cone`, a cone
 /// solver only `cone`.
-pub fn check_solver(solver: SolverChoice, friction: FrictionModel) -> Result<(), String> {
+pub fn check_solver(solver: &ContactSolver, friction: FrictionModel) -> Result<(), String> {
     solver.supports(friction)
 }
 
 /// The solver of a scene that names none: `pgs`, or `nsgs-cone` for the cone model.
-pub fn default_solver(friction: FrictionModel) -> SolverChoice {
+pub fn default_solver(friction: FrictionModel) -> ContactSolver {
     match friction {
-        FrictionModel::Cone => SolverChoice::Cone(lcpbench_solvers::ConeSolverKind::NsgsCone),
+        FrictionModel::Cone => lcpbench_solvers::ConeSolverKind::NsgsCone.into(),
         _ => SimSettings::default().solver,
     }
 }
 
+/// [`ContactSolver::from_name`], with `penalty` built from the given parameters.
+fn solver_from_name(name: &str, penalty: Penalty) -> Option<ContactSolver> {
+    if name == crate::BodySolverKind::Penalty.name() {
+        return Some(ContactSolver::Body(Box::new(penalty)));
+    }
+    ContactSolver::from_name(name)
+}
+
 type FieldError = (String, String);
 
-fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
+/// The `[[materials]]` tables (one default material when there are none).
+fn convert_materials(files: &[MaterialFile]) -> Result<Vec<Material>, FieldError> {
+    let mut materials = Vec::new();
+    for (i, m) in files.iter().enumerate() {
+        let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
+        if !(m.mu.is_finite() && m.mu >= 0.0) {
+            return Err((field("mu"), format!("must be >= 0, got {}", m.mu)));
+        }
+        if !(0.0..=1.0).contains(&m.restitution) {
+            return Err((
+                field("restitution"),
+                format!("must be in [0, 1], got {}", m.restitution),
+            ));
+        }
+        if materials.iter().any(|x: &Material| x.name == m.name) {
+            return Err((field("name"), "is defined twice".into()));
+        }
+        materials.push(Material {
+            name: m.name.clone(),
+            mu: m.mu,
+            restitution: m.restitution,
+        });
+    }
+    if materials.is_empty() {
+        materials.push(Material::default());
+    }
+    Ok(materials)
+}
+
+/// The number of bodies with repeats expanded, refused above [`MAX_BODIES`] before any is
+/// built.
+fn count_bodies(files: &[BodyFile]) -> Result<usize, FieldError> {
+    let mut total: usize = 0;
+    for (i, b) in files.iter().enumerate() {
+        let copies = match &b.repeat {
+            Some(r) => r.count.iter().try_fold(1usize, |p, &c| p.checked_mul(c)),
+            None => Some(1),
+        };
+        total = match copies.and_then(|c| total.checked_add(c)) {
+            Some(t) if t <= MAX_BODIES => t,
+            _ => {
+                let field = if b.repeat.is_some() {
+                    format!("bodies[{i}] (\"{}\").repeat.count", b.name)
+                } else {
+                    "bodies".into()
+                };
+                return Err((
+                    field,
+                    format!(
+                        "the scene would have more than {MAX_BODIES} bodies (the limit; \
+                         the contact problem of more would not fit in memory)"
+                    ),
+                ));
+            }
+        };
+    }
+    Ok(total)
+}
+
+/// The `[[bodies]]` tables, repeats expanded: the bodies and, for each, its entry's name.
+fn convert_bodies(
+    files: &[BodyFile],
+    materials: &[Material],
+    dir: &Path,
+    total: usize,
+) -> Result<(Vec<RigidBody>, Vec<String>), FieldError> {
+    let mut bodies = Vec::with_capacity(total);
+    let mut groups = Vec::with_capacity(total);
+    let mut names = std::collections::HashSet::with_capacity(total);
+    for (i, b) in files.iter().enumerate() {
+        let at = |f: &str| {
+            if f.is_empty() {
+                format!("bodies[{i}] (\"{}\")", b.name)
+            } else {
+                format!("bodies[{i}] (\"{}\").{f}", b.name)
+            }
+        };
+        let made = convert_body(b, materials, dir).map_err(|(f, m)| (at(&f), m))?;
+        for body in made {
+            if !names.insert(body.name.clone()) {
+                return Err((
+                    at("name"),
+                    format!("body name \"{}\" is used twice", body.name),
+                ));
+            }
+            bodies.push(body);
+            groups.push(b.name.clone());
+        }
+    }
+    Ok((bodies, groups))
+}
+
+/// The `[[events]]` tables; each must remove a body (or repeated entry) that exists.
+fn convert_events(
+    files: &[EventFile],
+    bodies: &[RigidBody],
+    groups: &[String],
+) -> Result<Vec<Event>, FieldError> {
+    let mut events = Vec::new();
+    for (i, e) in files.iter().enumerate() {
+        if !bodies
+            .iter()
+            .zip(groups)
+            .any(|(b, g)| b.name == e.remove || *g == e.remove)
+        {
+            return Err((
+                format!("events[{i}].remove"),
+                format!("no body named \"{}\"", e.remove),
+            ));
+        }
+        events.push(Event {
+            at_step: e.at_step,
+            remove: e.remove.clone(),
+        });
+    }
+    Ok(events)
+}
+
+/// `settings.{field}` must be a positive finite number.
+fn positive(field: &str, v: f64) -> Result<f64, FieldError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err((
+            format!("settings.{field}"),
+            format!("must be a positive number, got {v}"),
+        ))
+    }
+}
+
+/// `settings.{field}` must be a finite number `>= 0`.
+fn non_negative(field: &str, v: f64) -> Result<f64, FieldError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err((
+            format!("settings.{field}"),
+            format!("must be >= 0, got {v}"),
+        ))
+    }
+}
+
+/// `dt`, `steps` and `gravity` within their limits; returns `dt`.
+fn check_clock(s: &SettingsFile) -> Result<f64, FieldError> {
     let err = |f: &str, m: String| (format!("settings.{f}"), m);
-    let positive = |f: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(err(f, format!("must be a positive number, got {v}")))
-        }
-    };
-    let non_negative = |f: &str, v: f64| {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(err(f, format!("must be >= 0, got {v}")))
-        }
-    };
     let dt = positive("dt", s.dt)?;
     if !(DT_RANGE.0..=DT_RANGE.1).contains(&dt) {
         return Err(err(
@@ -589,59 +645,42 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             ),
         ));
     }
-    let friction_model = match s.friction_model.as_str() {
-        "none" => FrictionModel::None,
-        "box" => FrictionModel::Box,
-        "cone" => FrictionModel::Cone,
-        "pyramid" => {
-            if !(3..=MAX_PYRAMID_DIRECTIONS).contains(&s.pyramid_directions) {
-                return Err(err(
-                    "pyramid_directions",
-                    format!(
-                        "must be between 3 and {MAX_PYRAMID_DIRECTIONS}, got {}",
-                        s.pyramid_directions
-                    ),
-                ));
-            }
-            FrictionModel::Pyramid {
-                directions: s.pyramid_directions,
-            }
-        }
-        other => {
-            return Err(err(
-                "friction_model",
-                format!(
-                "unknown model \"{other}\" (expected \"none\", \"box\", \"pyramid\" or \"cone\")"
-            ),
-            ))
-        }
-    };
-    let position_correction = match s.position_correction.as_str() {
-        "none" => PositionCorrection::None,
-        "baumgarte" => PositionCorrection::Baumgarte,
-        "split" => PositionCorrection::Split,
-        other => {
-            return Err(err(
-                "position_correction",
-                format!(
-                    "unknown method \"{other}\" (expected \"baumgarte\", \"split\" or \"none\")"
-                ),
-            ))
-        }
+    Ok(dt)
+}
+
+fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldError> {
+    let err = |f: &str, m: String| (format!("settings.{f}"), m);
+    let dt = check_clock(s)?;
+    let friction_model = FrictionModel::parse(&s.friction_model, s.pyramid_directions).map_err(
+        |(directions, m)| {
+            let field = if directions {
+                "pyramid_directions"
+            } else {
+                "friction_model"
+            };
+            err(field, m)
+        },
+    )?;
+    let position_correction = PositionCorrection::from_name(&s.position_correction)
+        .map_err(|m| err("position_correction", m))?;
+    let penalty = Penalty {
+        omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
+        damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
+        stiffness: s.penalty_stiffness,
     };
     let solver = match &s.solver {
         None => default_solver(friction_model),
-        Some(name) => SolverChoice::from_name(name).ok_or_else(|| {
+        Some(name) => solver_from_name(name, penalty).ok_or_else(|| {
             err(
                 "solver",
                 format!(
                     "unknown solver \"{name}\" (known: {})",
-                    SolverChoice::all_names()
+                    ContactSolver::all_names()
                 ),
             )
         })?,
     };
-    check_solver(solver, friction_model).map_err(|m| err("solver", m))?;
+    check_solver(&solver, friction_model).map_err(|m| err("solver", m))?;
     let baumgarte = non_negative("baumgarte", s.baumgarte)?;
     if baumgarte > 1.0 {
         return Err(err(
@@ -652,23 +691,11 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
     if let Some(k) = s.penalty_stiffness {
         positive("penalty_stiffness", k)?;
     }
-    let ccd = match s.ccd.as_str() {
-        "none" => None,
-        "bisection" => Some(ToiMethod::Bisection),
-        "conservative" => Some(ToiMethod::ConservativeAdvancement),
-        other => {
-            return Err(err(
-                "ccd",
-                format!(
-                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
-            ),
-            ))
-        }
-    };
+    let ccd = ToiMethod::from_ccd_name(&s.ccd).map_err(|m| err("ccd", m))?;
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }
-    Ok(SimSettings {
+    let settings = SimSettings {
         dt,
         steps: s.steps,
         gravity: s.gravity.into(),
@@ -685,17 +712,12 @@ fn convert_settings(s: &SettingsFile) -> Result<SimSettings, FieldError> {
             baumgarte,
             slop: non_negative("slop", s.slop)?,
         },
-        body: BodySolverSettings {
-            penalty_omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
-            penalty_damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
-            penalty_stiffness: s.penalty_stiffness,
-            ..BodySolverSettings::default()
-        },
         ccd,
         keep_problem: false,
         residuals: true,
         record_history: false,
-    })
+    };
+    Ok((settings, penalty))
 }
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
@@ -747,8 +769,17 @@ fn convert_body(
     materials: &[Material],
     dir: &Path,
 ) -> Result<Vec<RigidBody>, FieldError> {
-    let err = |f: &str, m: String| (f.to_owned(), m);
     let shape = convert_shape(&b.shape, dir)?;
+    check_motion(b)?;
+    let mass = body_mass(b)?;
+    let orientation = body_orientation(b)?;
+    let material = body_material(b, materials)?;
+    expand_repeats(b, &shape, mass, orientation, material)
+}
+
+/// Position, velocity and angular velocity within the scene limits.
+fn check_motion(b: &BodyFile) -> Result<(), FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     let limit = |field: &str, v: [f64; 3], max: f64, unit: &str| {
         let norm = magnitude(v);
         if norm.is_finite() && norm <= max {
@@ -777,6 +808,12 @@ fn convert_body(
     }
     limit("velocity", b.velocity, MAX_SPEED, "m/s")?;
     limit("angular_velocity", b.angular_velocity, MAX_SPEED, "rad/s")?;
+    Ok(())
+}
+
+/// `density` or `mass` (default density 1000), checked.
+fn body_mass(b: &BodyFile) -> Result<MassSpec, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     // Checked for static bodies too: a static body ignores its mass, but a negative one is
     // still a mistake in the file.
     for (field, v) in [("density", b.density), ("mass", b.mass)] {
@@ -801,15 +838,20 @@ fn convert_body(
             ),
         ));
     }
-    let mass = match (b.density, b.mass) {
+    Ok(match (b.density, b.mass) {
         (Some(_), Some(_)) => {
             return Err(err("mass", "give `density` or `mass`, not both".into()));
         }
         (Some(d), None) => MassSpec::Density(d),
         (None, Some(m)) => MassSpec::Mass(m),
         (None, None) => MassSpec::Density(1000.0),
-    };
-    let orientation = match (&b.orientation, &b.axis_angle) {
+    })
+}
+
+/// `orientation` (a quaternion) or `axis_angle`; identity when neither is given.
+fn body_orientation(b: &BodyFile) -> Result<UnitQuaternion<f64>, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
+    Ok(match (&b.orientation, &b.axis_angle) {
         (Some(_), Some(_)) => {
             return Err(err(
                 "orientation",
@@ -835,8 +877,13 @@ fn convert_body(
             UnitQuaternion::from_axis_angle(&axis, aa.degrees.to_radians())
         }
         (None, None) => UnitQuaternion::identity(),
-    };
-    let material = match &b.material {
+    })
+}
+
+/// Index of the body's material (the first when none is named).
+fn body_material(b: &BodyFile, materials: &[Material]) -> Result<usize, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
+    Ok(match &b.material {
         None => 0,
         Some(name) => materials
             .iter()
@@ -848,7 +895,18 @@ fn convert_body(
                     format!("no material named \"{name}\" (known: {})", known.join(", ")),
                 )
             })?,
-    };
+    })
+}
+
+/// The body, or its grid of copies `name_0, name_1, …` (`i` fastest) when repeated.
+fn expand_repeats(
+    b: &BodyFile,
+    shape: &Shape,
+    mass: MassSpec,
+    orientation: UnitQuaternion<f64>,
+    material: usize,
+) -> Result<Vec<RigidBody>, FieldError> {
+    let err = |f: &str, m: String| (f.to_owned(), m);
     let (count, spacing) = match &b.repeat {
         None => ([1, 1, 1], [0.0; 3]),
         Some(r) => {

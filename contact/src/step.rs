@@ -17,7 +17,7 @@
 //!    penetration, energy, momenta and friction-cone violation.
 //!
 //! ```
-//! use lcpbench_contact::{Scene, SolverChoice};
+//! use lcpbench_contact::{ContactSolver, Scene};
 //! use std::path::Path;
 //!
 //! let scene = Scene::parse(
@@ -37,7 +37,7 @@
 //! )
 //! .unwrap();
 //! let mut world = scene.world();
-//! world.set_solver(SolverChoice::from_name("si").unwrap());
+//! world.set_solver(ContactSolver::from_name("si").unwrap());
 //! let report = world.step();
 //! assert_eq!(report.contacts, 4); // one face on the ground: four contact points
 //! assert!(report.status.is_converged());
@@ -45,7 +45,7 @@
 //! ```
 
 use crate::body::RigidBody;
-use crate::body_solvers::{self, BodySolverKind, BodySolverSettings};
+use crate::body_solvers::{BodySolver, BodySolverKind, Measure};
 use crate::builder::FrictionModel;
 use crate::builder::PositionCorrection;
 use crate::builder::{
@@ -55,41 +55,85 @@ use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
 use lcpbench_solvers::{
-    residuals, ConeProblem, ConeSolver, ConeSolverKind, HistoryPoint, Problem, ProjectedSor,
-    Residuals, Settings, SolveResult, Solver, SolverKind, Status,
+    ConeProblem, ConeSolver, ConeSolverKind, HistoryPoint, Problem, ProjectedSor, Residuals,
+    Settings, SolveResult, Solver, SolverKind, Status,
 };
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::time::Instant;
 
-/// A contact solver for a scene: a matrix solver of `lcpbench-solvers`, a body-level one, or a
-/// solver of the exact Coulomb cone.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum SolverChoice {
+/// The contact solver of a scene, as an owned, configured instance: a matrix solver of
+/// `lcpbench-solvers`, a body-level one, or a solver of the exact Coulomb cone. Every parameter
+/// of the instance (SOR's `omega`, Newton's settings, the penalty spring) reaches the steps.
+/// Cloning clones the instance ([`lcpbench_solvers::SolverClone`]); islands solved in parallel
+/// each get a clone of the instance the world was given.
+#[derive(Clone)]
+pub enum ContactSolver {
     /// A solver on the assembled LCP (friction models `none`, `box`, `pyramid`).
-    Matrix(SolverKind),
+    Matrix(Box<dyn Solver + Send>),
     /// A solver on bodies (matrix-free; friction models `none`, `box`).
-    Body(BodySolverKind),
+    Body(Box<dyn BodySolver + Send>),
     /// A solver of the FC3D cone problem (friction model `cone` only).
-    Cone(ConeSolverKind),
+    Cone(Box<dyn ConeSolver + Send>),
 }
 
-impl SolverChoice {
-    /// Look a solver up by name: the matrix solvers' names, then `si`, `body-micro`, `penalty`,
-    /// then the cone solvers `nsgs-cone`, `newton-ac`.
+impl std::fmt::Debug for ContactSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ContactSolver({})", self.name())
+    }
+}
+
+impl From<SolverKind> for ContactSolver {
+    fn from(kind: SolverKind) -> Self {
+        ContactSolver::Matrix(kind.create())
+    }
+}
+
+impl From<BodySolverKind> for ContactSolver {
+    fn from(kind: BodySolverKind) -> Self {
+        ContactSolver::Body(kind.create())
+    }
+}
+
+impl From<ConeSolverKind> for ContactSolver {
+    fn from(kind: ConeSolverKind) -> Self {
+        ContactSolver::Cone(kind.create())
+    }
+}
+
+impl ContactSolver {
+    /// The solver of this name with default parameters: the matrix solvers' names, then `si`,
+    /// `body-micro`, `penalty`, then the cone solvers `nsgs-cone`, `newton-ac`, `clarabel-socp`.
     pub fn from_name(name: &str) -> Option<Self> {
         SolverKind::from_name(name)
-            .map(SolverChoice::Matrix)
-            .or_else(|| BodySolverKind::from_name(name).map(SolverChoice::Body))
-            .or_else(|| ConeSolverKind::from_name(name).map(SolverChoice::Cone))
+            .map(Self::from)
+            .or_else(|| BodySolverKind::from_name(name).map(Self::from))
+            .or_else(|| ConeSolverKind::from_name(name).map(Self::from))
     }
 
     /// The solver's name.
-    pub fn name(self) -> &'static str {
+    pub fn name(&self) -> &'static str {
         match self {
-            SolverChoice::Matrix(k) => k.name(),
-            SolverChoice::Body(k) => k.name(),
-            SolverChoice::Cone(k) => k.name(),
+            ContactSolver::Matrix(s) => s.name(),
+            ContactSolver::Body(s) => s.name(),
+            ContactSolver::Cone(s) => s.name(),
+        }
+    }
+
+    /// True for a cone solver.
+    pub fn is_cone(&self) -> bool {
+        matches!(self, ContactSolver::Cone(_))
+    }
+
+    /// True when the stepper passes this solver the previous step's impulses: the iterative
+    /// matrix solvers ([`SolverKind::is_iterative`]), every cone solver and every body-level
+    /// solver. Pivoting and interior-point solvers start cold.
+    pub fn takes_warm_start(&self) -> bool {
+        match self {
+            ContactSolver::Matrix(s) => {
+                SolverKind::from_name(s.name()).is_some_and(|k| k.is_iterative())
+            }
+            ContactSolver::Body(_) | ContactSolver::Cone(_) => true,
         }
     }
 
@@ -97,22 +141,22 @@ impl SolverChoice {
     /// solver does not take the friction model is `Unsupported` with this reason (and applies
     /// no impulse); scene files and the command line refuse the pair up front
     /// ([`crate::scene::check_solver`]).
-    pub fn supports(self, model: FrictionModel) -> Result<(), String> {
+    pub fn supports(&self, model: FrictionModel) -> Result<(), String> {
         match (self, model) {
-            (SolverChoice::Body(k), FrictionModel::Pyramid { .. }) => Err(format!(
+            (ContactSolver::Body(s), FrictionModel::Pyramid { .. }) => Err(format!(
                 "body-level solver `{}` supports friction_model \"none\" or \"box\", not \"pyramid\"",
-                k.name()
+                s.name()
             )),
-            (SolverChoice::Matrix(_) | SolverChoice::Body(_), FrictionModel::Cone) => Err(format!(
+            (ContactSolver::Matrix(_) | ContactSolver::Body(_), FrictionModel::Cone) => Err(format!(
                 "solver `{}` solves the LCP models (friction_model \"none\", \"box\", \"pyramid\"), \
                  not the exact Coulomb cone of friction_model \"cone\": use a cone solver ({})",
                 self.name(),
                 Self::cone_names()
             )),
-            (SolverChoice::Cone(k), m) if m != FrictionModel::Cone => Err(format!(
+            (ContactSolver::Cone(s), m) if m != FrictionModel::Cone => Err(format!(
                 "cone solver `{}` solves friction_model \"cone\" only, not \"{}\" (use a matrix or \
                  body-level solver, or friction_model \"cone\")",
-                k.name(),
+                s.name(),
                 m.name()
             )),
             _ => Ok(()),
@@ -128,28 +172,78 @@ impl SolverChoice {
             .join(", ")
     }
 
-    /// Every solver a scene can use.
-    pub fn all() -> Vec<SolverChoice> {
-        SolverKind::ALL
-            .into_iter()
-            .map(SolverChoice::Matrix)
-            .chain(BodySolverKind::ALL.into_iter().map(SolverChoice::Body))
-            .chain(ConeSolverKind::ALL.into_iter().map(SolverChoice::Cone))
-            .collect()
-    }
-
-    /// Comma-separated names of every solver.
+    /// The name of every solver a scene can use: matrix, body-level, cone.
     pub fn all_names() -> String {
-        Self::all()
-            .iter()
-            .map(|s| s.name())
+        let matrix = SolverKind::ALL.iter().map(|k| k.name());
+        let body = BodySolverKind::ALL.iter().map(|k| k.name());
+        let cone = ConeSolverKind::ALL.iter().map(|k| k.name());
+        matrix
+            .chain(body)
+            .chain(cone)
             .collect::<Vec<_>>()
             .join(", ")
+    }
+
+    /// Solve island `k` of `partition` with this (matrix or cone) solver.
+    fn solve_island(
+        &mut self,
+        system: &ContactSystem,
+        partition: &Partition,
+        k: usize,
+        settings: &Settings,
+    ) -> Result<SolveResult, String> {
+        match self {
+            ContactSolver::Matrix(s) => {
+                let problem = system
+                    .island_problem(partition, k)
+                    .map_err(|e| e.to_string())?;
+                Ok(s.solve(&problem, settings))
+            }
+            ContactSolver::Cone(s) => {
+                let problem = system
+                    .island_cone_problem(partition, k)
+                    .map_err(|e| e.to_string())?;
+                Ok(s.solve_cone(&problem, settings))
+            }
+            ContactSolver::Body(s) => {
+                Err(format!("body-level solver `{}` has no islands", s.name()))
+            }
+        }
+    }
+
+    /// Solve the whole step as one problem with this (matrix or cone) solver.
+    fn solve_whole(&mut self, system: &ContactSystem, settings: &Settings) -> Solved {
+        let n = system.n();
+        let (result, problem, cone_problem) = match self {
+            ContactSolver::Matrix(s) => match system.problem() {
+                Ok(p) => (s.solve(&p, settings), Some(p), None),
+                Err(e) => return Solved::invalid(n, &e),
+            },
+            ContactSolver::Cone(s) => match system.cone_problem() {
+                Ok(p) => (s.solve_cone(&p, settings), None, Some(p)),
+                Err(e) => return Solved::invalid(n, &e),
+            },
+            ContactSolver::Body(s) => {
+                let reason = format!("body-level solver `{}` solves on bodies", s.name());
+                return Solved::unsupported(n, reason);
+            }
+        };
+        Solved {
+            f: usable_impulse(&result, n),
+            status: result.status,
+            iterations: result.iterations,
+            time_s: result.time.as_secs_f64(),
+            wall_s: 0.0,
+            residuals: Some(result.residuals),
+            problem,
+            cone_problem,
+            history: result.history,
+        }
     }
 }
 
 /// Simulation settings. Scene-file defaults in brackets (see `docs/scenes.md`).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct SimSettings {
     /// Time step `h`, s \[`0.01`\].
     pub dt: f64,
@@ -157,9 +251,11 @@ pub struct SimSettings {
     pub steps: usize,
     /// Gravity, m/s² \[`[0, 0, -9.81]`\].
     pub gravity: Vector3<f64>,
-    /// Contact solver \[`pgs`\].
-    pub solver: SolverChoice,
-    /// Solver tolerance on the relative natural-map residual \[`1e-6`\].
+    /// Contact solver, the instance every step solves with (a clone per island)
+    /// \[`pgs`\].
+    pub solver: ContactSolver,
+    /// Solver tolerance on the relative natural-map residual \[`1e-6`\] (for body-level
+    /// solvers also their own stopping scale).
     pub tolerance: f64,
     /// Solver iteration / pivot / sweep cap \[`1000`\].
     pub max_iterations: usize,
@@ -169,8 +265,6 @@ pub struct SimSettings {
     pub prediction_distance: f64,
     /// Friction model, restitution threshold and position correction.
     pub builder: BuilderParams,
-    /// Penalty parameters (the other fields are copied from above).
-    pub body: BodySolverSettings,
     /// Continuous collision detection: `None` \[default\], or a time-of-impact method. With
     /// one, every step moves the bodies only up to the first time of impact among pairs not yet
     /// touching (backtracking, Baraff–Witkin), so fast bodies cannot tunnel; the rest of that
@@ -195,13 +289,12 @@ impl Default for SimSettings {
             dt: 0.01,
             steps: 100,
             gravity: Vector3::new(0.0, 0.0, -9.81),
-            solver: SolverChoice::Matrix(SolverKind::Pgs),
+            solver: ContactSolver::from(SolverKind::Pgs),
             tolerance: 1e-6,
             max_iterations: 1000,
             warm_start: true,
             prediction_distance: 0.01,
             builder: BuilderParams::default(),
-            body: BodySolverSettings::default(),
             ccd: None,
             keep_problem: false,
             residuals: true,
@@ -326,72 +419,25 @@ struct Solved {
     history: Vec<HistoryPoint>,
 }
 
-/// Solve the whole step as one problem with `solver`.
-fn solve_whole(solver: &mut dyn Solver, system: &ContactSystem, settings: &Settings) -> Solved {
-    let n = system.n();
-    let problem = match system.problem() {
-        Ok(p) => p,
-        Err(e) => return Solved::invalid(n, &e),
-    };
-    let result = solver.solve(&problem, settings);
-    Solved {
-        f: usable_impulse(&result, n),
-        status: result.status,
-        iterations: result.iterations,
-        time_s: result.time.as_secs_f64(),
-        wall_s: 0.0,
-        residuals: Some(result.residuals),
-        problem: Some(problem),
-        cone_problem: None,
-        history: result.history,
-    }
-}
-
-/// Solve the whole step as one cone problem with `solver`.
-fn solve_whole_cone(
-    solver: &mut dyn ConeSolver,
-    system: &ContactSystem,
-    settings: &Settings,
-) -> Solved {
-    let n = system.n();
-    let problem = match system.cone_problem() {
-        Ok(p) => p,
-        Err(e) => return Solved::invalid(n, &e),
-    };
-    let result = solver.solve_cone(&problem, settings);
-    Solved {
-        f: usable_impulse(&result, n),
-        status: result.status,
-        iterations: result.iterations,
-        time_s: result.time.as_secs_f64(),
-        wall_s: 0.0,
-        residuals: Some(result.residuals),
-        problem: None,
-        cone_problem: Some(problem),
-        history: result.history,
-    }
-}
-
-/// Solve each island of `partition` on its own with `solve_island(k, settings)` (a fresh solver
-/// per island, in parallel with rayon) and scatter the impulses back. The island's settings
+/// Solve each island of `partition` on its own with `solve_island(solver, k, settings)` (one
+/// clone of `solver` per island, in parallel with rayon) and scatter the impulses back. The island's settings
 /// carry its part of the warm start. The step's residuals are those of the whole: every
 /// measure is a maximum over rows (or contacts, for the cone residual) except the
 /// complementarity gap, a sum, and `A` has no entry between islands. The status is the worst
 /// island's.
-fn solve_islands<F>(
+fn solve_islands(
     system: &ContactSystem,
     partition: &Partition,
     settings: &Settings,
-    solve_island: F,
-) -> Solved
-where
-    F: Fn(usize, &Settings) -> Result<SolveResult, String> + Sync,
-{
+    solver: &ContactSolver,
+) -> Solved {
     use rayon::prelude::*;
     let n = system.n();
-    let results: Vec<Result<SolveResult, String>> = (0..partition.len())
+    let solvers: Vec<ContactSolver> = (0..partition.len()).map(|_| solver.clone()).collect();
+    let results: Vec<Result<SolveResult, String>> = solvers
         .into_par_iter()
-        .map(|k| {
+        .enumerate()
+        .map(|(k, mut solver)| {
             let rows = &partition.islands[k].rows;
             let island_settings = Settings {
                 warm_start: settings
@@ -400,7 +446,7 @@ where
                     .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
                 ..settings.clone()
             };
-            solve_island(k, &island_settings)
+            solver.solve_island(system, partition, k, &island_settings)
         })
         .collect();
     let mut f = vec![0.0; n];
@@ -480,6 +526,21 @@ fn usable_impulse(result: &SolveResult, n: usize) -> Vec<f64> {
 }
 
 impl Solved {
+    /// A step without contact rows: nothing to solve.
+    fn empty() -> Self {
+        Solved {
+            f: Vec::new(),
+            status: Status::Converged,
+            iterations: 0,
+            time_s: 0.0,
+            wall_s: 0.0,
+            residuals: None,
+            problem: None,
+            cone_problem: None,
+            history: Vec::new(),
+        }
+    }
+
     /// No impulse: the contact system could not be made into a problem.
     fn invalid(n: usize, e: &dyn std::fmt::Display) -> Self {
         Solved {
@@ -526,15 +587,17 @@ pub struct World {
     pub step_index: usize,
     /// Simulated time, s.
     pub time: f64,
-    matrix_solver: Option<Box<dyn Solver + Send>>,
-    cone_solver: Option<Box<dyn ConeSolver + Send>>,
+    /// The working copy of `settings.solver` for whole-step solves (it keeps its workspace
+    /// from step to step); islands get fresh clones of `settings.solver` itself.
+    whole: ContactSolver,
 }
 
 impl World {
     /// A world at time 0.
     pub fn new(bodies: Vec<RigidBody>, materials: Vec<Material>, settings: SimSettings) -> Self {
         let groups = bodies.iter().map(|b| b.name.clone()).collect();
-        let mut world = Self {
+        let whole = settings.solver.clone();
+        Self {
             bodies,
             groups,
             materials,
@@ -544,24 +607,14 @@ impl World {
             warm: WarmStartCache::default(),
             step_index: 0,
             time: 0.0,
-            matrix_solver: None,
-            cone_solver: None,
-        };
-        world.set_solver(world.settings.solver);
-        world
+            whole,
+        }
     }
 
     /// Switch the contact solver (keeps the warm-start cache).
-    pub fn set_solver(&mut self, solver: SolverChoice) {
-        self.settings.solver = solver;
-        self.matrix_solver = match solver {
-            SolverChoice::Matrix(kind) => Some(kind.create()),
-            SolverChoice::Body(_) | SolverChoice::Cone(_) => None,
-        };
-        self.cone_solver = match solver {
-            SolverChoice::Cone(kind) => Some(kind.create()),
-            SolverChoice::Matrix(_) | SolverChoice::Body(_) => None,
-        };
+    pub fn set_solver(&mut self, solver: impl Into<ContactSolver>) {
+        self.settings.solver = solver.into();
+        self.whole = self.settings.solver.clone();
     }
 
     /// Index of the body named `name`.
@@ -633,155 +686,100 @@ impl World {
         }
     }
 
+    /// Solve the step's system with the world's solver: nothing for no rows, `Unsupported`
+    /// when the solver does not take the friction model, else the body-level or the matrix /
+    /// cone path. Stores the warm start for the next step.
     fn solve(&mut self, system: &ContactSystem, partition: &Partition) -> Solved {
         let n = system.n();
         let wall = Instant::now();
         if n == 0 {
             self.warm.clear();
-            return Solved {
-                f: Vec::new(),
-                status: Status::Converged,
-                iterations: 0,
-                time_s: 0.0,
-                wall_s: 0.0,
-                residuals: None,
-                problem: None,
-                cone_problem: None,
-                history: Vec::new(),
-            };
+            return Solved::empty();
         }
-        if let Err(reason) = self
-            .settings
-            .solver
-            .supports(self.settings.builder.friction_model)
-        {
+        let model = self.settings.builder.friction_model;
+        let mut solved = if let Err(reason) = self.settings.solver.supports(model) {
             self.warm.clear();
-            let mut solved = Solved::unsupported(n, reason);
-            solved.wall_s = wall.elapsed().as_secs_f64();
-            return solved;
-        }
-        let warm_start = self
-            .settings
-            .warm_start
-            .then(|| system.warm_start(&self.warm));
-        match self.settings.solver {
-            SolverChoice::Matrix(kind) => {
-                let mut settings = self.solver_settings();
-                settings.record_history = self.settings.record_history;
-                if kind.is_iterative() {
-                    settings.warm_start = warm_start;
-                }
-                let mut solved = if self.settings.islands && partition.len() > 1 {
-                    solve_islands(system, partition, &settings, |k, s| {
-                        let problem = system
-                            .island_problem(partition, k)
-                            .map_err(|e| e.to_string())?;
-                        Ok(kind.create().solve(&problem, s))
-                    })
-                } else {
-                    let solver = self.matrix_solver.get_or_insert_with(|| kind.create());
-                    solve_whole(solver.as_mut(), system, &settings)
-                };
-                if self.settings.keep_problem && solved.problem.is_none() {
-                    solved.problem = system.problem().ok();
-                }
-                self.warm.store(system, &solved.f);
-                solved.wall_s = wall.elapsed().as_secs_f64();
-                solved
+            Solved::unsupported(n, reason)
+        } else {
+            let warm_start = self
+                .settings
+                .warm_start
+                .then(|| system.warm_start(&self.warm));
+            if matches!(self.settings.solver, ContactSolver::Body(_)) {
+                self.solve_on_bodies(system, warm_start)
+            } else {
+                self.solve_problem(system, partition, warm_start)
             }
-            SolverChoice::Cone(kind) => {
-                let mut settings = self.solver_settings();
-                settings.record_history = self.settings.record_history;
-                settings.warm_start = warm_start;
-                let mut solved = if self.settings.islands && partition.len() > 1 {
-                    solve_islands(system, partition, &settings, |k, s| {
-                        let problem = system
-                            .island_cone_problem(partition, k)
-                            .map_err(|e| e.to_string())?;
-                        Ok(kind.create().solve_cone(&problem, s))
-                    })
-                } else {
-                    let solver = self.cone_solver.get_or_insert_with(|| kind.create());
-                    solve_whole_cone(solver.as_mut(), system, &settings)
-                };
-                if self.settings.keep_problem && solved.cone_problem.is_none() {
+        };
+        solved.wall_s = wall.elapsed().as_secs_f64();
+        solved
+    }
+
+    /// The matrix and cone path: the assembled problem (per island when there are several)
+    /// solved with the instance; the problem kept on request.
+    fn solve_problem(
+        &mut self,
+        system: &ContactSystem,
+        partition: &Partition,
+        warm_start: Option<Vec<f64>>,
+    ) -> Solved {
+        let mut settings = self.solver_settings();
+        settings.record_history = self.settings.record_history;
+        if self.settings.solver.takes_warm_start() {
+            settings.warm_start = warm_start;
+        }
+        if self.whole.name() != self.settings.solver.name() {
+            self.whole = self.settings.solver.clone();
+        }
+        let mut solved = if self.settings.islands && partition.len() > 1 {
+            solve_islands(system, partition, &settings, &self.settings.solver)
+        } else {
+            self.whole.solve_whole(system, &settings)
+        };
+        if self.settings.keep_problem {
+            if self.settings.solver.is_cone() {
+                if solved.cone_problem.is_none() {
                     solved.cone_problem = system.cone_problem().ok();
                 }
-                self.warm.store(system, &solved.f);
-                solved.wall_s = wall.elapsed().as_secs_f64();
-                solved
+            } else if solved.problem.is_none() {
+                solved.problem = system.problem().ok();
             }
-            SolverChoice::Body(kind) => {
-                let settings = BodySolverSettings {
-                    tolerance: self.settings.tolerance,
-                    max_iterations: self.settings.max_iterations,
-                    restitution_threshold: self.settings.builder.restitution_threshold,
-                    ..self.settings.body.clone()
-                };
-                let warm = warm_start.unwrap_or_default();
-                let out = body_solvers::solve(kind, system, &warm, &settings);
-                self.warm.store(system, &out.warm);
-                let (problem, invalid) = if self.settings.residuals || self.settings.keep_problem {
-                    match system.problem() {
-                        Ok(p) => (Some(p), None),
-                        Err(e) => (None, Some(e.to_string())),
-                    }
-                } else {
-                    (None, None)
-                };
-                let res = problem.as_ref().map(|p| residuals(p, &out.f));
-                let non_finite = out.f.iter().position(|v| !v.is_finite());
-                let status = match (&res, out.stopped) {
-                    // Overflow is a numerical failure, whatever the solver's own rule said.
-                    _ if invalid.is_some() => Status::NumericalFailure {
-                        reason: format!(
-                            "contact system is invalid: {}",
-                            invalid.unwrap_or_default()
-                        ),
-                    },
-                    _ if non_finite.is_some() => {
-                        let i = non_finite.unwrap_or_default();
-                        Status::NumericalFailure {
-                            reason: format!("non-finite impulse f[{i}] = {}", out.f[i]),
-                        }
-                    }
-                    (Some(r), _) if !r.natural_map_rel.is_finite() => Status::NumericalFailure {
-                        reason: format!(
-                            "the residual of the step's LCP is not finite ({})",
-                            r.natural_map_rel
-                        ),
-                    },
-                    (Some(r), _) if r.natural_map_rel <= self.settings.tolerance => {
-                        Status::Converged
-                    }
-                    // Without the shared residual, convergence cannot be claimed.
-                    (None, true) => Status::Stalled {
-                        reason: format!(
-                            "{} met its own stopping rule; the shared residual was not measured",
-                            kind.name()
-                        ),
-                    },
-                    (_, false) => Status::IterationLimit,
-                    (Some(r), true) => Status::Stalled {
-                        reason: format!(
-                            "{} stopped at relative residual {:.3e} of the step's LCP",
-                            kind.name(),
-                            r.natural_map_rel
-                        ),
-                    },
-                };
-                Solved {
-                    f: out.f,
-                    status,
-                    iterations: out.iterations,
-                    time_s: out.time.as_secs_f64(),
-                    wall_s: wall.elapsed().as_secs_f64(),
-                    residuals: res,
-                    problem,
-                    cone_problem: None,
-                    history: Vec::new(),
-                }
-            }
+        }
+        self.warm.store(system, &solved.f);
+        solved
+    }
+
+    /// The body-level path: the solver works on `system`, and the status is decided from the
+    /// shared residual of the step's assembled LCP when residuals (or the problem) are wanted.
+    fn solve_on_bodies(&mut self, system: &ContactSystem, warm_start: Option<Vec<f64>>) -> Solved {
+        let settings = Settings {
+            warm_start,
+            ..self.solver_settings()
+        };
+        let assembled = (self.settings.residuals || self.settings.keep_problem)
+            .then(|| system.problem().map_err(|e| e.to_string()));
+        let measure = match &assembled {
+            Some(Ok(p)) => Measure::Lcp(p),
+            Some(Err(e)) => Measure::Invalid(e),
+            None => Measure::Skip,
+        };
+        let out = match &mut self.settings.solver {
+            ContactSolver::Body(s) => s.solve(system, &settings, measure),
+            _ => return Solved::unsupported(system.n(), "not a body-level solver".into()),
+        };
+        self.warm.store(system, &out.warm);
+        let problem = assembled.and_then(Result::ok);
+        let r = out.result;
+        Solved {
+            f: r.f,
+            status: r.status,
+            iterations: r.iterations,
+            time_s: r.time.as_secs_f64(),
+            wall_s: 0.0,
+            residuals: problem.is_some().then_some(r.residuals),
+            problem,
+            cone_problem: None,
+            history: Vec::new(),
         }
     }
 

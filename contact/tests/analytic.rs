@@ -2,7 +2,7 @@
 //! integrate). Each test prints its measured error (`cargo test -- --nocapture`).
 
 use lcpbench_contact::builder::{self, BuilderParams, FrictionModel, Material};
-use lcpbench_contact::{Contact, MassSpec, RigidBody, Scene, Shape, SolverChoice, World};
+use lcpbench_contact::{Contact, ContactSolver, MassSpec, RigidBody, Scene, Shape, World};
 use lcpbench_solvers::{Problem, Settings, SolverKind, Status};
 use nalgebra::{DMatrix, Point3, UnitQuaternion, Vector3};
 use std::path::PathBuf;
@@ -34,7 +34,7 @@ fn world(scene: &Scene, spec: &str) -> World {
     if pyramid {
         w.settings.builder.friction_model = FrictionModel::Pyramid { directions: 4 };
     }
-    w.set_solver(SolverChoice::from_name(solver).expect("known solver"));
+    w.set_solver(ContactSolver::from_name(solver).expect("known solver"));
     w
 }
 

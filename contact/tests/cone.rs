@@ -3,7 +3,7 @@
 //! `Unsupported` status of solvers that do not take the model.
 
 use lcpbench_contact::builder::FrictionModel;
-use lcpbench_contact::{Scene, SolverChoice, World};
+use lcpbench_contact::{ContactSolver, Scene, World};
 use lcpbench_solvers::Status;
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -22,7 +22,7 @@ fn scene(name: &str) -> Scene {
 fn world(scene: &Scene, model: FrictionModel, solver: &str) -> World {
     let mut w = scene.world();
     w.settings.builder.friction_model = model;
-    w.set_solver(SolverChoice::from_name(solver).expect("known solver"));
+    w.set_solver(ContactSolver::from_name(solver).expect("known solver"));
     w
 }
 

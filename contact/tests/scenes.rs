@@ -3,7 +3,7 @@
 //! friction model.
 
 use lcpbench_contact::builder::{self, FrictionModel, RowKind};
-use lcpbench_contact::{Scene, SceneError, SolverChoice};
+use lcpbench_contact::{Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 fn bench_scenes() -> PathBuf {
@@ -49,17 +49,22 @@ fn every_bench_scene_loads_and_steps() {
 }
 
 #[test]
-fn defaults_and_metrics_pass_through() {
+fn defaults_and_typed_metrics() {
     let s = parse(&format!(
-        "[metrics]\nanswer = 42\nnested = {{ a = [1, 2] }}\n{BALL}"
+        "[metrics]\nexpected_displacement = 0\nmu = [0.5, 0.6]\npush_direction = [1, 0, 0]\n{BALL}"
     ))
     .unwrap();
     assert_eq!(s.name, "test");
     assert_eq!(s.settings.dt, 0.01);
-    assert_eq!(s.settings.solver, SolverChoice::from_name("pgs").unwrap());
+    assert_eq!(s.settings.solver.name(), "pgs");
     assert_eq!(s.settings.builder.friction_model, FrictionModel::Box);
-    assert_eq!(s.metrics["answer"].as_integer(), Some(42));
-    assert!(s.metrics["nested"].is_table());
+    assert_eq!(s.metrics.expected_displacement, Some(0.0));
+    assert_eq!(s.metrics.push_direction, Some([1.0, 0.0, 0.0]));
+    assert_eq!(
+        s.metrics.mu,
+        Some(lcpbench_contact::scene::OneOrMany::Many(vec![0.5, 0.6]))
+    );
+    assert_eq!(s.metrics.at_rest, None);
     assert_eq!(s.bodies.len(), 2);
     assert!(s.bodies[0].is_static);
     // Default density 1000: a 0.1 m sphere weighs 4.19 kg.
@@ -118,6 +123,14 @@ fn errors_name_file_field_and_problem() {
         (
             "[settings]\ndtt = 0.01\n",
             &["test.toml:2:1", "[settings]", "unknown field `dtt`"],
+        ),
+        (
+            "[metrics]\nexpected_rest_hieght = 0.5\n",
+            &["test.toml:2:1", "[metrics]", "unknown field `expected_rest_hieght`"],
+        ),
+        (
+            "[metrics]\nat_rest = 1.5\n",
+            &["test.toml:2:", "field `at_rest`", "invalid type"],
         ),
         (
             "[settings]\ndt = \"fast\"\n",

@@ -1,7 +1,7 @@
 //! Stepping behaviour beyond the analytic scenes: continuous collision detection against
 //! tunnelling, split impulses, the penalty baseline and warm starting.
 
-use lcpbench_contact::{Scene, SolverChoice};
+use lcpbench_contact::{ContactSolver, Scene};
 use std::path::Path;
 
 fn bullet(ccd: &str) -> Scene {
@@ -98,7 +98,7 @@ fn penalty_baseline_holds_a_box_with_small_penetration() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes/box_on_ground.toml");
     let s = Scene::load(path).unwrap();
     let mut w = s.world();
-    w.set_solver(SolverChoice::from_name("penalty").unwrap());
+    w.set_solver(ContactSolver::from_name("penalty").unwrap());
     let reports = w.run(300);
     let pen = reports.last().unwrap().max_penetration;
     let z = w.bodies[1].position.z;
@@ -116,7 +116,7 @@ fn warm_starting_cuts_sequential_impulse_sweeps() {
     let mut sweeps = Vec::new();
     for warm in [false, true] {
         let mut w = s.world();
-        w.set_solver(SolverChoice::from_name("si").unwrap());
+        w.set_solver(ContactSolver::from_name("si").unwrap());
         w.settings.warm_start = warm;
         let reports = w.run(100);
         let mean = reports[50..].iter().map(|r| r.iterations).sum::<usize>() as f64 / 50.0;
@@ -146,7 +146,7 @@ fn overflowing_body_level_step_is_a_numerical_failure_not_stalled() {
     let scene = Scene::parse(text, Path::new("overflow.toml")).unwrap();
     for solver in ["si", "body-micro", "penalty"] {
         let mut world = scene.world();
-        world.set_solver(SolverChoice::from_name(solver).unwrap());
+        world.set_solver(ContactSolver::from_name(solver).unwrap());
         let ball = &mut world.bodies[1];
         ball.linear_momentum = nalgebra::Vector3::new(0.0, 0.0, -1e308 * ball.mass);
         let report = world.step();
@@ -229,4 +229,94 @@ fn islands_of_two_towers_solve_to_the_impulses_of_the_whole() {
             }
         }
     }
+}
+
+/// Statuses, sweeps and impulses of the body-level solvers behind [`BodySolver`], pinned to the
+/// values the stepper produced before they shared the status rule of the matrix solvers.
+#[test]
+fn body_level_statuses_iterations_and_impulses_are_pinned() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes");
+    // (scene, solver, per step: status, iterations, sum of normal impulses, relative residual)
+    type Pin = (&'static str, usize, f64, f64);
+    let cases: [(&str, &str, [Pin; 3]); 3] = [
+        (
+            "cradle_3.toml",
+            "si",
+            [
+                ("stalled", 3, 2.0, 0.3333333333333333),
+                ("converged", 2, 0.0, 0.0),
+                ("converged", 2, 0.0, 0.0),
+            ],
+        ),
+        (
+            "box_on_ground.toml",
+            "si",
+            [
+                ("converged", 24, 98.09999988819362, 1.2043670257555459e-09),
+                ("converged", 1, 98.0999999480567, 1.1198025669704378e-09),
+                ("converged", 1, 98.10000002855068, 6.719281132700462e-10),
+            ],
+        ),
+        (
+            "box_on_ground.toml",
+            "penalty",
+            [
+                ("stalled", 1, 0.0, 1.0),
+                ("stalled", 1, 86.81850000000006, 0.2957559681697611),
+                ("stalled", 1, 101.40106500000002, 0.27908797908893657),
+            ],
+        ),
+    ];
+    for (scene, solver, pins) in cases {
+        let s = Scene::load(dir.join(scene)).unwrap();
+        let mut w = s.world();
+        w.set_solver(ContactSolver::from_name(solver).unwrap());
+        for (step, (status, iterations, impulse, residual)) in pins.into_iter().enumerate() {
+            let r = w.step();
+            let sum: f64 = r.contact_records.iter().map(|c| c.normal_impulse).sum();
+            let rel = r.residuals.as_ref().unwrap().natural_map_rel;
+            let at = format!("{scene} {solver} step {step}");
+            assert_eq!(r.status.name(), status, "{at}: {}", r.status);
+            assert_eq!(r.iterations, iterations, "{at}");
+            assert_eq!(sum.to_bits(), impulse.to_bits(), "{at}: {sum}");
+            assert_eq!(rel.to_bits(), residual.to_bits(), "{at}: {rel}");
+        }
+    }
+    // The stall names the solver and the residual it stopped at, as before.
+    let s = Scene::load(dir.join("box_on_ground.toml")).unwrap();
+    let mut w = s.world();
+    w.set_solver(ContactSolver::from_name("penalty").unwrap());
+    assert_eq!(
+        w.step().status.reason(),
+        Some("penalty stopped at relative residual 1.000e0 of the step's LCP")
+    );
+}
+
+/// A clone of a configured solver instance gives the same steps as the instance itself, and
+/// islands solved with clones agree with the whole-step solve of the same instance.
+#[test]
+fn solver_instances_clone_to_identical_steps() {
+    use lcpbench_solvers::ProjectedSor;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes");
+    let s = Scene::load(dir.join("dominoes.toml")).unwrap();
+    let sor = ContactSolver::Matrix(Box::new(ProjectedSor::sor(1.1)));
+    let run = |solver: ContactSolver, islands: bool| {
+        let mut w = s.world();
+        w.settings.islands = islands;
+        w.set_solver(solver);
+        let reports = w.run(40);
+        let last = w.bodies.iter().map(|b| b.position).collect::<Vec<_>>();
+        (
+            reports.iter().map(|r| r.iterations).collect::<Vec<_>>(),
+            last,
+        )
+    };
+    let (it_a, pos_a) = run(sor.clone(), true);
+    let (it_b, pos_b) = run(sor.clone(), true);
+    assert_eq!(it_a, it_b);
+    assert_eq!(pos_a, pos_b);
+    // omega reaches the steps: SOR 1.1 differs from PGS on the same scene.
+    let (it_pgs, _) = run(ContactSolver::from_name("pgs").unwrap(), true);
+    assert_ne!(it_a, it_pgs);
+    assert_eq!(sor.name(), "sor");
 }

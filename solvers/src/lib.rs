@@ -61,7 +61,7 @@ pub use clarabel_qp::ClarabelQp;
 pub use clarabel_socp::ClarabelSocp;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
-    ConeSolver,
+    ConeSolver, ConeSolverClone,
 };
 pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use dantzig::Dantzig;
@@ -82,7 +82,10 @@ pub use nsgs::Nsgs;
 pub use nsgs_cone::NsgsCone;
 pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
-pub use solver::{HistoryPoint, Settings, SolveResult, Solver, Status};
+pub use solver::{
+    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, SolverClone,
+    Status,
+};
 
 /// The solvers lcpbench ships, by name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

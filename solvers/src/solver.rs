@@ -19,8 +19,12 @@ pub struct Settings {
     pub max_iterations: usize,
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
-    /// Initial impulse for solvers that can use one (iterative solvers; pivoting solvers use it to
-    /// guess the initial active set or ignore it, as their docs say). Default `None` (zero).
+    /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
+    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and the cone
+    /// solvers NSGS-cone and Newton-AC; enumeration uses it only to order its first guesses of
+    /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
+    /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
+    /// and cone solvers only. Default `None` (zero).
     pub warm_start: Option<Vec<f64>>,
     /// Record the shared residual after every iteration (time spent measuring it is excluded from
     /// the reported wall time). Default `false`.
@@ -148,16 +152,43 @@ pub struct SolveResult {
 }
 
 /// A contact solver: takes a problem, returns an impulse and an honest status.
-pub trait Solver {
+///
+/// Every solver is `Clone` (through [`SolverClone`]), so a configured instance can be copied,
+/// for example one per island of a time step. A clone carries the solver's parameters and
+/// whatever workspace it keeps between solves (only [`crate::Newton`] keeps one: the last
+/// symbolic factorisation, reused only while the sparsity pattern is unchanged, so a clone
+/// gives bit-identical answers to a fresh solver of the same parameters).
+pub trait Solver: SolverClone {
     /// Short name (`pgs`, `lemke`, ...).
     fn name(&self) -> &'static str;
     /// Solve. Never panics on a valid [`Problem`]; every outcome is a [`Status`].
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult;
 }
 
-/// What a solver's own loop concluded, before the shared residual has its say.
+/// A boxed copy of a [`Solver`] (the dyn-clone pattern); implemented for every
+/// `Solver + Clone + Send + 'static`.
+pub trait SolverClone {
+    /// A boxed clone of this solver, parameters and workspace included.
+    fn clone_box(&self) -> Box<dyn Solver + Send>;
+}
+
+impl<T: Solver + Clone + Send + 'static> SolverClone for T {
+    fn clone_box(&self) -> Box<dyn Solver + Send> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn Solver + Send> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+/// What a solver's own loop concluded, before the shared residual has its say. Public so that
+/// solvers outside this crate (the body-level solvers of `lcpbench-contact`) decide their status
+/// with the same rule ([`decide`]).
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Outcome {
+pub enum Outcome {
     /// The solver's own stopping rule was met.
     Stopped,
     /// The solver stopped for a reason it states (no proof of anything).
@@ -177,7 +208,7 @@ pub(crate) enum Outcome {
 impl Outcome {
     /// The outcome a finished solve's status stands for (`Converged` and `Stalled` both mean
     /// the solver's own rule stopped it).
-    pub(crate) fn of(status: Status) -> Self {
+    pub fn of(status: Status) -> Self {
         match status {
             Status::Converged | Status::Stalled { .. } => Outcome::Stopped,
             Status::IterationLimit => Outcome::IterationLimit,
@@ -345,8 +376,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
                 Residuals::INFINITE,
                 Status::NumericalFailure { reason },
             )
-        } else if let Some(i) = f.iter().position(|v| !v.is_finite()) {
-            let reason = format!("non-finite {noun} {symbol}[{i}] = {}", f[i]);
+        } else if let Some(reason) = non_finite_reason(&f, noun, symbol) {
             let w = problem.velocity_at(&f);
             (
                 f,
@@ -382,9 +412,19 @@ impl<'a, P: Measured> Monitor<'a, P> {
     }
 }
 
+/// Why `x` is not a usable answer, when one of its entries is not finite:
+/// `non-finite {noun} {symbol}[i] = value` for the first such entry (the reason of
+/// [`Status::NumericalFailure`] that every monitor gives).
+pub fn non_finite_reason(x: &[f64], noun: &str, symbol: &str) -> Option<String> {
+    x.iter()
+        .position(|v| !v.is_finite())
+        .map(|i| format!("non-finite {noun} {symbol}[{i}] = {}", x[i]))
+}
+
 /// The status of a finite result from its relative residual `rel` and the solver's own outcome:
-/// `Converged` if and only if `rel <= tol` (shared by the LCP and the cone monitors).
-pub(crate) fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
+/// `Converged` if and only if `rel <= tol` (shared by the LCP and the cone monitors, and by the
+/// body-level solvers of `lcpbench-contact`). A `rel` of NaN (nothing measured) never converges.
+pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
     if rel <= tol {
         return Status::Converged;
     }

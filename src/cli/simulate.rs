@@ -4,7 +4,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
-use lcpbench_contact::step::{SolverChoice, World};
+use lcpbench_contact::step::{ContactSolver, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{cone_problem_to_json, write_problem};
 use serde_json::json;
@@ -114,8 +114,13 @@ fn load_world(
 ) -> Result<(Scene, World)> {
     let mut scene = Scene::load(path)?;
     if let Some(model) = friction_model {
-        scene.settings.builder.friction_model =
-            FrictionModel::from_name(model).with_context(|| {
+        let directions = match scene.settings.builder.friction_model {
+            FrictionModel::Pyramid { directions } => directions,
+            _ => 4,
+        };
+        scene.settings.builder.friction_model = FrictionModel::parse(model, directions)
+            .map_err(|(_, m)| anyhow::anyhow!("{m}"))
+            .with_context(|| {
                 format!(
                     "unknown friction model `{model}` (known: {})",
                     FrictionModel::NAMES
@@ -123,21 +128,26 @@ fn load_world(
             })?;
     }
     if let Some(name) = solver {
-        let choice = SolverChoice::from_name(name).with_context(|| {
+        let choice = scene.solver_from_name(name).with_context(|| {
             format!(
                 "unknown solver `{name}` (known: {})",
-                SolverChoice::all_names()
+                ContactSolver::all_names()
             )
         })?;
         scene.settings.solver = choice;
     }
-    check_solver(scene.settings.solver, scene.settings.builder.friction_model).map_err(|m| {
+    check_solver(
+        &scene.settings.solver,
+        scene.settings.builder.friction_model,
+    )
+    .map_err(|m| {
         anyhow::anyhow!(
             "{}: unsupported solver for this friction model: {m}{}",
             path.display(),
-            match scene.settings.solver {
-                SolverChoice::Cone(_) => " (--friction-model cone selects the cone)",
-                _ => "",
+            if scene.settings.solver.is_cone() {
+                " (--friction-model cone selects the cone)"
+            } else {
+                ""
             }
         )
     })?;
@@ -157,13 +167,8 @@ struct TopBody {
 
 impl TopBody {
     fn of(scene: &Scene, world: &World) -> Option<Self> {
-        let expected = ["expected_top_height", "expected_rest_height"]
-            .iter()
-            .find_map(|k| match scene.metrics.get(*k)? {
-                toml::Value::Float(v) => Some(*v),
-                toml::Value::Integer(v) => Some(*v as f64),
-                _ => None,
-            })?;
+        let m = &scene.metrics;
+        let expected = m.expected_top_height.or(m.expected_rest_height)?;
         let g = world.settings.gravity;
         let up = if g.norm() > 0.0 {
             -g / g.norm()

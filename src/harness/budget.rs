@@ -2,7 +2,7 @@
 //! its variant: SOR relaxation, warm or cold start).
 
 use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_contact::SolverChoice;
+use lcpbench_contact::ContactSolver;
 use lcpbench_solvers::{ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
 use std::time::Duration;
@@ -321,11 +321,11 @@ impl SolverSpec {
     }
 
     /// The solver as the stepper names it (`None` for a fault pseudo-solver).
-    pub fn scene_choice(&self) -> Option<SolverChoice> {
+    pub fn scene_choice(&self) -> Option<ContactSolver> {
         match (self.kind, self.body, self.cone) {
-            (Some(kind), _, _) => Some(SolverChoice::Matrix(kind)),
-            (None, Some(body), _) => Some(SolverChoice::Body(body)),
-            (None, None, Some(cone)) => Some(SolverChoice::Cone(cone)),
+            (Some(kind), _, _) => Some(kind.into()),
+            (None, Some(body), _) => Some(body.into()),
+            (None, None, Some(cone)) => Some(cone.into()),
             (None, None, None) => None,
         }
     }
@@ -413,7 +413,7 @@ impl std::str::FromStr for SolverSpec {
             (None, None) => Self::plain(name.parse().map_err(|e: String| {
                 err(format!(
                     "{e}; body-level solvers: si, body-micro, penalty; cone solvers: {}",
-                    SolverChoice::cone_names()
+                    ContactSolver::cone_names()
                 ))
             })?),
         };

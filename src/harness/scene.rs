@@ -38,42 +38,11 @@ use crate::harness::run::{base_record, RunOutput};
 use lcpbench_contact::body::RigidBody;
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::{StepReport, World};
+use lcpbench_contact::SceneMetrics;
 use lcpbench_solvers::{write_problem, Status};
 use nalgebra::{Point3, Vector3};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-fn number(metrics: &toml::Table, key: &str) -> Option<f64> {
-    match metrics.get(key)? {
-        toml::Value::Float(v) => Some(*v),
-        toml::Value::Integer(v) => Some(*v as f64),
-        _ => None,
-    }
-}
-
-fn numbers(metrics: &toml::Table, key: &str) -> Option<Vec<f64>> {
-    match metrics.get(key)? {
-        toml::Value::Array(a) => a
-            .iter()
-            .map(|v| match v {
-                toml::Value::Float(x) => Some(*x),
-                toml::Value::Integer(x) => Some(*x as f64),
-                _ => None,
-            })
-            .collect(),
-        _ => None,
-    }
-}
-
-fn strings(metrics: &toml::Table, key: &str) -> Vec<String> {
-    match metrics.get(key) {
-        Some(toml::Value::Array(a)) => a
-            .iter()
-            .filter_map(|v| v.as_str().map(str::to_owned))
-            .collect(),
-        _ => Vec::new(),
-    }
-}
 
 fn total_energy(world: &World) -> f64 {
     world
@@ -163,7 +132,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
         record.reason = "no solver".into();
         return out(record);
     };
-    if let Err(reason) = check_solver(choice, scene.settings.builder.friction_model) {
+    if let Err(reason) = check_solver(&choice, scene.settings.builder.friction_model) {
         record.status = "unsupported".into();
         record.reason = reason;
         return out(record);
@@ -234,14 +203,14 @@ fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r:
             .body_index(name)
             .map(|i| (world.bodies[i].position, world.bodies[i].velocity()))
     };
-    let expected_accel = number(metrics, "expected_acceleration");
-    let resting = metrics.contains_key("expected_top_height")
-        || metrics.contains_key("expected_rest_height")
-        || number(metrics, "expected_displacement") == Some(0.0)
+    let expected_accel = metrics.expected_acceleration;
+    let resting = metrics.expected_top_height.is_some()
+        || metrics.expected_rest_height.is_some()
+        || metrics.expected_displacement == Some(0.0)
         || expected_accel == Some(0.0)
-        || metrics.get("at_rest").and_then(|v| v.as_bool()) == Some(true);
-    let removed_at = number(metrics, "removed_at_step").map(|v| v as usize);
-    let stick_bodies = strings(metrics, "stick_bodies");
+        || metrics.at_rest == Some(true);
+    let removed_at = metrics.removed_at_step;
+    let stick_bodies = metrics.stick_bodies.clone().unwrap_or_default();
 
     let tail_from = n_steps - (n_steps / 10).max(1).min(n_steps);
     let start = Instant::now();
@@ -388,8 +357,7 @@ fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r:
         r.creep_speed = Some(creep);
     }
     // Stacks: sag and lateral drift of the top body.
-    let expected_top =
-        number(metrics, "expected_top_height").or_else(|| number(metrics, "expected_rest_height"));
+    let expected_top = metrics.expected_top_height.or(metrics.expected_rest_height);
     if let (Some(h), Some((name, p0))) = (expected_top, &top) {
         if let Some((p, _)) = position_of(world, name) {
             r.sag = Some(h - p.coords.dot(&up));
@@ -434,7 +402,7 @@ fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r:
         last.as_ref(),
         dt,
     );
-    if let Some(e) = number(metrics, "expected_rebound_height") {
+    if let Some(e) = metrics.expected_rebound_height {
         if rebound_peak.is_finite() && min_height.is_finite() {
             r.analytic_metric = "rebound height".into();
             r.analytic_error = Some((rebound_peak - min_height - e).abs());
@@ -469,7 +437,7 @@ use crate::harness::record::RunRecord;
 
 #[allow(clippy::too_many_arguments)]
 fn analytic(
-    metrics: &toml::Table,
+    metrics: &SceneMetrics,
     world: &World,
     r: &mut RunRecord,
     first: &Option<(String, Point3<f64>)>,
@@ -481,7 +449,7 @@ fn analytic(
     let body = first
         .as_ref()
         .and_then(|(name, p0)| world.body_index(name).map(|i| (&world.bodies[i], *p0)));
-    if let (Some(e), Some((b, p0))) = (number(metrics, "expected_displacement"), body) {
+    if let (Some(e), Some((b, p0))) = (metrics.expected_displacement, body) {
         r.analytic_metric = "displacement (m)".into();
         r.analytic_error = Some(((b.position - p0).norm() - e).abs());
     }
@@ -492,7 +460,7 @@ fn analytic(
             r.analytic_error = Some(((v2 - v1) / (t2 - t1) - e).abs());
         }
     }
-    if let (Some(e), Some(rep)) = (number(metrics, "expected_wall_force"), last) {
+    if let (Some(e), Some(rep)) = (metrics.expected_wall_force, last) {
         let forces: Vec<f64> = rep
             .contact_records
             .iter()
@@ -506,7 +474,7 @@ fn analytic(
             }
         }
     }
-    let push = numbers(metrics, "push_direction");
+    let push = metrics.push_direction.map(|d| d.to_vec());
     if let (Some(&[x, y, z]), Some((b, p0))) = (push.as_deref(), body) {
         let push = Vector3::new(x, y, z);
         let d = b.position - p0;
@@ -516,8 +484,8 @@ fn analytic(
             r.analytic_error = Some(cos.acos().to_degrees());
         }
     }
-    let sim = numbers(metrics, "simultaneous_velocities");
-    let seq = numbers(metrics, "sequential_velocities");
+    let sim = metrics.simultaneous_velocities.clone();
+    let seq = metrics.sequential_velocities.clone();
     if sim.is_some() || seq.is_some() {
         let v: Vec<f64> = dynamic(world).map(|b| b.velocity().x).collect();
         let err = |target: &[f64]| {

@@ -8,7 +8,7 @@
 use super::suite::{is_large_scene, LARGE_SCENE_STEPS, SCENE_STEPS};
 use crate::view::{self, recording::step_line, Recording};
 use lcpbench_contact::scene::{check_solver, Scene};
-use lcpbench_contact::SolverChoice;
+use lcpbench_contact::ContactSolver;
 use std::path::{Path, PathBuf};
 
 /// Solvers of the replays: a pivoting matrix solver and a body-level one.
@@ -34,10 +34,10 @@ pub struct ReplayLink {
 fn record(
     scene: &Scene,
     scene_path: &Path,
-    solver: SolverChoice,
+    solver: ContactSolver,
     steps: usize,
 ) -> Result<Recording, String> {
-    check_solver(solver, scene.settings.builder.friction_model)?;
+    check_solver(&solver, scene.settings.builder.friction_model)?;
     let mut world = scene.world();
     world.set_solver(solver);
     world.settings.record_history = true;
@@ -75,7 +75,7 @@ pub fn write_replays(scenes: &[PathBuf], out_dir: &Path) -> Vec<ReplayLink> {
                 let steps = scene.settings.steps.min(cap);
                 let mut recordings = Vec::new();
                 for solver in REPLAY_SOLVERS {
-                    let choice = SolverChoice::from_name(solver).ok_or("unknown solver")?;
+                    let choice = ContactSolver::from_name(solver).ok_or("unknown solver")?;
                     if let Ok(r) = record(&scene, path, choice, steps) {
                         link.solvers.push(solver.to_string());
                         recordings.push(r);

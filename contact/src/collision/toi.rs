@@ -262,6 +262,21 @@ pub enum ToiMethod {
     ConservativeAdvancement,
 }
 
+impl ToiMethod {
+    /// The setting of a scene file's `ccd`: `none` (no continuous collision detection),
+    /// `bisection` or `conservative`; or why not.
+    pub fn from_ccd_name(name: &str) -> Result<Option<Self>, String> {
+        match name {
+            "none" => Ok(None),
+            "bisection" => Ok(Some(ToiMethod::Bisection)),
+            "conservative" => Ok(Some(ToiMethod::ConservativeAdvancement)),
+            other => Err(format!(
+                "unknown method \"{other}\" (expected \"none\", \"bisection\" or \"conservative\")"
+            )),
+        }
+    }
+}
+
 /// The first impact of a step between two bodies.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PairImpact {
