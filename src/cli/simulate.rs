@@ -3,10 +3,11 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lcpbench::harness::export::{step_problem, StepProblem};
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
 use lcpbench_contact::step::{SolverChoice, World};
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::{cone_problem_to_json, write_problem};
+use lcpbench_solvers::{cone_problem_to_json, write_problem, ConeProblem};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -401,43 +402,39 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
     )?;
     check_steps("--step", args.step)?;
     let bar = step_progress(args.step as u64, &scene.name);
-    for _ in 0..args.step {
-        world.step();
-        bar.inc(1);
-    }
+    let (problem, contacts) = step_problem(&mut world, &scene.name, args.step, || bar.inc(1));
     bar.finish_and_clear();
-    world.settings.keep_problem = true;
-    let report = world.step();
-    if let Some(cone) = report.cone_problem {
-        let cone = cone.with_name(format!("{} step {}", scene.name, args.step));
-        std::fs::write(&args.output, cone_problem_to_json(&cone))
-            .with_context(|| format!("cannot write {}", args.output.display()))?;
-        println!(
-            "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
-            args.output.display(),
-            cone.contacts(),
-            cone.n(),
-            args.step,
-            scene.name
-        );
-        return Ok(());
-    }
-    let Some(problem) = report.problem else {
-        bail!(
+    let problem = match problem {
+        StepProblem::Lcp(problem) => problem,
+        StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
+        StepProblem::NoContacts => bail!(
             "step {} of {} has no contacts, so there is no LCP to export",
             args.step,
             args.scene.display()
-        );
+        ),
     };
-    let problem = problem.with_name(format!("{} step {}", scene.name, args.step));
     write_problem(&problem, &args.output)?;
     println!(
-        "wrote {}: {} rows ({} contacts) of step {} of {}",
+        "wrote {}: {} rows ({contacts} contacts) of step {} of {}",
         args.output.display(),
         problem.n(),
-        report.contacts,
         args.step,
         scene.name
+    );
+    Ok(())
+}
+
+/// Write the cone problem of `lcpbench export` (friction model `cone`).
+fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
+    std::fs::write(&args.output, cone_problem_to_json(cone))
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
+        args.output.display(),
+        cone.contacts(),
+        cone.n(),
+        args.step,
+        scene_name
     );
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! Budgets (tolerance, iteration cap, time budget) and solver specifications (a solver kind with
-//! its variant: SOR relaxation, warm or cold start).
+//! its variant: SOR relaxation, warm or cold start), with the catalogue of every solver: its
+//! name, level, problem classes and plot colour.
 
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::SolverChoice;
-use lcpbench_solvers::{ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
+use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
 use std::time::Duration;
 use thiserror::Error;
@@ -261,110 +262,194 @@ impl Fault {
 }
 
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
-/// `si+warm`, `nsgs-cone+warm`. Names are the matrix solvers of `lcpbench-solvers`, the
-/// body-level solvers of `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only) and
-/// the cone solvers (`nsgs-cone`, `newton-ac`: scenes with friction model `cone`, and LCP cases
-/// whose rows are (normal, tangent, tangent) triples, solved as the cone).
+/// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
+/// of `lcpbench-solvers`, the body-level solvers of `lcpbench-contact` (`si`, `body-micro`,
+/// `penalty`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`, `clarabel-socp`:
+/// scenes with friction model `cone`, and LCP cases whose rows are (normal, tangent, tangent)
+/// triples, solved as the cone). See [`catalogue`] for every name with its level.
+///
+/// `warm`: warm start (iterative solvers only): from a nearby solution for LCP cases, from the
+/// previous step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step
+/// cold.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SolverSpec {
-    /// The matrix solver, or `None` for a body-level or cone solver or a fault-injection
-    /// pseudo-solver.
-    pub kind: Option<SolverKind>,
-    /// The body-level solver (scenes only).
-    pub body: Option<BodySolverKind>,
-    /// The cone solver.
-    pub cone: Option<ConeSolverKind>,
-    /// SOR relaxation (only for `sor`).
-    pub omega: Option<f64>,
-    /// Warm start (iterative solvers): from a nearby solution for LCP cases, from the previous
-    /// step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step cold.
-    pub warm: bool,
-    /// Fault to inject instead of solving.
-    pub fault: Option<Fault>,
+pub enum SolverSpec {
+    /// A matrix solver of `lcpbench-solvers`.
+    Matrix {
+        /// Which solver.
+        kind: SolverKind,
+        /// SOR relaxation (only for `sor`; `None`: the solver's default, 1.3).
+        omega: Option<f64>,
+        /// Warm start.
+        warm: bool,
+    },
+    /// A body-level solver of `lcpbench-contact` (scenes only).
+    Body {
+        /// Which solver.
+        kind: BodySolverKind,
+        /// Warm start (`si`, `body-micro`).
+        warm: bool,
+    },
+    /// A solver of the exact Coulomb cone.
+    Cone {
+        /// Which solver.
+        kind: ConeSolverKind,
+        /// Warm start.
+        warm: bool,
+    },
+    /// A fault injected instead of solving.
+    Fault(Fault),
 }
 
 impl SolverSpec {
-    /// Plain solver with default parameters, cold start.
+    /// Plain matrix solver with default parameters, cold start.
     pub fn plain(kind: SolverKind) -> Self {
-        Self {
-            kind: Some(kind),
-            body: None,
-            cone: None,
+        Self::Matrix {
+            kind,
             omega: None,
             warm: false,
-            fault: None,
+        }
+    }
+
+    /// Projected SOR with relaxation `omega`, cold start (not validated; see
+    /// [`SolverSpec::matrix`]).
+    pub fn sor(omega: f64) -> Self {
+        Self::Matrix {
+            kind: SolverKind::Sor,
+            omega: Some(omega),
+            warm: false,
+        }
+    }
+
+    /// A matrix solver with an optional relaxation, checked: `omega` only for `sor`, in
+    /// `(0, 2)`. The error says what is wrong.
+    pub fn matrix(kind: SolverKind, omega: Option<f64>) -> Result<Self, String> {
+        match omega {
+            Some(_) if kind != SolverKind::Sor => Err("@omega applies only to sor".into()),
+            Some(w) if !(w > 0.0 && w < 2.0) => Err(format!(
+                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
+            )),
+            _ => Ok(Self::Matrix {
+                kind,
+                omega,
+                warm: false,
+            }),
         }
     }
 
     /// Plain body-level solver, cold start.
     pub fn body(kind: BodySolverKind) -> Self {
-        Self {
-            kind: None,
-            body: Some(kind),
-            cone: None,
-            omega: None,
-            warm: false,
-            fault: None,
-        }
+        Self::Body { kind, warm: false }
     }
 
     /// Plain cone solver, cold start.
     pub fn cone(kind: ConeSolverKind) -> Self {
-        Self {
-            kind: None,
-            body: None,
-            cone: Some(kind),
-            omega: None,
-            warm: false,
-            fault: None,
+        Self::Cone { kind, warm: false }
+    }
+
+    /// The same solver, warm-started (no effect on a fault; not validated, see
+    /// [`SolverSpec::is_iterative`]).
+    pub fn with_warm(mut self) -> Self {
+        match &mut self {
+            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
+                *warm = true
+            }
+            Self::Fault(_) => {}
+        }
+        self
+    }
+
+    /// Warm start.
+    pub fn warm(&self) -> bool {
+        match self {
+            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => *warm,
+            Self::Fault(_) => false,
         }
     }
 
-    /// The solver as the stepper names it (`None` for a fault pseudo-solver).
+    /// SOR relaxation, when set.
+    pub fn omega(&self) -> Option<f64> {
+        match self {
+            Self::Matrix { omega, .. } => *omega,
+            _ => None,
+        }
+    }
+
+    /// The injected fault, for a fault pseudo-solver.
+    pub fn fault(&self) -> Option<Fault> {
+        match self {
+            Self::Fault(f) => Some(*f),
+            _ => None,
+        }
+    }
+
+    /// The solver as the stepper names it (`None` for a fault pseudo-solver). This is the one
+    /// place where a specification becomes what the stepper takes.
     pub fn scene_choice(&self) -> Option<SolverChoice> {
-        match (self.kind, self.body, self.cone) {
-            (Some(kind), _, _) => Some(SolverChoice::Matrix(kind)),
-            (None, Some(body), _) => Some(SolverChoice::Body(body)),
-            (None, None, Some(cone)) => Some(SolverChoice::Cone(cone)),
-            (None, None, None) => None,
+        match *self {
+            Self::Matrix { kind, .. } => Some(SolverChoice::Matrix(kind)),
+            Self::Body { kind, .. } => Some(SolverChoice::Body(kind)),
+            Self::Cone { kind, .. } => Some(SolverChoice::Cone(kind)),
+            Self::Fault(_) => None,
         }
     }
 
     /// True when the solver iterates from a starting impulse (so `+warm` means something).
     pub fn is_iterative(&self) -> bool {
-        self.kind.is_some_and(SolverKind::is_iterative)
-            || self.cone.is_some()
-            || matches!(
-                self.body,
-                Some(BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses)
-            )
+        match self {
+            Self::Matrix { kind, .. } => kind.is_iterative(),
+            Self::Body { kind, .. } => body_is_iterative(*kind),
+            Self::Cone { .. } => true,
+            Self::Fault(_) => false,
+        }
     }
 
     /// The solver kind's name, or `fault-…`.
     pub fn base_name(&self) -> String {
-        match (self.scene_choice(), self.fault) {
+        match (self.scene_choice(), self) {
             (Some(choice), _) => choice.name().to_owned(),
-            (None, Some(f)) => format!("fault-{}", f.name()),
-            (None, None) => "none".to_owned(),
+            (None, Self::Fault(f)) => format!("fault-{}", f.name()),
+            (None, _) => unreachable!("only a fault has no stepper choice"),
         }
     }
 
-    /// Create the matrix solver (`None` for body-level and fault pseudo-solvers).
+    /// Create the matrix solver, with its relaxation (`None` for body-level, cone and fault
+    /// specifications). The one factory of matrix solvers for the harness and the CLI.
     pub fn create(&self) -> Option<Box<dyn Solver + Send>> {
-        match (self.kind?, self.omega) {
-            (SolverKind::Sor, Some(w)) => Some(Box::new(ProjectedSor::sor(w))),
-            (kind, _) => Some(kind.create()),
+        match *self {
+            Self::Matrix {
+                kind: SolverKind::Sor,
+                omega: Some(w),
+                ..
+            } => Some(Box::new(ProjectedSor::sor(w))),
+            Self::Matrix { kind, .. } => Some(kind.create()),
+            _ => None,
         }
+    }
+
+    /// Create the cone solver (`None` for the other specifications).
+    pub fn create_cone(&self) -> Option<Box<dyn ConeSolver + Send>> {
+        match *self {
+            Self::Cone { kind, .. } => Some(kind.create()),
+            _ => None,
+        }
+    }
+}
+
+/// True for the body-level solvers that iterate from the previous step's impulses.
+fn body_is_iterative(kind: BodySolverKind) -> bool {
+    match kind {
+        BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses => true,
+        BodySolverKind::Penalty => false,
     }
 }
 
 impl fmt::Display for SolverSpec {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         out.write_str(&self.base_name())?;
-        if let Some(w) = self.omega {
+        if let Some(w) = self.omega() {
             write!(out, "@{w}")?;
         }
-        if self.warm {
+        if self.warm() {
             out.write_str("+warm")?;
         }
         Ok(())
@@ -395,16 +480,9 @@ impl std::str::FromStr for SolverSpec {
         if let Some(fault) = name.strip_prefix("fault-") {
             let fault = Fault::from_name(fault)
                 .ok_or_else(|| err("fault must be panic, hang or abort".into()))?;
-            return Ok(Self {
-                kind: None,
-                body: None,
-                cone: None,
-                omega: None,
-                warm: false,
-                fault: Some(fault),
-            });
+            return Ok(Self::Fault(fault));
         }
-        let mut out = match (
+        let out = match (
             BodySolverKind::from_name(name),
             ConeSolverKind::from_name(name),
         ) {
@@ -417,23 +495,155 @@ impl std::str::FromStr for SolverSpec {
                 ))
             })?),
         };
-        if omega.is_some() && out.kind != Some(SolverKind::Sor) {
-            return Err(err("@omega applies only to sor".into()));
-        }
-        if let Some(w) = omega.filter(|w| !(*w > 0.0 && *w < 2.0)) {
-            return Err(err(format!(
-                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
-            )));
-        }
+        let out = match (out, omega) {
+            (Self::Matrix { kind, .. }, omega) => Self::matrix(kind, omega).map_err(err)?,
+            (_, Some(_)) => return Err(err("@omega applies only to sor".into())),
+            (out, None) => out,
+        };
         if warm && !out.is_iterative() {
             return Err(err(format!(
                 "+warm applies only to iterative solvers, not {name}"
             )));
         }
-        out.omega = omega;
-        out.warm = warm;
-        Ok(out)
+        Ok(if warm { out.with_warm() } else { out })
     }
+}
+
+/// The level a solver works at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverLevel {
+    /// Solves the assembled (boxed) LCP `w = A f + b` (`lcpbench-solvers`).
+    Matrix,
+    /// Works on the bodies through the Delassus operator, inside the stepper (scenes only).
+    Body,
+    /// Solves the exact Coulomb-cone problem (FC3D).
+    Cone,
+}
+
+impl SolverLevel {
+    /// `matrix`, `body` or `cone`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverLevel::Matrix => "matrix",
+            SolverLevel::Body => "body",
+            SolverLevel::Cone => "cone",
+        }
+    }
+}
+
+/// One solver of the catalogue: its name, level, problem classes and limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CatalogueEntry {
+    /// Name on the command line, in scene files and in the CSV.
+    pub name: &'static str,
+    /// Matrix, body-level or cone.
+    pub level: SolverLevel,
+    /// Problem classes it takes and its limits.
+    pub problem_classes: &'static str,
+    /// Whether `+warm` applies.
+    pub iterative: bool,
+}
+
+/// What the body-level solvers take (the module doc of `lcpbench_contact::body_solvers`).
+fn body_problem_classes(kind: BodySolverKind) -> &'static str {
+    match kind {
+        BodySolverKind::SequentialImpulses => {
+            "scenes only; frictionless and box friction (no pyramid, no cone); sequential \
+             restitution then projected Gauss-Seidel on accumulated impulses, warm-startable; \
+             slow on stiff stacks and mass ratios"
+        }
+        BodySolverKind::MicroImpulses => {
+            "scenes only; frictionless and box friction (no pyramid, no cone); Mirtich \
+             micro-impulses, never takes an impulse back: resting contacts creep and jitter"
+        }
+        BodySolverKind::Penalty => {
+            "scenes only; frictionless and box friction (no pyramid, no cone); spring-damper \
+             baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
+        }
+    }
+}
+
+/// Every solver, matrix solvers first, then the body-level and the cone solvers (the order of
+/// `lcpbench solvers`).
+pub fn catalogue() -> Vec<CatalogueEntry> {
+    let matrix = SolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Matrix,
+        problem_classes: k.problem_classes(),
+        iterative: k.is_iterative(),
+    });
+    let body = BodySolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Body,
+        problem_classes: body_problem_classes(k),
+        iterative: body_is_iterative(k),
+    });
+    let cone = ConeSolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Cone,
+        problem_classes: k.problem_classes(),
+        iterative: true,
+    });
+    matrix.chain(body).chain(cone).collect()
+}
+
+/// The plot palette (RGB): the solvers with a fixed slot ([`palette_slot`]) take theirs; other
+/// series are hashed onto it.
+pub const PALETTE: [(u8, u8, u8); 16] = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+    (0, 0, 128),
+    (128, 0, 0),
+    (0, 100, 0),
+    (255, 215, 0),
+    (0, 0, 0),
+    (255, 0, 255),
+];
+
+/// The fixed palette slot of a shipped solver (`None`: the colour is hashed from the name).
+pub fn palette_slot(choice: SolverChoice) -> Option<usize> {
+    Some(match choice {
+        SolverChoice::Matrix(kind) => match kind {
+            SolverKind::Pgs => 0,
+            SolverKind::Sor => 1,
+            SolverKind::Lemke => 2,
+            SolverKind::Dantzig => 3,
+            SolverKind::Clarabel => 4,
+            SolverKind::MicroImpulse => 5,
+            SolverKind::NewtonFb => 9,
+            SolverKind::NewtonMin => 10,
+            SolverKind::Apgd => 11,
+            SolverKind::Nncg => 12,
+            SolverKind::Nsgs => 13,
+            SolverKind::Enumeration => 14,
+        },
+        SolverChoice::Body(kind) => match kind {
+            BodySolverKind::SequentialImpulses => 6,
+            BodySolverKind::MicroImpulses => 7,
+            BodySolverKind::Penalty => 8,
+        },
+        SolverChoice::Cone(_) => return None,
+    })
+}
+
+/// A stable colour per series key (a solver specification or name): a plain shipped solver
+/// gets its fixed slot, anything else (variants, cone solvers, faults) a hashed one.
+pub fn colour(key: &str) -> (u8, u8, u8) {
+    if let Some(slot) = SolverChoice::from_name(key).and_then(palette_slot) {
+        return PALETTE[slot];
+    }
+    let h = key
+        .bytes()
+        .fold(7u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
+    PALETTE[(h % PALETTE.len() as u64) as usize]
 }
 
 #[cfg(test)]

@@ -19,8 +19,7 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
-use crate::harness::record::RunRecord;
-use crate::harness::run::{base_record, RunOutput};
+use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_solvers::HistoryPoint;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -100,19 +99,20 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn();
-    let failure = |status: &str, reason: String, wall: f64| {
+    let failure = |status: RunStatus, reason: String, wall: f64| {
         let mut record = base_record(case, spec, budget);
-        record.status = status.to_owned();
-        record.reason = reason;
         record.wall_time_s = wall;
-        RunOutput {
-            record,
-            history: Vec::new(),
-        }
+        RunOutput::failed(record, status, reason)
     };
     let mut child = match child {
         Ok(c) => c,
-        Err(e) => return failure("error", format!("cannot start {}: {e}", exe.display()), 0.0),
+        Err(e) => {
+            return failure(
+                RunStatus::Error,
+                format!("cannot start {}: {e}", exe.display()),
+                0.0,
+            )
+        }
     };
     // Drain both pipes on threads so a chatty child never blocks on a full pipe.
     let mut stdout = child.stdout.take().expect("piped");
@@ -153,7 +153,7 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
     let err = err_thread.join().unwrap_or_default();
     let Some(exit) = exit else {
         return failure(
-            "timeout",
+            RunStatus::Timeout,
             format!("killed after {:.1} s (budget {} s)", wall, b.time_s),
             wall,
         );
@@ -170,21 +170,25 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
                 output.record.wall_time_s = wall;
                 output
             }
-            Err(e) => failure("error", e, wall),
+            Err(e) => failure(RunStatus::Error, e, wall),
         };
     }
     if err.contains("panicked") {
-        return failure("panic", last_err, wall);
+        return failure(RunStatus::Panic, last_err, wall);
     }
     match exit.code() {
-        Some(code) => failure("error", format!("exit code {code}: {last_err}"), wall),
+        Some(code) => failure(
+            RunStatus::Error,
+            format!("exit code {code}: {last_err}"),
+            wall,
+        ),
         None => {
             #[cfg(unix)]
             let signal = std::os::unix::process::ExitStatusExt::signal(&exit);
             #[cfg(not(unix))]
             let signal: Option<i32> = None;
             failure(
-                "crash",
+                RunStatus::Crash,
                 format!("terminated by signal {}", signal.unwrap_or(-1)),
                 wall,
             )

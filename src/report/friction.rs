@@ -6,7 +6,7 @@
 
 use super::suite::{Suite, FRICTION_BUDGET, FRICTION_MODELS};
 use super::tables::{fmt_sci, fmt_time, Data, Table};
-use crate::harness::{Case, RunRecord};
+use crate::harness::{Case, RunRecord, RunStatus};
 use anyhow::Result;
 use lcpbench_contact::FrictionModel;
 use std::fmt::Write as _;
@@ -35,7 +35,7 @@ fn model_of(case: &Case) -> Option<FrictionModel> {
 /// The scene's own measure in a run: sag and drift of a stack, else the analytic error, else
 /// the creep speed of bodies that must stick.
 fn measure(r: &RunRecord) -> String {
-    if r.status == "unsupported" && r.steps.unwrap_or(0) == 0 {
+    if r.status == RunStatus::Unsupported && r.steps.unwrap_or(0) == 0 {
         return "unsupported".into();
     }
     let value = if let (Some(sag), Some(drift)) = (r.sag, r.lateral_drift) {

@@ -283,19 +283,9 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     // one Coulomb cone), for the cone solvers' performance profiles.
     push(&suite.exported_cases, &cone_solvers(), &[budget("tight")]);
     push(&suite.scaling_cases, &solvers, &[budget("default")]);
-    let omega_specs: Vec<SolverSpec> = suite
-        .omegas
-        .iter()
-        .map(|&w| SolverSpec {
-            omega: Some(w),
-            ..SolverSpec::plain(SolverKind::Sor)
-        })
-        .collect();
+    let omega_specs: Vec<SolverSpec> = suite.omegas.iter().map(|&w| SolverSpec::sor(w)).collect();
     push(&suite.omega_cases, &omega_specs, &[budget("default")]);
-    let warm = |s: &SolverSpec| SolverSpec {
-        warm: true,
-        ..s.clone()
-    };
+    let warm = |s: &SolverSpec| s.clone().with_warm();
     let iterative: Vec<SolverSpec> = all_solvers()
         .iter()
         .filter(|s| s.is_iterative())

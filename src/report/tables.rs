@@ -5,7 +5,9 @@ use super::plots::{loglog_fit, plot, LegendAt, Mark, PlotSpec, Series};
 use super::rel;
 use super::suite::Suite;
 use crate::harness::sweep::{read_histories, read_results};
-use crate::harness::{Budget, Case, HistoryRow, ProblemClass, RunRecord, TTA_LEVELS};
+use crate::harness::{
+    Budget, Case, HistoryRow, ProblemClass, RunKey, RunRecord, RunStatus, TTA_LEVELS,
+};
 use anyhow::Result;
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
@@ -92,7 +94,7 @@ fn geo_mean(v: &[f64]) -> Option<f64> {
 }
 
 pub(super) struct Data<'a> {
-    by_key: HashMap<(String, String, String), &'a RunRecord>,
+    by_key: HashMap<RunKey, &'a RunRecord>,
 }
 
 impl<'a> Data<'a> {
@@ -103,7 +105,7 @@ impl<'a> Data<'a> {
 
     pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
         self.by_key
-            .get(&(case.to_string(), solver.to_owned(), budget.to_owned()))
+            .get(&RunKey::new(&case.to_string(), solver, budget))
             .copied()
     }
 }
@@ -230,11 +232,17 @@ pub fn write_report(
             let cell = if total == 0 {
                 "–".to_owned()
             } else if *class == ProblemClass::Infeasible {
-                let ok = runs.iter().filter(|r| r.status == "no_solution").count();
+                let ok = runs
+                    .iter()
+                    .filter(|r| r.status == RunStatus::NoSolution)
+                    .count();
                 format!("{} {ok}/{total} detected", mark(ok, total))
             } else {
                 let ok = runs.iter().filter(|r| r.converged).count();
-                let unsupported = runs.iter().filter(|r| r.status == "unsupported").count();
+                let unsupported = runs
+                    .iter()
+                    .filter(|r| r.status == RunStatus::Unsupported)
+                    .count();
                 let crashed = runs.iter().filter(|r| r.is_isolation_failure()).count();
                 let mut s = format!("{} {ok}/{total}", mark(ok, total));
                 if unsupported > 0 {
@@ -353,7 +361,7 @@ pub fn write_report(
                     .iter()
                     .map(|&l| r.tta(l).map(|t| format!("{t:e}")).unwrap_or_default()),
             );
-            row.push(r.status.clone());
+            row.push(r.status.to_string());
             tta_full.rows.push(row);
         }
     }
@@ -478,7 +486,7 @@ pub fn write_report(
                     .map(|i| i.to_string())
                     .unwrap_or("–".into())
             };
-            let st = |r: Option<&RunRecord>| r.map(|r| r.status.clone()).unwrap_or("–".into());
+            let st = |r: Option<&RunRecord>| r.map(|r| r.status.to_string()).unwrap_or("–".into());
             warm.rows.push(vec![
                 format!("`{case}`"),
                 kind.name().to_owned(),
@@ -1040,11 +1048,11 @@ fn glance_cell(r: &RunRecord) -> String {
     let t = fmt_time(r.time_per_step_s);
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
-    match r.status.as_str() {
-        _ if r.is_isolation_failure() => r.status.clone(),
-        "blow_up" => format!("blow-up ({steps} steps)"),
-        "time_limit" => format!("time limit ({steps} steps, {t})"),
-        "unsupported" if steps == 0 => "✗ unsupported".into(),
+    match r.status {
+        _ if r.is_isolation_failure() => r.status.to_string(),
+        RunStatus::BlowUp => format!("blow-up ({steps} steps)"),
+        RunStatus::TimeLimit => format!("time limit ({steps} steps, {t})"),
+        RunStatus::Unsupported if steps == 0 => "✗ unsupported".into(),
         _ if nc == 0 => format!("✓ {t}"),
         _ if nc >= steps => format!("✗ {t} ({})", r.status),
         _ => format!("~ {t} ({nc} nc)"),
@@ -1065,7 +1073,7 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
     vec![
         r.solver.clone(),
         if r.reason.is_empty() {
-            r.status.clone()
+            r.status.to_string()
         } else {
             format!(
                 "{} ({})",

@@ -8,6 +8,7 @@
 
 use super::suite::Suite;
 use super::tables::{fmt_sci, fmt_time, Data, Table};
+use crate::harness::RunStatus;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -55,11 +56,11 @@ pub(super) fn section(data: &Data, suite: &Suite, tables_dir: &Path) -> Result<S
                         fmt_sci(r.lateral_drift),
                         fmt_time(r.time_per_step_s),
                         match (r.nonconverged_steps, r.steps) {
-                            (Some(nc), Some(steps)) if r.status == "time_limit" => {
+                            (Some(nc), Some(steps)) if r.status == RunStatus::TimeLimit => {
                                 format!("{nc} of {steps} (time limit)")
                             }
                             (Some(nc), Some(steps)) => format!("{nc} of {steps}"),
-                            _ => r.status.clone(),
+                            _ => r.status.to_string(),
                         },
                     ]),
                     None => row.extend(std::iter::repeat_n("–".to_owned(), 4)),
