@@ -114,43 +114,9 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
             )
         }
     };
-    // Drain both pipes on threads so a chatty child never blocks on a full pipe.
-    let mut stdout = child.stdout.take().expect("piped");
-    let mut stderr = child.stderr.take().expect("piped");
-    let out_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = stdout.read_to_string(&mut s);
-        s
-    });
-    let err_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = stderr.read_to_string(&mut s);
-        s
-    });
     let limit = b.kill_after(case.is_scene());
-    let mut poll = Duration::from_millis(1);
-    let exit = loop {
-        match child.try_wait() {
-            Ok(Some(status)) => break Some(status),
-            Ok(None) if start.elapsed() >= limit => {
-                let _ = child.kill();
-                let _ = child.wait();
-                break None;
-            }
-            Ok(None) => {
-                std::thread::sleep(poll);
-                poll = (poll * 2).min(Duration::from_millis(20));
-            }
-            Err(_) => {
-                let _ = child.kill();
-                let _ = child.wait();
-                break None;
-            }
-        }
-    };
+    let (exit, out, err) = wait_with_limit(&mut child, start, limit);
     let wall = start.elapsed().as_secs_f64();
-    let out = out_thread.join().unwrap_or_default();
-    let err = err_thread.join().unwrap_or_default();
     let Some(exit) = exit else {
         return failure(
             RunStatus::Timeout,
@@ -194,6 +160,60 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
             )
         }
     }
+}
+
+/// Wait for `child` until `limit` after `start` (then kill it), draining its stdout and stderr
+/// on threads so a chatty child never blocks on a full pipe. Returns the exit status (`None`
+/// when it was killed or could not be waited for) and the two outputs.
+fn wait_with_limit(
+    child: &mut std::process::Child,
+    start: Instant,
+    limit: Duration,
+) -> (Option<std::process::ExitStatus>, String, String) {
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_string(&mut s);
+            }
+            s
+        })
+    };
+    let out_thread = drain(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let err_thread = drain(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let mut poll = Duration::from_millis(1);
+    let exit = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break Some(status),
+            Ok(None) if start.elapsed() >= limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            Ok(None) => {
+                std::thread::sleep(poll);
+                poll = (poll * 2).min(Duration::from_millis(20));
+            }
+            Err(_) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+        }
+    };
+    let out = out_thread.join().unwrap_or_default();
+    let err = err_thread.join().unwrap_or_default();
+    (exit, out, err)
 }
 
 #[cfg(test)]
