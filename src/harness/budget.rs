@@ -675,6 +675,85 @@ mod tests {
     }
 
     #[test]
+    fn specs_are_the_variant_their_name_says() {
+        let sor: SolverSpec = "sor@1.5+warm".parse().unwrap();
+        assert_eq!(
+            sor,
+            SolverSpec::Matrix {
+                kind: SolverKind::Sor,
+                omega: Some(1.5),
+                warm: true
+            }
+        );
+        assert_eq!(sor.create().unwrap().name(), "sor");
+        let si: SolverSpec = "si+warm".parse().unwrap();
+        assert_eq!(
+            si,
+            SolverSpec::Body {
+                kind: BodySolverKind::SequentialImpulses,
+                warm: true
+            }
+        );
+        assert!(si.create().is_none() && si.create_cone().is_none());
+        let cone: SolverSpec = "nsgs-cone".parse().unwrap();
+        assert_eq!(cone.create_cone().unwrap().name(), "nsgs-cone");
+        assert_eq!(
+            "fault-panic".parse::<SolverSpec>().unwrap(),
+            SolverSpec::Fault(Fault::Panic)
+        );
+        assert!(SolverSpec::matrix(SolverKind::Pgs, Some(1.2)).is_err());
+        assert!(SolverSpec::matrix(SolverKind::Sor, Some(2.0)).is_err());
+        assert!(SolverSpec::matrix(SolverKind::Sor, Some(1.2)).is_ok());
+    }
+
+    #[test]
+    fn the_catalogue_names_every_parsable_solver_once() {
+        let entries = catalogue();
+        let expected =
+            SolverKind::ALL.len() + BodySolverKind::ALL.len() + ConeSolverKind::ALL.len();
+        assert_eq!(entries.len(), expected);
+        for e in &entries {
+            let spec: SolverSpec = e.name.parse().unwrap();
+            assert_eq!(spec.base_name(), e.name);
+            assert_eq!(spec.is_iterative(), e.iterative, "{}", e.name);
+            assert_eq!(entries.iter().filter(|x| x.name == e.name).count(), 1);
+        }
+        assert_eq!(
+            entries.iter().find(|e| e.name == "penalty").unwrap().level,
+            SolverLevel::Body
+        );
+    }
+
+    #[test]
+    fn shipped_solvers_keep_their_plot_colours() {
+        // The fixed order the report has always used.
+        let fixed = [
+            "pgs",
+            "sor",
+            "lemke",
+            "dantzig",
+            "clarabel",
+            "micro",
+            "si",
+            "body-micro",
+            "penalty",
+            "newton-fb",
+            "newton-min",
+            "apgd",
+            "nncg",
+            "nsgs",
+            "enum",
+        ];
+        for (i, name) in fixed.iter().enumerate() {
+            assert_eq!(colour(name), PALETTE[i], "{name}");
+        }
+        // Variants and unlisted solvers are hashed, and stable.
+        assert_eq!(colour("sor@1.5"), colour("sor@1.5"));
+        let slots: std::collections::HashSet<_> = fixed.iter().map(|n| colour(n)).collect();
+        assert_eq!(slots.len(), fixed.len());
+    }
+
+    #[test]
     fn budgets_parse() {
         let b: NamedBudget = "default".parse().unwrap();
         assert_eq!(b.budget.tolerance, 1e-8);
