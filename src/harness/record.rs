@@ -99,7 +99,8 @@ pub struct RunRecord {
     pub nan_steps: Option<usize>,
     /// Scene: steps where the stepper fell back to another solver.
     pub fallback_steps: Option<usize>,
-    /// Scene: the state blew up (non-finite, or speeds or energy far beyond the initial ones).
+    /// Scene: the state blew up: a non-finite body state or total energy, or a body speed above
+    /// `50 + 10 v₀` m/s (`v₀` the largest initial speed); see [`crate::harness::metrics`].
     pub blow_up: Option<bool>,
     /// Scene: largest penetration depth over the run, metres.
     pub penetration_max: Option<f64>,
