@@ -14,7 +14,7 @@
 //! let solver: SolverSpec = "sor@1.3".parse().unwrap();
 //! let budget: NamedBudget = "default".parse().unwrap();
 //! let out = run_in_process(&case, &solver, &budget);
-//! assert_eq!(out.record.status, "converged");
+//! assert_eq!(out.record.status, lcpbench::harness::RunStatus::Converged);
 //! assert!(out.record.residual_rel.unwrap() <= 1e-8);
 //! ```
 #![warn(missing_docs)]

@@ -51,6 +51,30 @@ fn solvers_lists_every_solver() {
 }
 
 #[test]
+fn solvers_names_each_solver_level() {
+    let o = lcpbench(&["solvers"]);
+    assert!(o.status.success());
+    let text = String::from_utf8(o.stdout).unwrap();
+    let level = |name: &str| {
+        text.lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>())
+            .find(|w| w.first() == Some(&name))
+            .and_then(|w| w.get(1).map(|s| s.to_string()))
+    };
+    for (name, want) in [
+        ("pgs", "matrix"),
+        ("lemke", "matrix"),
+        ("si", "body"),
+        ("body-micro", "body"),
+        ("penalty", "body"),
+        ("nsgs-cone", "cone"),
+        ("clarabel-socp", "cone"),
+    ] {
+        assert_eq!(level(name).as_deref(), Some(want), "{name} in:\n{text}");
+    }
+}
+
+#[test]
 fn gen_then_solve_json_with_every_solver() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("spd.json");

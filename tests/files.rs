@@ -3,6 +3,7 @@
 //! one clear error.
 
 use lcpbench::harness::sweep::read_results;
+use lcpbench::harness::RunStatus;
 use lcpbench_solvers::{read_problem, residuals, Problem, Settings, SolverKind, Status};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -113,7 +114,10 @@ fn bench_takes_siconos_files() {
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = read_results(&out.join("results.csv")).unwrap();
     assert_eq!(rows.len(), 2);
-    assert!(rows.iter().all(|r| r.status == "converged"), "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r.status == RunStatus::Converged),
+        "{rows:?}"
+    );
 }
 
 #[test]
@@ -174,5 +178,5 @@ fn fclib_files_solve_import_and_bench() {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = read_results(&out.join("results.csv")).unwrap();
-    assert_eq!(rows[0].status, "converged", "{rows:?}");
+    assert_eq!(rows[0].status, RunStatus::Converged, "{rows:?}");
 }

@@ -2,6 +2,7 @@
 //! and runs that panic, abort or hang are recorded while the sweep carries on.
 
 use lcpbench::harness::sweep::read_results;
+use lcpbench::harness::RunStatus;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -36,14 +37,14 @@ fn faults_are_recorded_and_the_sweep_continues() {
     let status_of = |solver: &str| {
         rows.iter()
             .find(|r| r.solver == solver)
-            .map(|r| r.status.clone())
+            .map(|r| r.status)
             .unwrap()
     };
-    assert_eq!(status_of("pgs"), "converged");
-    assert_eq!(status_of("sor"), "converged");
-    assert_eq!(status_of("fault-panic"), "panic");
-    assert_eq!(status_of("fault-abort"), "crash");
-    assert_eq!(status_of("fault-hang"), "timeout");
+    assert_eq!(status_of("pgs"), RunStatus::Converged);
+    assert_eq!(status_of("sor"), RunStatus::Converged);
+    assert_eq!(status_of("fault-panic"), RunStatus::Panic);
+    assert_eq!(status_of("fault-abort"), RunStatus::Crash);
+    assert_eq!(status_of("fault-hang"), RunStatus::Timeout);
     let panic_row = rows.iter().find(|r| r.solver == "fault-panic").unwrap();
     assert!(panic_row.reason.contains("injected fault"), "{panic_row:?}");
 }
@@ -132,7 +133,7 @@ fn the_hidden_child_reports_injected_faults_as_failures() {
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     let parsed = lcpbench::harness::isolate::parse_protocol(&text).unwrap();
-    assert_eq!(parsed.record.status, "converged");
+    assert_eq!(parsed.record.status, RunStatus::Converged);
 }
 
 fn stderr_of(output: &std::process::Output) -> String {

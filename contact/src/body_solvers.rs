@@ -98,6 +98,25 @@ impl BodySolverKind {
         !matches!(self, BodySolverKind::Penalty)
     }
 
+    /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
+    pub fn problem_classes(self) -> &'static str {
+        match self {
+            BodySolverKind::SequentialImpulses => {
+                "scenes only; frictionless and box friction (no pyramid, no cone); sequential \
+                 restitution then projected Gauss-Seidel on accumulated impulses, warm-startable; \
+                 slow on stiff stacks and mass ratios"
+            }
+            BodySolverKind::MicroImpulses => {
+                "scenes only; frictionless and box friction (no pyramid, no cone); Mirtich \
+                 micro-impulses, never takes an impulse back: resting contacts creep and jitter"
+            }
+            BodySolverKind::Penalty => {
+                "scenes only; frictionless and box friction (no pyramid, no cone); spring-damper \
+                 baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
+            }
+        }
+    }
+
     /// Look a solver up by name.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == name)

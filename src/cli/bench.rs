@@ -245,7 +245,7 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         if lcp_dir.exists() {
             std::fs::remove_dir_all(&lcp_dir)?;
         }
-        lcpbench::harness::scene::export_suite_lcps(
+        lcpbench::harness::export::export_suite_lcps(
             &scenes,
             &lcp_dir,
             if args.quick { 60 } else { 400 },

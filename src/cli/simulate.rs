@@ -3,10 +3,12 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lcpbench::harness::export::{step_problem, StepProblem};
+use lcpbench::harness::SolverSpec;
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
-use lcpbench_contact::step::{ContactSolver, World};
+use lcpbench_contact::step::{ContactSolver, StepReport, World};
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::{cone_problem_to_json, write_problem};
+use lcpbench_solvers::{cone_problem_to_json, write_problem, ConeProblem};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -128,12 +130,16 @@ fn load_world(
             })?;
     }
     if let Some(name) = solver {
-        let choice = scene.solver_from_name(name).with_context(|| {
-            format!(
-                "unknown solver `{name}` (known: {})",
-                ContactSolver::all_names()
-            )
-        })?;
+        let choice = name
+            .parse::<SolverSpec>()
+            .ok()
+            .and_then(|spec| spec.contact_solver(|kind| scene.solver_from_name(kind.name())))
+            .with_context(|| {
+                format!(
+                    "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
+                    ContactSolver::all_names()
+                )
+            })?;
         scene.settings.solver = choice;
     }
     check_solver(
@@ -207,15 +213,8 @@ impl TopBody {
     }
 }
 
-/// Run `lcpbench simulate`.
-pub fn run_simulate(args: SimulateArgs) -> Result<()> {
-    let (scene, mut world) = load_world(
-        &args.scene,
-        args.solver.as_deref(),
-        args.friction_model.as_deref(),
-    )?;
-    let steps = args.steps.unwrap_or(scene.settings.steps);
-    check_steps("--steps", steps)?;
+/// Apply the `--tol`, `--no-residuals`, `--max-iter` and history options to the world.
+fn apply_overrides(args: &SimulateArgs, world: &mut World) -> Result<()> {
     if let Some(tol) = args.tol {
         world.settings.tolerance =
             lcpbench::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
@@ -230,171 +229,275 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         world.settings.max_iterations = max_iter;
     }
     world.settings.record_history = args.history || args.html.is_some();
-    let mut record = match &args.record {
-        Some(p) => Some(BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?,
-        )),
-        None => None,
-    };
-    // The lines of the replay page, kept in memory.
-    let mut page_lines: Option<Vec<String>> = args.html.as_ref().map(|_| Vec::new());
-    let header = lcpbench::view::header(&scene.name, &world).to_string();
-    if let Some(w) = record.as_mut() {
-        writeln!(w, "{header}")?;
-    }
-    if let Some(lines) = page_lines.as_mut() {
-        lines.push(header);
-    }
-    let energy0: f64 = world
-        .bodies
-        .iter()
-        .map(|b| {
-            lcpbench_contact::integrate::kinetic_energy(b)
-                + lcpbench_contact::integrate::potential_energy(b, &world.settings.gravity)
+    Ok(())
+}
+
+/// Where the recording lines go: the `--record` file and the `--html` page (kept in memory).
+struct Recorder {
+    file: Option<BufWriter<std::fs::File>>,
+    page_lines: Option<Vec<String>>,
+}
+
+impl Recorder {
+    fn new(args: &SimulateArgs) -> Result<Self> {
+        let file = match &args.record {
+            Some(p) => Some(BufWriter::new(
+                std::fs::File::create(p)
+                    .with_context(|| format!("cannot create {}", p.display()))?,
+            )),
+            None => None,
+        };
+        Ok(Self {
+            file,
+            page_lines: args.html.as_ref().map(|_| Vec::new()),
         })
-        .sum();
-    let mut statuses: BTreeMap<&'static str, usize> = BTreeMap::new();
-    let (mut step_time, mut solve_time, mut max_step_time) = (0.0, 0.0, 0.0f64);
-    let (mut iters, mut max_iters, mut contacts, mut rows) = (0usize, 0usize, 0usize, 0usize);
-    let (mut max_pen, mut max_cone) = (0.0f64, 0.0f64);
-    let mut max_res: Option<f64> = None;
-    let (mut islands, mut largest_island, mut solve_wall) = (0usize, 0usize, 0.0);
-    let mut last_energy = energy0;
+    }
+
+    fn is_active(&self) -> bool {
+        self.file.is_some() || self.page_lines.is_some()
+    }
+
+    fn push(&mut self, line: String) -> Result<()> {
+        if let Some(w) = self.file.as_mut() {
+            writeln!(w, "{line}")?;
+        }
+        if let Some(lines) = self.page_lines.as_mut() {
+            lines.push(line);
+        }
+        Ok(())
+    }
+
+    /// Flush the file and write the replay page.
+    fn finish(self, args: &SimulateArgs) -> Result<()> {
+        if let Some(mut w) = self.file {
+            w.flush()?;
+        }
+        if let (Some(path), Some(lines)) = (&args.html, self.page_lines) {
+            let recording =
+                lcpbench::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
+            let html = lcpbench::view::replay_page(&[recording], args.max_bytes)?;
+            super::view::write_page(path, &html)?;
+        }
+        Ok(())
+    }
+}
+
+/// Totals over the steps of a `simulate` run.
+#[derive(Default)]
+struct SimTotals {
+    statuses: BTreeMap<&'static str, usize>,
+    step_time: f64,
+    solve_time: f64,
+    max_step_time: f64,
+    iters: usize,
+    max_iters: usize,
+    contacts: usize,
+    rows: usize,
+    max_pen: f64,
+    max_cone: f64,
+    max_res: Option<f64>,
+    islands: usize,
+    largest_island: usize,
+    solve_wall: f64,
+    energy0: f64,
+    last_energy: f64,
+}
+
+impl SimTotals {
+    fn new(world: &World) -> Self {
+        let energy0: f64 = world
+            .bodies
+            .iter()
+            .map(|b| {
+                lcpbench_contact::integrate::kinetic_energy(b)
+                    + lcpbench_contact::integrate::potential_energy(b, &world.settings.gravity)
+            })
+            .sum();
+        Self {
+            energy0,
+            last_energy: energy0,
+            ..Self::default()
+        }
+    }
+
+    fn observe(&mut self, report: &StepReport) {
+        *self.statuses.entry(report.status.name()).or_default() += 1;
+        self.step_time += report.step_time_s;
+        self.max_step_time = self.max_step_time.max(report.step_time_s);
+        self.solve_time += report.solve_time_s;
+        self.solve_wall += report.solve_wall_s;
+        self.islands += report.islands;
+        self.largest_island = self
+            .largest_island
+            .max(report.island_rows.iter().copied().max().unwrap_or(0));
+        self.iters += report.iterations;
+        self.max_iters = self.max_iters.max(report.iterations);
+        self.contacts += report.contacts;
+        self.rows += report.rows;
+        self.max_pen = self.max_pen.max(report.max_penetration);
+        self.max_cone = self.max_cone.max(report.friction_cone_violation);
+        if let Some(r) = report.residuals {
+            if report.rows > 0 {
+                self.max_res = Some(self.max_res.unwrap_or(0.0).max(r.natural_map_rel));
+            }
+        }
+        self.last_energy = report.kinetic_energy + report.potential_energy;
+    }
+}
+
+/// Refuse a step the solver declined (`unsupported`), naming the step and a way out.
+fn check_supported(args: &SimulateArgs, report: &StepReport) -> Result<()> {
+    if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
+        bail!(
+            "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+            args.scene.display(),
+            report.solver,
+            report.step,
+            report.rows,
+            if reason.contains("friction row") {
+                " (try friction_model = \"pyramid\" or \"none\")"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(())
+}
+
+/// Run `lcpbench simulate`.
+pub fn run_simulate(args: SimulateArgs) -> Result<()> {
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+    )?;
+    let steps = args.steps.unwrap_or(scene.settings.steps);
+    check_steps("--steps", steps)?;
+    apply_overrides(&args, &mut world)?;
+    let mut recorder = Recorder::new(&args)?;
+    recorder.push(lcpbench::view::header(&scene.name, &world).to_string())?;
+    let mut totals = SimTotals::new(&world);
     let top = TopBody::of(&scene, &world);
     let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
         bar.inc(1);
         let report = world.step();
-        if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
-            bail!(
-                "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
-                args.scene.display(),
-                report.solver,
-                report.step,
-                report.rows,
-                if reason.contains("friction row") {
-                    " (try friction_model = \"pyramid\" or \"none\")"
-                } else {
-                    ""
-                }
-            );
+        check_supported(&args, &report)?;
+        if recorder.is_active() {
+            recorder.push(lcpbench::view::recording::step_line(&report, &world).to_string())?;
         }
-        if record.is_some() || page_lines.is_some() {
-            let line = lcpbench::view::recording::step_line(&report, &world).to_string();
-            if let Some(w) = record.as_mut() {
-                writeln!(w, "{line}")?;
-            }
-            if let Some(lines) = page_lines.as_mut() {
-                lines.push(line);
-            }
-        }
-        *statuses.entry(report.status.name()).or_default() += 1;
-        step_time += report.step_time_s;
-        max_step_time = max_step_time.max(report.step_time_s);
-        solve_time += report.solve_time_s;
-        solve_wall += report.solve_wall_s;
-        islands += report.islands;
-        largest_island = largest_island.max(report.island_rows.iter().copied().max().unwrap_or(0));
-        iters += report.iterations;
-        max_iters = max_iters.max(report.iterations);
-        contacts += report.contacts;
-        rows += report.rows;
-        max_pen = max_pen.max(report.max_penetration);
-        max_cone = max_cone.max(report.friction_cone_violation);
-        if let Some(r) = report.residuals {
-            if report.rows > 0 {
-                max_res = Some(max_res.unwrap_or(0.0).max(r.natural_map_rel));
-            }
-        }
-        last_energy = report.kinetic_energy + report.potential_energy;
+        totals.observe(&report);
     }
     bar.finish_and_clear();
-    if let Some(mut w) = record {
-        w.flush()?;
-    }
-    if let (Some(path), Some(lines)) = (&args.html, page_lines) {
-        let recording =
-            lcpbench::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
-        let html = lcpbench::view::replay_page(&[recording], args.max_bytes)?;
-        super::view::write_page(path, &html)?;
-    }
-    let n = steps.max(1) as f64;
-    let (sag, drift) = top.as_ref().map_or((None, None), |t| t.measure(&world));
+    recorder.finish(&args)?;
+    let top = top.as_ref().map_or((None, None), |t| t.measure(&world));
+    let run = SimRun {
+        scene: &scene,
+        world: &world,
+        steps,
+        top,
+    };
     if args.json {
-        let out = json!({
-            "scene": scene.name,
-            "solver": world.settings.solver.name(),
-            "bodies": world.bodies.len(),
-            "steps": steps,
-            "dt": world.settings.dt,
-            "time_per_step_s": step_time / n,
-            "max_step_time_s": max_step_time,
-            "solver_time_per_step_s": solve_time / n,
-            "solve_wall_per_step_s": solve_wall / n,
-            "mean_islands": islands as f64 / n,
-            "largest_island_rows": largest_island,
-            "mean_iterations": iters as f64 / n,
-            "max_iterations": max_iters,
-            "mean_contacts": contacts as f64 / n,
-            "mean_rows": rows as f64 / n,
-            "statuses": statuses,
-            "max_penetration": max_pen,
-            "max_relative_residual": max_res,
-            "max_friction_cone_violation": max_cone,
-            "initial_energy": energy0,
-            "final_energy": last_energy,
-            "sag": sag,
-            "lateral_drift": drift,
-        });
-        println!("{}", serde_json::to_string_pretty(&out)?);
-        return Ok(());
+        print_json(&run, &totals)
+    } else {
+        print_text(&run, &totals);
+        Ok(())
     }
-    let statuses: Vec<String> = statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
+}
+
+/// What the summary of a `simulate` run names besides the totals.
+struct SimRun<'a> {
+    scene: &'a Scene,
+    world: &'a World,
+    steps: usize,
+    /// Sag and lateral drift of the top body.
+    top: (Option<f64>, Option<f64>),
+}
+
+fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
+    let (world, steps) = (run.world, run.steps);
+    let n = steps.max(1) as f64;
+    let out = json!({
+        "scene": run.scene.name,
+        "solver": world.settings.solver.name(),
+        "bodies": world.bodies.len(),
+        "steps": steps,
+        "dt": world.settings.dt,
+        "time_per_step_s": t.step_time / n,
+        "max_step_time_s": t.max_step_time,
+        "solver_time_per_step_s": t.solve_time / n,
+        "solve_wall_per_step_s": t.solve_wall / n,
+        "mean_islands": t.islands as f64 / n,
+        "largest_island_rows": t.largest_island,
+        "mean_iterations": t.iters as f64 / n,
+        "max_iterations": t.max_iters,
+        "mean_contacts": t.contacts as f64 / n,
+        "mean_rows": t.rows as f64 / n,
+        "statuses": t.statuses,
+        "max_penetration": t.max_pen,
+        "max_relative_residual": t.max_res,
+        "max_friction_cone_violation": t.max_cone,
+        "initial_energy": t.energy0,
+        "final_energy": t.last_energy,
+        "sag": run.top.0,
+        "lateral_drift": run.top.1,
+    });
+    println!("{}", serde_json::to_string_pretty(&out)?);
+    Ok(())
+}
+
+fn print_text(run: &SimRun, t: &SimTotals) {
+    let (world, steps) = (run.world, run.steps);
+    let n = steps.max(1) as f64;
+    let statuses: Vec<String> = t.statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
     println!(
         "scene {} ({} bodies), solver {}, {steps} steps of {} s",
-        scene.name,
+        run.scene.name,
         world.bodies.len(),
         world.settings.solver.name(),
         world.settings.dt
     );
     println!(
         "time per step     {:.3} ms (max {:.3} ms)",
-        1e3 * step_time / n,
-        1e3 * max_step_time
+        1e3 * t.step_time / n,
+        1e3 * t.max_step_time
     );
     println!(
         "solver time/step  {:.3} ms (solve phase wall time {:.3} ms)",
-        1e3 * solve_time / n,
-        1e3 * solve_wall / n
+        1e3 * t.solve_time / n,
+        1e3 * t.solve_wall / n
     );
     println!(
-        "islands           mean {:.1}, largest {largest_island} rows",
-        islands as f64 / n
+        "islands           mean {:.1}, largest {} rows",
+        t.islands as f64 / n,
+        t.largest_island
     );
     println!(
-        "iterations        mean {:.1}, max {max_iters}",
-        iters as f64 / n
+        "iterations        mean {:.1}, max {}",
+        t.iters as f64 / n,
+        t.max_iters
     );
     println!(
         "contacts, rows    mean {:.1}, {:.1}",
-        contacts as f64 / n,
-        rows as f64 / n
+        t.contacts as f64 / n,
+        t.rows as f64 / n
     );
     println!("status            {}", statuses.join(", "));
-    match max_res {
+    match t.max_res {
         Some(r) => println!("max residual      {r:.3e} (relative natural map)"),
         None => println!("max residual      not measured"),
     }
-    println!("max penetration   {max_pen:.3e} m");
-    if let (Some(sag), Some(drift)) = (sag, drift) {
+    println!("max penetration   {:.3e} m", t.max_pen);
+    if let (Some(sag), Some(drift)) = run.top {
         println!("top body          sag {sag:.3e} m, lateral drift {drift:.3e} m");
     }
-    println!("cone violation    {max_cone:.3e} N s");
+    println!("cone violation    {:.3e} N s", t.max_cone);
     println!(
-        "energy            {energy0:.6} J -> {last_energy:.6} J ({:+.3e} J)",
-        last_energy - energy0
+        "energy            {:.6} J -> {:.6} J ({:+.3e} J)",
+        t.energy0,
+        t.last_energy,
+        t.last_energy - t.energy0
     );
-    Ok(())
 }
 
 /// Run `lcpbench export`.
@@ -406,43 +509,39 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
     )?;
     check_steps("--step", args.step)?;
     let bar = step_progress(args.step as u64, &scene.name);
-    for _ in 0..args.step {
-        world.step();
-        bar.inc(1);
-    }
+    let (problem, contacts) = step_problem(&mut world, &scene.name, args.step, || bar.inc(1));
     bar.finish_and_clear();
-    world.settings.keep_problem = true;
-    let report = world.step();
-    if let Some(cone) = report.cone_problem {
-        let cone = cone.with_name(format!("{} step {}", scene.name, args.step));
-        std::fs::write(&args.output, cone_problem_to_json(&cone))
-            .with_context(|| format!("cannot write {}", args.output.display()))?;
-        println!(
-            "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
-            args.output.display(),
-            cone.contacts(),
-            cone.n(),
-            args.step,
-            scene.name
-        );
-        return Ok(());
-    }
-    let Some(problem) = report.problem else {
-        bail!(
+    let problem = match problem {
+        StepProblem::Lcp(problem) => problem,
+        StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
+        StepProblem::NoContacts => bail!(
             "step {} of {} has no contacts, so there is no LCP to export",
             args.step,
             args.scene.display()
-        );
+        ),
     };
-    let problem = problem.with_name(format!("{} step {}", scene.name, args.step));
     write_problem(&problem, &args.output)?;
     println!(
-        "wrote {}: {} rows ({} contacts) of step {} of {}",
+        "wrote {}: {} rows ({contacts} contacts) of step {} of {}",
         args.output.display(),
         problem.n(),
-        report.contacts,
         args.step,
         scene.name
+    );
+    Ok(())
+}
+
+/// Write the cone problem of `lcpbench export` (friction model `cone`).
+fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
+    std::fs::write(&args.output, cone_problem_to_json(cone))
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
+        args.output.display(),
+        cone.contacts(),
+        cone.n(),
+        args.step,
+        scene_name
     );
     Ok(())
 }

@@ -2,11 +2,10 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget;
+use lcpbench::harness::budget::{self, catalogue, SolverSpec};
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, read_problem, ConeProblem, ConeSolverKind,
-    Problem, ProblemFileError, ProblemFormat, ProjectedSor, Settings, SolveResult, Solver,
-    SolverKind, Status,
+    Problem, ProblemFileError, ProblemFormat, Settings, SolveResult, Solver, SolverKind, Status,
 };
 use serde_json::json;
 use std::path::PathBuf;
@@ -64,16 +63,16 @@ impl std::str::FromStr for SolverName {
     }
 }
 
-/// Build the solver named by `kind`, applying `omega` to SOR.
+/// Build the solver named by `kind`, applying `omega` to SOR, through the harness's one
+/// factory ([`SolverSpec::create`]).
 pub fn make_solver(kind: SolverKind, omega: Option<f64>) -> Result<Box<dyn Solver + Send>> {
     match (kind, omega) {
-        (SolverKind::Sor, Some(w)) if !(w > 0.0 && w < 2.0) => {
-            bail!("--omega must be in (0, 2) (projected SOR diverges outside it), got {w}")
-        }
-        (SolverKind::Sor, Some(w)) => Ok(Box::new(ProjectedSor::sor(w))),
+        (SolverKind::Sor, _) | (_, None) => {}
         (_, Some(_)) => bail!("--omega applies only to --solver sor"),
-        (kind, None) => Ok(kind.create()),
     }
+    let spec = SolverSpec::matrix(kind, omega).map_err(|m| anyhow!("--{m}"))?;
+    spec.create()
+        .ok_or_else(|| anyhow!("{} is not a matrix solver", kind.name()))
 }
 
 fn describe(problem: &Problem) -> String {
@@ -254,13 +253,18 @@ fn print_result(
     Ok(())
 }
 
-/// Run `lcpbench solvers`.
+/// Run `lcpbench solvers`: every solver with its level (matrix, body, cone), whether `+warm`
+/// applies, and its problem classes and limits.
 pub fn list_solvers() -> Result<()> {
-    for kind in SolverKind::ALL {
-        println!("{:<13} {}", kind.name(), kind.problem_classes());
-    }
-    for kind in ConeSolverKind::ALL {
-        println!("{:<13} {}", kind.name(), kind.problem_classes());
+    for entry in catalogue() {
+        let warm = if entry.iterative { "+warm" } else { "" };
+        println!(
+            "{:<13} {:<6} {:<5} {}",
+            entry.name,
+            entry.level.name(),
+            warm,
+            entry.problem_classes
+        );
     }
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! Budgets (tolerance, iteration cap, time budget) and solver specifications (a solver kind with
-//! its variant: SOR relaxation, warm or cold start).
+//! its variant: SOR relaxation, warm or cold start), with the catalogue of every solver: its
+//! name, level, problem classes and plot colour.
 
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::ContactSolver;
-use lcpbench_solvers::{ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
+use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
 use std::time::Duration;
 use thiserror::Error;
@@ -261,99 +262,181 @@ impl Fault {
 }
 
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
-/// `si+warm`, `nsgs-cone+warm`. Names are the matrix solvers of `lcpbench-solvers`, the
-/// body-level solvers of `lcpbench-contact` (`si`, `body-micro`, `penalty`; scenes only) and
-/// the cone solvers (`nsgs-cone`, `newton-ac`: scenes with friction model `cone`, and LCP cases
-/// whose rows are (normal, tangent, tangent) triples, solved as the cone).
+/// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
+/// of `lcpbench-solvers`, the body-level solvers of `lcpbench-contact` (`si`, `body-micro`,
+/// `penalty`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`, `clarabel-socp`:
+/// scenes with friction model `cone`, and LCP cases whose rows are (normal, tangent, tangent)
+/// triples, solved as the cone). See [`catalogue`] for every name with its level.
+///
+/// `warm`: warm start (iterative solvers only): from a nearby solution for LCP cases, from the
+/// previous step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step
+/// cold.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SolverSpec {
-    /// The matrix solver, or `None` for a body-level or cone solver or a fault-injection
-    /// pseudo-solver.
-    pub kind: Option<SolverKind>,
-    /// The body-level solver (scenes only).
-    pub body: Option<BodySolverKind>,
-    /// The cone solver.
-    pub cone: Option<ConeSolverKind>,
-    /// SOR relaxation (only for `sor`).
-    pub omega: Option<f64>,
-    /// Warm start (iterative solvers): from a nearby solution for LCP cases, from the previous
-    /// step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step cold.
-    pub warm: bool,
-    /// Fault to inject instead of solving.
-    pub fault: Option<Fault>,
+pub enum SolverSpec {
+    /// A matrix solver of `lcpbench-solvers`.
+    Matrix {
+        /// Which solver.
+        kind: SolverKind,
+        /// SOR relaxation (only for `sor`; `None`: the solver's default, 1.3).
+        omega: Option<f64>,
+        /// Warm start.
+        warm: bool,
+    },
+    /// A body-level solver of `lcpbench-contact` (scenes only).
+    Body {
+        /// Which solver.
+        kind: BodySolverKind,
+        /// Warm start (`si`, `body-micro`).
+        warm: bool,
+    },
+    /// A solver of the exact Coulomb cone.
+    Cone {
+        /// Which solver.
+        kind: ConeSolverKind,
+        /// Warm start.
+        warm: bool,
+    },
+    /// A fault injected instead of solving.
+    Fault(Fault),
 }
 
 impl SolverSpec {
-    /// Plain solver with default parameters, cold start.
+    /// Plain matrix solver with default parameters, cold start.
     pub fn plain(kind: SolverKind) -> Self {
-        Self {
-            kind: Some(kind),
-            body: None,
-            cone: None,
+        Self::Matrix {
+            kind,
             omega: None,
             warm: false,
-            fault: None,
+        }
+    }
+
+    /// Projected SOR with relaxation `omega`, cold start (not validated; see
+    /// [`SolverSpec::matrix`]).
+    pub fn sor(omega: f64) -> Self {
+        Self::Matrix {
+            kind: SolverKind::Sor,
+            omega: Some(omega),
+            warm: false,
+        }
+    }
+
+    /// A matrix solver with an optional relaxation, checked: `omega` only for `sor`, in
+    /// `(0, 2)`. The error says what is wrong.
+    pub fn matrix(kind: SolverKind, omega: Option<f64>) -> Result<Self, String> {
+        match omega {
+            Some(_) if kind != SolverKind::Sor => Err("@omega applies only to sor".into()),
+            Some(w) if !(w > 0.0 && w < 2.0) => Err(format!(
+                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
+            )),
+            _ => Ok(Self::Matrix {
+                kind,
+                omega,
+                warm: false,
+            }),
         }
     }
 
     /// Plain body-level solver, cold start.
     pub fn body(kind: BodySolverKind) -> Self {
-        Self {
-            kind: None,
-            body: Some(kind),
-            cone: None,
-            omega: None,
-            warm: false,
-            fault: None,
-        }
+        Self::Body { kind, warm: false }
     }
 
     /// Plain cone solver, cold start.
     pub fn cone(kind: ConeSolverKind) -> Self {
-        Self {
-            kind: None,
-            body: None,
-            cone: Some(kind),
-            omega: None,
-            warm: false,
-            fault: None,
+        Self::Cone { kind, warm: false }
+    }
+
+    /// The same solver, warm-started (no effect on a fault; not validated, see
+    /// [`SolverSpec::is_iterative`]).
+    pub fn with_warm(mut self) -> Self {
+        match &mut self {
+            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
+                *warm = true
+            }
+            Self::Fault(_) => {}
+        }
+        self
+    }
+
+    /// Warm start.
+    pub fn warm(&self) -> bool {
+        match self {
+            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => *warm,
+            Self::Fault(_) => false,
         }
     }
 
-    /// The solver as the stepper names it (`None` for a fault pseudo-solver).
-    pub fn scene_choice(&self) -> Option<ContactSolver> {
-        match (self.kind, self.body, self.cone) {
-            (Some(kind), _, _) => Some(kind.into()),
-            (None, Some(body), _) => Some(body.into()),
-            (None, None, Some(cone)) => Some(cone.into()),
-            (None, None, None) => None,
+    /// SOR relaxation, when set.
+    pub fn omega(&self) -> Option<f64> {
+        match self {
+            Self::Matrix { omega, .. } => *omega,
+            _ => None,
+        }
+    }
+
+    /// The injected fault, for a fault pseudo-solver.
+    pub fn fault(&self) -> Option<Fault> {
+        match self {
+            Self::Fault(f) => Some(*f),
+            _ => None,
+        }
+    }
+
+    /// The solver instance the stepper takes, with every parameter of the specification
+    /// (`None` for a fault pseudo-solver). This is the one place where a specification becomes
+    /// a stepper's solver; `body` builds the body-level solvers (the scene's penalty settings
+    /// live there).
+    pub fn contact_solver(
+        &self,
+        body: impl FnOnce(BodySolverKind) -> Option<ContactSolver>,
+    ) -> Option<ContactSolver> {
+        match *self {
+            Self::Matrix { .. } => self.create().map(ContactSolver::Matrix),
+            Self::Body { kind, .. } => body(kind),
+            Self::Cone { .. } => self.create_cone().map(ContactSolver::Cone),
+            Self::Fault(_) => None,
         }
     }
 
     /// True when the solver iterates from a starting impulse (so `+warm` means something).
     pub fn is_iterative(&self) -> bool {
-        self.kind.is_some_and(SolverKind::is_iterative)
-            || self.cone.is_some()
-            || matches!(
-                self.body,
-                Some(BodySolverKind::SequentialImpulses | BodySolverKind::MicroImpulses)
-            )
+        match self {
+            Self::Matrix { kind, .. } => kind.is_iterative(),
+            Self::Body { kind, .. } => kind.is_iterative(),
+            Self::Cone { .. } => true,
+            Self::Fault(_) => false,
+        }
     }
 
     /// The solver kind's name, or `fault-…`.
     pub fn base_name(&self) -> String {
-        match (self.scene_choice(), self.fault) {
-            (Some(choice), _) => choice.name().to_owned(),
-            (None, Some(f)) => format!("fault-{}", f.name()),
-            (None, None) => "none".to_owned(),
+        match self {
+            Self::Matrix { kind, .. } => kind.name().to_owned(),
+            Self::Body { kind, .. } => kind.name().to_owned(),
+            Self::Cone { kind, .. } => kind.name().to_owned(),
+            Self::Fault(f) => format!("fault-{}", f.name()),
         }
     }
 
-    /// Create the matrix solver (`None` for body-level and fault pseudo-solvers).
+    /// Create the matrix solver, with its relaxation (`None` for body-level, cone and fault
+    /// specifications). The one factory of matrix solvers for the harness and the CLI.
     pub fn create(&self) -> Option<Box<dyn Solver + Send>> {
-        match (self.kind?, self.omega) {
-            (SolverKind::Sor, Some(w)) => Some(Box::new(ProjectedSor::sor(w))),
-            (kind, _) => Some(kind.create()),
+        match *self {
+            Self::Matrix {
+                kind: SolverKind::Sor,
+                omega: Some(w),
+                ..
+            } => Some(Box::new(ProjectedSor::sor(w))),
+            Self::Matrix { kind, .. } => Some(kind.create()),
+            _ => None,
+        }
+    }
+
+    /// Create the cone solver (`None` for the other specifications).
+    pub fn create_cone(&self) -> Option<Box<dyn ConeSolver + Send>> {
+        match *self {
+            Self::Cone { kind, .. } => Some(kind.create()),
+            _ => None,
         }
     }
 }
@@ -361,10 +444,10 @@ impl SolverSpec {
 impl fmt::Display for SolverSpec {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         out.write_str(&self.base_name())?;
-        if let Some(w) = self.omega {
+        if let Some(w) = self.omega() {
             write!(out, "@{w}")?;
         }
-        if self.warm {
+        if self.warm() {
             out.write_str("+warm")?;
         }
         Ok(())
@@ -395,16 +478,9 @@ impl std::str::FromStr for SolverSpec {
         if let Some(fault) = name.strip_prefix("fault-") {
             let fault = Fault::from_name(fault)
                 .ok_or_else(|| err("fault must be panic, hang or abort".into()))?;
-            return Ok(Self {
-                kind: None,
-                body: None,
-                cone: None,
-                omega: None,
-                warm: false,
-                fault: Some(fault),
-            });
+            return Ok(Self::Fault(fault));
         }
-        let mut out = match (
+        let out = match (
             BodySolverKind::from_name(name),
             ConeSolverKind::from_name(name),
         ) {
@@ -417,23 +493,135 @@ impl std::str::FromStr for SolverSpec {
                 ))
             })?),
         };
-        if omega.is_some() && out.kind != Some(SolverKind::Sor) {
-            return Err(err("@omega applies only to sor".into()));
-        }
-        if let Some(w) = omega.filter(|w| !(*w > 0.0 && *w < 2.0)) {
-            return Err(err(format!(
-                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
-            )));
-        }
+        let out = match (out, omega) {
+            (Self::Matrix { kind, .. }, omega) => Self::matrix(kind, omega).map_err(err)?,
+            (_, Some(_)) => return Err(err("@omega applies only to sor".into())),
+            (out, None) => out,
+        };
         if warm && !out.is_iterative() {
             return Err(err(format!(
                 "+warm applies only to iterative solvers, not {name}"
             )));
         }
-        out.omega = omega;
-        out.warm = warm;
-        Ok(out)
+        Ok(if warm { out.with_warm() } else { out })
     }
+}
+
+/// The level a solver works at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverLevel {
+    /// Solves the assembled (boxed) LCP `w = A f + b` (`lcpbench-solvers`).
+    Matrix,
+    /// Works on the bodies through the Delassus operator, inside the stepper (scenes only).
+    Body,
+    /// Solves the exact Coulomb-cone problem (FC3D).
+    Cone,
+}
+
+impl SolverLevel {
+    /// `matrix`, `body` or `cone`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverLevel::Matrix => "matrix",
+            SolverLevel::Body => "body",
+            SolverLevel::Cone => "cone",
+        }
+    }
+}
+
+/// One solver of the catalogue: its name, level, problem classes and limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CatalogueEntry {
+    /// Name on the command line, in scene files and in the CSV.
+    pub name: &'static str,
+    /// Matrix, body-level or cone.
+    pub level: SolverLevel,
+    /// Problem classes it takes and its limits.
+    pub problem_classes: &'static str,
+    /// Whether `+warm` applies.
+    pub iterative: bool,
+}
+
+/// Every solver, matrix solvers first, then the body-level and the cone solvers (the order of
+/// `lcpbench solvers`).
+pub fn catalogue() -> Vec<CatalogueEntry> {
+    let matrix = SolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Matrix,
+        problem_classes: k.problem_classes(),
+        iterative: k.is_iterative(),
+    });
+    let body = BodySolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Body,
+        problem_classes: k.problem_classes(),
+        iterative: k.is_iterative(),
+    });
+    let cone = ConeSolverKind::ALL.into_iter().map(|k| CatalogueEntry {
+        name: k.name(),
+        level: SolverLevel::Cone,
+        problem_classes: k.problem_classes(),
+        iterative: true,
+    });
+    matrix.chain(body).chain(cone).collect()
+}
+
+/// The plot palette (RGB): the solvers with a fixed slot ([`palette_slot`]) take theirs; other
+/// series are hashed onto it.
+pub const PALETTE: [(u8, u8, u8); 16] = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+    (0, 0, 128),
+    (128, 0, 0),
+    (0, 100, 0),
+    (255, 215, 0),
+    (0, 0, 0),
+    (255, 0, 255),
+];
+
+/// The fixed palette slot of a shipped solver (`None`: the colour is hashed from the name).
+pub fn palette_slot(name: &str) -> Option<usize> {
+    if let Some(kind) = BodySolverKind::from_name(name) {
+        return Some(match kind {
+            BodySolverKind::SequentialImpulses => 6,
+            BodySolverKind::MicroImpulses => 7,
+            BodySolverKind::Penalty => 8,
+        });
+    }
+    Some(match SolverKind::from_name(name)? {
+        SolverKind::Pgs => 0,
+        SolverKind::Sor => 1,
+        SolverKind::Lemke => 2,
+        SolverKind::Dantzig => 3,
+        SolverKind::Clarabel => 4,
+        SolverKind::MicroImpulse => 5,
+        SolverKind::NewtonFb => 9,
+        SolverKind::NewtonMin => 10,
+        SolverKind::Apgd => 11,
+        SolverKind::Nncg => 12,
+        SolverKind::Nsgs => 13,
+        SolverKind::Enumeration => 14,
+    })
+}
+
+/// A stable colour per series key (a solver specification or name): a plain shipped solver
+/// gets its fixed slot, anything else (variants, cone solvers, faults) a hashed one.
+pub fn colour(key: &str) -> (u8, u8, u8) {
+    if let Some(slot) = palette_slot(key) {
+        return PALETTE[slot];
+    }
+    let h = key
+        .bytes()
+        .fold(7u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
+    PALETTE[(h % PALETTE.len() as u64) as usize]
 }
 
 #[cfg(test)]
@@ -462,6 +650,85 @@ mod tests {
             assert!(bad_omega.parse::<SolverSpec>().is_err(), "{bad_omega}");
         }
         assert!("nope".parse::<SolverSpec>().is_err());
+    }
+
+    #[test]
+    fn specs_are_the_variant_their_name_says() {
+        let sor: SolverSpec = "sor@1.5+warm".parse().unwrap();
+        assert_eq!(
+            sor,
+            SolverSpec::Matrix {
+                kind: SolverKind::Sor,
+                omega: Some(1.5),
+                warm: true
+            }
+        );
+        assert_eq!(sor.create().unwrap().name(), "sor");
+        let si: SolverSpec = "si+warm".parse().unwrap();
+        assert_eq!(
+            si,
+            SolverSpec::Body {
+                kind: BodySolverKind::SequentialImpulses,
+                warm: true
+            }
+        );
+        assert!(si.create().is_none() && si.create_cone().is_none());
+        let cone: SolverSpec = "nsgs-cone".parse().unwrap();
+        assert_eq!(cone.create_cone().unwrap().name(), "nsgs-cone");
+        assert_eq!(
+            "fault-panic".parse::<SolverSpec>().unwrap(),
+            SolverSpec::Fault(Fault::Panic)
+        );
+        assert!(SolverSpec::matrix(SolverKind::Pgs, Some(1.2)).is_err());
+        assert!(SolverSpec::matrix(SolverKind::Sor, Some(2.0)).is_err());
+        assert!(SolverSpec::matrix(SolverKind::Sor, Some(1.2)).is_ok());
+    }
+
+    #[test]
+    fn the_catalogue_names_every_parsable_solver_once() {
+        let entries = catalogue();
+        let expected =
+            SolverKind::ALL.len() + BodySolverKind::ALL.len() + ConeSolverKind::ALL.len();
+        assert_eq!(entries.len(), expected);
+        for e in &entries {
+            let spec: SolverSpec = e.name.parse().unwrap();
+            assert_eq!(spec.base_name(), e.name);
+            assert_eq!(spec.is_iterative(), e.iterative, "{}", e.name);
+            assert_eq!(entries.iter().filter(|x| x.name == e.name).count(), 1);
+        }
+        assert_eq!(
+            entries.iter().find(|e| e.name == "penalty").unwrap().level,
+            SolverLevel::Body
+        );
+    }
+
+    #[test]
+    fn shipped_solvers_keep_their_plot_colours() {
+        // The fixed order the report has always used.
+        let fixed = [
+            "pgs",
+            "sor",
+            "lemke",
+            "dantzig",
+            "clarabel",
+            "micro",
+            "si",
+            "body-micro",
+            "penalty",
+            "newton-fb",
+            "newton-min",
+            "apgd",
+            "nncg",
+            "nsgs",
+            "enum",
+        ];
+        for (i, name) in fixed.iter().enumerate() {
+            assert_eq!(colour(name), PALETTE[i], "{name}");
+        }
+        // Variants and unlisted solvers are hashed, and stable.
+        assert_eq!(colour("sor@1.5"), colour("sor@1.5"));
+        let slots: std::collections::HashSet<_> = fixed.iter().map(|n| colour(n)).collect();
+        assert_eq!(slots.len(), fixed.len());
     }
 
     #[test]

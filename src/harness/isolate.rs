@@ -19,8 +19,7 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
-use crate::harness::record::RunRecord;
-use crate::harness::run::{base_record, RunOutput};
+use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_solvers::HistoryPoint;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -100,34 +99,98 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn();
-    let failure = |status: &str, reason: String, wall: f64| {
+    let failure = |status: RunStatus, reason: String, wall: f64| {
         let mut record = base_record(case, spec, budget);
-        record.status = status.to_owned();
-        record.reason = reason;
         record.wall_time_s = wall;
-        RunOutput {
-            record,
-            history: Vec::new(),
-        }
+        RunOutput::failed(record, status, reason)
     };
     let mut child = match child {
         Ok(c) => c,
-        Err(e) => return failure("error", format!("cannot start {}: {e}", exe.display()), 0.0),
+        Err(e) => {
+            return failure(
+                RunStatus::Error,
+                format!("cannot start {}: {e}", exe.display()),
+                0.0,
+            )
+        }
     };
-    // Drain both pipes on threads so a chatty child never blocks on a full pipe.
-    let mut stdout = child.stdout.take().expect("piped");
-    let mut stderr = child.stderr.take().expect("piped");
-    let out_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = stdout.read_to_string(&mut s);
-        s
-    });
-    let err_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = stderr.read_to_string(&mut s);
-        s
-    });
     let limit = b.kill_after(case.is_scene());
+    let (exit, out, err) = wait_with_limit(&mut child, start, limit);
+    let wall = start.elapsed().as_secs_f64();
+    let Some(exit) = exit else {
+        return failure(
+            RunStatus::Timeout,
+            format!("killed after {:.1} s (budget {} s)", wall, b.time_s),
+            wall,
+        );
+    };
+    let last_err = err
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.contains("RUST_BACKTRACE"))
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(" | ");
+    if exit.success() {
+        return match parse_protocol(&out) {
+            Ok(mut output) => {
+                output.record.wall_time_s = wall;
+                output
+            }
+            Err(e) => failure(RunStatus::Error, e, wall),
+        };
+    }
+    if err.contains("panicked") {
+        return failure(RunStatus::Panic, last_err, wall);
+    }
+    match exit.code() {
+        Some(code) => failure(
+            RunStatus::Error,
+            format!("exit code {code}: {last_err}"),
+            wall,
+        ),
+        None => {
+            #[cfg(unix)]
+            let signal = std::os::unix::process::ExitStatusExt::signal(&exit);
+            #[cfg(not(unix))]
+            let signal: Option<i32> = None;
+            failure(
+                RunStatus::Crash,
+                format!("terminated by signal {}", signal.unwrap_or(-1)),
+                wall,
+            )
+        }
+    }
+}
+
+/// Wait for `child` until `limit` after `start` (then kill it), draining its stdout and stderr
+/// on threads so a chatty child never blocks on a full pipe. Returns the exit status (`None`
+/// when it was killed or could not be waited for) and the two outputs.
+fn wait_with_limit(
+    child: &mut std::process::Child,
+    start: Instant,
+    limit: Duration,
+) -> (Option<std::process::ExitStatus>, String, String) {
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_string(&mut s);
+            }
+            s
+        })
+    };
+    let out_thread = drain(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let err_thread = drain(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
     let mut poll = Duration::from_millis(1);
     let exit = loop {
         match child.try_wait() {
@@ -148,48 +211,9 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
             }
         }
     };
-    let wall = start.elapsed().as_secs_f64();
     let out = out_thread.join().unwrap_or_default();
     let err = err_thread.join().unwrap_or_default();
-    let Some(exit) = exit else {
-        return failure(
-            "timeout",
-            format!("killed after {:.1} s (budget {} s)", wall, b.time_s),
-            wall,
-        );
-    };
-    let last_err = err
-        .lines()
-        .filter(|l| !l.trim().is_empty() && !l.contains("RUST_BACKTRACE"))
-        .map(str::trim)
-        .collect::<Vec<_>>()
-        .join(" | ");
-    if exit.success() {
-        return match parse_protocol(&out) {
-            Ok(mut output) => {
-                output.record.wall_time_s = wall;
-                output
-            }
-            Err(e) => failure("error", e, wall),
-        };
-    }
-    if err.contains("panicked") {
-        return failure("panic", last_err, wall);
-    }
-    match exit.code() {
-        Some(code) => failure("error", format!("exit code {code}: {last_err}"), wall),
-        None => {
-            #[cfg(unix)]
-            let signal = std::os::unix::process::ExitStatusExt::signal(&exit);
-            #[cfg(not(unix))]
-            let signal: Option<i32> = None;
-            failure(
-                "crash",
-                format!("terminated by signal {}", signal.unwrap_or(-1)),
-                wall,
-            )
-        }
-    }
+    (exit, out, err)
 }
 
 #[cfg(test)]

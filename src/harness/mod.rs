@@ -1,13 +1,19 @@
 //! The comparison harness: a *run* is one (case, solver, budget). Runs execute in isolated
 //! child processes driven by worker threads, and each finished run becomes one CSV row.
 //!
-//! Flow: [`case`] (what to solve) × [`budget`] (solver variant and budget) → [`sweep`]
+//! Flow: [`case`] (what to solve) × [`budget`] (solver specification and budget) → [`sweep`]
 //! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
-//! solve an LCP or step a scene via [`scene`]) → [`record`] (the CSV row).
+//! solve an LCP, or step a scene via [`scene`], whose rows [`metrics`] fills) → [`record`] (the
+//! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
+//!
+//! Imports go one way: `record` knows `case` and `budget`; `run`, `scene` and `isolate` know
+//! `record`; `sweep` knows `isolate`.
 
 pub mod budget;
 pub mod case;
+pub mod export;
 pub mod isolate;
+pub mod metrics;
 pub mod record;
 pub mod run;
 pub mod scene;
@@ -15,5 +21,5 @@ pub mod sweep;
 
 pub use budget::{Budget, Fault, NamedBudget, SolverSpec};
 pub use case::{Case, ProblemClass};
-pub use record::{HistoryRow, RunRecord, TTA_LEVELS};
+pub use record::{HistoryRow, RunKey, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
 pub use sweep::{cross_product, run_sweep, Job, SweepConfig, SweepSummary};

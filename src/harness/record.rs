@@ -2,8 +2,18 @@
 //!
 //! Every column is documented on its field; empty cells mean "does not apply" (scene columns on
 //! an LCP case, an analytic error on a scene without one, a time-to-accuracy never reached).
+//!
+//! The outcome of a run is a [`RunStatus`] (the solver statuses plus the harness's own
+//! outcomes), serialised as the same lowercase names the CSV has always had; a run is identified
+//! by its [`RunKey`]. [`RunOutput`] and [`base_record`] live here, shared by the in-process run
+//! ([`crate::harness::run`], [`crate::harness::scene`]) and the isolation layer, so neither of
+//! those modules imports the other.
 
+use crate::harness::budget::{NamedBudget, SolverSpec};
+use crate::harness::case::Case;
+use lcpbench_solvers::{HistoryPoint, Status};
 use serde::{Deserialize, Serialize};
+use std::fmt;
 
 /// The relative residuals at which time-to-accuracy is recorded.
 pub const TTA_LEVELS: [f64; 4] = [1e-4, 1e-6, 1e-8, 1e-10];
@@ -36,10 +46,11 @@ pub struct RunRecord {
     pub max_iterations: usize,
     /// Time budget in seconds.
     pub time_budget_s: f64,
-    /// Outcome: a solver [`Status`](lcpbench_solvers::Status) name for an LCP; for a scene
-    /// `converged` when every step converged, otherwise the worst step status or `blow_up`; for
-    /// isolation failures `panic`, `crash`, `timeout` or `error`.
-    pub status: String,
+    /// Outcome: a solver [`Status`] name for an LCP; for a scene `converged` when every step
+    /// converged, otherwise `blow_up`, `time_limit` (the scene's wall-time limit) or the first
+    /// non-converged step's status; for isolation failures `panic`, `crash`, `timeout` or
+    /// `error`. See [`RunStatus`].
+    pub status: RunStatus,
     /// Why, when there is a reason.
     pub reason: String,
     /// True when the run met its tolerance (every step, for a scene).
@@ -88,7 +99,8 @@ pub struct RunRecord {
     pub nan_steps: Option<usize>,
     /// Scene: steps where the stepper fell back to another solver.
     pub fallback_steps: Option<usize>,
-    /// Scene: the state blew up (non-finite, or speeds or energy far beyond the initial ones).
+    /// Scene: the state blew up: a non-finite body state or total energy, or a body speed above
+    /// `50 + 10 v₀` m/s (`v₀` the largest initial speed); see [`crate::harness::metrics`].
     pub blow_up: Option<bool>,
     /// Scene: largest penetration depth over the run, metres.
     pub penetration_max: Option<f64>,
@@ -126,8 +138,8 @@ pub struct RunRecord {
 
 impl RunRecord {
     /// The resume key: (case, solver, budget).
-    pub fn key(&self) -> (String, String, String) {
-        (self.case.clone(), self.solver.clone(), self.budget.clone())
+    pub fn key(&self) -> RunKey {
+        RunKey::new(&self.case, &self.solver, &self.budget)
     }
 
     /// Time to reach relative residual `level` (one of [`TTA_LEVELS`]).
@@ -150,10 +162,219 @@ impl RunRecord {
 
     /// True for failures of the isolation layer (`panic`, `crash`, `timeout`, `error`).
     pub fn is_isolation_failure(&self) -> bool {
+        self.status.is_isolation_failure()
+    }
+}
+
+/// The outcome of one run, as written in the `status` column: the kinds of the solver
+/// [`Status`] (without their reasons, which go to the `reason` column) and the harness's own
+/// outcomes. The text forms are the CSV's: `converged`, `iteration_limit`, `time_limit`,
+/// `stalled`, `no_solution`, `unsupported`, `numerical_failure`, `blow_up`, `panic`, `crash`,
+/// `timeout`, `error`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RunStatus {
+    /// The shared residual met the tolerance (every step, for a scene).
+    Converged,
+    /// The solver's iteration cap was reached.
+    IterationLimit,
+    /// The solver's time budget ran out, or a scene stopped stepping at its wall-time limit.
+    TimeLimit,
+    /// The solver stopped making progress.
+    Stalled,
+    /// The solver showed the problem has no solution.
+    NoSolution,
+    /// The solver does not take this problem (or this scene's friction model).
+    Unsupported,
+    /// The solver failed numerically.
+    NumericalFailure,
+    /// Scene: the state became non-finite, or a speed went far beyond the initial ones.
+    BlowUp,
+    /// Isolation: the child panicked.
+    Panic,
+    /// Isolation: the child was killed by a signal (an abort, a stack overflow).
+    Crash,
+    /// Isolation: the child outlived its wall-time limit and was killed.
+    Timeout,
+    /// The run could not be carried out (unreadable case, bad child output, …). Also the
+    /// value of a row not yet filled.
+    #[default]
+    Error,
+}
+
+impl RunStatus {
+    /// Every status, in the order above.
+    pub const ALL: [RunStatus; 12] = [
+        RunStatus::Converged,
+        RunStatus::IterationLimit,
+        RunStatus::TimeLimit,
+        RunStatus::Stalled,
+        RunStatus::NoSolution,
+        RunStatus::Unsupported,
+        RunStatus::NumericalFailure,
+        RunStatus::BlowUp,
+        RunStatus::Panic,
+        RunStatus::Crash,
+        RunStatus::Timeout,
+        RunStatus::Error,
+    ];
+
+    /// The CSV name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RunStatus::Converged => "converged",
+            RunStatus::IterationLimit => "iteration_limit",
+            RunStatus::TimeLimit => "time_limit",
+            RunStatus::Stalled => "stalled",
+            RunStatus::NoSolution => "no_solution",
+            RunStatus::Unsupported => "unsupported",
+            RunStatus::NumericalFailure => "numerical_failure",
+            RunStatus::BlowUp => "blow_up",
+            RunStatus::Panic => "panic",
+            RunStatus::Crash => "crash",
+            RunStatus::Timeout => "timeout",
+            RunStatus::Error => "error",
+        }
+    }
+
+    /// True for `converged`.
+    pub fn is_converged(self) -> bool {
+        self == RunStatus::Converged
+    }
+
+    /// True for failures of the isolation layer (`panic`, `crash`, `timeout`, `error`).
+    pub fn is_isolation_failure(self) -> bool {
         matches!(
-            self.status.as_str(),
-            "panic" | "crash" | "timeout" | "error"
+            self,
+            RunStatus::Panic | RunStatus::Crash | RunStatus::Timeout | RunStatus::Error
         )
+    }
+}
+
+impl From<&Status> for RunStatus {
+    fn from(status: &Status) -> Self {
+        match status {
+            Status::Converged => RunStatus::Converged,
+            Status::IterationLimit => RunStatus::IterationLimit,
+            Status::TimeLimit => RunStatus::TimeLimit,
+            Status::Stalled { .. } => RunStatus::Stalled,
+            Status::NoSolution { .. } => RunStatus::NoSolution,
+            Status::Unsupported { .. } => RunStatus::Unsupported,
+            Status::NumericalFailure { .. } => RunStatus::NumericalFailure,
+        }
+    }
+}
+
+impl fmt::Display for RunStatus {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.pad(self.as_str())
+    }
+}
+
+impl std::str::FromStr for RunStatus {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| format!("unknown run status `{s}`"))
+    }
+}
+
+impl Serialize for RunStatus {
+    fn serialize<S: serde::Serializer>(&self, out: S) -> Result<S::Ok, S::Error> {
+        out.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for RunStatus {
+    fn deserialize<D: serde::Deserializer<'de>>(input: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(input)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// What identifies a run (and a row of `results.csv`): case key, solver specification and
+/// budget name, as written in the CSV.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RunKey {
+    /// Case key (see [`Case`]'s `Display`).
+    pub case: String,
+    /// Solver specification (see [`SolverSpec`]'s `Display`).
+    pub solver: String,
+    /// Budget name.
+    pub budget: String,
+}
+
+impl RunKey {
+    /// The key of a row with these columns.
+    pub fn new(case: &str, solver: &str, budget: &str) -> Self {
+        Self {
+            case: case.to_owned(),
+            solver: solver.to_owned(),
+            budget: budget.to_owned(),
+        }
+    }
+
+    /// The key of the run of `solver` on `case` under the budget called `budget`.
+    pub fn of(case: &Case, solver: &SolverSpec, budget: &str) -> Self {
+        Self {
+            case: case.to_string(),
+            solver: solver.to_string(),
+            budget: budget.to_owned(),
+        }
+    }
+}
+
+impl fmt::Display for RunKey {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(out, "{} / {} / {}", self.case, self.solver, self.budget)
+    }
+}
+
+/// What a run produced: the row and the convergence history (LCP cases; thinned).
+#[derive(Debug, Clone)]
+pub struct RunOutput {
+    /// The result row.
+    pub record: RunRecord,
+    /// Residual history of the solve (LCP cases), at most
+    /// [`HISTORY_POINTS`](crate::harness::run::HISTORY_POINTS) points.
+    pub history: Vec<HistoryPoint>,
+}
+
+impl RunOutput {
+    /// A row without history.
+    pub fn row(record: RunRecord) -> Self {
+        Self {
+            record,
+            history: Vec::new(),
+        }
+    }
+
+    /// A row that ends with `status` and `reason` before anything was measured.
+    pub fn failed(mut record: RunRecord, status: RunStatus, reason: impl Into<String>) -> Self {
+        record.status = status;
+        record.reason = reason.into();
+        Self::row(record)
+    }
+}
+
+/// The row fields every run fills: case, solver and budget identification.
+pub fn base_record(case: &Case, solver: &SolverSpec, budget: &NamedBudget) -> RunRecord {
+    RunRecord {
+        case: case.to_string(),
+        class: case.class().name().to_owned(),
+        family: case.family_label(),
+        n: case.size(),
+        solver: solver.to_string(),
+        solver_base: solver.base_name(),
+        omega: solver.omega(),
+        warm: solver.warm(),
+        budget: budget.name.clone(),
+        tolerance: budget.budget.tolerance,
+        max_iterations: budget.budget.max_iterations,
+        time_budget_s: budget.budget.time_s,
+        ..RunRecord::default()
     }
 }
 
@@ -172,4 +393,47 @@ pub struct HistoryRow {
     pub time_s: f64,
     /// Relative natural-map residual.
     pub residual: f64,
+}
+
+impl HistoryRow {
+    /// The key of the run this point belongs to.
+    pub fn key(&self) -> RunKey {
+        RunKey::new(&self.case, &self.solver, &self.budget)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statuses_round_trip_through_their_csv_names() {
+        for status in RunStatus::ALL {
+            assert_eq!(status.as_str().parse::<RunStatus>(), Ok(status));
+            assert_eq!(status.to_string(), status.as_str());
+        }
+        assert!("Converged".parse::<RunStatus>().is_err());
+        let solver = Status::NoSolution {
+            reason: "ray".into(),
+        };
+        assert_eq!(RunStatus::from(&solver).as_str(), solver.name());
+    }
+
+    #[test]
+    fn records_serialise_the_status_as_its_name() {
+        let record = RunRecord {
+            status: RunStatus::BlowUp,
+            ..RunRecord::default()
+        };
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(&record).unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert!(text.contains(",blow_up,"), "{text}");
+        let back: RunRecord = csv::Reader::from_reader(text.as_bytes())
+            .deserialize()
+            .next()
+            .unwrap()
+            .unwrap();
+        assert_eq!(back.status, RunStatus::BlowUp);
+    }
 }

@@ -4,48 +4,20 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::{Case, GenFamily, LoadedLcp};
-use crate::harness::record::{RunRecord, TTA_LEVELS};
+use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
 use crate::harness::scene;
 use lcpbench_solvers::{
-    ConeProblem, ConeSolverKind, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
+    ConeProblem, ConeSolver, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
 };
 use std::time::Instant;
-
-/// What a run produced: the row and the convergence history (LCP cases; thinned).
-#[derive(Debug, Clone)]
-pub struct RunOutput {
-    /// The result row.
-    pub record: RunRecord,
-    /// Residual history of the solve (LCP cases), at most [`HISTORY_POINTS`] points.
-    pub history: Vec<HistoryPoint>,
-}
 
 /// Largest number of history points kept per run (log-spaced in iteration).
 pub const HISTORY_POINTS: usize = 120;
 
-/// The row fields every run fills: case, solver and budget identification.
-pub fn base_record(case: &Case, solver: &SolverSpec, budget: &NamedBudget) -> RunRecord {
-    RunRecord {
-        case: case.to_string(),
-        class: case.class().name().to_owned(),
-        family: case.family_label(),
-        n: case.size(),
-        solver: solver.to_string(),
-        solver_base: solver.base_name(),
-        omega: solver.omega,
-        warm: solver.warm,
-        budget: budget.name.clone(),
-        tolerance: budget.budget.tolerance,
-        max_iterations: budget.budget.max_iterations,
-        time_budget_s: budget.budget.time_s,
-        ..RunRecord::default()
-    }
-}
-
 /// Execute one run in this process.
 pub fn run_in_process(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     let start = Instant::now();
-    if let Some(fault) = spec.fault {
+    if let Some(fault) = spec.fault() {
         fault.trigger();
     }
     let mut output = if case.is_scene() {
@@ -61,33 +33,21 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     let mut record = base_record(case, spec, budget);
     let lcp = match case.load_lcp() {
         Ok(lcp) => lcp,
-        Err(e) => {
-            record.status = "error".into();
-            record.reason = e;
-            return RunOutput {
-                record,
-                history: Vec::new(),
-            };
-        }
+        Err(e) => return RunOutput::failed(record, RunStatus::Error, e),
     };
     record.n = Some(lcp.problem.n());
     if let Case::File(_) = case {
         record.class = Case::class_of_problem(&lcp.problem).name().to_owned();
     }
-    if let Some(kind) = spec.cone {
-        return run_cone_lcp(kind, &lcp, spec, budget, record);
+    if let Some(solver) = spec.create_cone() {
+        return run_cone_lcp(solver, &lcp, spec, budget, record);
     }
     let Some(mut solver) = spec.create() else {
-        record.status = "error".into();
-        record.reason = "no solver".into();
-        return RunOutput {
-            record,
-            history: Vec::new(),
-        };
+        return RunOutput::failed(record, RunStatus::Error, "no solver");
     };
     let mut settings = budget.budget.settings();
     settings.record_history = true;
-    if spec.warm {
+    if spec.warm() {
         settings.warm_start = Some(warm_start_for(&lcp));
     }
     let result = solver.solve(&lcp.problem, &settings);
@@ -116,7 +76,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
 /// A cone solver on an LCP case: the box-friction problem read as the cone of its
 /// (normal, tangent, tangent) triples; any other problem is `unsupported`.
 fn run_cone_lcp(
-    kind: ConeSolverKind,
+    mut solver: Box<dyn ConeSolver + Send>,
     lcp: &LoadedLcp,
     spec: &SolverSpec,
     budget: &NamedBudget,
@@ -125,23 +85,19 @@ fn run_cone_lcp(
     let problem = match ConeProblem::from_box(&lcp.problem) {
         Ok(p) => p,
         Err(e) => {
-            record.status = "unsupported".into();
-            record.reason = format!(
+            let reason = format!(
                 "{} takes the exact Coulomb cone: the problem is not one of contact triples ({e})",
-                kind.name()
+                solver.name()
             );
-            return RunOutput {
-                record,
-                history: Vec::new(),
-            };
+            return RunOutput::failed(record, RunStatus::Unsupported, reason);
         }
     };
     let mut settings = budget.budget.settings();
     settings.record_history = true;
-    if spec.warm {
+    if spec.warm() {
         settings.warm_start = Some(warm_start_for(lcp));
     }
-    let result = kind.create().solve_cone(&problem, &settings);
+    let result = solver.solve_cone(&problem, &settings);
     fill_from_result(&mut record, &result);
     RunOutput {
         record,
@@ -151,7 +107,7 @@ fn run_cone_lcp(
 
 /// Copy a solve's outcome into the row: status, iterations, time, residuals, time-to-accuracy.
 pub fn fill_from_result(record: &mut RunRecord, result: &SolveResult) {
-    record.status = result.status.name().to_owned();
+    record.status = RunStatus::from(&result.status);
     record.reason = result.status.reason().unwrap_or_default().to_owned();
     record.converged = result.status.is_converged();
     record.iterations = Some(result.iterations);
@@ -239,7 +195,7 @@ mod tests {
         let budget: NamedBudget = "default".parse().unwrap();
         let out = run_in_process(&case, &spec, &budget);
         let r = &out.record;
-        assert_eq!(r.status, "converged");
+        assert_eq!(r.status, RunStatus::Converged);
         assert!(r.converged);
         assert!(r.residual_rel.unwrap() <= 1e-8);
         assert!(r.tta_1e4.unwrap() <= r.tta_1e8.unwrap());

@@ -19,8 +19,7 @@
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::isolate::run_isolated;
-use crate::harness::record::{HistoryRow, RunRecord};
-use crate::harness::run::RunOutput;
+use crate::harness::record::{HistoryRow, RunKey, RunOutput, RunRecord};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::collections::{HashMap, HashSet, VecDeque};
@@ -42,12 +41,8 @@ pub struct Job {
 
 impl Job {
     /// The resume key, as in [`RunRecord::key`].
-    pub fn key(&self) -> (String, String, String) {
-        (
-            self.case.to_string(),
-            self.solver.to_string(),
-            self.budget.name.clone(),
-        )
+    pub fn key(&self) -> RunKey {
+        RunKey::of(&self.case, &self.solver, &self.budget.name)
     }
 }
 
@@ -229,7 +224,7 @@ pub fn read_histories(path: &Path) -> Result<Vec<HistoryRow>> {
 /// again, so its history cannot be mixed up with another copy's).
 fn resumable_rows(path: &Path) -> Result<(Vec<RunRecord>, usize)> {
     let (rows, mut dropped) = read_strict::<RunRecord>(path)?;
-    let mut count: HashMap<(String, String, String), usize> = HashMap::new();
+    let mut count: HashMap<RunKey, usize> = HashMap::new();
     for r in &rows {
         *count.entry(r.key()).or_default() += 1;
     }
@@ -304,14 +299,54 @@ pub fn run_sweep_locked(
             config.out_dir.display()
         );
     }
-    let results_path = config.results_path();
-    let histories_path = config.histories_path();
     let mut summary = SweepSummary {
         stale_runners: remove_stale_runners(&config.out_dir),
         ..SweepSummary::default()
     };
-    // Resume: keep the rows that parse completely (and their histories), drop the rest.
-    let mut done: HashSet<(String, String, String)> = HashSet::new();
+    let done = resume(config, &mut summary)?;
+    let todo = pending(jobs, &done, &mut summary);
+    if todo.is_empty() {
+        return Ok(summary);
+    }
+    let total = todo.len();
+    let mut writers = Writers {
+        results: appender(&config.results_path())?,
+        histories: appender(&config.histories_path())?,
+    };
+    let bar = progress_bar(config.progress, total);
+    // Children run a private copy of the executable: a build in a shared target directory must
+    // not swap the binary under a running sweep.
+    let runner = private_copy(&config.exe, &config.out_dir);
+    let exe_for_children = runner.clone().unwrap_or_else(|| config.exe.clone());
+    let (rx, workers) = spawn_workers(exe_for_children, todo, config.jobs);
+    let written = write_outputs(config, rx, &mut writers, &bar, &mut summary);
+    let panicked = workers
+        .into_iter()
+        .map(|w| w.join())
+        .filter(Result::is_err)
+        .count();
+    if let Some(runner) = runner {
+        let _ = std::fs::remove_file(runner);
+    }
+    bar.finish_and_clear();
+    written?;
+    if panicked > 0 {
+        bail!(
+            "{panicked} worker thread(s) of the sweep panicked; {} of {total} runs were written \
+             to {} (run the sweep again to resume)",
+            summary.ran,
+            config.results_path().display()
+        );
+    }
+    Ok(summary)
+}
+
+/// Resume: keep the rows of `results.csv` that parse completely (and their histories), drop
+/// the rest, and return the keys of the runs already done.
+fn resume(config: &SweepConfig, summary: &mut SweepSummary) -> Result<HashSet<RunKey>> {
+    let results_path = config.results_path();
+    let histories_path = config.histories_path();
+    let mut done: HashSet<RunKey> = HashSet::new();
     if results_path.exists() {
         let (rows, dropped) = resumable_rows(&results_path)?;
         summary.dropped_rows = dropped;
@@ -320,33 +355,36 @@ pub fn run_sweep_locked(
         if histories_path.exists() {
             let hist: Vec<HistoryRow> = read_histories(&histories_path)?
                 .into_iter()
-                .filter(|h| done.contains(&(h.case.clone(), h.solver.clone(), h.budget.clone())))
+                .filter(|h| done.contains(&h.key()))
                 .collect();
             rewrite(&histories_path, &hist)?;
         }
     } else if histories_path.exists() {
         std::fs::remove_file(&histories_path)?;
     }
+    Ok(done)
+}
+
+/// The jobs still to run, in order: duplicates and runs already `done` are counted and dropped.
+fn pending(jobs: Vec<Job>, done: &HashSet<RunKey>, summary: &mut SweepSummary) -> VecDeque<Job> {
     let mut seen = HashSet::new();
-    let mut todo: VecDeque<Job> = VecDeque::new();
+    let mut todo = VecDeque::new();
     for job in jobs {
-        if !seen.insert(job.key()) {
+        let key = job.key();
+        if !seen.insert(key.clone()) {
             summary.duplicates += 1;
-        } else if done.contains(&job.key()) {
+        } else if done.contains(&key) {
             summary.skipped += 1;
         } else {
             todo.push_back(job);
         }
     }
-    if todo.is_empty() {
-        return Ok(summary);
-    }
-    let total = todo.len();
-    let mut results = appender(&results_path)?;
-    let mut histories = appender(&histories_path)?;
+    todo
+}
 
-    let bar = ProgressBar::new(todo.len() as u64);
-    if config.progress {
+fn progress_bar(visible: bool, len: usize) -> ProgressBar {
+    let bar = ProgressBar::new(len as u64);
+    if visible {
         bar.set_style(
             ProgressStyle::with_template(
                 "{elapsed_precise} [{bar:30}] {pos}/{len} ({eta} left) {msg}",
@@ -357,18 +395,23 @@ pub fn run_sweep_locked(
     } else {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
+    bar
+}
 
-    // Children run a private copy of the executable: a build in a shared target directory must
-    // not swap the binary under a running sweep.
-    let runner = private_copy(&config.exe, &config.out_dir);
-    let exe_for_children = runner.clone().unwrap_or_else(|| config.exe.clone());
+/// Start `jobs` worker threads, each taking runs off the queue and running them in isolated
+/// children of `exe`; the outputs arrive on the returned channel.
+fn spawn_workers(
+    exe: PathBuf,
+    todo: VecDeque<Job>,
+    jobs: usize,
+) -> (mpsc::Receiver<RunOutput>, Vec<std::thread::JoinHandle<()>>) {
     let queue = Arc::new(Mutex::new(todo));
     let (tx, rx) = mpsc::channel::<RunOutput>();
     let mut workers = Vec::new();
-    for _ in 0..config.jobs.max(1) {
+    for _ in 0..jobs.max(1) {
         let queue = Arc::clone(&queue);
         let tx = tx.clone();
-        let exe = exe_for_children.clone();
+        let exe = exe.clone();
         workers.push(std::thread::spawn(move || loop {
             let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
             let Some(job) = job else { break };
@@ -378,7 +421,24 @@ pub fn run_sweep_locked(
             }
         }));
     }
-    drop(tx);
+    (rx, workers)
+}
+
+/// The appenders of `results.csv` and `histories.csv`.
+struct Writers {
+    results: csv::Writer<File>,
+    histories: csv::Writer<File>,
+}
+
+/// Append each output to `results.csv` (and its history to `histories.csv`) as it arrives.
+fn write_outputs(
+    config: &SweepConfig,
+    rx: mpsc::Receiver<RunOutput>,
+    writers: &mut Writers,
+    bar: &ProgressBar,
+    summary: &mut SweepSummary,
+) -> Result<()> {
+    let Writers { results, histories } = writers;
     for output in rx {
         let r = &output.record;
         if config.keep_histories {
@@ -406,24 +466,7 @@ pub fn run_sweep_locked(
         ));
         bar.inc(1);
     }
-    let panicked = workers
-        .into_iter()
-        .map(|w| w.join())
-        .filter(Result::is_err)
-        .count();
-    if let Some(runner) = runner {
-        let _ = std::fs::remove_file(runner);
-    }
-    bar.finish_and_clear();
-    if panicked > 0 {
-        bail!(
-            "{panicked} worker thread(s) of the sweep panicked; {} of {total} runs were written \
-             to {} (run the sweep again to resume)",
-            summary.ran,
-            results_path.display()
-        );
-    }
-    Ok(summary)
+    Ok(())
 }
 
 /// Copy `exe` into `dir` under a name private to this process; `None` when copying fails (the

@@ -8,7 +8,7 @@
 use super::machine::Header;
 use super::suite::Suite;
 use super::table::Table;
-use crate::harness::{Case, HistoryRow, ProblemClass, RunRecord};
+use crate::harness::{Case, HistoryRow, ProblemClass, RunKey, RunRecord};
 use anyhow::Result;
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::SolverKind;
@@ -57,7 +57,7 @@ pub(super) struct ReportContext<'a> {
     pub(super) feasible_cases: Vec<&'a Case>,
     pub(super) tables_dir: PathBuf,
     pub(super) plots_dir: PathBuf,
-    by_key: HashMap<(String, String, String), &'a RunRecord>,
+    by_key: HashMap<RunKey, &'a RunRecord>,
 }
 
 impl<'a> ReportContext<'a> {
@@ -96,7 +96,7 @@ impl<'a> ReportContext<'a> {
     /// The run of `case` by `solver` under `budget`, if there is one.
     pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
         self.by_key
-            .get(&(case.to_string(), solver.to_owned(), budget.to_owned()))
+            .get(&RunKey::new(&case.to_string(), solver, budget))
             .copied()
     }
 

@@ -69,54 +69,11 @@ pub enum LegendAt {
     LowerRight,
 }
 
-const PALETTE: [RGBColor; 16] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
-    RGBColor(0, 0, 128),
-    RGBColor(128, 0, 0),
-    RGBColor(0, 100, 0),
-    RGBColor(255, 215, 0),
-    RGBColor(0, 0, 0),
-    RGBColor(255, 0, 255),
-];
-
-/// A stable colour per solver name (the shipped solvers get fixed colours).
+/// A stable colour per solver name (the shipped solvers get fixed colours; see
+/// [`crate::harness::budget::colour`], next to the solver names).
 pub fn color_for(key: &str) -> RGBColor {
-    let base = key.split(['@', '+']).next().unwrap_or(key);
-    let fixed = [
-        "pgs",
-        "sor",
-        "lemke",
-        "dantzig",
-        "clarabel",
-        "micro",
-        "si",
-        "body-micro",
-        "penalty",
-        "newton-fb",
-        "newton-min",
-        "apgd",
-        "nncg",
-        "nsgs",
-        "enum",
-    ];
-    if let Some(i) = fixed.iter().position(|k| *k == base) {
-        if key == base {
-            return PALETTE[i];
-        }
-    }
-    let h = key
-        .bytes()
-        .fold(7u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
-    PALETTE[(h % PALETTE.len() as u64) as usize]
+    let (r, g, b) = crate::harness::budget::colour(key);
+    RGBColor(r, g, b)
 }
 
 fn tick_label(v: f64, log: bool) -> String {

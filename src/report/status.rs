@@ -1,25 +1,25 @@
-//! The run statuses the report tests for, in one place. `RunRecord::status` is a string (the
-//! solver's status name or one of the harness's own outcomes); every comparison of it the
-//! report makes goes through these predicates.
+//! The run statuses the report tests for, in one place. `RunRecord::status` is a [`RunStatus`] (the
+//! solver's status or one of the harness's own outcomes); the report's tests of it go through
+//! these predicates.
 
-use crate::harness::RunRecord;
+use crate::harness::{RunRecord, RunStatus};
 
 /// The solver reported that the problem has no solution.
 pub(super) fn reported_no_solution(r: &RunRecord) -> bool {
-    r.status == "no_solution"
+    r.status == RunStatus::NoSolution
 }
 
 /// The solver declined the problem (or a step of the scene).
 pub(super) fn unsupported(r: &RunRecord) -> bool {
-    r.status == "unsupported"
+    r.status == RunStatus::Unsupported
 }
 
 /// The harness stopped the scene run because it blew up.
 pub(super) fn blew_up(r: &RunRecord) -> bool {
-    r.status == "blow_up"
+    r.status == RunStatus::BlowUp
 }
 
 /// The scene run stopped after half its budget's time.
 pub(super) fn hit_time_limit(r: &RunRecord) -> bool {
-    r.status == "time_limit"
+    r.status == RunStatus::TimeLimit
 }

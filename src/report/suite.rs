@@ -342,10 +342,7 @@ fn push(suite: &mut Suite, cases: &[Case], solvers: &[SolverSpec], budgets: &[Na
 }
 
 fn warm(s: &SolverSpec) -> SolverSpec {
-    SolverSpec {
-        warm: true,
-        ..s.clone()
-    }
+    s.clone().with_warm()
 }
 
 /// The LCP jobs: matrix and exported LCPs (budgets `default`, `tight`), the cone form of the
@@ -361,14 +358,7 @@ fn lcp_jobs(suite: &mut Suite) {
     push(suite, &exported, &cone_solvers(), &[budget("tight")]);
     let scaling = suite.scaling_cases.clone();
     push(suite, &scaling, &solvers, &[budget("default")]);
-    let omega_specs: Vec<SolverSpec> = suite
-        .omegas
-        .iter()
-        .map(|&w| SolverSpec {
-            omega: Some(w),
-            ..SolverSpec::plain(SolverKind::Sor)
-        })
-        .collect();
+    let omega_specs: Vec<SolverSpec> = suite.omegas.iter().map(|&w| SolverSpec::sor(w)).collect();
     let omega = suite.omega_cases.clone();
     push(suite, &omega, &omega_specs, &[budget("default")]);
     let iterative: Vec<SolverSpec> = solvers

@@ -221,7 +221,7 @@ fn glance_cell(r: &RunRecord) -> String {
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
     if r.is_isolation_failure() {
-        r.status.clone()
+        r.status.to_string()
     } else if status::blew_up(r) {
         format!("blow-up ({steps} steps)")
     } else if status::hit_time_limit(r) {
@@ -249,7 +249,7 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         None => "–".into(),
     };
     let status = if r.reason.is_empty() {
-        r.status.clone()
+        r.status.to_string()
     } else {
         let reason: String = r.reason.chars().take(60).collect();
         format!("{} ({reason})", r.status)

@@ -74,6 +74,6 @@ fn full_row(r: &RunRecord) -> Vec<String> {
             .iter()
             .map(|&l| r.tta(l).map(|t| format!("{t:e}")).unwrap_or_default()),
     );
-    row.push(r.status.clone());
+    row.push(r.status.to_string());
     row
 }

@@ -81,7 +81,7 @@ fn cells(r: &RunRecord) -> [String; 4] {
             format!("{nc} of {steps} (time limit)")
         }
         (Some(nc), Some(steps)) => format!("{nc} of {steps}"),
-        _ => r.status.clone(),
+        _ => r.status.to_string(),
     };
     [
         fmt_sci(r.sag),

@@ -59,7 +59,7 @@ fn row(
             .map(|i| i.to_string())
             .unwrap_or("–".into())
     };
-    let st = |r: Option<&RunRecord>| r.map(|r| r.status.clone()).unwrap_or("–".into());
+    let st = |r: Option<&RunRecord>| r.map(|r| r.status.to_string()).unwrap_or("–".into());
     vec![
         format!("`{case}`"),
         solver.to_owned(),

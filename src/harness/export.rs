@@ -1,0 +1,80 @@
+//! Exporting the problem of one step of a scene: the LCP (or, under friction model `cone`, the
+//! Coulomb-cone problem) that the stepper assembled. Used by `lcpbench export` and by the
+//! report's suite of exported LCPs ([`export_suite_lcps`]).
+
+use lcpbench_contact::scene::Scene;
+use lcpbench_contact::step::World;
+use lcpbench_solvers::{write_problem, ConeProblem, Problem};
+use std::path::{Path, PathBuf};
+
+/// The problem of one step.
+#[derive(Debug, Clone)]
+pub enum StepProblem {
+    /// A (boxed) LCP, named `SCENE step K`.
+    Lcp(Problem),
+    /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`.
+    Cone(ConeProblem),
+    /// The step had no contacts.
+    NoContacts,
+}
+
+/// The problem of step `step` (0-based) of `world`, and that step's contact count: the steps
+/// before it are simulated first (`tick` is called after each), then the step is taken with
+/// its problem kept. The problem is named `SCENE_NAME step STEP`.
+pub fn step_problem(
+    world: &mut World,
+    scene_name: &str,
+    step: usize,
+    mut tick: impl FnMut(),
+) -> (StepProblem, usize) {
+    for _ in 0..step {
+        world.step();
+        tick();
+    }
+    world.settings.keep_problem = true;
+    let report = world.step();
+    let name = format!("{scene_name} step {step}");
+    let problem = match (report.problem, report.cone_problem) {
+        (_, Some(cone)) => StepProblem::Cone(cone.with_name(name)),
+        (Some(lcp), None) => StepProblem::Lcp(lcp.with_name(name)),
+        (None, None) => StepProblem::NoContacts,
+    };
+    (problem, report.contacts)
+}
+
+/// Export one LCP per scene into `dir` (the step halfway through the run, at most step 30,
+/// simulated with the scene's own solver), skipping scenes with more than `max_bodies` dynamic
+/// bodies, scenes without an LCP at that step (no contacts, or a cone problem) and LCPs above
+/// `max_rows` rows. Returns the files written.
+pub fn export_suite_lcps(
+    scenes: &[PathBuf],
+    dir: &Path,
+    max_rows: usize,
+    max_bodies: usize,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    if scenes.is_empty() {
+        return Ok(out);
+    }
+    std::fs::create_dir_all(dir)?;
+    for path in scenes {
+        let Ok(scene) = Scene::load(path) else {
+            continue;
+        };
+        if scene.bodies.iter().filter(|b| !b.is_static).count() > max_bodies {
+            continue;
+        }
+        let k = (scene.settings.steps / 2).min(30);
+        let mut world = scene.world();
+        let (StepProblem::Lcp(problem), _) = step_problem(&mut world, &scene.name, k, || {}) else {
+            continue;
+        };
+        if problem.n() == 0 || problem.n() > max_rows {
+            continue;
+        }
+        let file = dir.join(format!("{}_step{k}.json", scene.name));
+        write_problem(&problem, &file)?;
+        out.push(file);
+    }
+    Ok(out)
+}
