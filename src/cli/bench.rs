@@ -267,7 +267,8 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
     };
     if args.no_run {
         let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
-        let header = report::Header::collect(&options.command, options.sweep.jobs);
+        let header =
+            report::Header::collect(&options.command, options.sweep.jobs, &options.out_dir);
         let readme = report::write_report(&options.out_dir, &suite, &header, 0.0)?;
         eprintln!("wrote {}", readme.display());
         return Ok(());

@@ -25,7 +25,7 @@ pub struct Header {
 impl Header {
     /// Collect the header for the current machine and working directory, for a sweep run by
     /// `workers` worker processes.
-    pub fn collect(command: &str, workers: usize) -> Self {
+    pub fn collect(command: &str, workers: usize, out_dir: &std::path::Path) -> Self {
         let cpu = std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|s| {
@@ -48,8 +48,13 @@ impl Header {
         };
         let commit = match git(&["rev-parse", "--short", "HEAD"]) {
             Some(c) => {
-                let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
-                    .is_some_and(|s| !s.is_empty());
+                // The report's own outputs (already being rewritten) do not make the tree dirty.
+                let exclude = report_pathspec(out_dir, git(&["rev-parse", "--show-toplevel"]));
+                let mut args = vec!["status", "--porcelain", "--untracked-files=no"];
+                if let Some(e) = &exclude {
+                    args.extend(["--", ".", e.as_str()]);
+                }
+                let dirty = git(&args).is_some_and(|s| !s.is_empty());
                 if dirty {
                     format!("{c}+dirty")
                 } else {
@@ -111,4 +116,13 @@ mod tests {
         assert_eq!(format_utc(951_782_400), "2000-02-29T00:00:00Z");
         assert_eq!(format_utc(1_700_000_000), "2023-11-14T22:13:20Z");
     }
+}
+
+/// The git pathspec that leaves out the report's output directory, when it lies inside the
+/// repository whose top level is `top`.
+fn report_pathspec(out_dir: &std::path::Path, top: Option<String>) -> Option<String> {
+    let top = std::fs::canonicalize(top?).ok()?;
+    let out = std::fs::canonicalize(out_dir).ok()?;
+    let rel = out.strip_prefix(&top).ok()?;
+    (!rel.as_os_str().is_empty()).then(|| format!(":(top,exclude){}", rel.display()))
 }

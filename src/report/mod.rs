@@ -112,7 +112,7 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let sweep = run_sweep_locked(&config, suite.jobs.clone(), &lock)?;
     drop(lock);
     let sweep_seconds = start.elapsed().as_secs_f64();
-    let header = Header::collect(&options.command, options.sweep.jobs);
+    let header = Header::collect(&options.command, options.sweep.jobs, &options.out_dir);
     let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
     if !options.quick {
         append_replays(&options.out_dir, &options.scenes, &readme)?;
