@@ -106,6 +106,15 @@ pub fn format_utc(secs: i64) -> String {
     )
 }
 
+/// The git pathspec that leaves out the report's output directory, when it lies inside the
+/// repository whose top level is `top`.
+fn report_pathspec(out_dir: &std::path::Path, top: Option<String>) -> Option<String> {
+    let top = std::fs::canonicalize(top?).ok()?;
+    let out = std::fs::canonicalize(out_dir).ok()?;
+    let rel = out.strip_prefix(&top).ok()?;
+    (!rel.as_os_str().is_empty()).then(|| format!(":(top,exclude){}", rel.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,13 +125,17 @@ mod tests {
         assert_eq!(format_utc(951_782_400), "2000-02-29T00:00:00Z");
         assert_eq!(format_utc(1_700_000_000), "2023-11-14T22:13:20Z");
     }
-}
 
-/// The git pathspec that leaves out the report's output directory, when it lies inside the
-/// repository whose top level is `top`.
-fn report_pathspec(out_dir: &std::path::Path, top: Option<String>) -> Option<String> {
-    let top = std::fs::canonicalize(top?).ok()?;
-    let out = std::fs::canonicalize(out_dir).ok()?;
-    let rel = out.strip_prefix(&top).ok()?;
-    (!rel.as_os_str().is_empty()).then(|| format!(":(top,exclude){}", rel.display()))
+    #[test]
+    fn the_report_directory_is_left_out_of_the_dirty_check_only_inside_the_repository() {
+        let top = std::env::temp_dir().join("lcpbench_pathspec_test");
+        std::fs::create_dir_all(top.join("reports")).unwrap();
+        let top_s = Some(top.display().to_string());
+        assert_eq!(
+            super::report_pathspec(&top.join("reports"), top_s.clone()).as_deref(),
+            Some(":(top,exclude)reports")
+        );
+        assert_eq!(super::report_pathspec(&top, top_s.clone()), None);
+        assert_eq!(super::report_pathspec(&std::env::temp_dir(), top_s), None);
+    }
 }

@@ -114,7 +114,7 @@ mod tests {
             solver: solver.to_owned(),
             solver_base: solver.to_owned(),
             budget: "default".to_owned(),
-            status: status.to_owned(),
+            status: status.parse().expect("a run status"),
             converged,
             iterations: Some(3),
             solve_time_s: Some(1e-4),
@@ -134,7 +134,7 @@ mod tests {
         let rows = [
             record(&spd, "pgs", "converged", true),
             record(&infeasible, "lemke", "no_solution", false),
-            record(&infeasible, "pgs", "max_iterations", false),
+            record(&infeasible, "pgs", "iteration_limit", false),
         ];
         std::fs::create_dir_all(dir.path().join("data")).unwrap();
         let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();

@@ -280,7 +280,7 @@ mod tests {
 
     fn run(status: &str, steps: usize, nonconverged: usize) -> RunRecord {
         RunRecord {
-            status: status.into(),
+            status: status.parse().expect("a run status"),
             steps: Some(steps),
             nonconverged_steps: Some(nonconverged),
             time_per_step_s: Some(2e-3),
@@ -299,12 +299,12 @@ mod tests {
         assert_eq!(glance_cell(&run("unsupported", 0, 0)), "✗ unsupported");
         assert_eq!(glance_cell(&run("converged", 10, 0)), "✓ 2.00 ms");
         assert_eq!(
-            glance_cell(&run("max_iterations", 10, 3)),
+            glance_cell(&run("iteration_limit", 10, 3)),
             "~ 2.00 ms (3 nc)"
         );
         assert_eq!(
-            glance_cell(&run("max_iterations", 10, 10)),
-            "✗ 2.00 ms (max_iterations)"
+            glance_cell(&run("iteration_limit", 10, 10)),
+            "✗ 2.00 ms (iteration_limit)"
         );
         // Unsupported after some steps: judged by the steps, like any other run.
         assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (1 nc)");
