@@ -157,6 +157,22 @@ pub struct SceneMetrics {
     pub wall_angle_degrees: Option<f64>,
 }
 
+impl SceneMetrics {
+    /// True for a scene that should come to rest: a stack or resting-body height, zero
+    /// expected displacement or acceleration, or `at_rest = true`.
+    pub fn is_resting(&self) -> bool {
+        self.expected_top().is_some()
+            || self.expected_displacement == Some(0.0)
+            || self.expected_acceleration == Some(0.0)
+            || self.at_rest == Some(true)
+    }
+
+    /// The expected final height of the top body (stacks, resting bodies).
+    pub fn expected_top(&self) -> Option<f64> {
+        self.expected_top_height.or(self.expected_rest_height)
+    }
+}
+
 /// One number or a list of them (an informational metric that varies across bodies).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(untagged)]

@@ -384,6 +384,43 @@ pub(crate) struct IpmLimits {
     pub(crate) time_limit: f64,
 }
 
+impl IpmLimits {
+    /// The limits of a run that may take the time left of `settings.time_budget` after
+    /// `elapsed`, at most `max_ipm_iterations` interior-point iterations, to Clarabel's
+    /// tolerance `tolerance_factor · settings.tolerance` (not below `min_tolerance`).
+    /// `Err` when the time or the iterations are already spent.
+    pub(crate) fn new(
+        settings: &Settings,
+        elapsed: std::time::Duration,
+        max_ipm_iterations: u32,
+        tolerance_factor: f64,
+        min_tolerance: f64,
+    ) -> Result<Self, Outcome> {
+        let time_limit = match settings.time_budget {
+            Some(budget) => {
+                let left = budget.saturating_sub(elapsed);
+                if left.is_zero() {
+                    return Err(Outcome::TimeLimit);
+                }
+                left.as_secs_f64()
+            }
+            None => f64::INFINITY,
+        };
+        let max_iter = settings
+            .max_iterations
+            .min(max_ipm_iterations as usize)
+            .min(u32::MAX as usize) as u32;
+        if max_iter == 0 {
+            return Err(Outcome::IterationLimit);
+        }
+        Ok(Self {
+            tol: (tolerance_factor * settings.tolerance).max(min_tolerance),
+            max_iter,
+            time_limit,
+        })
+    }
+}
+
 /// What one interior-point run returned.
 pub(crate) struct IpmRun {
     pub(crate) x: Vec<f64>,
@@ -447,55 +484,24 @@ impl Solver for ClarabelQp {
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let monitor = Monitor::new(problem, settings);
-        let n = problem.n();
-        if n == 0 {
+        if problem.n() == 0 {
             return monitor.finish(Vec::new(), 0, Outcome::Stopped);
         }
-        if !problem.is_symmetric(self.symmetry_tolerance) {
-            return monitor.finish(
-                Vec::new(),
-                0,
-                Outcome::Unsupported(format!(
-                    "A is not symmetric (relative tolerance {:.0e}); the LCP is not the KKT system of a QP",
-                    self.symmetry_tolerance
-                )),
-            );
-        }
-        let qp = ScaledQp::new(problem, self.scale);
-        if !is_psd(&qp.a_hat, self.psd_tolerance) {
-            return monitor.finish(
-                Vec::new(),
-                0,
-                Outcome::Unsupported(format!(
-                    "A is indefinite (Cholesky of the scaled A + {:.0e}·‖A‖_F·I failed); the QP is not convex",
-                    self.psd_tolerance
-                )),
-            );
-        }
-        let mut fallback = vec![0.0; n];
-        project_onto_bounds(problem, &mut fallback);
-        let time_limit = match settings.time_budget {
-            Some(budget) => {
-                let left = budget.saturating_sub(monitor.elapsed());
-                if left.is_zero() {
-                    return monitor.finish(fallback, 0, Outcome::TimeLimit);
-                }
-                left.as_secs_f64()
-            }
-            None => f64::INFINITY,
+        let qp = match self.formulate(problem) {
+            Ok(qp) => qp,
+            Err(outcome) => return monitor.finish(Vec::new(), 0, outcome),
         };
-        let tol = (self.tolerance_factor * settings.tolerance).max(self.min_ipm_tolerance);
-        let max_iter = settings
-            .max_iterations
-            .min(self.max_ipm_iterations as usize)
-            .min(u32::MAX as usize) as u32;
-        if max_iter == 0 {
-            return monitor.finish(fallback, 0, Outcome::IterationLimit);
-        }
-        let limits = IpmLimits {
-            tol,
-            max_iter,
-            time_limit,
+        let mut fallback = vec![0.0; problem.n()];
+        project_onto_bounds(problem, &mut fallback);
+        let limits = match IpmLimits::new(
+            settings,
+            monitor.elapsed(),
+            self.max_ipm_iterations,
+            self.tolerance_factor,
+            self.min_ipm_tolerance,
+        ) {
+            Ok(limits) => limits,
+            Err(outcome) => return monitor.finish(fallback, 0, outcome),
         };
         let (g, c) = qp.constraints();
         let run = run_clarabel(
@@ -514,51 +520,89 @@ impl Solver for ClarabelQp {
             Ok(r) => r,
             Err(reason) => return monitor.finish(fallback, 0, Outcome::NumericalFailure(reason)),
         };
-        let friction_note = if problem.friction().is_empty() {
-            ""
-        } else {
-            " (of the friction relaxation, not a proof for the boxed LCP)"
-        };
-        let (mut f, outcome) = match status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => (qp.unscale(&h), Outcome::Stopped),
-            SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => (
-                fallback,
-                Outcome::NoSolution(format!(
-                    "Clarabel: {status:?}, the QP is unbounded below{friction_note}; for PSD A the LCP has no solution"
-                )),
-            ),
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => (
-                fallback,
-                Outcome::NoSolution(format!(
-                    "Clarabel: {status:?}, the bounds admit no feasible point{friction_note}"
-                )),
-            ),
-            SolverStatus::MaxIterations => (qp.unscale(&h), Outcome::IterationLimit),
-            SolverStatus::MaxTime => (qp.unscale(&h), Outcome::TimeLimit),
-            SolverStatus::NumericalError
-            | SolverStatus::InsufficientProgress
-            | SolverStatus::Unsolved
-            | SolverStatus::CallbackTerminated => (
-                qp.unscale(&h),
-                Outcome::NumericalFailure(format!("Clarabel: {status:?}")),
-            ),
-        };
+        let (mut f, outcome) = interpret(problem, &qp, status, &h, fallback);
         if f.iter().all(|v| v.is_finite()) {
             project_onto_bounds(problem, &mut f);
-            let polishable = !matches!(outcome, Outcome::NoSolution(_));
-            if self.polish_refinements > 0 && polishable && problem.friction().is_empty() {
-                if let Some(g) = qp.polish(problem, &f, self.polish_refinements) {
-                    if residuals(problem, &g).natural_map_rel
-                        < residuals(problem, &f).natural_map_rel
-                    {
-                        f = g;
-                    }
-                }
+            if !matches!(outcome, Outcome::NoSolution(_)) {
+                self.polish_if_better(problem, &qp, &mut f);
             }
         }
         let mut monitor = monitor;
         monitor.record(iterations, &f);
         monitor.finish(f, iterations, outcome)
+    }
+}
+
+impl ClarabelQp {
+    /// The scaled QP of a symmetric PSD problem; otherwise why the LCP is not a convex QP.
+    fn formulate(&self, problem: &Problem) -> Result<ScaledQp, Outcome> {
+        if !problem.is_symmetric(self.symmetry_tolerance) {
+            return Err(Outcome::Unsupported(format!(
+                "A is not symmetric (relative tolerance {:.0e}); the LCP is not the KKT system of a QP",
+                self.symmetry_tolerance
+            )));
+        }
+        let qp = ScaledQp::new(problem, self.scale);
+        if !is_psd(&qp.a_hat, self.psd_tolerance) {
+            return Err(Outcome::Unsupported(format!(
+                "A is indefinite (Cholesky of the scaled A + {:.0e}·‖A‖_F·I failed); the QP is not convex",
+                self.psd_tolerance
+            )));
+        }
+        Ok(qp)
+    }
+
+    /// Replace `f` by its polished version when that lowers the shared residual (frictionless
+    /// problems only).
+    fn polish_if_better(&self, problem: &Problem, qp: &ScaledQp, f: &mut Vec<f64>) {
+        if self.polish_refinements == 0 || !problem.friction().is_empty() {
+            return;
+        }
+        if let Some(g) = qp.polish(problem, f, self.polish_refinements) {
+            if residuals(problem, &g).natural_map_rel < residuals(problem, f).natural_map_rel {
+                *f = g;
+            }
+        }
+    }
+}
+
+/// The impulse and outcome of Clarabel's `status`: its unscaled iterate `h`, or `fallback` (the
+/// bound projection of zero) when Clarabel proved infeasibility.
+fn interpret(
+    problem: &Problem,
+    qp: &ScaledQp,
+    status: SolverStatus,
+    h: &[f64],
+    fallback: Vec<f64>,
+) -> (Vec<f64>, Outcome) {
+    let friction_note = if problem.friction().is_empty() {
+        ""
+    } else {
+        " (of the friction relaxation, not a proof for the boxed LCP)"
+    };
+    match status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => (qp.unscale(h), Outcome::Stopped),
+        SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => (
+            fallback,
+            Outcome::NoSolution(format!(
+                "Clarabel: {status:?}, the QP is unbounded below{friction_note}; for PSD A the LCP has no solution"
+            )),
+        ),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => (
+            fallback,
+            Outcome::NoSolution(format!(
+                "Clarabel: {status:?}, the bounds admit no feasible point{friction_note}"
+            )),
+        ),
+        SolverStatus::MaxIterations => (qp.unscale(h), Outcome::IterationLimit),
+        SolverStatus::MaxTime => (qp.unscale(h), Outcome::TimeLimit),
+        SolverStatus::NumericalError
+        | SolverStatus::InsufficientProgress
+        | SolverStatus::Unsolved
+        | SolverStatus::CallbackTerminated => (
+            qp.unscale(h),
+            Outcome::NumericalFailure(format!("Clarabel: {status:?}")),
+        ),
     }
 }
 

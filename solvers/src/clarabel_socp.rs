@@ -232,28 +232,13 @@ impl ClarabelSocp {
         settings: &Settings,
         elapsed: std::time::Duration,
     ) -> Result<IpmLimits, Outcome> {
-        let time_limit = match settings.time_budget {
-            Some(budget) => {
-                let left = budget.saturating_sub(elapsed);
-                if left.is_zero() {
-                    return Err(Outcome::TimeLimit);
-                }
-                left.as_secs_f64()
-            }
-            None => f64::INFINITY,
-        };
-        let max_iter = settings
-            .max_iterations
-            .min(self.max_ipm_iterations as usize)
-            .min(u32::MAX as usize) as u32;
-        if max_iter == 0 {
-            return Err(Outcome::IterationLimit);
-        }
-        Ok(IpmLimits {
-            tol: (self.tolerance_factor * settings.tolerance).max(self.min_ipm_tolerance),
-            max_iter,
-            time_limit,
-        })
+        IpmLimits::new(
+            settings,
+            elapsed,
+            self.max_ipm_iterations,
+            self.tolerance_factor,
+            self.min_ipm_tolerance,
+        )
     }
 }
 

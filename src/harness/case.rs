@@ -222,94 +222,114 @@ impl std::str::FromStr for Case {
             return Ok(Case::File(PathBuf::from(path)));
         }
         if let Some(rest) = key.strip_prefix("scene:") {
-            let (path, query) = match rest.rsplit_once('?') {
-                Some((p, q)) if q.starts_with("steps=") || q.starts_with("friction=") => (p, q),
-                _ => (rest, ""),
-            };
-            let (mut steps, mut friction) = (None, None);
-            for part in query.split('&').filter(|p| !p.is_empty()) {
-                match part.split_once('=') {
-                    Some(("steps", n)) => {
-                        steps = Some(
-                            n.parse::<usize>()
-                                .ok()
-                                .filter(|&s| s >= 1)
-                                .ok_or_else(|| err(format!("`{n}` is not a step count (>= 1)")))?,
-                        )
-                    }
-                    Some(("friction", m)) => {
-                        friction = Some(FrictionModel::from_name(m).ok_or_else(|| {
-                            err(format!(
-                                "unknown friction model `{m}` (known: {})",
-                                FrictionModel::NAMES
-                            ))
-                        })?)
-                    }
-                    _ => return Err(err(format!("`{part}` is not steps=N or friction=MODEL"))),
-                }
-            }
-            return Ok(Case::Scene {
-                path: PathBuf::from(path),
-                steps,
-                friction,
-            });
+            return parse_scene_key(rest).map_err(err);
         }
-        let mut parts = key.split(':');
-        let kind = parts.next().unwrap_or_default();
-        let (mut n, mut seed, mut cond, mut rank) = (None, 0u64, None, None);
-        for part in parts {
-            let (k, v) = part
-                .split_once('=')
-                .ok_or_else(|| err(format!("`{part}` is not key=value")))?;
-            let bad = |_| err(format!("`{v}` is not a valid value for `{k}`"));
-            match k {
-                "n" => n = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
-                "seed" => {
-                    seed = v
-                        .parse()
-                        .map_err(|e: std::num::ParseIntError| bad(e.to_string()))?
-                }
-                "cond" => cond = Some(v.parse::<f64>().map_err(|e| bad(e.to_string()))?),
-                "rank" => rank = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
-                _ => return Err(err(format!("unknown parameter `{k}`"))),
-            }
-        }
-        let n = n.ok_or_else(|| err("missing `n=`".into()))?;
-        if n == 0 || n > MAX_GENERATED_N {
-            return Err(err(format!(
-                "n must be between 1 and {MAX_GENERATED_N}, got {n}"
-            )));
-        }
-        let family = match kind {
-            "spd" => {
-                let cond = cond.unwrap_or(1e3);
-                if !(cond.is_finite() && cond >= 1.0) {
-                    return Err(err(format!("cond = {cond} must be finite and >= 1")));
-                }
-                GenFamily::Spd { cond }
-            }
-            "psd" => {
-                let rank = rank.unwrap_or((n / 2).max(1));
-                if rank == 0 || rank > n {
-                    return Err(err(format!("rank = {rank} must be in 1..={n}")));
-                }
-                GenFamily::Psd { rank }
-            }
-            "pmatrix" => GenFamily::PMatrix,
-            "murty" => GenFamily::Murty,
-            "dup" => GenFamily::Duplicated,
-            "weak" => GenFamily::Weak,
-            "zerob" => GenFamily::ZeroB,
-            "infeasible" => GenFamily::Infeasible,
-            _ => {
-                return Err(err(format!(
-                    "unknown kind `{kind}` (known: spd, psd, pmatrix, murty, dup, weak, zerob, \
-                     infeasible, file:PATH, scene:PATH)"
-                )))
-            }
-        };
-        Ok(Case::Generated { family, n, seed })
+        parse_generated_key(key).map_err(err)
     }
+}
+
+/// `PATH[?steps=N][&friction=MODEL]` of a `scene:` key.
+fn parse_scene_key(rest: &str) -> Result<Case, String> {
+    let (path, query) = match rest.rsplit_once('?') {
+        Some((p, q)) if q.starts_with("steps=") || q.starts_with("friction=") => (p, q),
+        _ => (rest, ""),
+    };
+    let (mut steps, mut friction) = (None, None);
+    for part in query.split('&').filter(|p| !p.is_empty()) {
+        match part.split_once('=') {
+            Some(("steps", n)) => {
+                steps = Some(
+                    n.parse::<usize>()
+                        .ok()
+                        .filter(|&s| s >= 1)
+                        .ok_or_else(|| format!("`{n}` is not a step count (>= 1)"))?,
+                )
+            }
+            Some(("friction", m)) => {
+                friction = Some(FrictionModel::from_name(m).ok_or_else(|| {
+                    format!(
+                        "unknown friction model `{m}` (known: {})",
+                        FrictionModel::NAMES
+                    )
+                })?)
+            }
+            _ => return Err(format!("`{part}` is not steps=N or friction=MODEL")),
+        }
+    }
+    Ok(Case::Scene {
+        path: PathBuf::from(path),
+        steps,
+        friction,
+    })
+}
+
+/// `KIND:n=N[:seed=S][:cond=C][:rank=R]` of a generated case.
+fn parse_generated_key(key: &str) -> Result<Case, String> {
+    let mut parts = key.split(':');
+    let kind = parts.next().unwrap_or_default();
+    let (mut n, mut seed, mut cond, mut rank) = (None, 0u64, None, None);
+    for part in parts {
+        let (k, v) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}` is not key=value"))?;
+        let bad = |_| format!("`{v}` is not a valid value for `{k}`");
+        match k {
+            "n" => n = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
+            "seed" => {
+                seed = v
+                    .parse()
+                    .map_err(|e: std::num::ParseIntError| bad(e.to_string()))?
+            }
+            "cond" => cond = Some(v.parse::<f64>().map_err(|e| bad(e.to_string()))?),
+            "rank" => rank = Some(v.parse::<usize>().map_err(|e| bad(e.to_string()))?),
+            _ => return Err(format!("unknown parameter `{k}`")),
+        }
+    }
+    let n = n.ok_or_else(|| "missing `n=`".to_owned())?;
+    if n == 0 || n > MAX_GENERATED_N {
+        return Err(format!(
+            "n must be between 1 and {MAX_GENERATED_N}, got {n}"
+        ));
+    }
+    let family = generated_family(kind, n, cond, rank)?;
+    Ok(Case::Generated { family, n, seed })
+}
+
+/// The generated family called `kind`, with its parameters checked against `n`.
+fn generated_family(
+    kind: &str,
+    n: usize,
+    cond: Option<f64>,
+    rank: Option<usize>,
+) -> Result<GenFamily, String> {
+    Ok(match kind {
+        "spd" => {
+            let cond = cond.unwrap_or(1e3);
+            if !(cond.is_finite() && cond >= 1.0) {
+                return Err(format!("cond = {cond} must be finite and >= 1"));
+            }
+            GenFamily::Spd { cond }
+        }
+        "psd" => {
+            let rank = rank.unwrap_or((n / 2).max(1));
+            if rank == 0 || rank > n {
+                return Err(format!("rank = {rank} must be in 1..={n}"));
+            }
+            GenFamily::Psd { rank }
+        }
+        "pmatrix" => GenFamily::PMatrix,
+        "murty" => GenFamily::Murty,
+        "dup" => GenFamily::Duplicated,
+        "weak" => GenFamily::Weak,
+        "zerob" => GenFamily::ZeroB,
+        "infeasible" => GenFamily::Infeasible,
+        _ => {
+            return Err(format!(
+                "unknown kind `{kind}` (known: spd, psd, pmatrix, murty, dup, weak, zerob, \
+                 infeasible, file:PATH, scene:PATH)"
+            ))
+        }
+    })
 }
 
 impl Case {

@@ -16,7 +16,7 @@
 //! largest initial speed); stepping stops there and the row gets status `blow_up`.
 //!
 //! Scenes carry their analytic answers in the `[metrics]` table of the scene file, read once
-//! into [`Expectations`]; these keys are read (every one optional):
+//! into [`SceneMetrics`]; these keys are read (every one optional):
 //!
 //! | key                         | measured                                                        |
 //! |-----------------------------|-----------------------------------------------------------------|
@@ -43,73 +43,6 @@ use lcpbench_contact::step::{StepReport, World};
 use lcpbench_contact::SceneMetrics;
 use lcpbench_solvers::Status;
 use nalgebra::{Point3, Vector3};
-
-/// The analytic answers the harness checks, read from the scene's typed `[metrics]` table
-/// ([`SceneMetrics`]) with its defaults applied.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Expectations {
-    /// `expected_top_height`.
-    pub expected_top_height: Option<f64>,
-    /// `expected_rest_height`.
-    pub expected_rest_height: Option<f64>,
-    /// `expected_displacement`.
-    pub expected_displacement: Option<f64>,
-    /// `expected_acceleration`.
-    pub expected_acceleration: Option<f64>,
-    /// `expected_rebound_height`.
-    pub expected_rebound_height: Option<f64>,
-    /// `expected_wall_force`.
-    pub expected_wall_force: Option<f64>,
-    /// `simultaneous_velocities`.
-    pub simultaneous_velocities: Option<Vec<f64>>,
-    /// `sequential_velocities`.
-    pub sequential_velocities: Option<Vec<f64>>,
-    /// `removed_at_step`.
-    pub removed_at_step: Option<usize>,
-    /// `stick_bodies`.
-    pub stick_bodies: Vec<String>,
-    /// `at_rest`.
-    pub at_rest: bool,
-    /// `push_direction`.
-    pub push_direction: Option<Vec<f64>>,
-    /// A stack key (`expected_top_height` or `expected_rest_height`) is present, whatever its
-    /// value.
-    pub stack_key: bool,
-}
-
-impl Expectations {
-    /// Read the keys of a scene's `[metrics]` table (values of the wrong type are ignored).
-    pub fn from_metrics(m: &SceneMetrics) -> Self {
-        Self {
-            expected_top_height: m.expected_top_height,
-            expected_rest_height: m.expected_rest_height,
-            expected_displacement: m.expected_displacement,
-            expected_acceleration: m.expected_acceleration,
-            expected_rebound_height: m.expected_rebound_height,
-            expected_wall_force: m.expected_wall_force,
-            simultaneous_velocities: m.simultaneous_velocities.clone(),
-            sequential_velocities: m.sequential_velocities.clone(),
-            removed_at_step: m.removed_at_step,
-            stick_bodies: m.stick_bodies.clone().unwrap_or_default(),
-            at_rest: m.at_rest == Some(true),
-            push_direction: m.push_direction.map(|d| d.to_vec()),
-            stack_key: m.expected_top_height.is_some() || m.expected_rest_height.is_some(),
-        }
-    }
-
-    /// True for a scene that should come to rest.
-    pub fn resting(&self) -> bool {
-        self.stack_key
-            || self.expected_displacement == Some(0.0)
-            || self.expected_acceleration == Some(0.0)
-            || self.at_rest
-    }
-
-    /// The expected final height of the top body (stacks, resting bodies).
-    fn expected_top(&self) -> Option<f64> {
-        self.expected_top_height.or(self.expected_rest_height)
-    }
-}
 
 fn total_energy(world: &World) -> f64 {
     world
@@ -278,7 +211,7 @@ impl StepTotals {
                 | Status::NoSolution { .. }
                 | Status::NumericalFailure { .. }
         ) {
-            // The stepper replaced the impulse by zero.
+            // The solve gave up: the step applied no impulse or an unverified one.
             self.fallbacks += 1;
         }
     }
@@ -384,10 +317,10 @@ pub struct Rest {
 }
 
 impl Rest {
-    fn new(world: &World, frame: &Frame, expect: &Expectations, n_steps: usize) -> Self {
+    fn new(world: &World, frame: &Frame, expect: &SceneMetrics, n_steps: usize) -> Self {
         Self {
-            resting: expect.resting(),
-            stick_bodies: expect.stick_bodies.clone(),
+            resting: expect.is_resting(),
+            stick_bodies: expect.stick_bodies.clone().unwrap_or_default(),
             tail_from: n_steps - (n_steps / 10).max(1).min(n_steps),
             weight: dynamic(world).map(|b| b.mass * frame.g).sum(),
             creep: 0.0,
@@ -452,7 +385,7 @@ fn support_force(world: &World, rep: &StepReport, up: Vector3<f64>) -> f64 {
 }
 
 /// The trajectory of the first and the top body, and the analytic checks against
-/// [`Expectations`].
+/// [`SceneMetrics`].
 #[derive(Debug, Clone)]
 pub struct Trajectory {
     /// The first dynamic body and its initial position.
@@ -469,7 +402,7 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
-    fn new(world: &World, frame: &Frame, expect: &Expectations, n_steps: usize) -> Self {
+    fn new(world: &World, frame: &Frame, expect: &SceneMetrics, n_steps: usize) -> Self {
         let up = frame.up;
         let top = world
             .bodies
@@ -525,7 +458,7 @@ impl Trajectory {
         world: &World,
         last: Option<&StepReport>,
         frame: &Frame,
-        expect: &Expectations,
+        expect: &SceneMetrics,
         r: &mut RunRecord,
     ) {
         self.stack(world, frame, expect, r);
@@ -549,7 +482,7 @@ impl Trajectory {
         if let (Some(e), Some(rep)) = (expect.expected_wall_force, last) {
             wall_force(rep, e, frame.dt, r);
         }
-        if let (Some(&[x, y, z]), Some((b, p0))) = (expect.push_direction.as_deref(), body) {
+        if let (Some([x, y, z]), Some((b, p0))) = (expect.push_direction, body) {
             slide_direction(Vector3::new(x, y, z), b.position - p0, r);
         }
         final_velocities(world, expect, r);
@@ -566,7 +499,7 @@ impl Trajectory {
     }
 
     /// Stacks: sag and lateral drift of the top body.
-    fn stack(&self, world: &World, frame: &Frame, expect: &Expectations, r: &mut RunRecord) {
+    fn stack(&self, world: &World, frame: &Frame, expect: &SceneMetrics, r: &mut RunRecord) {
         let up = frame.up;
         if let (Some(h), Some((name, p0))) = (expect.expected_top(), &self.top) {
             if let Some((p, _)) = state_of(world, name) {
@@ -607,7 +540,7 @@ fn slide_direction(push: Vector3<f64>, d: Vector3<f64>, r: &mut RunRecord) {
 
 /// Final x-velocities of the dynamic bodies against the nearer of the simultaneous and the
 /// sequential answer.
-fn final_velocities(world: &World, expect: &Expectations, r: &mut RunRecord) {
+fn final_velocities(world: &World, expect: &SceneMetrics, r: &mut RunRecord) {
     let sim = expect.simultaneous_velocities.as_deref();
     let seq = expect.sequential_velocities.as_deref();
     if sim.is_none() && seq.is_none() {
@@ -643,7 +576,7 @@ pub struct TimeStop {
 /// Every scene metric of one run: `observe` each step, then `finish` into the row.
 #[derive(Debug, Clone)]
 pub struct SceneMetricsAccumulator {
-    expect: Expectations,
+    expect: SceneMetrics,
     frame: Frame,
     n_steps: usize,
     totals: StepTotals,
@@ -654,7 +587,7 @@ pub struct SceneMetricsAccumulator {
 
 impl SceneMetricsAccumulator {
     /// Start measuring `world` (in its initial state) for a run of up to `n_steps` steps.
-    pub fn new(world: &World, expect: Expectations, n_steps: usize) -> Self {
+    pub fn new(world: &World, expect: SceneMetrics, n_steps: usize) -> Self {
         let frame = Frame::of(world);
         Self {
             frame,

@@ -97,7 +97,9 @@ pub struct RunRecord {
     pub nonconverged_steps: Option<usize>,
     /// Scene: steps with a non-finite impulse or state.
     pub nan_steps: Option<usize>,
-    /// Scene: steps where the stepper fell back to another solver.
+    /// Scene: steps whose solve gave up (`unsupported`, `no_solution` or `numerical_failure`):
+    /// the step applied no impulse when the solver declined or returned a non-finite one, and
+    /// otherwise the solver's last, unverified impulse.
     pub fallback_steps: Option<usize>,
     /// Scene: the state blew up: a non-finite body state or total energy, or a body speed above
     /// `50 + 10 v₀` m/s (`v₀` the largest initial speed); see [`crate::harness::metrics`].
@@ -125,9 +127,10 @@ pub struct RunRecord {
     pub support_error: Option<f64>,
     /// Scene: largest body speed over the run, m/s.
     pub max_speed: Option<f64>,
-    /// Scene: largest contact slip speed over bodies that should stick, m/s.
+    /// Scene (resting scenes): largest body speed in the last tenth of the run, over the
+    /// scene's `stick_bodies` when it names them, else over every dynamic body, m/s.
     pub creep_speed: Option<f64>,
-    /// Scene: kinetic energy in the final second (scenes that should come to rest), J.
+    /// Scene (resting scenes): mean total kinetic energy over the last tenth of the run, J.
     pub ke_rest: Option<f64>,
     /// Scene: largest friction-cone violation `max(|f_t| − mu f_n, 0)` over steps.
     pub cone_violation: Option<f64>,

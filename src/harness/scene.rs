@@ -15,7 +15,7 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
-use crate::harness::metrics::{Expectations, SceneMetricsAccumulator, TimeStop};
+use crate::harness::metrics::{SceneMetricsAccumulator, TimeStop};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::World;
@@ -65,8 +65,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
 /// Step `world` up to `n_steps` times (or until `time_limit` seconds, or a blow-up) and fill
 /// the row.
 fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r: &mut RunRecord) {
-    let expect = Expectations::from_metrics(&scene.metrics);
-    let mut metrics = SceneMetricsAccumulator::new(world, expect, n_steps);
+    let mut metrics = SceneMetricsAccumulator::new(world, scene.metrics.clone(), n_steps);
     let start = Instant::now();
     let mut last = None;
     let mut stopped = false;
