@@ -130,6 +130,20 @@ pub enum GenFamily {
     Infeasible,
 }
 
+impl GenFamily {
+    /// The rank of a PSD case that names none: `max(n / 2, 1)`.
+    pub fn default_rank(n: usize) -> usize {
+        (n / 2).max(1)
+    }
+
+    /// PSD of the default rank.
+    pub fn psd_default(n: usize) -> Self {
+        GenFamily::Psd {
+            rank: Self::default_rank(n),
+        }
+    }
+}
+
 /// What a run solves.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Case {
@@ -311,7 +325,7 @@ fn generated_family(
             GenFamily::Spd { cond }
         }
         "psd" => {
-            let rank = rank.unwrap_or((n / 2).max(1));
+            let rank = rank.unwrap_or(GenFamily::default_rank(n));
             if rank == 0 || rank > n {
                 return Err(format!("rank = {rank} must be in 1..={n}"));
             }
@@ -381,6 +395,21 @@ impl Case {
     /// True for a scene case.
     pub fn is_scene(&self) -> bool {
         matches!(self, Case::Scene { .. })
+    }
+
+    /// A generated case.
+    pub fn generated(family: GenFamily, n: usize, seed: u64) -> Self {
+        Case::Generated { family, n, seed }
+    }
+
+    /// A generated SPD case with condition number `cond`.
+    pub fn spd(n: usize, cond: f64, seed: u64) -> Self {
+        Self::generated(GenFamily::Spd { cond }, n, seed)
+    }
+
+    /// A generated PSD case of the default rank `max(n / 2, 1)`.
+    pub fn psd(n: usize, seed: u64) -> Self {
+        Self::generated(GenFamily::psd_default(n), n, seed)
     }
 
     /// A scene case with the scene's own friction model.

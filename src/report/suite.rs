@@ -23,6 +23,7 @@
 //!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
 //!   [`SCALING_STEPS`] steps: solver time per step against contacts (full suite only).
 
+use crate::harness::case::GenFamily;
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::FrictionModel;
@@ -158,10 +159,6 @@ fn budget(name: &str) -> NamedBudget {
     name.parse().expect("preset budget")
 }
 
-fn case(key: &str) -> Case {
-    key.parse().expect("valid suite key")
-}
-
 /// Every matrix solver with default parameters, cold start.
 pub fn all_solvers() -> Vec<SolverSpec> {
     SolverKind::ALL.into_iter().map(SolverSpec::plain).collect()
@@ -187,7 +184,7 @@ struct Plan {
     /// Sizes of the generated families of the matrix.
     sizes: &'static [usize],
     /// Condition numbers of its SPD problems.
-    conds: &'static [&'static str],
+    conds: &'static [f64],
     /// Sizes of Murty's example.
     murty: &'static [usize],
     /// Sizes of the SPD scaling family.
@@ -209,7 +206,7 @@ struct Plan {
 
 const QUICK: Plan = Plan {
     sizes: &[8, 16],
-    conds: &["1e2", "1e8"],
+    conds: &[1e2, 1e8],
     murty: &[6],
     scaling: &[8, 16, 32],
     mid: 16,
@@ -223,7 +220,7 @@ const QUICK: Plan = Plan {
 
 const FULL: Plan = Plan {
     sizes: &[10, 50, 200],
-    conds: &["1e2", "1e4", "1e6", "1e8", "1e10"],
+    conds: &[1e2, 1e4, 1e6, 1e8, 1e10],
     murty: &[6, 10, 14],
     scaling: &[16, 32, 64, 128, 256, 512],
     mid: 100,
@@ -238,7 +235,17 @@ const FULL: Plan = Plan {
 };
 
 /// Families of the robustness matrix besides SPD, each at every size with seed 1.
-const MATRIX_FAMILIES: [&str; 6] = ["psd", "pmatrix", "dup", "weak", "zerob", "infeasible"];
+/// The generated families of the matrix besides SPD (PSD of the default rank).
+fn matrix_families(n: usize) -> [GenFamily; 6] {
+    [
+        GenFamily::psd_default(n),
+        GenFamily::PMatrix,
+        GenFamily::Duplicated,
+        GenFamily::Weak,
+        GenFamily::ZeroB,
+        GenFamily::Infeasible,
+    ]
+}
 
 /// Build the default suite (`quick`: a much smaller one for tests). `scenes` are scene files and
 /// `exported` problem files exported from scenes.
@@ -263,44 +270,38 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
 /// the warm-start comparison.
 fn generated_cases(suite: &mut Suite, plan: &Plan) {
     for &n in plan.sizes {
-        for cond in plan.conds {
-            suite
-                .matrix_cases
-                .push(case(&format!("spd:n={n}:cond={cond}:seed=1")));
+        for &cond in plan.conds {
+            suite.matrix_cases.push(Case::spd(n, cond, 1));
         }
-        for fam in MATRIX_FAMILIES {
-            suite
-                .matrix_cases
-                .push(case(&format!("{fam}:n={n}:seed=1")));
+        for family in matrix_families(n) {
+            suite.matrix_cases.push(Case::generated(family, n, 1));
         }
     }
     for &n in plan.murty {
-        suite.matrix_cases.push(case(&format!("murty:n={n}")));
+        suite
+            .matrix_cases
+            .push(Case::generated(GenFamily::Murty, n, 0));
     }
     let big = plan.sizes[plan.sizes.len() - 1];
     let cond = plan.conds[plan.conds.len() / 2];
     suite.history_cases = vec![
-        case(&format!("spd:n={big}:cond={cond}:seed=1")),
-        case(&format!("psd:n={big}:seed=1")),
-        case(&format!("pmatrix:n={big}:seed=1")),
+        Case::spd(big, cond, 1),
+        Case::psd(big, 1),
+        Case::generated(GenFamily::PMatrix, big, 1),
     ];
-    suite.scaling_cases = plan
-        .scaling
-        .iter()
-        .map(|n| case(&format!("spd:n={n}:cond=1e3:seed=2")))
-        .collect();
+    suite.scaling_cases = plan.scaling.iter().map(|&n| Case::spd(n, 1e3, 2)).collect();
     let mid = plan.mid;
     suite.omega_cases = vec![
-        case(&format!("spd:n={mid}:cond=1e2:seed=3")),
-        case(&format!("spd:n={mid}:cond=1e4:seed=3")),
-        case(&format!("psd:n={mid}:seed=3")),
+        Case::spd(mid, 1e2, 3),
+        Case::spd(mid, 1e4, 3),
+        Case::psd(mid, 3),
     ];
     suite.omegas = plan.omegas.to_vec();
     suite.warm_cases = vec![
-        case(&format!("spd:n={mid}:cond=1e2:seed=4")),
-        case(&format!("spd:n={mid}:cond=1e4:seed=4")),
-        case(&format!("psd:n={mid}:seed=4")),
-        case(&format!("dup:n={mid}:seed=4")),
+        Case::spd(mid, 1e2, 4),
+        Case::spd(mid, 1e4, 4),
+        Case::psd(mid, 4),
+        Case::generated(GenFamily::Duplicated, mid, 4),
     ];
 }
 
