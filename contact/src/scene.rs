@@ -449,6 +449,12 @@ impl Scene {
         solver_from_name(name, self.penalty)
     }
 
+    /// The body-level solver `kind` with default parameters, except `penalty`, which takes the
+    /// scene's `penalty_*` settings.
+    pub fn body_solver(&self, kind: crate::BodySolverKind) -> ContactSolver {
+        body_solver(kind, self.penalty)
+    }
+
     /// A world ready to step.
     pub fn world(&self) -> World {
         let mut world = World::new(
@@ -479,10 +485,18 @@ pub fn default_solver(friction: FrictionModel) -> ContactSolver {
 
 /// [`ContactSolver::from_name`], with `penalty` built from the given parameters.
 fn solver_from_name(name: &str, penalty: Penalty) -> Option<ContactSolver> {
-    if name == crate::BodySolverKind::Penalty.name() {
-        return Some(ContactSolver::Body(Box::new(penalty)));
+    match crate::BodySolverKind::from_name(name) {
+        Some(kind) => Some(body_solver(kind, penalty)),
+        None => ContactSolver::from_name(name),
     }
-    ContactSolver::from_name(name)
+}
+
+/// The body-level solver `kind`, with `penalty` built from the given parameters.
+fn body_solver(kind: crate::BodySolverKind, penalty: Penalty) -> ContactSolver {
+    match kind {
+        crate::BodySolverKind::Penalty => ContactSolver::Body(Box::new(penalty)),
+        kind => kind.into(),
+    }
 }
 
 type FieldError = (String, String);

@@ -133,7 +133,7 @@ fn load_world(
         let choice = name
             .parse::<SolverSpec>()
             .ok()
-            .and_then(|spec| spec.contact_solver(|kind| scene.solver_from_name(kind.name())))
+            .and_then(|spec| spec.contact_solver(&scene))
             .with_context(|| {
                 format!(
                     "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",

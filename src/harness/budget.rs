@@ -3,6 +3,7 @@
 //! name, level, problem classes and plot colour.
 
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::scene::Scene;
 use lcpbench_contact::ContactSolver;
 use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Settings, Solver, SolverKind};
 use std::fmt;
@@ -382,17 +383,14 @@ impl SolverSpec {
         }
     }
 
-    /// The solver instance the stepper takes, with every parameter of the specification
-    /// (`None` for a fault pseudo-solver). This is the one place where a specification becomes
-    /// a stepper's solver; `body` builds the body-level solvers (the scene's penalty settings
-    /// live there).
-    pub fn contact_solver(
-        &self,
-        body: impl FnOnce(BodySolverKind) -> Option<ContactSolver>,
-    ) -> Option<ContactSolver> {
+    /// The solver instance the stepper takes for `scene`, with every parameter of the
+    /// specification (`None` for a fault pseudo-solver). This is the one place where a
+    /// specification becomes a stepper's solver; body-level solvers come from the scene, whose
+    /// settings hold the penalty parameters.
+    pub fn contact_solver(&self, scene: &Scene) -> Option<ContactSolver> {
         match *self {
             Self::Matrix { .. } => self.create().map(ContactSolver::Matrix),
-            Self::Body { kind, .. } => body(kind),
+            Self::Body { kind, .. } => Some(scene.body_solver(kind)),
             Self::Cone { .. } => self.create_cone().map(ContactSolver::Cone),
             Self::Fault(_) => None,
         }

@@ -39,7 +39,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
     if let Some(model) = friction {
         scene.settings.builder.friction_model = *model;
     }
-    let Some(choice) = spec.contact_solver(|kind| scene.solver_from_name(kind.name())) else {
+    let Some(choice) = spec.contact_solver(&scene) else {
         return RunOutput::failed(record, RunStatus::Error, "no solver");
     };
     if let Err(reason) = check_solver(&choice, scene.settings.builder.friction_model) {
