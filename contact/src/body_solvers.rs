@@ -169,9 +169,9 @@ pub enum Measure<'a> {
 
 /// A contact solver that works on bodies through the [`DelassusOperator`] (matrix-free).
 ///
-/// Every body-level solver is `Clone` (through [`BodySolverClone`]); none keeps a workspace,
+/// Every body-level solver is `Clone` (through [`dyn_clone::DynClone`]); none keeps a workspace,
 /// so a clone answers exactly as a fresh solver of the same parameters.
-pub trait BodySolver: BodySolverClone {
+pub trait BodySolver: dyn_clone::DynClone {
     /// Which solver of the catalogue this is.
     fn kind(&self) -> BodySolverKind;
 
@@ -222,24 +222,7 @@ pub trait BodySolver: BodySolverClone {
     }
 }
 
-/// A boxed copy of a [`BodySolver`] (the dyn-clone pattern); implemented for every
-/// `BodySolver + Clone + Send + 'static`.
-pub trait BodySolverClone {
-    /// A boxed clone of this solver.
-    fn clone_box(&self) -> Box<dyn BodySolver + Send>;
-}
-
-impl<T: BodySolver + Clone + Send + 'static> BodySolverClone for T {
-    fn clone_box(&self) -> Box<dyn BodySolver + Send> {
-        Box::new(self.clone())
-    }
-}
-
-impl Clone for Box<dyn BodySolver + Send> {
-    fn clone(&self) -> Self {
-        self.clone_box()
-    }
-}
+dyn_clone::clone_trait_object!(BodySolver);
 
 impl std::fmt::Debug for dyn BodySolver + Send {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -65,8 +65,8 @@ use std::time::Instant;
 /// The contact solver of a scene, as an owned, configured instance: a matrix solver of
 /// `lcpbench-solvers`, a body-level one, or a solver of the exact Coulomb cone. Every parameter
 /// of the instance (SOR's `omega`, Newton's settings, the penalty spring) reaches the steps.
-/// Cloning clones the instance ([`lcpbench_solvers::SolverClone`]); islands solved in parallel
-/// each get a clone of the instance the world was given.
+/// Cloning clones the instance (`dyn_clone::DynClone`, which every solver trait requires);
+/// islands solved in parallel each get a clone of the instance the world was given.
 #[derive(Clone)]
 pub enum ContactSolver {
     /// A solver on the assembled LCP (friction models `none`, `box`, `pyramid`).

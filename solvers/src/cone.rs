@@ -424,33 +424,16 @@ fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) 
 /// [`SolveResult::f`]), velocities `u` (in [`SolveResult::w`]) and a status decided by the cone
 /// residual alone.
 ///
-/// Every cone solver is `Clone` (through [`ConeSolverClone`]); none keeps a workspace between
+/// Every cone solver is `Clone` (through [`dyn_clone::DynClone`]); none keeps a workspace between
 /// solves, so a clone answers exactly as a fresh solver of the same parameters.
-pub trait ConeSolver: ConeSolverClone {
+pub trait ConeSolver: dyn_clone::DynClone {
     /// Short name (`nsgs-cone`, `newton-ac`).
     fn name(&self) -> &'static str;
     /// Solve. Never panics on a valid [`ConeProblem`]; every outcome is a [`Status`].
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult;
 }
 
-/// A boxed copy of a [`ConeSolver`] (the dyn-clone pattern); implemented for every
-/// `ConeSolver + Clone + Send + 'static`.
-pub trait ConeSolverClone {
-    /// A boxed clone of this solver.
-    fn clone_box(&self) -> Box<dyn ConeSolver + Send>;
-}
-
-impl<T: ConeSolver + Clone + Send + 'static> ConeSolverClone for T {
-    fn clone_box(&self) -> Box<dyn ConeSolver + Send> {
-        Box::new(self.clone())
-    }
-}
-
-impl Clone for Box<dyn ConeSolver + Send> {
-    fn clone(&self) -> Self {
-        self.clone_box()
-    }
-}
+dyn_clone::clone_trait_object!(ConeSolver);
 
 impl Measured for ConeProblem {
     const UNKNOWN: (&'static str, &'static str) = ("reaction", "r");

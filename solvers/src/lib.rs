@@ -61,7 +61,7 @@ pub use clarabel_qp::ClarabelQp;
 pub use clarabel_socp::ClarabelSocp;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
-    ConeSolver, ConeSolverClone,
+    ConeSolver,
 };
 pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use dantzig::Dantzig;
@@ -83,8 +83,7 @@ pub use nsgs_cone::NsgsCone;
 pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{
-    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, SolverClone,
-    Status,
+    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, Status,
 };
 
 /// The solvers lcpbench ships, by name.

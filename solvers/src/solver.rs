@@ -153,36 +153,19 @@ pub struct SolveResult {
 
 /// A contact solver: takes a problem, returns an impulse and an honest status.
 ///
-/// Every solver is `Clone` (through [`SolverClone`]), so a configured instance can be copied,
-/// for example one per island of a time step. A clone carries the solver's parameters and
+/// Every solver is `Clone` (through [`dyn_clone::DynClone`]), so a configured instance can be
+/// copied, for example one per island of a time step. A clone carries the solver's parameters and
 /// whatever workspace it keeps between solves (only [`crate::Newton`] keeps one: the last
 /// symbolic factorisation, reused only while the sparsity pattern is unchanged, so a clone
 /// gives bit-identical answers to a fresh solver of the same parameters).
-pub trait Solver: SolverClone {
+pub trait Solver: dyn_clone::DynClone {
     /// Short name (`pgs`, `lemke`, ...).
     fn name(&self) -> &'static str;
     /// Solve. Never panics on a valid [`Problem`]; every outcome is a [`Status`].
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult;
 }
 
-/// A boxed copy of a [`Solver`] (the dyn-clone pattern); implemented for every
-/// `Solver + Clone + Send + 'static`.
-pub trait SolverClone {
-    /// A boxed clone of this solver, parameters and workspace included.
-    fn clone_box(&self) -> Box<dyn Solver + Send>;
-}
-
-impl<T: Solver + Clone + Send + 'static> SolverClone for T {
-    fn clone_box(&self) -> Box<dyn Solver + Send> {
-        Box::new(self.clone())
-    }
-}
-
-impl Clone for Box<dyn Solver + Send> {
-    fn clone(&self) -> Self {
-        self.clone_box()
-    }
-}
+dyn_clone::clone_trait_object!(Solver);
 
 /// What a solver's own loop concluded, before the shared residual has its say. Public so that
 /// solvers outside this crate (the body-level solvers of `lcpbench-contact`) decide their status
