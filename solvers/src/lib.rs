@@ -75,7 +75,9 @@ pub use io::{
 pub use lemke::Lemke;
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use micro_impulse::MicroImpulse;
-pub use newton::{FrictionHandling, LinearSystem, Newton, NewtonWorkspace, Reformulation};
+pub use newton::{
+    FrictionHandling, LinearSystem, Newton, NewtonWorkspace, Reformulation, SparseForm,
+};
 pub use newton_ac::NewtonAc;
 pub use nncg::Nncg;
 pub use nsgs::Nsgs;

@@ -21,12 +21,14 @@
 //! s)` (`s` the residual scale; a Levenberg-type regularisation that keeps the system regular on
 //! PSD, rank-deficient `A` and vanishes at the solution, so the local convergence stays
 //! quadratic), by an LU factorisation (faer, partial pivoting): dense for small or dense
-//! islands, sparse (COLAMD ordering; the symbolic analysis is kept in [`Newton::workspace`] and reused
-//! while the pattern stays the same, as it does on a resting stack from step to step) for sparse ones, and for
-//! contact problems that carry their factors `A = J M⁻¹ Jᵀ` in the *augmented body-space form*
-//! `[diag(α)+μI+Γ, diag(β)J; M⁻¹Jᵀ, −I] [d; u] = [−Φ; 0]`, whose `O(nnz(J))` entries fill far
-//! less than `A`'s (the body-space system of MuJoCo's Newton solver, kept unsymmetric for the
-//! friction coupling). The direction is accepted when it makes
+//! islands, sparse (COLAMD ordering, supernodal; the symbolic analysis and the storage of the
+//! numeric factors are kept in [`Newton::workspace`] and reused while the pattern stays the same,
+//! as it does on a resting stack from step to step) for sparse ones, and for contact problems
+//! that carry their factors `A = J M⁻¹ Jᵀ`, when `A` is the denser of the two, in the
+//! *augmented body-space form* `[diag(α)+μI+Γ, diag(β)J; M⁻¹Jᵀ, −I] [d; u] = [−Φ; 0]`, whose
+//! `O(nnz(J))` entries fill far less than `A`'s on piles and pyramids (the body-space system of
+//! MuJoCo's Newton solver, kept unsymmetric for the friction coupling; [`SparseForm`]). The
+//! direction is accepted when it makes
 //! an angle with `−∇θ` below 90° by a margin, `∇θᵀd <= −10⁻⁸ ‖∇θ‖ ‖d‖`, for the merit
 //! `θ = ½‖Φ‖²` (a scale-free form of De Luca, Facchinei, Kanzow's test `∇θᵀd <= −ρ‖d‖ᵖ`, which
 //! rejects the long steps along the null space of a rank-deficient `A` once `θ` is small);
@@ -42,7 +44,8 @@
 //!   [`FrictionHandling::FixedPoint`], with their bounds frozen at the current normals in each
 //!   linearisation (a fixed point on the bounds; slower, but no coupling entries).
 //! * **Cost**: one LU per iteration (dense: `⅔ n³`; sparse: the fill of the ordering, about
-//!   60 ms for the 4,800-row island of `pyramid_20` in body-space form), plus `O(nnz)` for `H`,
+//!   40 ms for the 4,800-row island of `pyramid_20` in body-space form, 1 ms for a 40-box
+//!   tower's 480 rows in the Delassus form), plus `O(nnz)` for `H`,
 //!   `∇θ` and the products with `A`; line-search trials cost `O(n)` each.
 //! * **Failure modes**: a line search that cannot decrease `θ` along either direction ends the
 //!   solve (`Stalled`, at a stationary point of `θ` that is not a solution, possible when `A` is
@@ -66,10 +69,13 @@ use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
     SolveResult, Solver,
 };
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
 use faer::Mat;
+use faer::{Conj, Par};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
@@ -109,19 +115,22 @@ pub struct Newton {
     pub max_sparse: usize,
     /// How the Newton systems are factorised. Default [`LinearSystem::Auto`].
     pub linear_system: LinearSystem,
-    /// Factorise the sparse systems in the augmented body-space form when the problem carries
-    /// its [`DelassusFactors`] (see `SparseJacobian::augmented`). Default `true`.
-    pub body_space: bool,
+    /// Which sparse system is factorised. Default [`SparseForm::Auto`].
+    pub sparse_form: SparseForm,
     /// Workspace kept between solves: the last sparse pattern's ordering and symbolic LU,
     /// reused while the pattern of the Newton system stays the same from one solve to the next
     /// (a resting stack keeps its contacts for many steps). Default empty.
     pub workspace: NewtonWorkspace,
 }
 
-/// What [`Newton`] keeps between solves (opaque).
+/// What [`Newton`] keeps between solves (opaque): the symbolic analysis of the last sparse
+/// pattern, and the storage of the numeric LU factors, which keeps its capacity from one
+/// factorisation to the next (the factors' size is known only once pivoting has run, so fresh
+/// storage would grow column by column every iteration).
 #[derive(Debug, Clone, Default)]
 pub struct NewtonWorkspace {
     symbolic: Option<SymbolicCache>,
+    numeric: NumericLu<usize, f64>,
 }
 
 /// A sparse pattern with its column ordering and symbolic LU.
@@ -155,6 +164,19 @@ pub enum LinearSystem {
     Sparse,
 }
 
+/// Which sparse system gives the Newton directions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SparseForm {
+    /// The augmented body-space form when the problem carries its [`DelassusFactors`] and `A`
+    /// has more than twice the augmented system's entries; the Delassus form otherwise.
+    Auto,
+    /// `H` itself, on the stored pattern of `A`.
+    Delassus,
+    /// The augmented body-space form (see `SparseJacobian::augmented`) when the problem carries
+    /// its factors; the Delassus form otherwise.
+    BodySpace,
+}
+
 impl Default for Newton {
     fn default() -> Self {
         Self::fischer_burmeister()
@@ -170,7 +192,7 @@ impl Newton {
             max_dense: 3000,
             max_sparse: 200_000,
             linear_system: LinearSystem::Auto,
-            body_space: true,
+            sparse_form: SparseForm::Auto,
             workspace: NewtonWorkspace::default(),
         }
     }
@@ -359,6 +381,10 @@ struct SparseJacobian {
     /// The pattern (`pairs` in the order of `entries`), its ordering and symbolic LU.
     pattern: SymbolicCache,
     values: Vec<f64>,
+    /// Numeric LU factors (storage taken from the workspace and given back) and the scratch
+    /// memory of factorisation and solve.
+    numeric: NumericLu<usize, f64>,
+    scratch: MemBuffer,
 }
 
 impl SparseJacobian {
@@ -466,7 +492,14 @@ impl SparseJacobian {
                     size, size, &pairs,
                 )
                 .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
-                let lu = SymbolicLu::try_new(symbolic.as_ref())
+                // Supernodal always: the contact blocks (three rows per contact point, six
+                // columns per body) make dense supernodes, and faer's flop-ratio rule chose the
+                // simplicial LU on towers, where it took 2.6× the instructions.
+                let params = LuSymbolicParams {
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                    ..Default::default()
+                };
+                let lu = factorize_symbolic_lu(symbolic.as_ref(), params)
                     .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
                 SymbolicCache {
                     size,
@@ -478,11 +511,21 @@ impl SparseJacobian {
             }
         };
         let values = vec![0.0; entries.len()];
+        let scratch = StackReq::any_of(&[
+            pattern
+                .lu
+                .factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            pattern.lu.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let scratch = MemBuffer::try_new(scratch)
+            .map_err(|_| "no memory for the sparse LU's scratch space".to_string())?;
         Ok(Self {
             entries,
             size,
             pattern,
             values,
+            numeric: NumericLu::new(),
+            scratch,
         })
     }
 }
@@ -678,6 +721,7 @@ impl Newton {
         };
         if let Some(Jacobian::Sparse(j)) = jacobian {
             self.workspace.symbolic = Some(j.pattern);
+            self.workspace.numeric = j.numeric;
         }
         // A stop within tolerance returns the projected iterate already; otherwise the better
         // of the iterate and its projection.
@@ -699,11 +743,30 @@ impl Newton {
         }
         let cache = self.workspace.symbolic.take();
         let built = match problem.factors() {
-            Some(factors) if self.body_space => SparseJacobian::augmented(problem, factors, cache),
+            Some(factors)
+                if self.sparse_form == SparseForm::BodySpace
+                    || (self.sparse_form == SparseForm::Auto
+                        && augmented_pays(problem, factors)) =>
+            {
+                SparseJacobian::augmented(problem, factors, cache)
+            }
             _ => SparseJacobian::new(problem, cache),
         };
-        built.map(|j| Jacobian::Sparse(Box::new(j)))
+        built.map(|mut j| {
+            j.numeric = std::mem::take(&mut self.workspace.numeric);
+            Jacobian::Sparse(Box::new(j))
+        })
     }
+}
+
+/// Whether the augmented body-space system is worth its extra unknowns: when `A` has more
+/// than twice its entries (about `2·nnz(J) + n + 6·bodies`). Measured: a 40-box tower (A has
+/// 1.4× the augmented entries) factorises in 0.6× the time in the `A` form; the 4,800-row
+/// `pyramid_20` island (3.5×) in 0.7× the time in the augmented form.
+fn augmented_pays(problem: &Problem, factors: &DelassusFactors) -> bool {
+    let jac = factors.jacobian();
+    let augmented = 2 * jac.compute_nnz() + problem.n() + jac.ncols();
+    problem.nnz() > 2 * augmented
 }
 
 /// The merit gradient `∇θ = HᵀΦ` for `H = diag(α) + diag(β) D⁻¹A + coupling` (`beta` holds
@@ -783,11 +846,23 @@ fn sparse_direction(
     let Ok(h) = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &j.values) else {
         return failed();
     };
-    let Ok(lu) = Lu::try_new_with_symbolic(p.lu.clone(), h.as_ref()) else {
+    let stack = MemStack::new(&mut j.scratch);
+    let Ok(lu) = p.lu.factorize_numeric_lu(
+        &mut j.numeric,
+        h.as_ref(),
+        Par::Seq,
+        stack,
+        Default::default(),
+    ) else {
         return failed();
     };
     let mut dir = Mat::from_fn(j.size, 1, |i, _| if i < n { -phi[i] } else { 0.0 });
-    lu.solve_in_place(&mut dir);
+    lu.solve_in_place_with_conj(
+        Conj::No,
+        dir.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut j.scratch),
+    );
     (0..n).map(|i| dir[(i, 0)]).collect()
 }
 
@@ -1007,22 +1082,22 @@ mod tests {
             };
             for reformulation in [Reformulation::FischerBurmeister, Reformulation::MinMap] {
                 let mut answers = Vec::new();
-                for (linear_system, body_space) in [
-                    (LinearSystem::Dense, false),
-                    (LinearSystem::Sparse, false),
-                    (LinearSystem::Sparse, true),
+                for (linear_system, sparse_form) in [
+                    (LinearSystem::Dense, SparseForm::Auto),
+                    (LinearSystem::Sparse, SparseForm::Delassus),
+                    (LinearSystem::Sparse, SparseForm::BodySpace),
                 ] {
                     let mut s = Newton {
                         reformulation,
                         linear_system,
-                        body_space,
+                        sparse_form,
                         ..Newton::default()
                     };
                     let r = s.solve(&p, &settings);
                     assert_eq!(
                         r.status,
                         Status::Converged,
-                        "{reformulation:?} {linear_system:?} body space {body_space}, seed {seed}: {}",
+                        "{reformulation:?} {linear_system:?} {sparse_form:?}, seed {seed}: {}",
                         r.residuals.natural_map_rel
                     );
                     answers.push(r.f);

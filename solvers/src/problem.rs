@@ -644,9 +644,10 @@ impl Problem {
     }
 
     /// The independent sub-problems: rows grouped so that no nonzero of `A` and no friction row
-    /// links two groups (union–find over the nonzeros, `O(nnz)`). Each group's rows are
-    /// increasing; groups are ordered by their first row. A dense `A` with no zero off-diagonal
-    /// entries is one group.
+    /// links two groups (union–find over the nonzeros, `O(nnz)`; over the bodies of `J`,
+    /// `O(nnz(J))`, when the problem carries its factors: rows that share a body are joined,
+    /// which joins every pair with `A_ij ≠ 0`). Each group's rows are increasing; groups are
+    /// ordered by their first row. A dense `A` with no zero off-diagonal entries is one group.
     pub fn islands(&self) -> Vec<Vec<usize>> {
         let n = self.n();
         let mut parent: Vec<usize> = (0..n).collect();
@@ -663,12 +664,31 @@ impl Problem {
                 parent[ra.max(rb)] = ra.min(rb);
             }
         };
-        for i in 0..n {
-            for (j, v) in self.row(i).iter() {
-                if v != 0.0 && j != i {
-                    union(&mut parent, i, j);
+        if let Some(factors) = self.factors() {
+            // The first row seen on each body; later rows on it join that row's group.
+            let sym = factors.jacobian().symbolic();
+            let (ptr, idx) = (sym.row_ptr(), sym.col_idx());
+            let mut first = vec![usize::MAX; factors.inverse_mass().len()];
+            for i in 0..n {
+                for &c in &idx[ptr[i]..ptr[i + 1]] {
+                    let body = c / 6;
+                    if first[body] == usize::MAX {
+                        first[body] = i;
+                    } else if first[body] != i {
+                        union(&mut parent, i, first[body]);
+                    }
                 }
             }
+        } else {
+            for i in 0..n {
+                for (j, v) in self.row(i).iter() {
+                    if v != 0.0 && j != i {
+                        union(&mut parent, i, j);
+                    }
+                }
+            }
+        }
+        for i in 0..n {
             if let Some((k, _)) = self.friction_of[i] {
                 union(&mut parent, i, k);
             }
@@ -1152,6 +1172,38 @@ mod tests {
         assert_eq!(sub.entry(0, 1), -1.0);
         assert_eq!(sub.friction_of(2), Some((0, 0.5)));
         assert_eq!(sub.b(), &[-2.0, -0.5, 0.1]);
+    }
+
+    /// With factors, islands come from the bodies of `J` and match those of `A`'s nonzeros.
+    #[test]
+    fn islands_from_the_bodies_of_j_match_those_of_a() {
+        // Rows 0 and 1 on body 0; row 2 on bodies 1 and 2; row 3 on body 2; row 4 on body 3.
+        let touches: [&[usize]; 5] = [&[0], &[0], &[1, 2], &[2], &[3]];
+        let triplets: Vec<Triplet<usize, usize, f64>> = touches
+            .iter()
+            .enumerate()
+            .flat_map(|(i, bodies)| {
+                bodies.iter().flat_map(move |&b| {
+                    (0..6).map(move |c| Triplet::new(i, 6 * b + c, 1.0 + c as f64))
+                })
+            })
+            .collect();
+        let jac = SparseRowMat::try_new_from_triplets(5, 24, &triplets).unwrap();
+        let dense_j = jac.to_dense();
+        let a = &dense_j * dense_j.transpose();
+        let mut identity = [[0.0; 6]; 6];
+        for (k, row) in identity.iter_mut().enumerate() {
+            row[k] = 1.0;
+        }
+        let factors = DelassusFactors::new(jac, vec![identity; 4]).unwrap();
+        let plain = Problem::lcp(a.clone(), vec![-1.0; 5]).unwrap();
+        let with = Problem::lcp(a, vec![-1.0; 5])
+            .unwrap()
+            .with_factors(factors)
+            .unwrap();
+        let expected = vec![vec![0, 1], vec![2, 3], vec![4]];
+        assert_eq!(plain.islands(), expected);
+        assert_eq!(with.islands(), expected);
     }
 
     #[test]
