@@ -64,6 +64,7 @@
 
 use crate::apgd::project;
 use crate::metrics::residuals;
+use crate::pgs::sweep_assembled;
 use crate::problem::{DelassusFactors, Problem};
 use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
@@ -574,6 +575,11 @@ impl Newton {
         // the tolerance costs no factorisation analysis.
         let mut jacobian: Option<Jacobian> = None;
         let d = problem.diagonal_scale();
+        let d = &d[..];
+        let amax = problem.max_abs_entry();
+        let skip: Vec<bool> = (0..n)
+            .map(|i| problem.diagonal(i) <= 1e-12 * amax)
+            .collect();
         let b = problem.b();
         let scale = {
             let s = (0..n)
@@ -621,10 +627,8 @@ impl Newton {
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
-            let mut fp = f.clone();
-            project(problem, &mut fp);
-            if residuals(problem, &fp).natural_map_rel <= tol {
-                f = fp;
+            if let Some(done) = finished(problem, &f, &skip, d, tol) {
+                f = done;
                 break Outcome::Stopped;
             }
             if iterations >= settings.max_iterations {
@@ -723,13 +727,21 @@ impl Newton {
             self.workspace.symbolic = Some(j.pattern);
             self.workspace.numeric = j.numeric;
         }
-        // A stop within tolerance returns the projected iterate already; otherwise the better
-        // of the iterate and its projection.
+        // A stop within tolerance returns the finished iterate already; otherwise the best of
+        // the iterate, its projection and the polished projection.
         if outcome != Outcome::Stopped {
+            let mut best = residuals(problem, &f).natural_map_rel;
             let mut fp = f.clone();
             project(problem, &mut fp);
-            if residuals(problem, &fp).natural_map_rel <= residuals(problem, &f).natural_map_rel {
-                f = fp;
+            for polish in [false, true] {
+                if polish {
+                    sweep_assembled(problem, &mut fp, &skip, d, 1.0);
+                }
+                let r = residuals(problem, &fp).natural_map_rel;
+                if r <= best {
+                    best = r;
+                    f.clone_from(&fp);
+                }
             }
         }
         monitor.finish(f, iterations, outcome)
@@ -757,6 +769,24 @@ impl Newton {
             Jacobian::Sparse(Box::new(j))
         })
     }
+}
+
+/// The iterate to return when `f` is done: its projection onto the bounds when that meets the
+/// tolerance, else the projection after one projected Gauss–Seidel sweep when that does.
+///
+/// The sweep is the polish for rows whose data are all at round-off level next to the rest
+/// (the friction rows of a resting sphere: `b_t` and every `A_tj f_j` near `1e-18` where the
+/// normals are near 1). The relative residual measures such a row against its own scale, but
+/// the Newton step carries the linear solve's error, `ε` times the whole system's scale, into
+/// it; one sweep solves each such row to its own scale, and leaves converged rows converged.
+fn finished(problem: &Problem, f: &[f64], skip: &[bool], d: &[f64], tol: f64) -> Option<Vec<f64>> {
+    let mut fp = f.to_vec();
+    project(problem, &mut fp);
+    if residuals(problem, &fp).natural_map_rel <= tol {
+        return Some(fp);
+    }
+    sweep_assembled(problem, &mut fp, skip, d, 1.0);
+    (residuals(problem, &fp).natural_map_rel <= tol).then_some(fp)
 }
 
 /// Whether the augmented body-space system is worth its extra unknowns: when `A` has more

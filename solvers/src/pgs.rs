@@ -213,7 +213,7 @@ impl Solver for ProjectedSor {
 
 /// One sweep over the stored rows of `A`. Returns the largest relative row error of the rows
 /// that moved, and whether any moved.
-fn sweep_assembled(
+pub(crate) fn sweep_assembled(
     problem: &Problem,
     f: &mut [f64],
     skip: &[bool],
