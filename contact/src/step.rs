@@ -281,6 +281,10 @@ pub struct SimSettings {
     /// Solve each island (contacts sharing no dynamic body) on its own, in parallel when there
     /// are several \[`true`\]. Off: one problem for the whole step.
     pub islands: bool,
+    /// Wall-clock deadline of the solves: each matrix or cone solve gets the time left as its
+    /// time budget and ends `time_limit` when it runs out, so a run with a time budget cannot
+    /// be held past it by one long step \[none\].
+    pub deadline: Option<Instant>,
 }
 
 impl Default for SimSettings {
@@ -300,6 +304,7 @@ impl Default for SimSettings {
             residuals: true,
             record_history: false,
             islands: true,
+            deadline: None,
         }
     }
 }
@@ -682,6 +687,10 @@ impl World {
         Settings {
             tolerance: self.settings.tolerance,
             max_iterations: self.settings.max_iterations,
+            time_budget: self
+                .settings
+                .deadline
+                .map(|d| d.saturating_duration_since(Instant::now())),
             ..Settings::default()
         }
     }

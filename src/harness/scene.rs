@@ -4,7 +4,9 @@
 //!
 //! The budget's tolerance and iteration cap replace the scene's per-step solver settings; the
 //! run stops stepping after [`Budget::scene_time_limit`](crate::harness::Budget::scene_time_limit)
-//! of wall time and is then recorded as `time_limit` with the steps it took. A plain solver
+//! of wall time and is then recorded as `time_limit` with the steps it took; each matrix and
+//! cone solve gets the time left as its budget, so one long step ends at the limit too (that
+//! step counts as not converged). A plain solver
 //! steps cold (no warm start across steps); `NAME+warm` warm-starts from the previous step's
 //! impulses, as real-time engines do. A case key `scene:PATH?friction=MODEL` replaces the
 //! scene's friction model (`cone` needs a cone solver, `nsgs-cone`, `newton-ac` or
@@ -19,7 +21,7 @@ use crate::harness::metrics::{SceneMetricsAccumulator, TimeStop};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::World;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Run a scene case in this process.
 pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
@@ -67,6 +69,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
 fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r: &mut RunRecord) {
     let mut metrics = SceneMetricsAccumulator::new(world, scene.metrics.clone(), n_steps);
     let start = Instant::now();
+    world.settings.deadline = Some(start + Duration::from_secs_f64(time_limit));
     let mut last = None;
     let mut stopped = false;
     for _ in 0..n_steps {
