@@ -274,3 +274,41 @@ fn export_of_a_cone_scene_writes_a_cone_problem() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_default();
     assert_eq!(v["status"], "unsupported", "{}", text(&o.stderr));
 }
+
+/// A step of a sphere pile whose friction rows sit at round-off level (`1e-18`, next to
+/// normals near 1) and are coupled to each other: Newton used to iterate 10 000 times on the
+/// linear solve's error there; it now refines those rows on their own and converges.
+#[test]
+fn newton_converges_on_a_sphere_pile_step_with_round_off_level_friction_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("step.json");
+    let o = lcpbench(&[
+        "export",
+        "bench_scenes/sphere_pile_200.toml",
+        "--step",
+        "18",
+        "--solver",
+        "newton-fb+warm",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    for solver in ["newton-fb", "pgs"] {
+        let o = lcpbench(&[
+            "solve",
+            out.to_str().unwrap(),
+            "--solver",
+            solver,
+            "--tol",
+            "1e-8",
+            "--max-iter",
+            "5000",
+        ]);
+        let stdout = text(&o.stdout);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        assert!(
+            stdout.contains("status      converged"),
+            "{solver}: {stdout}"
+        );
+    }
+}

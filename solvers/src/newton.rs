@@ -63,7 +63,7 @@
 //! 2013, §5 (min-map Newton, num4lcp); Siconos numerics, `NEWTON_MIN_FBLSA`.
 
 use crate::apgd::project;
-use crate::metrics::residuals;
+use crate::metrics::{relative_row_error, residuals};
 use crate::pgs::sweep_assembled;
 use crate::problem::{DelassusFactors, Problem};
 use crate::solver::{
@@ -207,6 +207,12 @@ impl Newton {
     }
 }
 
+/// `‖Φ‖∞` below this fraction of the island's impulse scale is round-off level: rows still
+/// short of the tolerance there are refined on their own ([`Newton::refine`]).
+const ROUND_OFF: f64 = 1e-12;
+/// Nesting of refinements.
+const MAX_REFINE_DEPTH: usize = 2;
+
 /// Armijo constant.
 const SIGMA: f64 = 1e-4;
 /// Backtracking steps before a direction is given up.
@@ -332,12 +338,12 @@ impl Solver for Newton {
             let limit = self.max_sparse;
             solve_by_sparse_islands(problem, settings, limit, |island, settings| {
                 let sparse = self.sparse_for(island);
-                self.solve_island(island, settings, sparse)
+                self.solve_island(island, settings, sparse, 0)
             })
         } else {
             let limit = self.max_dense;
             solve_by_islands(problem, settings, limit, |island, settings| {
-                self.solve_island(island, settings, false)
+                self.solve_island(island, settings, false, 0)
             })
         }
     }
@@ -553,6 +559,7 @@ impl Newton {
         problem: &Problem,
         settings: &Settings,
         sparse: bool,
+        depth: usize,
     ) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
@@ -624,12 +631,23 @@ impl Newton {
         let mut gamma = vec![0.0; n];
         let mut iterations = 0;
         let tol = settings.tolerance;
+        let mut refined = false;
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
             if let Some(done) = finished(problem, &f, &skip, d, tol) {
                 f = done;
                 break Outcome::Stopped;
+            }
+            let phi_inf = phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            if !refined && depth < MAX_REFINE_DEPTH && phi_inf <= ROUND_OFF * scale {
+                refined = true;
+                let (done, sub_iterations) = self.refine(problem, settings, &f, depth);
+                iterations += sub_iterations;
+                if let Some(done) = done {
+                    f = done;
+                    break Outcome::Stopped;
+                }
             }
             if iterations >= settings.max_iterations {
                 break Outcome::IterationLimit;
@@ -649,7 +667,6 @@ impl Newton {
                 beta[i] = r.beta / d[i];
                 gamma[i] = if dmu != 0.0 { r.gamma } else { 0.0 };
             }
-            let phi_inf = phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             let mu_reg = (phi_inf / scale).min(1e-2);
             if jacobian.is_none() {
                 match self.jacobian(problem, sparse) {
@@ -745,6 +762,59 @@ impl Newton {
             }
         }
         monitor.finish(f, iterations, outcome)
+    }
+
+    /// The rows still short of the tolerance when the whole island is at round-off level of
+    /// its own scale, solved again as the sub-problem with every other row held at `f`
+    /// ([`Problem::restrict_at`], plus the normal of each such friction row): a sub-problem
+    /// has its own, much smaller, scale, so its Newton steps are accurate where the island's
+    /// were not (the friction rows among resting spheres: all their data near `1e-18` next to
+    /// normals near 1, coupled to each other, so one Gauss–Seidel sweep does not settle them).
+    /// The refined impulse is returned only when the whole island then meets the tolerance,
+    /// with the sub-problem's iterations (which count as the island's).
+    fn refine(
+        &mut self,
+        problem: &Problem,
+        settings: &Settings,
+        f: &[f64],
+        depth: usize,
+    ) -> (Option<Vec<f64>>, usize) {
+        let tol = settings.tolerance;
+        let n = problem.n();
+        let b = problem.b();
+        let mut short = vec![false; n];
+        for i in 0..n {
+            let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+            if relative_row_error(problem, i, f, af + b[i], magnitude + b[i].abs()) > tol {
+                short[i] = true;
+                if let Some((k, _)) = problem.friction_of(i) {
+                    short[k] = true;
+                }
+            }
+        }
+        let rows: Vec<usize> = (0..n).filter(|&i| short[i]).collect();
+        if rows.is_empty() || rows.len() == n {
+            return (None, 0);
+        }
+        let Ok(sub) = problem.restrict_at(&rows, f) else {
+            return (None, 0);
+        };
+        let sub_settings = Settings {
+            warm_start: Some(rows.iter().map(|&i| f[i]).collect()),
+            record_history: false,
+            ..settings.clone()
+        };
+        let sparse = self.sparse_for(&sub);
+        let r = self.solve_island(&sub, &sub_settings, sparse, depth + 1);
+        if !r.status.is_converged() {
+            return (None, r.iterations);
+        }
+        let mut g = f.to_vec();
+        for (k, &i) in rows.iter().enumerate() {
+            g[i] = r.f[k];
+        }
+        let done = residuals(problem, &g).natural_map_rel <= tol;
+        (done.then_some(g), r.iterations)
     }
 
     /// The Newton system's storage for `problem`: dense, or the sparse pattern (body-space

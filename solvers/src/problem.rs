@@ -758,6 +758,49 @@ impl Problem {
         Ok(p)
     }
 
+    /// The sub-problem on `rows` with every other row's impulse held at `f` (the block of a
+    /// block Gauss–Seidel step): `b'_r = b_i + Σ_{j ∉ rows} A_ij f_j`, and a friction row whose
+    /// normal is outside `rows` gets the fixed bounds `±mu · max(f_normal, 0)`. `rows` increasing.
+    pub(crate) fn restrict_at(&self, rows: &[usize], f: &[f64]) -> Result<Self, ProblemError> {
+        let n = self.n();
+        let mut inside = vec![false; n];
+        for &i in rows {
+            if i < n {
+                inside[i] = true;
+            }
+        }
+        // Friction rows whose normals stay outside become plain boxed rows, fixed at `f`.
+        let mut plain = self.clone();
+        plain
+            .friction
+            .retain(|fr| inside[fr.normal] || !inside[fr.row]);
+        for fr in &self.friction {
+            if inside[fr.row] && !inside[fr.normal] {
+                let (lo, hi) = self.bounds_at(fr.row, f);
+                plain.lo[fr.row] = lo;
+                plain.hi[fr.row] = hi;
+                plain.friction_of[fr.row] = None;
+            }
+        }
+        let mut sub = plain.restrict(rows)?;
+        for (r, &i) in rows.iter().enumerate() {
+            let outside: f64 = self
+                .row(i)
+                .iter()
+                .filter(|&(j, _)| !inside[j])
+                .map(|(j, v)| v * f[j])
+                .sum();
+            sub.b[r] += outside;
+        }
+        if let Some(i) = sub.b.iter().position(|v| !v.is_finite()) {
+            return Err(ProblemError::NonFinite {
+                what: format!("b[{i}] of a sub-problem"),
+                value: sub.b[i],
+            });
+        }
+        Ok(sub)
+    }
+
     /// The sub-problem on `rows` stored dense (for solvers that factorise; the caller bounds
     /// the size).
     pub(crate) fn restrict_dense(&self, rows: &[usize]) -> Result<Self, ProblemError> {
@@ -1172,6 +1215,34 @@ mod tests {
         assert_eq!(sub.entry(0, 1), -1.0);
         assert_eq!(sub.friction_of(2), Some((0, 0.5)));
         assert_eq!(sub.b(), &[-2.0, -0.5, 0.1]);
+    }
+
+    /// The block of a block Gauss–Seidel step: the outside rows' impulses move into `b`, and a
+    /// friction row whose normal stays outside gets that normal's fixed bounds.
+    #[test]
+    fn restrict_at_holds_the_other_rows_at_f() {
+        let p = two_blocks_sparse();
+        let f = [0.5, 2.0, 0.25, 0.0, 0.1];
+        // Rows 0 and 4 (friction row 4 on normal 1, which stays outside).
+        let sub = p.restrict_at(&[0, 4], &f).unwrap();
+        assert_eq!(sub.n(), 2);
+        assert!(sub.friction().is_empty());
+        let mu = p.friction_of(4).unwrap().1;
+        assert_eq!((sub.lo()[1], sub.hi()[1]), (-mu * 2.0, mu * 2.0));
+        for (r, i) in [(0, 0), (1, 4)] {
+            let outside: f64 = (0..5)
+                .filter(|&j| j != 0 && j != 4)
+                .map(|j| p.entry(i, j) * f[j])
+                .sum();
+            assert_eq!(sub.b()[r], p.b()[i] + outside);
+        }
+        // The velocities agree with the whole problem's at f.
+        let w = p.velocity(&f);
+        let ws = sub.velocity(&[f[0], f[4]]);
+        assert!((ws[0] - w[0]).abs() < 1e-15 && (ws[1] - w[4]).abs() < 1e-15);
+        // With its normal inside, the friction row keeps its moving bounds.
+        let sub = p.restrict_at(&[1, 3, 4], &f).unwrap();
+        assert_eq!(sub.friction_of(2), Some((0, mu)));
     }
 
     /// With factors, islands come from the bodies of `J` and match those of `A`'s nonzeros.
