@@ -46,7 +46,7 @@
 
 use crate::body::RigidBody;
 use crate::collision::Contact;
-use faer::sparse::{SparseRowMat, SymbolicSparseRowMat, Triplet};
+use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
 use faer::Mat;
 use lcpbench_solvers::{
     ConeError, ConeProblem, DelassusFactors, FrictionRow, Problem, ProblemError,
@@ -755,23 +755,38 @@ impl ContactSystem {
 
     /// `J` (sparse, local numbering) and the 6×6 inverse-mass blocks of the subset's bodies.
     fn factors(&self, subset: &Subset) -> Result<DelassusFactors, ProblemError> {
-        let mut triplets = Vec::with_capacity(12 * subset.rows.len());
-        for (r, &i) in subset.rows.iter().enumerate() {
-            for blk in &self.rows[i].blocks {
-                let col = 6 * subset.local_body[blk.body];
-                for d in 0..3 {
-                    triplets.push(Triplet::new(r, col + d, blk.linear[d]));
-                    triplets.push(Triplet::new(r, col + 3 + d, blk.angular[d]));
-                }
+        // Compressed rows directly: each row's (at most two) blocks in the order of their
+        // local bodies, six columns each.
+        let m = subset.rows.len();
+        let mut row_ptr = Vec::with_capacity(m + 1);
+        let mut col_idx = Vec::with_capacity(12 * m);
+        let mut val = Vec::with_capacity(12 * m);
+        row_ptr.push(0);
+        for &i in subset.rows {
+            let blocks = &self.rows[i].blocks;
+            let mut order = [0, 1];
+            if blocks.len() == 2
+                && subset.local_body[blocks[1].body] < subset.local_body[blocks[0].body]
+            {
+                order = [1, 0];
             }
+            for blk in order.iter().filter_map(|&k| blocks.get(k)) {
+                let col = 6 * subset.local_body[blk.body];
+                col_idx.extend(col..col + 6);
+                val.extend([
+                    blk.linear.x,
+                    blk.linear.y,
+                    blk.linear.z,
+                    blk.angular.x,
+                    blk.angular.y,
+                    blk.angular.z,
+                ]);
+            }
+            row_ptr.push(col_idx.len());
         }
         let ncols = 6 * subset.bodies.len();
-        let jacobian = SparseRowMat::try_new_from_triplets(subset.rows.len(), ncols, &triplets)
-            .map_err(|_| ProblemError::DimensionMismatch {
-                what: "the Jacobian's columns (6 per body)",
-                expected: ncols,
-                found: ncols + 1,
-            })?;
+        let symbolic = SymbolicSparseRowMat::new_checked(m, ncols, row_ptr, None, col_idx);
+        let jacobian = SparseRowMat::new(symbolic, val);
         let blocks = subset
             .bodies
             .iter()

@@ -308,28 +308,26 @@ impl Problem {
         }
         let n = rows;
         let mut diag = vec![0.0; n];
-        let mut max_abs: f64 = 0.0;
+        let max_abs: f64;
         {
             let sym = a.symbolic();
             let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), a.val());
+            let stored = &val[..ptr[n]];
+            if let Some(k) = stored.iter().position(|v| !v.is_finite()) {
+                let i = ptr.partition_point(|&p| p <= k) - 1;
+                return Err(ProblemError::NonFinite {
+                    what: format!("A[{i}][{}]", idx[k]),
+                    value: stored[k],
+                });
+            }
+            max_abs = stored.iter().fold(0.0, |m, v| m.max(v.abs()));
             for i in 0..n {
-                let mut last = None;
-                for k in ptr[i]..ptr[i + 1] {
-                    let (j, v) = (idx[k], val[k]);
-                    if !v.is_finite() {
-                        return Err(ProblemError::NonFinite {
-                            what: format!("A[{i}][{j}]"),
-                            value: v,
-                        });
-                    }
-                    if last.is_some_and(|l| l >= j) {
-                        return Err(ProblemError::UnsortedSparseRow { row: i });
-                    }
-                    last = Some(j);
-                    if i == j {
-                        diag[i] = v;
-                    }
-                    max_abs = max_abs.max(v.abs());
+                let cols = &idx[ptr[i]..ptr[i + 1]];
+                if cols.windows(2).any(|w| w[0] >= w[1]) {
+                    return Err(ProblemError::UnsortedSparseRow { row: i });
+                }
+                if let Ok(k) = cols.binary_search(&i) {
+                    diag[i] = val[ptr[i] + k];
                 }
             }
         }
@@ -1096,6 +1094,15 @@ mod tests {
         let mut a = eye(2);
         a[(1, 0)] = f64::NAN;
         let e = Problem::lcp(a, vec![0.0; 2]).unwrap_err();
+        assert_eq!(e.to_string(), "A[1][0] is not finite (NaN)");
+        // The sparse constructor names the same entry (row found from the row pointers).
+        let t: Vec<Triplet<usize, usize, f64>> =
+            [(0, 0, 1.0), (1, 0, f64::NAN), (1, 1, 1.0), (2, 2, 1.0)]
+                .iter()
+                .map(|&(i, j, v)| Triplet::new(i, j, v))
+                .collect();
+        let a = SparseRowMat::try_new_from_triplets(3, 3, &t).unwrap();
+        let e = Problem::lcp_sparse(a, vec![0.0; 3]).unwrap_err();
         assert_eq!(e.to_string(), "A[1][0] is not finite (NaN)");
         assert!(matches!(
             Problem::lcp(eye(2), vec![f64::INFINITY, 0.0]),
