@@ -161,7 +161,7 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
             None => d.to_vec(),
         },
     };
-    let (z, pivots, outcome) = pivot(problem, &reduction, &d, settings, &mut monitor);
+    let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
     let f = degenerate_zeros(problem, &reduction, z, settings.tolerance);
     monitor.finish(f, pivots, outcome)
 }
@@ -512,7 +512,6 @@ impl Tableau<'_> {
 /// Run Lemke on the reduced LCP with covering vector `d`. Returns the unscaled `z`, the pivot
 /// count and the outcome.
 fn pivot(
-    problem: &Problem,
     red: &Reduction,
     d: &[f64],
     settings: &Settings,
@@ -619,8 +618,7 @@ fn pivot(
     // The final refactorisation (`O(k³)`, half the cost of a tiny solve) is skipped when the
     // product-form basic solution already meets the tolerance in the shared residual.
     let accurate = outcome == Outcome::Stopped
-        && residuals(problem, &red.impulse(&unscale(tab.z()))).natural_map_rel
-            <= settings.tolerance;
+        && monitor.residual_of(&red.impulse(&unscale(tab.z()))) <= settings.tolerance;
     let outcome = if accurate {
         outcome
     } else {

@@ -635,7 +635,7 @@ impl Newton {
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
-            if let Some(done) = finished(problem, &f, &skip, d, tol) {
+            if let Some(done) = finished(problem, &mut monitor, &f, &skip, d, tol) {
                 f = done;
                 break Outcome::Stopped;
             }
@@ -747,14 +747,14 @@ impl Newton {
         // A stop within tolerance returns the finished iterate already; otherwise the best of
         // the iterate, its projection and the polished projection.
         if outcome != Outcome::Stopped {
-            let mut best = residuals(problem, &f).natural_map_rel;
+            let mut best = monitor.residual_of(&f);
             let mut fp = f.clone();
             project(problem, &mut fp);
             for polish in [false, true] {
                 if polish {
                     sweep_assembled(problem, &mut fp, &skip, d, 1.0);
                 }
-                let r = residuals(problem, &fp).natural_map_rel;
+                let r = monitor.residual_of(&fp);
                 if r <= best {
                     best = r;
                     f.clone_from(&fp);
@@ -849,14 +849,21 @@ impl Newton {
 /// normals are near 1). The relative residual measures such a row against its own scale, but
 /// the Newton step carries the linear solve's error, `ε` times the whole system's scale, into
 /// it; one sweep solves each such row to its own scale, and leaves converged rows converged.
-fn finished(problem: &Problem, f: &[f64], skip: &[bool], d: &[f64], tol: f64) -> Option<Vec<f64>> {
+fn finished(
+    problem: &Problem,
+    monitor: &mut Monitor<'_>,
+    f: &[f64],
+    skip: &[bool],
+    d: &[f64],
+    tol: f64,
+) -> Option<Vec<f64>> {
     let mut fp = f.to_vec();
     project(problem, &mut fp);
-    if residuals(problem, &fp).natural_map_rel <= tol {
+    if monitor.residual_of(&fp) <= tol {
         return Some(fp);
     }
     sweep_assembled(problem, &mut fp, skip, d, 1.0);
-    (residuals(problem, &fp).natural_map_rel <= tol).then_some(fp)
+    (monitor.residual_of(&fp) <= tol).then_some(fp)
 }
 
 /// Whether the augmented body-space system is worth its extra unknowns: when `A` has more

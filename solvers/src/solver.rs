@@ -286,6 +286,8 @@ pub(crate) struct Monitor<'a, P: Measured = Problem> {
     excluded: Duration,
     history: Vec<HistoryPoint>,
     active_sets: Vec<(usize, Vec<usize>)>,
+    /// The last point measured by [`Monitor::residual_of`], with its velocity and residuals.
+    measured: Option<(Vec<f64>, Vec<f64>, Residuals)>,
 }
 
 impl<'a, P: Measured> Monitor<'a, P> {
@@ -297,7 +299,18 @@ impl<'a, P: Measured> Monitor<'a, P> {
             excluded: Duration::ZERO,
             history: Vec::new(),
             active_sets: Vec::new(),
+            measured: None,
         }
+    }
+
+    /// The shared relative residual of `x` (a solver's own stopping test on a candidate). The
+    /// point is kept with its velocity and residuals: when it is bit for bit the impulse the
+    /// solve returns, [`Monitor::finish`] decides from them instead of measuring it again.
+    pub(crate) fn residual_of(&mut self, x: &[f64]) -> f64 {
+        let mut v = vec![0.0; self.problem.rows()];
+        let res = self.problem.measure(x, &mut v);
+        self.measured = Some((x.to_vec(), v, res));
+        res.natural_map_rel
     }
 
     /// Solver time so far, history measurement excluded.
@@ -339,7 +352,15 @@ impl<'a, P: Measured> Monitor<'a, P> {
     }
 
     /// Decide the status from the shared residual of `f` and package the result.
-    pub(crate) fn finish(self, f: Vec<f64>, iterations: usize, outcome: Outcome) -> SolveResult {
+    pub(crate) fn finish(
+        mut self,
+        f: Vec<f64>,
+        iterations: usize,
+        outcome: Outcome,
+    ) -> SolveResult {
+        let measured = self.measured.take().filter(|(x, ..)| {
+            x.len() == f.len() && x.iter().zip(&f).all(|(a, b)| a.to_bits() == b.to_bits())
+        });
         let time = self.elapsed();
         let problem = self.problem;
         let tol = self.settings.tolerance;
@@ -368,8 +389,14 @@ impl<'a, P: Measured> Monitor<'a, P> {
                 Status::NumericalFailure { reason },
             )
         } else {
-            let mut w = vec![0.0; n];
-            let res = problem.measure(&f, &mut w);
+            let (w, res) = match measured {
+                Some((_, w, res)) => (w, res),
+                None => {
+                    let mut w = vec![0.0; n];
+                    let res = problem.measure(&f, &mut w);
+                    (w, res)
+                }
+            };
             let status = if w.iter().any(|v| !v.is_finite()) {
                 Status::NumericalFailure {
                     reason: format!(
@@ -556,4 +583,33 @@ fn solve_islands_with(
     }
     monitor.record(iterations, &f);
     monitor.finish(f, iterations, outcome)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::residuals;
+    use faer::Mat;
+
+    /// A measured point is reused only when it is bit for bit the returned impulse; any other
+    /// impulse is measured afresh, so the status always comes from the returned `f`.
+    #[test]
+    fn finish_reuses_a_measurement_only_of_the_returned_impulse() {
+        let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, 1.0]).unwrap();
+        let settings = Settings::default();
+        let (good, bad) = (vec![0.5, 0.0], vec![0.25, 0.0]);
+        let mut monitor = Monitor::new(&p, &settings);
+        assert_eq!(monitor.residual_of(&good), 0.0);
+        let r = monitor.finish(good.clone(), 1, Outcome::Stopped);
+        assert_eq!(r.status, Status::Converged);
+        assert_eq!(r.residuals, residuals(&p, &good));
+        assert_eq!(r.w, p.velocity(&good));
+        // Measured one point, returned another: the returned one decides.
+        let mut monitor = Monitor::new(&p, &settings);
+        monitor.residual_of(&good);
+        let r = monitor.finish(bad.clone(), 1, Outcome::Stopped);
+        assert_eq!(r.residuals, residuals(&p, &bad));
+        assert_ne!(r.status, Status::Converged);
+    }
 }
