@@ -80,10 +80,10 @@ use faer::{Conj, Par};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
-    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (body-space form for contact problems) up to 200000; globally convergent for P-matrices";
+    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; globally convergent for P-matrices";
 /// Problem classes handled by the min-map variant.
 pub(crate) const PROBLEM_CLASSES_MIN: &str =
-    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (body-space form for contact problems) up to 200000; local quadratic convergence";
+    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; local quadratic convergence";
 
 /// Which nonsmooth equation the solver works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
