@@ -51,14 +51,23 @@ fn header_table(ctx: &ReportContext) -> Table {
         ("command", format!("`{}`", header.command)),
         (
             "runs",
-            format!(
-                "{} rows ({} isolation failures: panic, crash, timeout or error), sweep {:.0} s \
-                 on {} worker processes",
-                ctx.rows.len(),
-                failures,
-                ctx.sweep_seconds,
-                header.workers
-            ),
+            if ctx.sweep_seconds > 0.0 {
+                format!(
+                    "{} rows ({} isolation failures: panic, crash, timeout or error), sweep \
+                     {:.0} s on {} worker processes",
+                    ctx.rows.len(),
+                    failures,
+                    ctx.sweep_seconds,
+                    header.workers
+                )
+            } else {
+                format!(
+                    "{} rows ({} isolation failures: panic, crash, timeout or error) of an \
+                     earlier sweep; tables and figures rewritten from them without runs",
+                    ctx.rows.len(),
+                    failures,
+                )
+            },
         ),
     ] {
         h.rows.push(vec![k.to_owned(), v]);

@@ -1,7 +1,9 @@
 //! Scaling: least-squares slopes of log time against log size, for the matrix solvers on the
 //! SPD scaling family (solver time against rows, converged runs) and for every scene solver on
 //! the scene scaling family, or on every scene when that family did not run (solver time per
-//! step against mean contacts, runs without blow-up, isolation failure or fallback steps); a
+//! step against mean contacts, runs in which every step taken converged, without blow-up,
+//! isolation failure or fallback steps: a run stopped by its time limit counts with the steps it
+//! finished, but a step cut short by the limit or by the iteration cap would bend the line); a
 //! table of the slopes and a log–log figure of each with the fitted lines.
 
 use crate::report::context::{scene_solver_names, solver_names, Figure, ReportContext, Section};
@@ -44,7 +46,7 @@ impl Section for Scaling {
         }
         let _ = writeln!(
             md,
-            "## Scaling\n\nLeast-squares slopes of log time against log size (converged runs only).\n\n{}",
+            "## Scaling\n\nLeast-squares slopes of log time against log size: converged LCP runs; scene runs in which every step taken converged (a run stopped by its time limit counts with the steps it finished).\n\n{}",
             ctx.table(&slopes)?
         );
         Ok(figures)
@@ -69,7 +71,10 @@ fn scene_scaling(ctx: &ReportContext, slopes: &mut Slopes) -> Result<Option<Figu
             .iter()
             .filter_map(|c| ctx.get(c, solver, "default"))
             .filter(|r| {
-                r.blow_up != Some(true) && !r.is_isolation_failure() && r.fallback_steps == Some(0)
+                r.blow_up != Some(true)
+                    && !r.is_isolation_failure()
+                    && r.fallback_steps == Some(0)
+                    && r.nonconverged_steps == Some(0)
             })
             .filter_map(|r| Some((r.contacts_mean?, r.time_per_step_s?)))
             .filter(|(c, t)| *c > 0.0 && *t > 0.0)
