@@ -141,8 +141,10 @@ impl Budget {
     /// Wall time after which the isolated child is killed: for an LCP three times the budget plus
     /// five seconds (process start, problem generation and the residual measurements of the
     /// convergence history are outside the solver's clock); for a
-    /// scene, which stops stepping by itself after [`Budget::scene_time_limit`], that limit
-    /// plus half of it plus five seconds.
+    /// scene, which stops stepping by itself after [`Budget::scene_time_limit`] (each solve in
+    /// it gets the time left, so one long step ends at the limit too), that limit plus half of
+    /// it plus five seconds: the margin covers collision detection and assembly, which do not
+    /// watch the clock.
     /// Saturates at [`Duration::MAX`] for a budget that was not validated.
     pub fn kill_after(&self, scene: bool) -> Duration {
         let seconds = if scene {
