@@ -63,8 +63,8 @@
 //! 2013, §5 (min-map Newton, num4lcp); Siconos numerics, `NEWTON_MIN_FBLSA`.
 
 use crate::apgd::project;
-use crate::metrics::{relative_row_error, residuals};
-use crate::pgs::sweep_assembled;
+use crate::metrics::relative_row_error;
+use crate::pgs::{skipped_rows, sweep_assembled};
 use crate::problem::{DelassusFactors, Problem};
 use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
@@ -120,7 +120,8 @@ pub struct Newton {
     pub sparse_form: SparseForm,
     /// Workspace kept between solves: the last sparse pattern's ordering and symbolic LU,
     /// reused while the pattern of the Newton system stays the same from one solve to the next
-    /// (a resting stack keeps its contacts for many steps). Default empty.
+    /// (a resting stack keeps its contacts for many steps), and the numeric factors' storage.
+    /// Default empty.
     pub workspace: NewtonWorkspace,
 }
 
@@ -583,10 +584,7 @@ impl Newton {
         let mut jacobian: Option<Jacobian> = None;
         let d = problem.diagonal_scale();
         let d = &d[..];
-        let amax = problem.max_abs_entry();
-        let skip: Vec<bool> = (0..n)
-            .map(|i| problem.diagonal(i) <= 1e-12 * amax)
-            .collect();
+        let skip = skipped_rows(problem);
         let b = problem.b();
         let scale = {
             let s = (0..n)
@@ -642,7 +640,8 @@ impl Newton {
             let phi_inf = phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             if !refined && depth < MAX_REFINE_DEPTH && phi_inf <= ROUND_OFF * scale {
                 refined = true;
-                let (done, sub_iterations) = self.refine(problem, settings, &f, depth);
+                let (done, sub_iterations) =
+                    self.refine(problem, &mut monitor, settings, &f, depth);
                 iterations += sub_iterations;
                 if let Some(done) = done {
                     f = done;
@@ -775,6 +774,7 @@ impl Newton {
     fn refine(
         &mut self,
         problem: &Problem,
+        monitor: &mut Monitor<'_>,
         settings: &Settings,
         f: &[f64],
         depth: usize,
@@ -813,12 +813,13 @@ impl Newton {
         for (k, &i) in rows.iter().enumerate() {
             g[i] = r.f[k];
         }
-        let done = residuals(problem, &g).natural_map_rel <= tol;
+        let done = monitor.residual_of(&g) <= tol;
         (done.then_some(g), r.iterations)
     }
 
-    /// The Newton system's storage for `problem`: dense, or the sparse pattern (body-space
-    /// form when the problem carries its factors), reusing the cached symbolic analysis.
+    /// The Newton system's storage for `problem`: dense, or the sparse pattern in the form
+    /// [`Newton::sparse_form`] chooses, reusing the cached symbolic analysis and the numeric
+    /// factors' storage.
     fn jacobian(&mut self, problem: &Problem, sparse: bool) -> Result<Jacobian, String> {
         if !sparse {
             return Ok(Jacobian::Dense(problem.to_dense()));

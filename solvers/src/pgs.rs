@@ -152,11 +152,7 @@ impl Solver for ProjectedSor {
                 Outcome::Unsupported(format!("relaxation omega = {omega} is outside (0, 2)")),
             );
         }
-        let n = problem.n();
-        let amax = problem.max_abs_entry();
-        let skip: Vec<bool> = (0..n)
-            .map(|i| problem.diagonal(i) <= 1e-12 * amax)
-            .collect();
+        let skip = skipped_rows(problem);
         let d = problem.diagonal_scale();
         let mut f = initial_impulse(problem, settings);
         let tol = settings.tolerance;
@@ -209,6 +205,15 @@ impl Solver for ProjectedSor {
         };
         monitor.finish(f, iterations, outcome)
     }
+}
+
+/// The rows a sweep leaves alone: those whose diagonal is at most `1e-12` of `A`'s largest
+/// entry, which a Gauss–Seidel update would divide by.
+pub(crate) fn skipped_rows(problem: &Problem) -> Vec<bool> {
+    let amax = problem.max_abs_entry();
+    (0..problem.n())
+        .map(|i| problem.diagonal(i) <= 1e-12 * amax)
+        .collect()
 }
 
 /// One sweep over the stored rows of `A`. Returns the largest relative row error of the rows

@@ -708,6 +708,19 @@ impl Problem {
     /// among them, as each island of [`Problem::islands`] does). Small sub-problems are stored
     /// dense, larger ones keep the storage of `self`.
     pub fn restrict(&self, rows: &[usize]) -> Result<Self, ProblemError> {
+        self.restrict_holding(rows, None)
+    }
+
+    /// The sub-problem on `rows` with every other row's impulse held at `f` (the block of a
+    /// block Gauss–Seidel step): `b'_r = b_i + Σ_{j ∉ rows} A_ij f_j`, and a friction row whose
+    /// normal is outside `rows` gets the fixed bounds `±mu · max(f_normal, 0)`. `rows` increasing.
+    pub(crate) fn restrict_at(&self, rows: &[usize], f: &[f64]) -> Result<Self, ProblemError> {
+        self.restrict_holding(rows, Some(f))
+    }
+
+    /// [`Problem::restrict`], and with `held` [`Problem::restrict_at`]: the entries outside
+    /// `rows` are dropped, or moved into `b` at the held impulses, in the same pass.
+    fn restrict_holding(&self, rows: &[usize], held: Option<&[f64]>) -> Result<Self, ProblemError> {
         let n = self.n();
         let m = rows.len();
         let mut local = vec![usize::MAX; n];
@@ -722,25 +735,35 @@ impl Problem {
             local[i] = k;
         }
         let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let (mut b, mut lo, mut hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
         let mut friction = Vec::new();
-        for &i in rows {
+        for (r, &i) in rows.iter().enumerate() {
             if let Some((k, mu)) = self.friction_of[i] {
-                friction.push(FrictionRow {
-                    row: local[i],
-                    normal: local[k],
-                    mu,
-                });
+                match held {
+                    // Its normal is held: the bounds are fixed at the held normal.
+                    Some(f) if local[k] == usize::MAX => (lo[r], hi[r]) = self.bounds_at(i, f),
+                    _ => friction.push(FrictionRow {
+                        row: r,
+                        normal: local[k],
+                        mu,
+                    }),
+                }
             }
         }
         let mut triplets = Vec::new();
         for (r, &i) in rows.iter().enumerate() {
+            let mut outside = 0.0;
             for (j, v) in self.row(i).iter() {
-                if local[j] != usize::MAX && (v != 0.0 || i == j) {
-                    triplets.push(Triplet::new(r, local[j], v));
+                if local[j] != usize::MAX {
+                    if v != 0.0 || i == j {
+                        triplets.push(Triplet::new(r, local[j], v));
+                    }
+                } else if let Some(f) = held {
+                    outside += v * f[j];
                 }
             }
+            b[r] += outside;
         }
-        let (b, lo, hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
         let mut p = if m <= DENSE_SUBPROBLEM_ROWS || !self.is_sparse() {
             let mut a = Mat::zeros(m, m);
             for t in &triplets {
@@ -754,49 +777,6 @@ impl Problem {
         };
         p.name = self.name.clone();
         Ok(p)
-    }
-
-    /// The sub-problem on `rows` with every other row's impulse held at `f` (the block of a
-    /// block Gauss–Seidel step): `b'_r = b_i + Σ_{j ∉ rows} A_ij f_j`, and a friction row whose
-    /// normal is outside `rows` gets the fixed bounds `±mu · max(f_normal, 0)`. `rows` increasing.
-    pub(crate) fn restrict_at(&self, rows: &[usize], f: &[f64]) -> Result<Self, ProblemError> {
-        let n = self.n();
-        let mut inside = vec![false; n];
-        for &i in rows {
-            if i < n {
-                inside[i] = true;
-            }
-        }
-        // Friction rows whose normals stay outside become plain boxed rows, fixed at `f`.
-        let mut plain = self.clone();
-        plain
-            .friction
-            .retain(|fr| inside[fr.normal] || !inside[fr.row]);
-        for fr in &self.friction {
-            if inside[fr.row] && !inside[fr.normal] {
-                let (lo, hi) = self.bounds_at(fr.row, f);
-                plain.lo[fr.row] = lo;
-                plain.hi[fr.row] = hi;
-                plain.friction_of[fr.row] = None;
-            }
-        }
-        let mut sub = plain.restrict(rows)?;
-        for (r, &i) in rows.iter().enumerate() {
-            let outside: f64 = self
-                .row(i)
-                .iter()
-                .filter(|&(j, _)| !inside[j])
-                .map(|(j, v)| v * f[j])
-                .sum();
-            sub.b[r] += outside;
-        }
-        if let Some(i) = sub.b.iter().position(|v| !v.is_finite()) {
-            return Err(ProblemError::NonFinite {
-                what: format!("b[{i}] of a sub-problem"),
-                value: sub.b[i],
-            });
-        }
-        Ok(sub)
     }
 
     /// The sub-problem on `rows` stored dense (for solvers that factorise; the caller bounds
