@@ -4,7 +4,9 @@
 //!
 //! The three Siconos numerics LCPs in `tests/data/siconos/` follow the planted families.
 //!
-//! `cargo run --release -p lcpbench-solvers --example tiny_overhead [REPS [SOLVER [CASE]]]`
+//! `cargo run --release -p lcpbench-solvers --example tiny_overhead [REPS [SOLVER [CASE]]]`,
+//! where `CASE` is `spd-4`, `lcp_CPS_1-2`, … or the path of a problem file (JSON or `.dat`), to
+//! time that file alone (the same file a peer harness times).
 
 use lcpbench_solvers::generate::{generate, Family};
 use lcpbench_solvers::{read_problem, Problem, Settings, SolverKind};
@@ -38,12 +40,25 @@ fn main() {
             Err(e) => eprintln!("{name}: {e}"),
         }
     }
+    if let Some(path) = only_case.as_deref().map(Path::new).filter(|p| p.is_file()) {
+        match read_problem(path) {
+            Ok(p) => {
+                let name = path.file_stem().unwrap_or_default().to_string_lossy();
+                cases = vec![(name.to_string(), p)];
+            }
+            Err(e) => {
+                eprintln!("{}: {e}", path.display());
+                std::process::exit(1);
+            }
+        }
+    }
     {
         for (family_name, problem) in &cases {
             let n = problem.n();
-            if only_case
-                .as_deref()
-                .is_some_and(|c| c != format!("{family_name}-{n}"))
+            if cases.len() > 1
+                && only_case
+                    .as_deref()
+                    .is_some_and(|c| c != format!("{family_name}-{n}"))
             {
                 continue;
             }

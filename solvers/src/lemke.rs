@@ -71,6 +71,14 @@
 //!   `s_i = 1/√d_i` with `d_i` the diagonal scale), so rows and columns scaled over many decades
 //!   do not decide the pivots; then the reduced data are scaled (`M / max|M|`, `q / max|q|`,
 //!   `d / max d`) so the pivot and tie tolerances are relative; the solution is scaled back.
+//!   (Scaling by the nearest power of two instead, exact and cheaper, changes the round-off of
+//!   every later pivot: on the resting 10-box tower's pyramid LCPs that was enough for the tower
+//!   to fall. The degenerate steps of that test are that sensitive.)
+//! * **Per-solve cost on tiny problems** (where it is all overhead): `B⁻¹` is stored
+//!   column-major and a pivot in row `r` skips the columns with a zero in row `r`, which are
+//!   all the unit columns of the starting basis but one; the entering column adds a unit
+//!   column's single term. A solve of `p` pivots thus costs `O(p² k)` rather than `O(p k²)`
+//!   in its updates, and the buffers of the pivot loop are allocated once per solve.
 //! * **Sparse and large problems**: the problem is split into independent islands
 //!   ([`Problem::islands`]); each is densified and solved on its own. An island above
 //!   [`DENSE_LIMIT`] rows gives `Unsupported` with the reason.
@@ -204,12 +212,18 @@ fn degenerate_zeros(problem: &Problem, red: &Reduction, z: Vec<f64>, tol: f64) -
     best.1
 }
 
-/// The standard LCP `w' = M z + q` that a boxed problem reduces to, and the map back
+/// The standard LCP `w' = M z + q` that a boxed problem reduces to, scaled so that
+/// `max|M| = max|q| = 1` (the pivot and tie tolerances are relative), and the map back
 /// `f_i = c_i + Σ_v s_v z_v` over the variables `v` of row `i`.
 struct Reduction {
-    /// `M`, row-major, `m × m`.
+    /// `M / max|M|`, row-major, `m × m`.
     m: Vec<f64>,
+    /// `q / max|q|`.
     q: Vec<f64>,
+    /// `max|q|` and `max|M|` before the scaling: the LCP's `z` is the scaled one times
+    /// `max|q| / max|M|`.
+    q_scale: f64,
+    m_scale: f64,
     /// Offset of each original row.
     c: Vec<f64>,
     /// For each LCP variable: `Some((row, sign))` when it is (a signed part of) `f_row − c_row`,
@@ -257,16 +271,34 @@ impl Reduction {
         }
         // Offsets in the original units; the LCP variables are in the equilibrated ones
         // (`f_i = c_i + scale_i · x`), so `M = S A S` and `q = S w(c)` up to signs.
-        let w0 = problem.velocity(&c);
+        let w0: std::borrow::Cow<'_, [f64]> = if c.iter().all(|&v| v == 0.0) {
+            problem.b().into()
+        } else {
+            problem.velocity(&c).into()
+        };
         let nv = vars.len();
         let m = nv + slacks.len();
         let mut mat = vec![0.0; m * m];
         let mut q = vec![0.0; m];
+        // A standard LCP maps every row to one variable of its own: `M = S A S` row by row.
+        let identity_map = m == n
+            && vars
+                .iter()
+                .enumerate()
+                .all(|(v, &(i, t))| v == i && t == 1.0);
         for (v, &(i, s)) in vars.iter().enumerate() {
             q[v] = s * scale[i] * w0[i];
             let row = problem.dense_row(i);
-            for (u, &(j, t)) in vars.iter().enumerate() {
-                mat[v * m + u] = s * t * scale[i] * row[j] * scale[j];
+            let si = s * scale[i];
+            let out = &mut mat[v * m..(v + 1) * m];
+            if identity_map {
+                for ((o, a), sj) in out.iter_mut().zip(row).zip(&scale) {
+                    *o = si * a * sj;
+                }
+            } else {
+                for (o, &(j, t)) in out.iter_mut().zip(&vars) {
+                    *o = t * si * row[j] * scale[j];
+                }
             }
         }
         for (k, &(v, width)) in slacks.iter().enumerate() {
@@ -280,11 +312,42 @@ impl Reduction {
                 "the reduced LCP has a non-finite constant term q[{i}] (bounds too large)"
             ));
         }
+        // `max|v|` (1 for a zero `v`).
+        let max_abs = |v: &[f64]| {
+            // Four running maxima: one would be a chain of dependent comparisons.
+            let mut m4 = [0.0_f64; 4];
+            let mut chunks = v.chunks_exact(4);
+            for c in &mut chunks {
+                for l in 0..4 {
+                    // A plain comparison (the data are finite): `f64::max` also orders NaNs.
+                    let a = c[l].abs();
+                    if a > m4[l] {
+                        m4[l] = a;
+                    }
+                }
+            }
+            let s = chunks
+                .remainder()
+                .iter()
+                .fold(m4[0].max(m4[1]).max(m4[2].max(m4[3])), |m, x| {
+                    m.max(x.abs())
+                });
+            if s > 0.0 {
+                s
+            } else {
+                1.0
+            }
+        };
+        let (sm, sq) = (max_abs(&mat), max_abs(&q));
+        mat.iter_mut().for_each(|v| *v /= sm);
+        q.iter_mut().for_each(|v| *v /= sq);
         let mut var_row: Vec<Option<(usize, f64)>> = vars.into_iter().map(Some).collect();
         var_row.resize(m, None);
         Ok(Self {
             m: mat,
             q,
+            q_scale: sq,
+            m_scale: sm,
             c,
             var_row,
             scale,
@@ -344,43 +407,68 @@ const REFINEMENT_STEPS: usize = 3;
 /// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
 const TIE_TOL: f64 = 1e-10;
 
-/// The revised tableau: the basis, `B⁻¹` (row-major) and the basic values `x_B = B⁻¹ q`, all on
-/// the scaled data.
+/// The revised tableau: the basis, `B⁻¹` and the basic values `x_B = B⁻¹ q`, all on the scaled
+/// data. `B⁻¹` is stored column-major, so that both `B⁻¹ a` (a sum of its columns) and the
+/// pivot's rank-one update run down contiguous columns.
 struct Tableau<'a> {
     k: usize,
+    /// `M`, row-major.
     mat: &'a [f64],
     q: &'a [f64],
     d: &'a [f64],
     basis: Vec<Var>,
+    /// `B⁻¹`, column-major: entry `(r, c)` at `c · k + r`.
     binv: Vec<f64>,
+    /// Whether column `c` of `B⁻¹` is still the unit vector `e_c` of the starting basis. A pivot
+    /// in row `r` changes only the columns with a nonzero in row `r`, so a solve of `p` pivots
+    /// touches at most `p` columns: both the entering column and the pivot skip the others.
+    unit: Vec<bool>,
     xb: Vec<f64>,
 }
 
 impl Tableau<'_> {
-    /// Column of `var` in the augmented system.
-    fn column(&self, var: Var) -> Vec<f64> {
+    /// Column of `var` in the augmented system, written into `out`.
+    fn column_into(&self, var: Var, out: &mut [f64]) {
         let k = self.k;
         match var {
-            Var::W(j) => (0..k).map(|i| if i == j { 1.0 } else { 0.0 }).collect(),
-            Var::Z(j) => (0..k).map(|i| -self.mat[i * k + j]).collect(),
-            Var::Z0 => self.d.iter().map(|v| -v).collect(),
+            Var::W(j) => {
+                out.fill(0.0);
+                out[j] = 1.0;
+            }
+            Var::Z(j) => {
+                for (o, row) in out.iter_mut().zip(self.mat.chunks_exact(k)) {
+                    *o = -row[j];
+                }
+            }
+            Var::Z0 => {
+                for (o, d) in out.iter_mut().zip(self.d) {
+                    *o = -d;
+                }
+            }
         }
     }
 
-    /// `B⁻¹ a` for the column `a` of `var`.
-    fn entering_column(&self, var: Var) -> Vec<f64> {
+    /// `y = B⁻¹ a` for the column `a` of `var`.
+    fn entering_column(&self, var: Var, y: &mut [f64]) {
         let k = self.k;
-        match var {
-            Var::W(j) => (0..k).map(|r| self.binv[r * k + j]).collect(),
-            _ => {
-                let a = self.column(var);
-                (0..k)
-                    .map(|r| {
-                        let row = &self.binv[r * k..(r + 1) * k];
-                        row.iter().zip(&a).map(|(x, y)| x * y).sum()
-                    })
-                    .collect()
+        let combine = |y: &mut [f64], a: &mut dyn Iterator<Item = f64>| {
+            // The sums of row-by-row dot products, term by term (`-0.0 + t = t` exactly); a
+            // unit column adds only its one nonzero term.
+            y.fill(-0.0);
+            for ((c, col), ac) in self.binv.chunks_exact(k).enumerate().zip(a) {
+                if self.unit[c] {
+                    y[c] += ac;
+                } else {
+                    for (yr, b) in y.iter_mut().zip(col) {
+                        *yr += b * ac;
+                    }
+                }
             }
+        };
+        match var {
+            Var::W(j) => y.copy_from_slice(&self.binv[j * k..(j + 1) * k]),
+            Var::Z(j) => combine(y, &mut self.mat.chunks_exact(k).map(|row| -row[j])),
+            Var::Z0 => combine(y, &mut self.d.iter().map(|d| -d)),
         }
     }
 
@@ -389,43 +477,53 @@ impl Tableau<'_> {
         let k = self.k;
         let p = y[r];
         let theta = self.xb[r] / p;
-        for c in 0..k {
-            self.binv[r * k + c] /= p;
-        }
-        let (before, rest) = self.binv.split_at_mut(r * k);
-        let (prow, after) = rest.split_at_mut(k);
-        for (i, row) in before
-            .chunks_exact_mut(k)
-            .chain(after.chunks_exact_mut(k))
-            .enumerate()
-        {
-            let i = if i < r { i } else { i + 1 };
-            let yi = y[i];
-            if yi != 0.0 {
-                for (x, pr) in row.iter_mut().zip(prow.iter()) {
-                    *x -= yi * pr;
-                }
-                self.xb[i] -= yi * theta;
+        for col in self.binv.chunks_exact_mut(k) {
+            if col[r] == 0.0 {
+                // The new row `r` is zero here: the column does not change.
+                continue;
             }
+            let pr = col[r] / p;
+            // Row `r` is overwritten below; every other row loses `y_i` times the new row `r`.
+            for (x, yi) in col.iter_mut().zip(y) {
+                *x -= yi * pr;
+            }
+            col[r] = pr;
+        }
+        for (x, yi) in self.xb.iter_mut().zip(y) {
+            *x -= yi * theta;
         }
         self.xb[r] = theta;
         self.basis[r] = entering;
+        self.unit[r] = false;
     }
 
-    /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with one step of iterative refinement.
+    /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with iterative refinement.
     fn refactor(&mut self) -> Result<(), String> {
         let k = self.k;
+        // `B`, row-major, for the inversion and the refinement's residuals.
         let mut b = vec![0.0; k * k];
+        let mut column = vec![0.0; k];
         for (r, &var) in self.basis.iter().enumerate() {
-            for (i, v) in self.column(var).into_iter().enumerate() {
+            self.column_into(var, &mut column);
+            for (i, &v) in column.iter().enumerate() {
                 b[i * k + r] = v;
             }
         }
-        self.binv = invert(&b, k).ok_or_else(|| "singular basis at refactorisation".to_string())?;
+        let inv = invert(&b, k).ok_or_else(|| "singular basis at refactorisation".to_string())?;
+        for r in 0..k {
+            for c in 0..k {
+                self.binv[c * k + r] = inv[r * k + c];
+            }
+        }
+        self.unit.fill(false);
         let apply = |binv: &[f64], v: &[f64]| -> Vec<f64> {
-            (0..k)
-                .map(|r| (0..k).map(|c| binv[r * k + c] * v[c]).sum())
-                .collect()
+            let mut out = vec![-0.0; k];
+            for (col, vc) in binv.chunks_exact(k).zip(v) {
+                for (o, b) in out.iter_mut().zip(col) {
+                    *o += b * vc;
+                }
+            }
+            out
         };
         let mut x = apply(&self.binv, self.q);
         // Iterative refinement while the residual of `B x = q` shrinks (at most
@@ -469,12 +567,13 @@ impl Tableau<'_> {
         z
     }
 
-    /// Lexicographic minimum of the rows `(x_B_r, B⁻¹_r) / y_r` over `cands`; `z0`'s row wins a
-    /// tie in the first (ratio) level. With `feasible`, the basic values are taken as
-    /// `max(x_B_r, 0)`: they are non-negative in exact arithmetic, and a degenerate zero that
-    /// round-off made slightly negative must tie with the other zeros instead of winning with a
-    /// negative ratio (which would pivot on a round-off entry of `y` and wreck the basis).
-    fn lexicographic_min(&self, mut cands: Vec<usize>, y: &[f64], feasible: bool) -> usize {
+    /// Lexicographic minimum of the rows `(x_B_r, B⁻¹_r) / y_r` over `cands` (which it
+    /// narrows); `z0`'s row wins a tie in the first (ratio) level. With `feasible`, the basic
+    /// values are taken as `max(x_B_r, 0)`: they are non-negative in exact arithmetic, and a
+    /// degenerate zero that round-off made slightly negative must tie with the other zeros
+    /// instead of winning with a negative ratio (which would pivot on a round-off entry of `y`
+    /// and wreck the basis).
+    fn lexicographic_min(&self, cands: &mut Vec<usize>, y: &[f64], feasible: bool) -> usize {
         let k = self.k;
         let keep_min = |cands: &mut Vec<usize>, value: &dyn Fn(usize) -> f64| {
             let min = cands
@@ -488,9 +587,9 @@ impl Tableau<'_> {
             }
         };
         if feasible {
-            keep_min(&mut cands, &|r| self.xb[r].max(0.0) / y[r]);
+            keep_min(cands, &|r| self.xb[r].max(0.0) / y[r]);
         } else {
-            keep_min(&mut cands, &|r| self.xb[r] / y[r]);
+            keep_min(cands, &|r| self.xb[r] / y[r]);
         }
         if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
             return r;
@@ -499,11 +598,13 @@ impl Tableau<'_> {
             if cands.len() <= 1 {
                 break;
             }
-            keep_min(&mut cands, &|r| self.binv[r * k + c] / y[r]);
+            let col = &self.binv[c * k..(c + 1) * k];
+            keep_min(cands, &|r| col[r] / y[r]);
         }
         // Still tied only through round-off: take the largest pivot.
         cands
-            .into_iter()
+            .iter()
+            .copied()
             .max_by(|&a, &b| y[a].abs().total_cmp(&y[b].abs()))
             .expect("at least one candidate")
     }
@@ -521,32 +622,27 @@ fn pivot(
     if red.q.iter().all(|&v| v >= 0.0) {
         return (vec![0.0; k], 0, Outcome::Stopped);
     }
-    let scale = |v: &[f64]| {
-        let s = v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-        if s > 0.0 {
-            s
-        } else {
-            1.0
-        }
-    };
-    let (sm, sq, sd) = (scale(&red.m), scale(&red.q), scale(d));
-    let mat: Vec<f64> = red.m.iter().map(|v| v / sm).collect();
-    let q: Vec<f64> = red.q.iter().map(|v| v / sq).collect();
+    let sd = d.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let dn: Vec<f64> = d.iter().map(|v| v / sd).collect();
-    // z = z_scaled · sq / sm.
-    let unscale = |z: Vec<f64>| -> Vec<f64> { z.into_iter().map(|v| v * sq / sm).collect() };
+    // z = z_scaled · max|q| / max|M|.
+    let unscale = |mut z: Vec<f64>| -> Vec<f64> {
+        z.iter_mut()
+            .for_each(|v| *v = *v * red.q_scale / red.m_scale);
+        z
+    };
     let mut identity = vec![0.0; k * k];
     for i in 0..k {
         identity[i * k + i] = 1.0;
     }
     let mut tab = Tableau {
         k,
-        mat: &mat,
-        q: &q,
+        mat: &red.m,
+        q: &red.q,
         d: &dn,
         basis: (0..k).map(Var::W).collect(),
         binv: identity,
-        xb: q.clone(),
+        unit: vec![true; k],
+        xb: red.q.clone(),
     };
     let refactor_every = k.max(50);
     let record = |tab: &Tableau<'_>, monitor: &mut Monitor<'_>, pivots: usize| {
@@ -555,9 +651,12 @@ fn pivot(
             monitor.record_active_set(pivots, || red.active_rows(&tab.basis));
         }
     };
+    // Buffers reused by every pivot: the entering column and the ratio test's candidates.
+    let mut y = vec![0.0; k];
+    let mut cands: Vec<usize> = Vec::with_capacity(k);
 
     // First pivot: z0 enters, the row with the lexicographically smallest (q_r, e_r) / d_r leaves.
-    let y = tab.entering_column(Var::Z0);
+    tab.entering_column(Var::Z0, &mut y);
     let neg_y: Vec<f64> = y.iter().map(|v| -v).collect();
     let r = {
         // Minimising x_B / (−y) picks the most negative q_r / d_r; the lexicographic levels
@@ -565,10 +664,9 @@ fn pivot(
         let min = (0..k)
             .map(|r| tab.xb[r] / neg_y[r])
             .fold(f64::INFINITY, f64::min);
-        let cands: Vec<usize> = (0..k)
-            .filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0))
-            .collect();
-        tab.lexicographic_min(cands, &neg_y, false)
+        cands
+            .extend((0..k).filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0)));
+        tab.lexicographic_min(&mut cands, &neg_y, false)
     };
     let mut leaving = tab.basis[r];
     tab.pivot(r, &y, Var::Z0);
@@ -587,7 +685,7 @@ fn pivot(
         if monitor.out_of_time() {
             break Outcome::TimeLimit;
         }
-        let y = tab.entering_column(entering);
+        tab.entering_column(entering, &mut y);
         if y.iter().chain(&tab.xb).any(|v| !v.is_finite()) {
             break Outcome::NumericalFailure(format!(
                 "non-finite entering column or basic values for {entering} at pivot {}",
@@ -596,11 +694,12 @@ fn pivot(
         }
         let ymax = y.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         let tol = PIVOT_TOL * ymax.max(1.0);
-        let cands: Vec<usize> = (0..k).filter(|&r| y[r] > tol).collect();
+        cands.clear();
+        cands.extend((0..k).filter(|&r| y[r] > tol));
         if cands.is_empty() {
             break ray_termination(red, pivots + 1, entering);
         }
-        let r = tab.lexicographic_min(cands, &y, true);
+        let r = tab.lexicographic_min(&mut cands, &y, true);
         leaving = tab.basis[r];
         // The ratio test read a round-off negative x_B_r as the zero it stands for; the step
         // must use that value too, or θ = x_B_r / y_r < 0 moves the entering variable below
