@@ -177,6 +177,9 @@ pub struct StepTotals {
     cone: f64,
     residuals: ResidualStats,
     nonconverged: usize,
+    /// Steps with contact rows, and those of them the solver declined as unsupported.
+    solved: usize,
+    unsupported: usize,
     fallbacks: usize,
     worst_status: Option<Status>,
 }
@@ -195,6 +198,10 @@ impl StepTotals {
         self.cone = self.cone.max(report.friction_cone_violation);
         if report.rows == 0 {
             return;
+        }
+        self.solved += 1;
+        if matches!(report.status, Status::Unsupported { .. }) {
+            self.unsupported += 1;
         }
         if let Some(res) = &report.residuals {
             self.residuals.observe(res);
@@ -629,7 +636,9 @@ impl SceneMetricsAccumulator {
         self.status(time, r);
     }
 
-    /// `blow_up`, `time_limit`, the first non-converged step's status, or `converged`.
+    /// `blow_up`, `time_limit`, the first non-converged step's status, or `converged`; a run
+    /// whose solver declined every step it was given is `unsupported` even when collision and
+    /// assembly then ran out its time (its time says nothing of the solver).
     fn status(&self, time: TimeStop, r: &mut RunRecord) {
         let (taken, n_steps) = (self.totals.taken, self.n_steps);
         let nonconverged = self.totals.nonconverged;
@@ -642,10 +651,23 @@ impl SceneMetricsAccumulator {
                 "state non-finite or speed above {:.0} m/s at step {taken}",
                 self.stability.speed_limit
             );
+        } else if time.stopped
+            && self.totals.unsupported > 0
+            && self.totals.unsupported == self.totals.solved
+        {
+            let s = self.totals.worst_status.as_ref();
+            let why = s.and_then(|s| s.reason()).unwrap_or("unsupported");
+            r.status = RunStatus::Unsupported;
+            r.reason = format!(
+                "all {} steps with contacts unsupported ({why}); stopped after {taken} of \
+                 {n_steps} steps ({} s)",
+                self.totals.solved, time.limit_s
+            );
+            r.reason.truncate(200);
         } else if time.stopped {
             r.status = RunStatus::TimeLimit;
             r.reason = format!(
-                "stopped after {taken} of {n_steps} steps ({:.0} s)",
+                "stopped after {taken} of {n_steps} steps ({} s)",
                 time.limit_s
             );
         } else if let Some(s) = &self.totals.worst_status {
