@@ -53,7 +53,7 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
     assert_eq!(rows.len(), 2);
     for r in &rows {
         let steps = r.steps.unwrap();
-        assert!(steps >= 1 && steps < 1000, "{r:?}");
+        assert!((1..1000).contains(&steps), "{r:?}");
         let stopped = format!("stopped after {steps} of 1000 steps (0.001 s)");
         assert!(r.reason.contains(&stopped), "{r:?}");
         match r.solver.as_str() {
