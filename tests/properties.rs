@@ -160,6 +160,12 @@ proptest! {
                 }
             }
         }
+        // Lemke's sliding reduction of friction rows is copositive, and Lemke processes a
+        // copositive M when qᵀz >= 0 on SOL(0, M) (Anitescu–Potra 1997; Cottle–Pang–Stone §4.4).
+        // With A positive definite that set holds only sliding speeds, orthogonal to q: Lemke,
+        // a finite method, must converge on every instance.
+        let r = solve(SolverKind::Lemke, &problem);
+        prop_assert_eq!(&r.status, &Status::Converged, "lemke: {:?}", r.status);
     }
 }
 

@@ -131,16 +131,14 @@ fn bad_scenes_and_solvers_fail_with_one_clear_error() {
     assert!(!o.status.success());
     assert!(text(&o.stderr).contains("unknown solver `nope`"));
 
-    // Lemke takes no friction rows: the run stops and says so.
-    let o = lcpbench(&[
-        "simulate",
-        "bench_scenes/tower_10.toml",
-        "--solver",
-        "lemke",
-    ]);
+    // Enumeration takes no island of 120 rows: the run stops and says so.
+    let o = lcpbench(&["simulate", "bench_scenes/tower_10.toml", "--solver", "enum"]);
     assert!(!o.status.success());
     let e = text(&o.stderr);
-    assert!(e.contains("lemke") && e.contains("pyramid"), "{e}");
+    assert!(
+        e.contains("enum") && e.contains("dense limit of 64 rows"),
+        "{e}"
+    );
 
     let out = dir.path().join("x.json");
     let out = out.to_str().unwrap();

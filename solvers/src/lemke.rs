@@ -21,8 +21,9 @@
 //!   On other matrices a ray proves nothing: it is reported as `NoSolution` only when the reduced
 //!   `M` passes the sufficient test `M + Mᵀ` positive semidefinite (an eigenvalue decomposition,
 //!   done only after a ray), and as `Stalled` ("not a proof of infeasibility for this matrix
-//!   class") otherwise; [`crate::Enumeration`] settles such small problems. Friction rows are `Unsupported`: their bounds `±mu f_k` move with
-//!   the solution and have no fixed-bound reduction.
+//!   class") otherwise; [`crate::Enumeration`] settles such small problems. Friction rows
+//!   (box friction, `|f_i| <= mu f_k`) go through the sliding reduction below; their normal row
+//!   must have bounds `[0, ∞)`, or the problem is `Unsupported` with the reason.
 //! * **Boxed reduction** (row `i`, with `w = A f + b`):
 //!   `lo_i` finite, `hi_i = ∞`: `f_i = lo_i + x`, `x ⟂ w_i`;
 //!   `lo_i = −∞`, `hi_i` finite: `f_i = hi_i − x`, `x ⟂ −w_i`;
@@ -31,6 +32,23 @@
 //!   both infinite (free): `f_i = x⁺ − x⁻` with `x⁺ ⟂ w_i` and `x⁻ ⟂ −w_i`, which together force
 //!   `w_i = 0`. Every block keeps `M` positive semidefinite when `A` is, so the guarantee above
 //!   carries over. The standard LCP maps to itself (`M = A`, `q = b`).
+//! * **Sliding reduction** (friction row `i` on normal row `k`, bounds `±mu f_k`): `f_i = x⁺ − x⁻`
+//!   and a sliding speed `λ >= 0`, with `x⁺ ⟂ w_i + λ`, `x⁻ ⟂ −w_i + λ` and
+//!   `λ ⟂ mu f_k − x⁺ − x⁻`: the per-row form of the Anitescu–Potra LCP (for each friction row
+//!   the interval `[−mu f_k, mu f_k]` is the hull of its two ends, and maximal dissipation over it
+//!   is exactly the box condition: `w_i = 0` inside, `w_i <= 0` at `+mu f_k`, `w_i >= 0` at
+//!   `−mu f_k`). Three LCP variables per friction row. The reduced `M` is copositive
+//!   (`zᵀ M z = gᵀ A g + Σ mu λ f_k` for `z >= 0`) but not copositive-plus, so a ray is reported
+//!   as `Stalled`, never as a proof. Lemke still ends at a solution whenever `qᵀz >= 0` on
+//!   `SOL(0, M)` (Cottle–Pang–Stone §4.4; Anitescu and Potra, *Formulating dynamic
+//!   multi-rigid-body contact problems with friction as solvable linear complementarity
+//!   problems*, Nonlinear Dynamics 14, 1997), which holds when `A` is positive definite, and
+//!   when `A` is only semidefinite but no nonzero impulse `g` in the friction boxes has `A g = 0`
+//!   (the jammed 200-sphere pile: 183 null directions of `A`, none of them in the boxes).
+//!   Friction rows whose data are round-off beside their island's (a resting sphere's
+//!   `b_t ≈ 1e-18`) can come out wrong in their own row's scale; when the impulse misses the
+//!   tolerance, up to five projected Gauss–Seidel sweeps polish it, kept only if the shared
+//!   residual falls.
 //! * **Cost**: revised form with an explicit `B⁻¹`: `O(m²)` per pivot (`m` the size of the
 //!   reduced LCP), plus an `O(m³)` refactorisation of the basis every `max(50, m)` pivots and at
 //!   the end (followed by iterative refinement; skipped at the end when the basic solution
@@ -99,12 +117,12 @@ use crate::problem::Problem;
 use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
 use std::fmt;
 
-/// Largest island Lemke densifies (the reduced tableau is at most `2n × 2n`).
+/// Largest island Lemke densifies (the reduced tableau is at most `3n × 3n`, for friction rows).
 pub const DENSE_LIMIT: usize = 1500;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP and boxed LCP with fixed bounds (reduced to an LCP); processes PSD and P-matrix A; no friction rows; dense per island up to 1500 rows";
+    "LCP, boxed LCP with fixed bounds and box-friction rows (reduced to an LCP; friction rows by the sliding reduction, on normals with bounds [0, inf)); processes PSD and P-matrix A; dense per island up to 1500 rows";
 
 /// Lemke's complementary pivoting method. See the module documentation.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -170,8 +188,42 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
         },
     };
     let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
-    let f = degenerate_zeros(problem, &reduction, z, settings.tolerance);
+    let mut f = degenerate_zeros(problem, &reduction, z, settings.tolerance);
+    if outcome == Outcome::Stopped && !problem.friction().is_empty() {
+        polish_friction_rows(problem, &mut f, settings.tolerance, &mut monitor);
+    }
     monitor.finish(f, pivots, outcome)
+}
+
+/// Most projected Gauss–Seidel sweeps that [`polish_friction_rows`] tries.
+const POLISH_SWEEPS: usize = 5;
+
+/// A few projected Gauss–Seidel sweeps from Lemke's impulse when it misses `tol`, kept only if
+/// they lower the shared residual. The reduced LCP's pivot tolerances are relative to the whole
+/// island, so a friction row whose data are round-off beside the island's (a resting sphere's
+/// `b_t ≈ 1e-18` next to normals near 1) comes out at `1e-12` instead of `1e-18`: 100 % wrong in
+/// its own row's scale. One or two sweeps put such rows right and leave solved rows as they are.
+fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mut Monitor<'_>) {
+    let mut best = monitor.residual_of(f);
+    if best <= tol {
+        return;
+    }
+    let skip = crate::pgs::skipped_rows(problem);
+    let d = problem.diagonal_scale();
+    let mut g = f.to_vec();
+    for _ in 0..POLISH_SWEEPS {
+        crate::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
+        let r = monitor.residual_of(&g);
+        if r < best {
+            best = r;
+            f.copy_from_slice(&g);
+        }
+        if r <= tol {
+            break;
+        }
+    }
+    // The monitor's last measurement must be of the returned impulse for `finish` to reuse it.
+    monitor.residual_of(f);
 }
 
 /// Relative levels (of `max z`) below which basic values are tried as degenerate zeros.
@@ -235,20 +287,31 @@ struct Reduction {
 
 impl Reduction {
     fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
-        if !problem.friction().is_empty() {
-            return Err(format!(
-                "{} friction rows: their bounds ±mu·f_normal move with the solution, and Lemke \
-                 handles fixed bounds only",
-                problem.friction().len()
-            ));
-        }
         let n = problem.n();
         let (lo, hi) = (problem.lo(), problem.hi());
         let mut c = vec![0.0; n];
         let mut vars: Vec<(usize, f64)> = Vec::with_capacity(n);
         // (index of the variable x in `vars`, hi − lo) for every box row.
         let mut slacks: Vec<(usize, f64)> = Vec::new();
+        // (index of x⁺ in `vars`, friction row, its normal row, mu) for every friction row.
+        let mut sliding: Vec<(usize, usize, usize, f64)> = Vec::new();
+        // The first variable of each row.
+        let mut first_var = vec![0; n];
         for i in 0..n {
+            first_var[i] = vars.len();
+            if let Some((k, mu)) = problem.friction_of(i) {
+                if lo[k] != 0.0 || hi[k] != f64::INFINITY || problem.friction_of(k).is_some() {
+                    return Err(format!(
+                        "friction row {i}'s normal row {k} has bounds [{}, {}]: the friction \
+                         reduction needs a normal row with bounds [0, ∞)",
+                        lo[k], hi[k]
+                    ));
+                }
+                sliding.push((vars.len(), i, k, mu));
+                vars.push((i, 1.0));
+                vars.push((i, -1.0));
+                continue;
+            }
             match (lo[i].is_finite(), hi[i].is_finite()) {
                 (true, false) => {
                     c[i] = lo[i];
@@ -277,7 +340,7 @@ impl Reduction {
             problem.velocity(&c).into()
         };
         let nv = vars.len();
-        let m = nv + slacks.len();
+        let m = nv + slacks.len() + sliding.len();
         let mut mat = vec![0.0; m * m];
         let mut q = vec![0.0; m];
         // A standard LCP maps every row to one variable of its own: `M = S A S` row by row.
@@ -306,6 +369,16 @@ impl Reduction {
             mat[v * m + y] = 1.0;
             mat[y * m + v] = -1.0;
             q[y] = width;
+        }
+        // Friction row `i` on normal `k`: `x⁺ ⟂ w_i + λ`, `x⁻ ⟂ −w_i + λ` and
+        // `λ ⟂ mu·f_k − x⁺ − x⁻`, all in row `i`'s equilibrated units.
+        for (l, &(v, i, k, mu)) in sliding.iter().enumerate() {
+            let y = nv + slacks.len() + l;
+            mat[v * m + y] = 1.0;
+            mat[(v + 1) * m + y] = 1.0;
+            mat[y * m + v] = -1.0;
+            mat[y * m + v + 1] = -1.0;
+            mat[y * m + first_var[k]] = mu * scale[k] / scale[i];
         }
         if let Some(i) = q.iter().position(|v| !v.is_finite()) {
             return Err(format!(
@@ -949,21 +1022,33 @@ mod tests {
     }
 
     #[test]
-    fn friction_and_bad_covering_vectors_are_unsupported() {
-        let p = Problem::boxed(
-            Mat::identity(2, 2),
-            vec![-1.0, -0.1],
-            vec![0.0, 0.0],
-            vec![f64::INFINITY, 0.0],
-            vec![crate::FrictionRow {
-                row: 1,
-                normal: 0,
-                mu: 0.5,
-            }],
-        )
-        .unwrap();
-        let r = Lemke::default().solve(&p, &Settings::default());
+    fn friction_rows_on_a_bounded_normal_and_bad_covering_vectors_are_unsupported() {
+        let friction = |normal_hi: f64| {
+            Problem::boxed(
+                Mat::identity(2, 2),
+                vec![-1.0, -0.8],
+                vec![0.0, 0.0],
+                vec![normal_hi, 0.0],
+                vec![crate::FrictionRow {
+                    row: 1,
+                    normal: 0,
+                    mu: 0.5,
+                }],
+            )
+            .unwrap()
+        };
+        let r = Lemke::default().solve(&friction(2.0), &Settings::default());
         assert_eq!(r.status.name(), "unsupported");
+        assert!(r.status.reason().unwrap().contains("bounds [0, ∞)"));
+        // On a normal row with bounds [0, ∞): f_n = 1, and the friction impulse sticks at the
+        // bound mu·f_n = 0.5 (its velocity −0.8 + 0.5 < 0 pushes on).
+        let r = Lemke::default().solve(&friction(f64::INFINITY), &Settings::default());
+        assert_eq!(r.status, Status::Converged);
+        assert!(
+            (r.f[0] - 1.0).abs() < 1e-12 && (r.f[1] - 0.5).abs() < 1e-12,
+            "{:?}",
+            r.f
+        );
         let p = lcp(&[&[2.0, 1.0], &[1.0, 2.0]], &[-1.0, 1.0]);
         for d in [vec![1.0], vec![1.0, 0.0]] {
             let r = Lemke::with_covering(d).solve(&p, &Settings::default());
