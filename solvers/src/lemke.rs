@@ -283,6 +283,8 @@ struct Reduction {
     var_row: Vec<Option<(usize, f64)>>,
     /// The equilibration `s_i = 1/√d_i`: row `i`'s LCP variables are in units of `scale_i`.
     scale: Vec<f64>,
+    /// Friction rows reduced by sliding speeds (their `M` is never copositive-plus).
+    sliding_rows: usize,
 }
 
 impl Reduction {
@@ -421,6 +423,7 @@ impl Reduction {
             q,
             q_scale: sq,
             m_scale: sm,
+            sliding_rows: sliding.len(),
             c,
             var_row,
             scale,
@@ -570,8 +573,9 @@ impl Tableau<'_> {
         self.unit[r] = false;
     }
 
-    /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with iterative refinement.
-    fn refactor(&mut self) -> Result<(), String> {
+    /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with iterative refinement. `stop` is
+    /// asked between columns of the inversion (`O(k³)`, seconds on the largest islands).
+    fn refactor(&mut self, stop: &dyn Fn() -> bool) -> Result<(), Breakdown> {
         let k = self.k;
         // `B`, row-major, for the inversion and the refinement's residuals.
         let mut b = vec![0.0; k * k];
@@ -582,7 +586,7 @@ impl Tableau<'_> {
                 b[i * k + r] = v;
             }
         }
-        let inv = invert(&b, k).ok_or_else(|| "singular basis at refactorisation".to_string())?;
+        let inv = invert(&b, k, stop)?;
         for r in 0..k {
             for c in 0..k {
                 self.binv[c * k + r] = inv[r * k + c];
@@ -781,8 +785,14 @@ fn pivot(
         tab.pivot(r, &y, entering);
         pivots += 1;
         if pivots % refactor_every == 0 && leaving != Var::Z0 {
-            if let Err(reason) = tab.refactor() {
-                break Outcome::NumericalFailure(format!("{reason} after pivot {pivots}"));
+            match tab.refactor(&|| monitor.out_of_time()) {
+                Ok(()) => {}
+                Err(Breakdown::Singular) => {
+                    break Outcome::NumericalFailure(format!(
+                        "singular basis at refactorisation after pivot {pivots}"
+                    ))
+                }
+                Err(Breakdown::OutOfTime) => break Outcome::TimeLimit,
             }
         }
         record(&tab, monitor, pivots);
@@ -794,10 +804,11 @@ fn pivot(
     let outcome = if accurate {
         outcome
     } else {
-        match (outcome, tab.refactor()) {
-            (Outcome::Stopped, Err(reason)) => {
-                Outcome::NumericalFailure(format!("{reason} at the final basis"))
-            }
+        // Out of time here, the product-form solution stands and the residual decides.
+        match (outcome, tab.refactor(&|| monitor.out_of_time())) {
+            (Outcome::Stopped, Err(Breakdown::Singular)) => Outcome::NumericalFailure(
+                "singular basis at refactorisation at the final basis".to_string(),
+            ),
             (outcome, _) => outcome,
         }
     };
@@ -809,6 +820,15 @@ fn pivot(
 /// semidefinite (then `M` is positive semidefinite, hence copositive-plus). Otherwise the ray
 /// proves nothing and the solve has stalled.
 fn ray_termination(red: &Reduction, pivot: usize, entering: Var) -> Outcome {
+    if red.sliding_rows > 0 {
+        // `M + Mᵀ` keeps the `mu` entries of the sliding rows with a zero diagonal: indefinite.
+        return Outcome::Stalled(format!(
+            "ray termination at pivot {pivot}: entering {entering} is not blocked; not a proof \
+             of infeasibility (the sliding reduction of {} friction rows is copositive, not \
+             copositive-plus)",
+            red.sliding_rows
+        ));
+    }
     let k = red.q.len();
     let mmax = red.m.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     let sym = faer::Mat::from_fn(k, k, |i, j| 0.5 * (red.m[i * k + j] + red.m[j * k + i]));
@@ -829,9 +849,18 @@ fn ray_termination(red: &Reduction, pivot: usize, entering: Var) -> Outcome {
     }
 }
 
+/// Why a refactorisation gave no new `B⁻¹`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Breakdown {
+    /// A pivot of the inversion fell below `1e-13` times the largest entry.
+    Singular,
+    /// The time budget ran out during the inversion.
+    OutOfTime,
+}
+
 /// Inverse of the row-major `k × k` matrix `b` by Gauss–Jordan elimination with partial
-/// pivoting; `None` when a pivot falls below `1e-13` times the largest entry.
-fn invert(b: &[f64], k: usize) -> Option<Vec<f64>> {
+/// pivoting. `stop` is asked every 16 columns of a matrix above 64 rows.
+fn invert(b: &[f64], k: usize, stop: &dyn Fn() -> bool) -> Result<Vec<f64>, Breakdown> {
     let mut a = b.to_vec();
     let mut inv = vec![0.0; k * k];
     for i in 0..k {
@@ -840,10 +869,15 @@ fn invert(b: &[f64], k: usize) -> Option<Vec<f64>> {
     let amax = a.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     let tol = 1e-13 * amax.max(f64::MIN_POSITIVE);
     for col in 0..k {
-        let p = (col..k).max_by(|&x, &y| a[x * k + col].abs().total_cmp(&a[y * k + col].abs()))?;
+        if k > 64 && col % 16 == 0 && stop() {
+            return Err(Breakdown::OutOfTime);
+        }
+        let p = (col..k)
+            .max_by(|&x, &y| a[x * k + col].abs().total_cmp(&a[y * k + col].abs()))
+            .ok_or(Breakdown::Singular)?;
         // `<=` and not `>`: a NaN pivot must fail too.
         if a[p * k + col].abs().is_nan() || a[p * k + col].abs() <= tol {
-            return None;
+            return Err(Breakdown::Singular);
         }
         if p != col {
             for c in 0..k {
@@ -869,7 +903,7 @@ fn invert(b: &[f64], k: usize) -> Option<Vec<f64>> {
             }
         }
     }
-    Some(inv)
+    Ok(inv)
 }
 
 #[cfg(test)]
