@@ -211,10 +211,13 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
     let skip = crate::pgs::skipped_rows(problem);
     let d = problem.diagonal_scale();
     let mut g = f.to_vec();
+    // Whether the monitor's last measurement is of `f` (then `finish` reuses it).
+    let mut last_is_f = true;
     for _ in 0..POLISH_SWEEPS {
         crate::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
         let r = monitor.residual_of(&g);
-        if r < best {
+        last_is_f = r < best;
+        if last_is_f {
             best = r;
             f.copy_from_slice(&g);
         }
@@ -222,8 +225,9 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
             break;
         }
     }
-    // The monitor's last measurement must be of the returned impulse for `finish` to reuse it.
-    monitor.residual_of(f);
+    if !last_is_f {
+        monitor.residual_of(f);
+    }
 }
 
 /// Relative levels (of `max z`) below which basic values are tried as degenerate zeros.
