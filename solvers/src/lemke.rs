@@ -93,10 +93,14 @@
 //!   every later pivot: on the resting 10-box tower's pyramid LCPs that was enough for the tower
 //!   to fall. The degenerate steps of that test are that sensitive.)
 //! * **Per-solve cost on tiny problems** (where it is all overhead): `B⁻¹` is stored
-//!   column-major and a pivot in row `r` skips the columns with a zero in row `r`, which are
-//!   all the unit columns of the starting basis but one; the entering column adds a unit
-//!   column's single term. A solve of `p` pivots thus costs `O(p² k)` rather than `O(p k²)`
-//!   in its updates, and the buffers of the pivot loop are allocated once per solve.
+//!   column-major, and only the columns a pivot has changed are stored at all: the unit
+//!   columns of the starting basis are neither written nor zero-filled, a pivot in row `r`
+//!   skips every column with a zero in row `r` (all unit columns but `e_r`), and the entering
+//!   column and the ratio test take a unit column's single nonzero as it is. A solve of `p`
+//!   pivots thus costs `O(p² k)` rather than `O(p k²)` in its updates. The buffers of the pivot
+//!   loop (entering column, ratio-test candidates and their ratios, each computed once) are
+//!   allocated once per solve, a standard LCP's `M` is written without a zero fill, and the
+//!   impulse measured for the stopping test is the one returned.
 //! * **Sparse and large problems**: the problem is split into independent islands
 //!   ([`Problem::islands`]); each is densified and solved on its own. An island above
 //!   [`DENSE_LIMIT`] rows gives `Unsupported` with the reason.
@@ -160,10 +164,8 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
     // Equilibration `A' = S A S` with `s_i = 1/√d_i`, so the pivots do not depend on how rows
     // and columns are scaled (a problem scaled over many decades would otherwise mislead the
     // ratio tests into a false ray).
-    let s: Vec<f64> = problem
-        .diagonal_scale()
-        .iter()
-        .map(|d| 1.0 / d.sqrt())
+    let s: Vec<f64> = (0..problem.n())
+        .map(|i| 1.0 / problem.diagonal_scale_of(i).sqrt())
         .collect();
     let reduction = match Reduction::new(problem, s) {
         Ok(r) => r,
@@ -187,8 +189,11 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
             None => d.to_vec(),
         },
     };
-    let (z, pivots, outcome) = pivot(&reduction, &d, settings, &mut monitor);
-    let mut f = degenerate_zeros(problem, &reduction, z, settings.tolerance);
+    let (z, pivots, outcome, f) = pivot(&reduction, d, settings, &mut monitor);
+    let mut f = match f {
+        Some(f) => f,
+        None => degenerate_zeros(problem, &reduction, z, settings.tolerance),
+    };
     if outcome == Outcome::Stopped && !problem.friction().is_empty() {
         polish_friction_rows(problem, &mut f, settings.tolerance, &mut monitor);
     }
@@ -301,10 +306,16 @@ impl Reduction {
         let mut slacks: Vec<(usize, f64)> = Vec::new();
         // (index of x⁺ in `vars`, friction row, its normal row, mu) for every friction row.
         let mut sliding: Vec<(usize, usize, usize, f64)> = Vec::new();
-        // The first variable of each row.
-        let mut first_var = vec![0; n];
+        // The first variable of each row (read only by the sliding rows).
+        let mut first_var = if problem.friction().is_empty() {
+            Vec::new()
+        } else {
+            vec![0; n]
+        };
         for i in 0..n {
-            first_var[i] = vars.len();
+            if let Some(first) = first_var.get_mut(i) {
+                *first = vars.len();
+            }
             if let Some((k, mu)) = problem.friction_of(i) {
                 if lo[k] != 0.0 || hi[k] != f64::INFINITY || problem.friction_of(k).is_some() {
                     return Err(format!(
@@ -347,24 +358,27 @@ impl Reduction {
         };
         let nv = vars.len();
         let m = nv + slacks.len() + sliding.len();
-        let mut mat = vec![0.0; m * m];
         let mut q = vec![0.0; m];
-        // A standard LCP maps every row to one variable of its own: `M = S A S` row by row.
+        // A standard LCP maps every row to one variable of its own: `M = S A S` row by row,
+        // every entry written once (so not zero-filled first).
         let identity_map = m == n
             && vars
                 .iter()
                 .enumerate()
                 .all(|(v, &(i, t))| v == i && t == 1.0);
+        let mut mat = if identity_map {
+            Vec::with_capacity(m * m)
+        } else {
+            vec![0.0; m * m]
+        };
         for (v, &(i, s)) in vars.iter().enumerate() {
             q[v] = s * scale[i] * w0[i];
             let row = problem.dense_row(i);
             let si = s * scale[i];
-            let out = &mut mat[v * m..(v + 1) * m];
             if identity_map {
-                for ((o, a), sj) in out.iter_mut().zip(row).zip(&scale) {
-                    *o = si * a * sj;
-                }
+                mat.extend(row.iter().zip(&scale).map(|(a, sj)| si * a * sj));
             } else {
+                let out = &mut mat[v * m..(v + 1) * m];
                 for (o, &(j, t)) in out.iter_mut().zip(&vars) {
                     *o = t * si * row[j] * scale[j];
                 }
@@ -497,16 +511,31 @@ struct Tableau<'a> {
     q: &'a [f64],
     d: &'a [f64],
     basis: Vec<Var>,
-    /// `B⁻¹`, column-major: entry `(r, c)` at `c · k + r`.
+    /// The columns of `B⁻¹` that are no longer the unit vectors `e_c` of the starting basis,
+    /// each stored once it first changes (column-major, `k` entries each, in the order they
+    /// changed; after a refactorisation all `k`, in column order). A pivot in row `r` changes
+    /// only the columns with a nonzero in row `r`, so a solve of `p` pivots stores at most `p`
+    /// columns: the unit columns are neither stored nor zero-filled, and the entering column,
+    /// the pivot and the ratio test take their one nonzero as it is.
     binv: Vec<f64>,
-    /// Whether column `c` of `B⁻¹` is still the unit vector `e_c` of the starting basis. A pivot
-    /// in row `r` changes only the columns with a nonzero in row `r`, so a solve of `p` pivots
-    /// touches at most `p` columns: both the entering column and the pivot skip the others.
-    unit: Vec<bool>,
+    /// Where column `c` of `B⁻¹` is in `binv` (in columns), or [`UNIT`] while it is `e_c`.
+    slot: Vec<usize>,
     xb: Vec<f64>,
 }
 
+/// [`Tableau::slot`] of a column of `B⁻¹` that is still a unit vector.
+const UNIT: usize = usize::MAX;
+
 impl Tableau<'_> {
+    /// Column `c` of `B⁻¹`, or `None` while it is the unit vector `e_c`.
+    #[inline]
+    fn binv_column(&self, c: usize) -> Option<&[f64]> {
+        match self.slot[c] {
+            UNIT => None,
+            s => Some(&self.binv[s * self.k..(s + 1) * self.k]),
+        }
+    }
+
     /// Column of `var` in the augmented system, written into `out`.
     fn column_into(&self, var: Var, out: &mut [f64]) {
         let k = self.k;
@@ -528,27 +557,37 @@ impl Tableau<'_> {
         }
     }
 
-    /// `y = B⁻¹ a` for the column `a` of `var`.
-    fn entering_column(&self, var: Var, y: &mut [f64]) {
-        let k = self.k;
-        let combine = |y: &mut [f64], a: &mut dyn Iterator<Item = f64>| {
-            // The sums of row-by-row dot products, term by term (`-0.0 + t = t` exactly); a
-            // unit column adds only its one nonzero term.
-            y.fill(-0.0);
-            for ((c, col), ac) in self.binv.chunks_exact(k).enumerate().zip(a) {
-                if self.unit[c] {
-                    y[c] += ac;
-                } else {
+    /// `y = B⁻¹ a` for the column `a` given entry by entry.
+    #[inline]
+    fn combine(&self, y: &mut [f64], a: impl Iterator<Item = f64>) {
+        // The sums of row-by-row dot products, term by term (`-0.0 + t = t` exactly); a unit
+        // column adds only its one nonzero term.
+        y.fill(-0.0);
+        for (c, ac) in a.enumerate() {
+            match self.binv_column(c) {
+                None => y[c] += ac,
+                Some(col) => {
                     for (yr, b) in y.iter_mut().zip(col) {
                         *yr += b * ac;
                     }
                 }
             }
-        };
+        }
+    }
+
+    /// `y = B⁻¹ a` for the column `a` of `var`.
+    fn entering_column(&self, var: Var, y: &mut [f64]) {
+        let k = self.k;
         match var {
-            Var::W(j) => y.copy_from_slice(&self.binv[j * k..(j + 1) * k]),
-            Var::Z(j) => combine(y, &mut self.mat.chunks_exact(k).map(|row| -row[j])),
-            Var::Z0 => combine(y, &mut self.d.iter().map(|d| -d)),
+            Var::W(j) => match self.binv_column(j) {
+                Some(col) => y.copy_from_slice(col),
+                None => {
+                    y.fill(0.0);
+                    y[j] = 1.0;
+                }
+            },
+            Var::Z(j) => self.combine(y, self.mat.chunks_exact(k).map(|row| -row[j])),
+            Var::Z0 => self.combine(y, self.d.iter().map(|d| -d)),
         }
     }
 
@@ -557,6 +596,8 @@ impl Tableau<'_> {
         let k = self.k;
         let p = y[r];
         let theta = self.xb[r] / p;
+        // Stored columns (unit columns `e_c`, `c != r`, have a zero in row `r` and do not
+        // change).
         for col in self.binv.chunks_exact_mut(k) {
             if col[r] == 0.0 {
                 // The new row `r` is zero here: the column does not change.
@@ -569,12 +610,18 @@ impl Tableau<'_> {
             }
             col[r] = pr;
         }
+        if self.slot[r] == UNIT {
+            // `e_r` becomes `e_r − y / p` with `1 / p` in row `r`, stored from now on.
+            let pr = 1.0 / p;
+            self.slot[r] = self.binv.len() / k;
+            self.binv.extend(y.iter().map(|yi| 0.0 - yi * pr));
+            self.binv[self.slot[r] * k + r] = pr;
+        }
         for (x, yi) in self.xb.iter_mut().zip(y) {
             *x -= yi * theta;
         }
         self.xb[r] = theta;
         self.basis[r] = entering;
-        self.unit[r] = false;
     }
 
     /// Rebuild `B⁻¹` from the basis and `x_B = B⁻¹ q`, with iterative refinement. `stop` is
@@ -591,12 +638,15 @@ impl Tableau<'_> {
             }
         }
         let inv = invert(&b, k, stop)?;
+        self.binv.resize(k * k, 0.0);
         for r in 0..k {
             for c in 0..k {
                 self.binv[c * k + r] = inv[r * k + c];
             }
         }
-        self.unit.fill(false);
+        for (c, slot) in self.slot.iter_mut().enumerate() {
+            *slot = c;
+        }
         let apply = |binv: &[f64], v: &[f64]| -> Vec<f64> {
             let mut out = vec![-0.0; k];
             for (col, vc) in binv.chunks_exact(k).zip(v) {
@@ -653,24 +703,19 @@ impl Tableau<'_> {
     /// values are taken as `max(x_B_r, 0)`: they are non-negative in exact arithmetic, and a
     /// degenerate zero that round-off made slightly negative must tie with the other zeros
     /// instead of winning with a negative ratio (which would pivot on a round-off entry of `y`
-    /// and wreck the basis).
-    fn lexicographic_min(&self, cands: &mut Vec<usize>, y: &[f64], feasible: bool) -> usize {
+    /// and wreck the basis). `vals` is scratch space for one level's ratios.
+    fn lexicographic_min(
+        &self,
+        cands: &mut Vec<usize>,
+        vals: &mut Vec<f64>,
+        y: &[f64],
+        feasible: bool,
+    ) -> usize {
         let k = self.k;
-        let keep_min = |cands: &mut Vec<usize>, value: &dyn Fn(usize) -> f64| {
-            let min = cands
-                .iter()
-                .map(|&r| value(r))
-                .fold(f64::INFINITY, f64::min);
-            let tol = TIE_TOL * min.abs().max(1.0);
-            // Non-finite values (a breakdown the caller reports) must not empty the set.
-            if min.is_finite() {
-                cands.retain(|&r| value(r) <= min + tol);
-            }
-        };
         if feasible {
-            keep_min(cands, &|r| self.xb[r].max(0.0) / y[r]);
+            keep_min(cands, vals, |r| self.xb[r].max(0.0) / y[r]);
         } else {
-            keep_min(cands, &|r| self.xb[r] / y[r]);
+            keep_min(cands, vals, |r| self.xb[r] / y[r]);
         }
         if let Some(&r) = cands.iter().find(|&&r| self.basis[r] == Var::Z0) {
             return r;
@@ -679,8 +724,11 @@ impl Tableau<'_> {
             if cands.len() <= 1 {
                 break;
             }
-            let col = &self.binv[c * k..(c + 1) * k];
-            keep_min(cands, &|r| col[r] / y[r]);
+            match self.binv_column(c) {
+                Some(col) => keep_min(cands, vals, |r| col[r] / y[r]),
+                // `e_c`: `1 / y_c` in row `c`, zero elsewhere.
+                None => keep_min(cands, vals, |r| if r == c { 1.0 } else { 0.0 } / y[r]),
+            }
         }
         // Still tied only through round-off: take the largest pivot.
         cands
@@ -691,38 +739,57 @@ impl Tableau<'_> {
     }
 }
 
+/// Narrow `cands` to the rows whose `value` is within the tie tolerance of the smallest (`vals`
+/// holds the values, each computed once).
+#[inline]
+fn keep_min(cands: &mut Vec<usize>, vals: &mut Vec<f64>, value: impl Fn(usize) -> f64) {
+    vals.clear();
+    vals.extend(cands.iter().map(|&r| value(r)));
+    let min = vals.iter().copied().fold(f64::INFINITY, f64::min);
+    let tol = TIE_TOL * min.abs().max(1.0);
+    // Non-finite values (a breakdown the caller reports) must not empty the set.
+    if min.is_finite() {
+        let mut kept = 0;
+        for (i, &v) in vals.iter().enumerate() {
+            if v <= min + tol {
+                cands[kept] = cands[i];
+                kept += 1;
+            }
+        }
+        cands.truncate(kept);
+    }
+}
+
 /// Run Lemke on the reduced LCP with covering vector `d`. Returns the unscaled `z`, the pivot
-/// count and the outcome.
+/// count, the outcome and, when the final basic solution met the tolerance as it stood, its
+/// impulse (already measured).
 fn pivot(
     red: &Reduction,
-    d: &[f64],
+    mut dn: Vec<f64>,
     settings: &Settings,
     monitor: &mut Monitor<'_>,
-) -> (Vec<f64>, usize, Outcome) {
+) -> (Vec<f64>, usize, Outcome, Option<Vec<f64>>) {
     let k = red.q.len();
     if red.q.iter().all(|&v| v >= 0.0) {
-        return (vec![0.0; k], 0, Outcome::Stopped);
+        return (vec![0.0; k], 0, Outcome::Stopped, None);
     }
-    let sd = d.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    let dn: Vec<f64> = d.iter().map(|v| v / sd).collect();
+    let sd = dn.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    dn.iter_mut().for_each(|v| *v /= sd);
     // z = z_scaled · max|q| / max|M|.
     let unscale = |mut z: Vec<f64>| -> Vec<f64> {
         z.iter_mut()
             .for_each(|v| *v = *v * red.q_scale / red.m_scale);
         z
     };
-    let mut identity = vec![0.0; k * k];
-    for i in 0..k {
-        identity[i * k + i] = 1.0;
-    }
     let mut tab = Tableau {
         k,
         mat: &red.m,
         q: &red.q,
         d: &dn,
         basis: (0..k).map(Var::W).collect(),
-        binv: identity,
-        unit: vec![true; k],
+        // Reserved, not filled: a solve stores as many columns as it changes.
+        binv: Vec::with_capacity(k * k),
+        slot: vec![UNIT; k],
         xb: red.q.clone(),
     };
     let refactor_every = k.max(50);
@@ -735,19 +802,23 @@ fn pivot(
     // Buffers reused by every pivot: the entering column and the ratio test's candidates.
     let mut y = vec![0.0; k];
     let mut cands: Vec<usize> = Vec::with_capacity(k);
+    let mut vals: Vec<f64> = Vec::with_capacity(k);
 
     // First pivot: z0 enters, the row with the lexicographically smallest (q_r, e_r) / d_r leaves.
     tab.entering_column(Var::Z0, &mut y);
-    let neg_y: Vec<f64> = y.iter().map(|v| -v).collect();
     let r = {
         // Minimising x_B / (−y) picks the most negative q_r / d_r; the lexicographic levels
-        // then use the same denominators.
+        // then use the same denominators (`y` is negated for them, and back: both exact).
+        y.iter_mut().for_each(|v| *v = -*v);
+        let neg_y = &y;
         let min = (0..k)
             .map(|r| tab.xb[r] / neg_y[r])
             .fold(f64::INFINITY, f64::min);
         cands
             .extend((0..k).filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0)));
-        tab.lexicographic_min(&mut cands, &neg_y, false)
+        let r = tab.lexicographic_min(&mut cands, &mut vals, neg_y, false);
+        y.iter_mut().for_each(|v| *v = -*v);
+        r
     };
     let mut leaving = tab.basis[r];
     tab.pivot(r, &y, Var::Z0);
@@ -780,7 +851,7 @@ fn pivot(
         if cands.is_empty() {
             break ray_termination(red, pivots + 1, entering);
         }
-        let r = tab.lexicographic_min(&mut cands, &y, true);
+        let r = tab.lexicographic_min(&mut cands, &mut vals, &y, true);
         leaving = tab.basis[r];
         // The ratio test read a round-off negative x_B_r as the zero it stands for; the step
         // must use that value too, or θ = x_B_r / y_r < 0 moves the entering variable below
@@ -803,11 +874,14 @@ fn pivot(
     };
     // The final refactorisation (`O(k³)`, half the cost of a tiny solve) is skipped when the
     // product-form basic solution already meets the tolerance in the shared residual.
-    let accurate = outcome == Outcome::Stopped
-        && monitor.residual_of(&red.impulse(&unscale(tab.z()))) <= settings.tolerance;
-    let outcome = if accurate {
-        outcome
-    } else {
+    if outcome == Outcome::Stopped {
+        let z = unscale(tab.z());
+        let f = red.impulse(&z);
+        if monitor.residual_of(&f) <= settings.tolerance {
+            return (z, pivots, outcome, Some(f));
+        }
+    }
+    let outcome = {
         // Out of time here, the product-form solution stands and the residual decides.
         match (outcome, tab.refactor(&|| monitor.out_of_time())) {
             (Outcome::Stopped, Err(Breakdown::Singular)) => Outcome::NumericalFailure(
@@ -816,7 +890,7 @@ fn pivot(
             (outcome, _) => outcome,
         }
     };
-    (unscale(tab.z()), pivots, outcome)
+    (unscale(tab.z()), pivots, outcome, None)
 }
 
 /// The outcome of a ray at `pivot`: a proof of infeasibility only when the reduced `M` is known
