@@ -647,16 +647,13 @@ impl Tableau<'_> {
         for (c, slot) in self.slot.iter_mut().enumerate() {
             *slot = c;
         }
-        let apply = |binv: &[f64], v: &[f64]| -> Vec<f64> {
-            let mut out = vec![-0.0; k];
-            for (col, vc) in binv.chunks_exact(k).zip(v) {
-                for (o, b) in out.iter_mut().zip(col) {
-                    *o += b * vc;
-                }
-            }
+        // `B⁻¹ v`, every column now stored.
+        let apply = |v: &[f64]| -> Vec<f64> {
+            let mut out = vec![0.0; k];
+            self.combine(&mut out, v.iter().copied());
             out
         };
-        let mut x = apply(&self.binv, self.q);
+        let mut x = apply(self.q);
         // Iterative refinement while the residual of `B x = q` shrinks (at most
         // `REFINEMENT_STEPS`): the bases of degenerate problems reach `cond(B) ≈ 1e9`, where
         // one step leaves basic values wrong by far more than round-off of the data.
@@ -673,7 +670,7 @@ impl Tableau<'_> {
                 break;
             }
             let mut next = x.clone();
-            for (xi, dx) in next.iter_mut().zip(apply(&self.binv, &resid)) {
+            for (xi, dx) in next.iter_mut().zip(apply(&resid)) {
                 *xi += dx;
             }
             let next_resid = residual(&next);
@@ -809,14 +806,10 @@ fn pivot(
     let r = {
         // Minimising x_B / (−y) picks the most negative q_r / d_r; the lexicographic levels
         // then use the same denominators (`y` is negated for them, and back: both exact).
+        // Every row is a candidate (`−y = d > 0`); the first level keeps the minimal ratios.
         y.iter_mut().for_each(|v| *v = -*v);
-        let neg_y = &y;
-        let min = (0..k)
-            .map(|r| tab.xb[r] / neg_y[r])
-            .fold(f64::INFINITY, f64::min);
-        cands
-            .extend((0..k).filter(|&r| tab.xb[r] / neg_y[r] <= min + TIE_TOL * min.abs().max(1.0)));
-        let r = tab.lexicographic_min(&mut cands, &mut vals, neg_y, false);
+        cands.extend(0..k);
+        let r = tab.lexicographic_min(&mut cands, &mut vals, &y, false);
         y.iter_mut().for_each(|v| *v = -*v);
         r
     };
