@@ -62,7 +62,9 @@ pub struct ReportArgs {
     /// Keep the rows of an interrupted earlier run instead of starting fresh.
     #[arg(long)]
     pub resume: bool,
-    /// Only rewrite tables and figures from the existing data (no runs).
+    /// Only rewrite tables and figures from the existing data in `--out` (no runs); the exported
+    /// LCPs in `--out`/lcps keep the names the data records them under, so a copy of a report's
+    /// directory rebuilds the same tables.
     #[arg(long)]
     pub no_run: bool,
     /// Worker threads.
@@ -240,17 +242,20 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {
         // Tables from existing data: the LCPs exported by the run that produced it.
-        report::scenes_matching(&lcp_dir.join("*.json").to_string_lossy())?
+        report::recorded_exports(&args.out)?
     } else {
         if lcp_dir.exists() {
             std::fs::remove_dir_all(&lcp_dir)?;
         }
-        lcpbench::harness::export::export_suite_lcps(
+        // Sorted by path, the order `--no-run` lists them in.
+        let mut exported = lcpbench::harness::export::export_suite_lcps(
             &scenes,
             &lcp_dir,
             if args.quick { 60 } else { 400 },
             suite::LARGE_SCENE_BODIES,
-        )?
+        )?;
+        exported.sort();
+        exported
     };
     let mut sweep = SweepConfig::new(args.out.join("data"))?;
     sweep.jobs = args.jobs;

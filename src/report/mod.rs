@@ -158,10 +158,95 @@ pub fn scenes_matching(pattern: &str) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
+/// The exported LCPs of an earlier run in `out_dir/lcps/*.json`, each named as that run's data
+/// names it. A `file:` case is keyed by the path the run was given (`reports/lcps/x.json` for the
+/// default `--out reports`), so tables rebuilt from a copy of the data in another directory look
+/// the file up under its recorded path: the recorded `file:` case whose path ends in
+/// `lcps/<name>` is used when there is exactly one, the listed path otherwise.
+pub fn recorded_exports(out_dir: &Path) -> Result<Vec<PathBuf>> {
+    let listed = scenes_matching(&out_dir.join("lcps").join("*.json").to_string_lossy())?;
+    let results = out_dir.join("data").join("results.csv");
+    if !results.exists() {
+        return Ok(listed);
+    }
+    let mut recorded: Vec<PathBuf> = crate::harness::sweep::read_results(&results)?
+        .into_iter()
+        .filter_map(|r| r.case.strip_prefix("file:").map(PathBuf::from))
+        .collect();
+    recorded.sort();
+    recorded.dedup();
+    let in_lcps = |p: &Path| {
+        p.parent()
+            .and_then(Path::file_name)
+            .is_some_and(|d| d == "lcps")
+    };
+    Ok(listed
+        .into_iter()
+        .map(|path| {
+            let mut same = recorded
+                .iter()
+                .filter(|r| in_lcps(r) && r.file_name() == path.file_name());
+            match (same.next(), same.next()) {
+                (Some(r), None) => r.clone(),
+                _ => path,
+            }
+        })
+        .collect())
+}
+
 /// A path relative to `base` for links in the README (falls back to the path itself).
 pub(crate) fn rel(path: &Path, base: &Path) -> String {
     path.strip_prefix(base)
         .unwrap_or(path)
         .to_string_lossy()
         .into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::record::RunRecord;
+
+    #[test]
+    fn recorded_exports_use_the_path_the_data_was_recorded_under() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("copy");
+        std::fs::create_dir_all(out.join("lcps")).unwrap();
+        std::fs::create_dir_all(out.join("data")).unwrap();
+        for name in ["a_step3.json", "b_step3.json", "c_step3.json"] {
+            std::fs::write(out.join("lcps").join(name), "{}").unwrap();
+        }
+        // Without data, the listed files as they are.
+        let listed = recorded_exports(&out).unwrap();
+        assert_eq!(listed.len(), 3);
+        assert!(listed[0].starts_with(&out));
+        // `a` recorded once under the default output, `b` under two directories (ambiguous),
+        // `c` not at all: only `a` takes its recorded path.
+        let mut w = csv::Writer::from_path(out.join("data").join("results.csv")).unwrap();
+        for case in [
+            "file:reports/lcps/a_step3.json",
+            "file:reports/lcps/a_step3.json",
+            "file:x/lcps/b_step3.json",
+            "file:y/lcps/b_step3.json",
+            "file:reports/elsewhere/c_step3.json",
+            "spd:n=10:cond=1e2:seed=1",
+        ] {
+            let record = RunRecord {
+                case: case.into(),
+                ..RunRecord::default()
+            };
+            w.serialize(&record).unwrap();
+        }
+        w.flush().unwrap();
+        drop(w);
+        let got = recorded_exports(&out).unwrap();
+        assert_eq!(
+            got,
+            vec![
+                PathBuf::from("reports/lcps/a_step3.json"),
+                out.join("lcps").join("b_step3.json"),
+                out.join("lcps").join("c_step3.json"),
+            ]
+        );
+    }
 }
