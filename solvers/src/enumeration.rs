@@ -109,10 +109,11 @@ pub(crate) struct LocalLcp<'a> {
     pub d: &'a [f64],
 }
 
-/// Result of an enumeration.
+/// Result of an enumeration (the best candidate itself is in [`Workspace::best`]).
 pub(crate) struct Enumerated {
-    /// The candidate with the smallest local residual (`None` when every basis was singular).
-    pub x: Option<Vec<f64>>,
+    /// True when some basis was regular: [`Workspace::best`] then holds the candidate with the
+    /// smallest local residual.
+    pub found: bool,
     /// Its local residual `max_i |x_i − mid(lo_i, hi_i, x_i − w_i/d_i)|`.
     pub residual: f64,
     /// Bases tried.
@@ -130,20 +131,52 @@ pub(crate) fn basis_count(bounds: &[LocalBound]) -> usize {
         .fold(1usize, |n, b| n.saturating_mul(b.states().len()))
 }
 
-/// Workspace for [`enumerate`] (allocated once, reused across blocks and sweeps).
+/// Workspace for [`enumerate`] (allocated once, reused across blocks and sweeps: block solvers
+/// call it once per contact per sweep).
 #[derive(Default)]
 pub(crate) struct Workspace {
     sys: Vec<f64>,
     rhs: Vec<f64>,
     x: Vec<f64>,
+    w: Vec<f64>,
     digits: Vec<usize>,
+    radices: Vec<&'static [RowState]>,
+    states: Vec<RowState>,
+    /// The guessed basis ([`LocalLcp::residual_and_guess`]).
+    pub guess: Vec<RowState>,
+    /// The best candidate of the last [`enumerate`].
+    pub best: Vec<f64>,
 }
 
 impl LocalLcp<'_> {
-    /// Local residual `max_i |x_i − mid(lo_i, hi_i, x_i − w_i / d_i)|` of `x`.
-    pub(crate) fn residual_at(&self, x: &[f64]) -> f64 {
-        let mut w = vec![0.0; self.m];
-        self.residual(x, &mut w)
+    /// Local residual `max_i |x_i − mid(lo_i, hi_i, x_i − w_i / d_i)|` of `x`, and in
+    /// `ws.guess` the basis `x` suggests: the state of `x_i − w_i / d_i` against the bounds at
+    /// `x` (a state the row cannot take is replaced by its first one), from one product `M x`.
+    pub(crate) fn residual_and_guess(&self, x: &[f64], ws: &mut Workspace) -> f64 {
+        let m = self.m;
+        let mut r: f64 = 0.0;
+        ws.guess.clear();
+        for i in 0..m {
+            let wi = self.q[i] + dot(&self.mat[i * m..(i + 1) * m], x);
+            let (lo, hi) = self.bounds[i].at(x);
+            let t = x[i] - wi / self.d[i];
+            let v = (x[i] - t.max(lo).min(hi)).abs();
+            r = if v.is_nan() { f64::INFINITY } else { r.max(v) };
+            let states = self.bounds[i].states();
+            let want = if t <= lo {
+                RowState::Lower
+            } else if t >= hi {
+                RowState::Upper
+            } else {
+                RowState::Free
+            };
+            ws.guess.push(if states.contains(&want) {
+                want
+            } else {
+                states[0]
+            });
+        }
+        r
     }
 
     /// Local residual of `x`, with `w` written.
@@ -188,10 +221,34 @@ impl LocalLcp<'_> {
         ws.x.extend_from_slice(&ws.rhs);
         gauss_solve(&mut ws.sys, &mut ws.x, m)
     }
+
+    /// Solve basis `ws.states` and keep it in `ws.best` when its residual beats `out`'s; true
+    /// when it is accepted (`<= accept`).
+    fn try_basis(&self, accept: f64, ws: &mut Workspace, out: &mut Enumerated) -> bool {
+        out.tried += 1;
+        let states = std::mem::take(&mut ws.states);
+        let regular = self.solve_basis(&states, ws);
+        ws.states = states;
+        if !regular {
+            out.singular += 1;
+            return false;
+        }
+        let mut w = std::mem::take(&mut ws.w);
+        w.resize(self.m, 0.0);
+        let r = self.residual(&ws.x, &mut w);
+        ws.w = w;
+        if r < out.residual || !out.found {
+            out.residual = r;
+            out.found = true;
+            ws.best.clone_from(&ws.x);
+        }
+        r <= accept
+    }
 }
 
-/// Try complementary bases of `lcp` in order of their distance from `guess` until one has a
-/// local residual `<= accept` or `keep_going(tried)` says stop.
+/// Try complementary bases of `lcp` in order of their distance from `guess` (the number of rows
+/// whose state differs; the guess itself first) until one has a local residual `<= accept` or
+/// `keep_going(tried)` says stop. The best candidate is left in `ws.best`.
 pub(crate) fn enumerate(
     lcp: &LocalLcp<'_>,
     guess: &[RowState],
@@ -201,41 +258,42 @@ pub(crate) fn enumerate(
 ) -> Enumerated {
     let m = lcp.m;
     let mut out = Enumerated {
-        x: None,
+        found: false,
         residual: f64::INFINITY,
         tried: 0,
         singular: 0,
         exhausted: false,
     };
-    let radices: Vec<&[RowState]> = lcp.bounds.iter().map(|b| b.states()).collect();
-    let mut states = vec![RowState::Free; m];
-    let mut w = vec![0.0; m];
-    for distance in 0..=m {
+    ws.radices.clear();
+    ws.radices.extend(lcp.bounds.iter().map(|b| b.states()));
+    // Distance 0 holds one basis, the guess, when every row can take its guessed state.
+    if guess.iter().zip(&ws.radices).all(|(g, r)| r.contains(g)) {
+        if !keep_going(out.tried) {
+            return out;
+        }
+        ws.states.clear();
+        ws.states.extend_from_slice(guess);
+        if lcp.try_basis(accept, ws, &mut out) {
+            return out;
+        }
+    }
+    for distance in 1..=m {
         ws.digits.clear();
         ws.digits.resize(m, 0);
         'bases: loop {
             let differ = (0..m)
-                .filter(|&i| radices[i][ws.digits[i]] != guess[i])
+                .filter(|&i| ws.radices[i][ws.digits[i]] != guess[i])
                 .count();
             if differ == distance {
                 if !keep_going(out.tried) {
                     return out;
                 }
+                ws.states.clear();
                 for i in 0..m {
-                    states[i] = radices[i][ws.digits[i]];
+                    ws.states.push(ws.radices[i][ws.digits[i]]);
                 }
-                out.tried += 1;
-                if lcp.solve_basis(&states, ws) {
-                    let r = lcp.residual(&ws.x, &mut w);
-                    if r < out.residual || out.x.is_none() {
-                        out.residual = r;
-                        out.x = Some(ws.x.clone());
-                    }
-                    if r <= accept {
-                        return out;
-                    }
-                } else {
-                    out.singular += 1;
+                if lcp.try_basis(accept, ws, &mut out) {
+                    return out;
                 }
             }
             // Next mixed-radix number.
@@ -245,7 +303,7 @@ pub(crate) fn enumerate(
                     break 'bases;
                 }
                 ws.digits[i] += 1;
-                if ws.digits[i] < radices[i].len() {
+                if ws.digits[i] < ws.radices[i].len() {
                     break;
                 }
                 ws.digits[i] = 0;
@@ -255,31 +313,6 @@ pub(crate) fn enumerate(
     }
     out.exhausted = true;
     out
-}
-
-/// The basis a point suggests: the state of `x_i − w_i / d_i` against the bounds at `x`.
-pub(crate) fn guess_states(lcp: &LocalLcp<'_>, x: &[f64]) -> Vec<RowState> {
-    let m = lcp.m;
-    (0..m)
-        .map(|i| {
-            let wi = lcp.q[i] + dot(&lcp.mat[i * m..(i + 1) * m], x);
-            let (lo, hi) = lcp.bounds[i].at(x);
-            let t = x[i] - wi / lcp.d[i];
-            let states = lcp.bounds[i].states();
-            let want = if t <= lo {
-                RowState::Lower
-            } else if t >= hi {
-                RowState::Upper
-            } else {
-                RowState::Free
-            };
-            if states.contains(&want) {
-                want
-            } else {
-                states[0]
-            }
-        })
-        .collect()
 }
 
 #[inline]
@@ -388,7 +421,9 @@ impl Enumeration {
             d: &d,
         };
         let f0 = initial_impulse(problem, settings);
-        let guess = guess_states(&lcp, &f0);
+        let mut ws = Workspace::default();
+        lcp.residual_and_guess(&f0, &mut ws);
+        let guess = std::mem::take(&mut ws.guess);
         // Accept on the local residual relative to the shared scale's ingredients.
         let scale = (0..n)
             .map(|i| (problem.b()[i] / d[i]).abs())
@@ -402,7 +437,6 @@ impl Enumeration {
             .fold(0.0_f64, f64::max);
         let scale = if scale > 0.0 { scale } else { 1.0 };
         let accept = 1e-2 * settings.tolerance * scale;
-        let mut ws = Workspace::default();
         let mut stop: Option<Outcome> = None;
         let result = enumerate(&lcp, &guess, accept, &mut ws, |tried| {
             if tried >= settings.max_iterations {
@@ -415,7 +449,7 @@ impl Enumeration {
                 true
             }
         });
-        let f = result.x.clone().unwrap_or(f0);
+        let f = if result.found { ws.best } else { f0 };
         let outcome = match stop {
             Some(o) => o,
             None if result.residual <= accept => Outcome::Stopped,

@@ -21,8 +21,10 @@
 //!   Moreau's NSGS on the box-friction model, a fixed point without a general convergence proof
 //!   (measured: converges on resting stacks where PGS creeps, because each contact's normal and
 //!   friction impulses are balanced together).
-//! * **Cost**: per sweep `O(n²)` for the `q_B` (one pass over `A`) plus `O(1)` small systems per
-//!   contact.
+//! * **Cost**: per sweep one pass over the stored entries of `A` for the `q_B` (`O(nnz)`), `O(1)`
+//!   small systems per contact (each block's `A_BB`, diagonal scales and bounds are extracted
+//!   once per solve; the enumeration's buffers are reused across blocks), and the shared
+//!   residual for the stopping test (another `O(nnz)` pass).
 //! * **Stopping rule**: the shared relative residual is at most the tolerance.
 //! * **Warm start**: uses [`Settings::warm_start`], projected.
 //!
@@ -31,11 +33,11 @@
 //! numerical comparisons*, 2018 (NSGS in Siconos' FC3D).
 
 use crate::enumeration::{
-    basis_count, enumerate, guess_states, LocalBound, LocalLcp, Workspace as EnumWorkspace,
+    basis_count, enumerate, LocalBound, LocalLcp, Workspace as EnumWorkspace,
 };
-use crate::metrics::residuals;
+use crate::metrics::residuals_and_velocity;
 use crate::nncg::usable_diagonal;
-use crate::problem::Problem;
+use crate::problem::{Problem, Row};
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
 
 /// Problem classes handled.
@@ -66,93 +68,123 @@ fn blocks(problem: &Problem) -> Vec<Vec<usize>> {
         .collect()
 }
 
-/// Workspace of one block solve.
-#[derive(Default)]
-struct BlockWorkspace {
+/// A block's data that do not change during a solve: its rows, the local matrix `A_BB`
+/// (row-major), the rows' diagonal scales and local bounds.
+struct Block {
+    rows: Vec<usize>,
     mat: Vec<f64>,
-    q: Vec<f64>,
     d: Vec<f64>,
     bounds: Vec<LocalBound>,
+    /// More than [`MAX_BLOCK_BASES`] complementary bases: local PGS sweeps instead.
+    many_bases: bool,
+}
+
+impl Block {
+    fn new(problem: &Problem, rows: Vec<usize>, local: &[usize], scale: &[f64]) -> Self {
+        let m = rows.len();
+        let mut mat = vec![0.0; m * m];
+        for (r, &i) in rows.iter().enumerate() {
+            for (j, v) in problem.row(i).iter() {
+                let c = local[j];
+                if c < m && rows[c] == j {
+                    mat[r * m + c] = v;
+                }
+            }
+        }
+        let d = rows.iter().map(|&i| scale[i]).collect();
+        let bounds: Vec<LocalBound> = rows
+            .iter()
+            .map(|&i| match problem.friction_of(i) {
+                Some((_, mu)) => LocalBound::Friction { normal: 0, mu },
+                None => LocalBound::Fixed(problem.lo()[i], problem.hi()[i]),
+            })
+            .collect();
+        let many_bases = basis_count(&bounds) > MAX_BLOCK_BASES;
+        Self {
+            rows,
+            mat,
+            d,
+            bounds,
+            many_bases,
+        }
+    }
+}
+
+/// Workspace of the block solves (reused from block to block and sweep to sweep).
+#[derive(Default)]
+struct BlockWorkspace {
+    q: Vec<f64>,
     x: Vec<f64>,
-    w: Vec<f64>,
     enumeration: EnumWorkspace,
 }
 
+/// `b_i + A_i · f`, summed in the row's stored order.
+#[inline]
+fn velocity_of_row(problem: &Problem, i: usize, f: &[f64]) -> f64 {
+    let mut wi = problem.b()[i];
+    match problem.row(i) {
+        Row::Dense(row) => {
+            for (v, fj) in row.iter().zip(f) {
+                wi += v * fj;
+            }
+        }
+        Row::Sparse { cols, values } => {
+            for (&j, v) in cols.iter().zip(values) {
+                wi += v * f[j];
+            }
+        }
+    }
+    wi
+}
+
 impl Nsgs {
-    /// Solve block `rows` exactly (or as well as it can) with the other impulses fixed.
+    /// Solve `block` exactly (or as well as it can) with the other impulses fixed.
     fn solve_block(
         problem: &Problem,
-        rows: &[usize],
-        local: &[usize],
+        block: &Block,
         diag: &[f64],
-        scale: &[f64],
         f: &mut [f64],
         ws: &mut BlockWorkspace,
     ) {
+        let rows = &block.rows[..];
         let m = rows.len();
-        let b = problem.b();
         if m == 1 {
             let i = rows[0];
             if diag[i] <= 0.0 {
                 return;
             }
-            let wi: f64 = problem.row(i).dot(f) + b[i];
+            let wi: f64 = problem.row(i).dot(f) + problem.b()[i];
             let (lo, hi) = problem.bounds_at(i, f);
             f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
             return;
         }
-        ws.mat.clear();
-        ws.mat.resize(m * m, 0.0);
+        let mat = &block.mat[..];
         ws.q.clear();
-        ws.q.resize(m, 0.0);
-        ws.d.clear();
-        ws.bounds.clear();
         ws.x.clear();
-        for (r, &i) in rows.iter().enumerate() {
-            let mut wi = b[i];
-            for (j, v) in problem.row(i).iter() {
-                wi += v * f[j];
-                let c = local[j];
-                if c < m && rows[c] == j {
-                    ws.mat[r * m + c] = v;
-                }
-            }
+        for &i in rows {
+            ws.q.push(velocity_of_row(problem, i, f));
             ws.x.push(f[i]);
-            ws.d.push(scale[i]);
-            ws.bounds.push(match problem.friction_of(i) {
-                Some((_, mu)) => LocalBound::Friction { normal: 0, mu },
-                None => LocalBound::Fixed(problem.lo()[i], problem.hi()[i]),
-            });
-            ws.q[r] = wi;
         }
         // q_B = w_B − A_BB f_B.
         for r in 0..m {
-            let s: f64 = (0..m).map(|c| ws.mat[r * m + c] * ws.x[c]).sum();
+            let s: f64 = (0..m).map(|c| mat[r * m + c] * ws.x[c]).sum();
             ws.q[r] -= s;
         }
-        let lcp = LocalLcp {
-            m,
-            mat: &ws.mat,
-            q: &ws.q,
-            bounds: &ws.bounds,
-            d: &ws.d,
-        };
-        ws.w.resize(m, 0.0);
-        if basis_count(&ws.bounds) > MAX_BLOCK_BASES {
+        if block.many_bases {
             for _ in 0..20 {
                 for r in 0..m {
-                    if ws.mat[r * m + r] <= 0.0 {
+                    if mat[r * m + r] <= 0.0 {
                         continue;
                     }
-                    let wr = ws.q[r] + (0..m).map(|c| ws.mat[r * m + c] * ws.x[c]).sum::<f64>();
-                    let (lo, hi) = match ws.bounds[r] {
+                    let wr = ws.q[r] + (0..m).map(|c| mat[r * m + c] * ws.x[c]).sum::<f64>();
+                    let (lo, hi) = match block.bounds[r] {
                         LocalBound::Fixed(lo, hi) => (lo, hi),
                         LocalBound::Friction { normal, mu } => {
                             let c = mu * ws.x[normal].max(0.0);
                             (-c, c)
                         }
                     };
-                    ws.x[r] = (ws.x[r] - wr / ws.mat[r * m + r]).max(lo).min(hi);
+                    ws.x[r] = (ws.x[r] - wr / mat[r * m + r]).max(lo).min(hi);
                 }
             }
             for (r, &i) in rows.iter().enumerate() {
@@ -160,19 +192,25 @@ impl Nsgs {
             }
             return;
         }
-        let current = lcp.residual_at(&ws.x);
-        let guess = guess_states(&lcp, &ws.x);
+        let lcp = LocalLcp {
+            m,
+            mat,
+            q: &ws.q,
+            bounds: &block.bounds,
+            d: &block.d,
+        };
+        let current = lcp.residual_and_guess(&ws.x, &mut ws.enumeration);
+        let guess = std::mem::take(&mut ws.enumeration.guess);
         let qscale = (0..m)
-            .map(|r| (ws.q[r] / ws.d[r]).abs())
+            .map(|r| (ws.q[r] / block.d[r]).abs())
             .fold(0.0_f64, f64::max)
             .max(ws.x.iter().fold(0.0_f64, |s, v| s.max(v.abs())));
         let accept = 1e-13 * qscale.max(f64::MIN_POSITIVE);
         let found = enumerate(&lcp, &guess, accept, &mut ws.enumeration, |_| true);
-        if let Some(x) = found.x {
-            if found.residual < current {
-                for (r, &i) in rows.iter().enumerate() {
-                    f[i] = x[r];
-                }
+        ws.enumeration.guess = guess;
+        if found.found && found.residual < current {
+            for (r, &i) in rows.iter().enumerate() {
+                f[i] = ws.enumeration.best[r];
             }
         }
     }
@@ -186,22 +224,27 @@ impl Solver for Nsgs {
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
-        let blocks = blocks(problem);
+        let rows_of_blocks = blocks(problem);
         let mut local = vec![usize::MAX; n];
-        for block in &blocks {
+        for block in &rows_of_blocks {
             for (r, &i) in block.iter().enumerate() {
                 local[i] = r;
             }
         }
         let diag = usable_diagonal(problem);
         let scale = problem.diagonal_scale();
+        let blocks: Vec<Block> = rows_of_blocks
+            .into_iter()
+            .map(|rows| Block::new(problem, rows, &local, &scale))
+            .collect();
         let mut f = initial_impulse(problem, settings);
         let mut ws = BlockWorkspace::default();
         let tol = settings.tolerance;
         let mut iterations = 0;
         let mut previous = vec![0.0; n];
+        let mut w = vec![0.0; n];
         let outcome = loop {
-            if residuals(problem, &f).natural_map_rel <= tol {
+            if residuals_and_velocity(problem, &f, &mut w).natural_map_rel <= tol {
                 break Outcome::Stopped;
             }
             if iterations >= settings.max_iterations {
@@ -212,7 +255,7 @@ impl Solver for Nsgs {
             }
             previous.copy_from_slice(&f);
             for block in &blocks {
-                Self::solve_block(problem, block, &local, &diag, &scale, &mut f, &mut ws);
+                Self::solve_block(problem, block, &diag, &mut f, &mut ws);
             }
             iterations += 1;
             monitor.record(iterations, &f);
