@@ -43,7 +43,7 @@ use crate::enumeration::{
 };
 use crate::metrics::{relative_row_error, residuals_and_velocity};
 use crate::nncg::usable_diagonal;
-use crate::problem::{Problem, Row};
+use crate::problem::Problem;
 use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
 
 /// Problem classes handled.
@@ -130,29 +130,13 @@ struct BlockWorkspace {
     enumeration: EnumWorkspace,
 }
 
-/// `w_i = b_i + A_i · f`, summed in the row's stored order, and the magnitude
-/// `|b_i| + Σ_j |A_ij f_j|` of its terms (the row's scale in the shared residual).
+/// `w_i = b_i + A_i · f` and the magnitude `|b_i| + Σ_j |A_ij f_j|` of its terms (the row's
+/// scale in the shared residual), from [`crate::Row::dot_and_magnitude`].
 #[inline]
 fn velocity_of_row(problem: &Problem, i: usize, f: &[f64]) -> (f64, f64) {
     let b = problem.b()[i];
-    let (mut wi, mut ti) = (b, b.abs());
-    match problem.row(i) {
-        Row::Dense(row) => {
-            for (v, fj) in row.iter().zip(f) {
-                let t = v * fj;
-                wi += t;
-                ti += t.abs();
-            }
-        }
-        Row::Sparse { cols, values } => {
-            for (&j, v) in cols.iter().zip(values) {
-                let t = v * f[j];
-                wi += t;
-                ti += t.abs();
-            }
-        }
-    }
-    (wi, ti)
+    let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+    (af + b, magnitude + b.abs())
 }
 
 impl Nsgs {
