@@ -180,3 +180,35 @@ fn fclib_files_solve_import_and_bench() {
     let rows = read_results(&out.join("results.csv")).unwrap();
     assert_eq!(rows[0].status, RunStatus::Converged, "{rows:?}");
 }
+
+/// The FCLIB problems of Siconos' test data in `bench_scenes/fclib/` (three in the global form,
+/// condensed on reading) read with their contact counts, and each solves to the relative
+/// residual 1e-6 with the solver the report finds fastest on it.
+#[cfg(feature = "fclib")]
+#[test]
+fn siconos_fclib_problems_read_and_solve() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/fclib");
+    for (name, contacts, solver) in [
+        ("LMGC_100_PR_PerioBox-i00361-60-03000", 60, SolverKind::Nncg),
+        ("Box_Stacks-i0122-82-5", 82, SolverKind::Sor),
+        (
+            "spheres-in-a-box-98-i10000-256-10",
+            256,
+            SolverKind::NewtonFb,
+        ),
+        ("Capsules-i125-1213", 286, SolverKind::NewtonMin),
+        ("Spheres-i099-356-679", 356, SolverKind::Lemke),
+    ] {
+        let p = read_problem(&dir.join(format!("{name}.hdf5"))).unwrap();
+        assert_eq!(p.n(), 3 * contacts, "{name}");
+        assert_eq!(p.friction().len(), 2 * contacts, "{name}");
+        let settings = Settings {
+            tolerance: 1e-6,
+            max_iterations: 100_000,
+            ..Settings::default()
+        };
+        let r = solver.create().solve(&p, &settings);
+        assert_eq!(r.status, Status::Converged, "{name}: {}", solver.name());
+        assert!(residuals(&p, &r.f).natural_map_rel <= 1e-6, "{name}");
+    }
+}

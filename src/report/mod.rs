@@ -35,6 +35,7 @@
 //!   warm_start         warm against cold start of the iterative solvers
 //!   sor_omega          SOR sweeps against omega
 //!   scaling            log–log slopes of time against rows and against contacts
+//!   fclib              the FCLIB problems of Siconos' test data: time to 1e-6 per solver
 //! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
 //! status.rs            the run-status predicates the sections use
 //! machine.rs           the header's machine, commit and date

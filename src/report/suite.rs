@@ -22,6 +22,9 @@
 //! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
 //!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
 //!   [`SCALING_STEPS`] steps: solver time per step against contacts (full suite only).
+//! * **FCLIB**: the FCLIB problems of `fclib/` next to the scene files (frictional-contact
+//!   problems from Siconos' test data, read as box-friction LCPs) × every matrix solver, budget
+//!   [`FCLIB_BUDGET`]: time to the relative residual 1e-6 (full suite only).
 
 use crate::harness::case::GenFamily;
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
@@ -68,6 +71,19 @@ pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
         return Vec::new();
     };
     let pattern = dir.join("scaling").join("*.toml");
+    crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+}
+
+/// Budget of the FCLIB problems: tolerance `1e-6` (the accuracy the FCLIB comparison asks for),
+/// 100,000 iterations and 20 s (the slowest Gauss–Seidel runs take a few seconds).
+pub const FCLIB_BUDGET: &str = "1e-6:100000:20";
+
+/// The FCLIB problem files: `fclib/*.hdf5` in the directory of the first scene file.
+pub fn fclib_files(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
+        return Vec::new();
+    };
+    let pattern = dir.join("fclib").join("*.hdf5");
     crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
 }
 
@@ -153,6 +169,8 @@ pub struct Suite {
     pub tower_solvers: Vec<SolverSpec>,
     /// Its budgets.
     pub tower_budgets: Vec<NamedBudget>,
+    /// The FCLIB problem files ([`fclib_files`]).
+    pub fclib_cases: Vec<Case>,
 }
 
 fn budget(name: &str) -> NamedBudget {
@@ -262,6 +280,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     if plan.towers_and_scaling {
         tower_jobs(&mut suite, scenes);
         scene_scaling_jobs(&mut suite, scenes);
+        fclib_jobs(&mut suite, scenes);
     }
     suite
 }
@@ -453,6 +472,13 @@ fn scene_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
     push(suite, &cases, &scene_solvers(), &[budget("default")]);
 }
 
+/// The FCLIB problems × every matrix solver, budget [`FCLIB_BUDGET`].
+fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
+    suite.fclib_cases = fclib_files(scenes).into_iter().map(Case::File).collect();
+    let cases = suite.fclib_cases.clone();
+    push(suite, &cases, &all_solvers(), &[budget(FCLIB_BUDGET)]);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -467,6 +493,23 @@ mod tests {
         assert!(
             default_suite(true, &[], &[]).jobs.len() < default_suite(false, &[], &[]).jobs.len()
         );
+    }
+
+    #[test]
+    fn the_full_suite_runs_every_matrix_solver_on_the_fclib_files() {
+        let scenes = [PathBuf::from("bench_scenes/tower_5.toml")];
+        let s = default_suite(false, &scenes, &[]);
+        let names: Vec<String> = s.fclib_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(names.len(), 5, "{names:?}");
+        assert!(names.contains(&"file:bench_scenes/fclib/Capsules-i125-1213.hdf5".to_string()));
+        let jobs = s
+            .jobs
+            .iter()
+            .filter(|j| s.fclib_cases.contains(&j.case))
+            .inspect(|j| assert_eq!(j.budget.name, FCLIB_BUDGET))
+            .count();
+        assert_eq!(jobs, 5 * SolverKind::ALL.len());
+        assert!(default_suite(true, &scenes, &[]).fclib_cases.is_empty());
     }
 
     #[test]

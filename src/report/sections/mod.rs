@@ -9,6 +9,7 @@ mod budgets;
 mod cone_profiles;
 mod convergence;
 mod fastest;
+mod fclib;
 mod friction;
 mod overview;
 mod profiles;
@@ -45,6 +46,7 @@ const SECTIONS: &[&dyn Section] = &[
     &warm_start::WarmStart,
     &sor_omega::SorOmega,
     &scaling::Scaling,
+    &fclib::Fclib,
 ];
 
 /// Write README.md, tables/ and plots/ from `out_dir/data`. Returns the README path.
