@@ -17,12 +17,10 @@
 //!
 //! Each row of an element `H` of the generalised Jacobian is `α_i e_iᵀ + β_i D⁻¹A_i` (plus a
 //! coupling entry `γ_i` in the column of the normal row for a friction row, whose bounds
-//! `±mu f_k` move with `f_k`). One iteration solves `(H + μ I) d = −Φ` with `μ = min(10⁻³,
-//! (‖Φ‖∞ / s)^{3/2})` (`s` the residual scale; a Levenberg-type regularisation that keeps the
-//! system regular on PSD, rank-deficient `A` and vanishes at the solution faster than `‖Φ‖`, so
-//! the local convergence stays superlinear; on the 68 Newton runs over the exported scene LCPs,
-//! the FCLIB problems and the Siconos files at tolerance `1e-8`, this schedule leaves 15 short of
-//! the tolerance where `min(10⁻², ‖Φ‖∞ / s)` left 27, a superset of them), by an LU factorisation (faer, partial pivoting): dense for small or dense
+//! `±mu f_k` move with `f_k`). One iteration solves `(H + μ I) d = −Φ` with `μ = min(10⁻², ‖Φ‖∞ /
+//! s)` (`s` the residual scale; a Levenberg-type regularisation that keeps the system regular on
+//! PSD, rank-deficient `A` and vanishes at the solution, so the local convergence stays
+//! quadratic), by an LU factorisation (faer, partial pivoting): dense for small or dense
 //! islands, sparse (COLAMD ordering, supernodal; the symbolic analysis and the storage of the
 //! numeric factors are kept in [`Newton::workspace`] and reused while the pattern stays the same,
 //! as it does on a resting stack from step to step) for sparse ones, and for contact problems
@@ -220,10 +218,6 @@ const MAX_REFINE_DEPTH: usize = 2;
 const SIGMA: f64 = 1e-4;
 /// Backtracking steps before a direction is given up.
 const MAX_BACKTRACKS: usize = 40;
-/// Regularisation of the Newton system: `μ = min(MAX_REGULARISATION, (‖Φ‖∞ / s)^POWER)`.
-const MAX_REGULARISATION: f64 = 1e-3;
-/// Exponent of the relative merit in the regularisation (see [`MAX_REGULARISATION`]).
-const REGULARISATION_POWER: f64 = 1.5;
 
 /// `φ(a, b) = a + b − √(a² + b²)` and its partial derivatives.
 #[inline]
@@ -672,9 +666,7 @@ impl Newton {
                 beta[i] = r.beta / d[i];
                 gamma[i] = if dmu != 0.0 { r.gamma } else { 0.0 };
             }
-            let mu_reg = (phi_inf / scale)
-                .powf(REGULARISATION_POWER)
-                .min(MAX_REGULARISATION);
+            let mu_reg = (phi_inf / scale).min(1e-2);
             if jacobian.is_none() {
                 match self.jacobian(problem, sparse) {
                     Ok(j) => jacobian = Some(j),
