@@ -33,7 +33,11 @@
 //! `θ = ½‖Φ‖²` (a scale-free form of De Luca, Facchinei, Kanzow's test `∇θᵀd <= −ρ‖d‖ᵖ`, which
 //! rejects the long steps along the null space of a rank-deficient `A` once `θ` is small);
 //! otherwise the steepest-descent direction `−∇θ = −Hᵀ Φ` is used. The step length comes from Armijo
-//! backtracking on `θ` (`σ = 10⁻⁴`, halving, at most 40 times).
+//! backtracking on `θ` (`σ = 10⁻⁴`, halving, at most 40 times), non-monotone: sufficient decrease
+//! is measured against the largest `θ` of the last 10 iterates, not the current one (Grippo,
+//! Lampariello, Lucidi, "A nonmonotone line search technique for Newton's method", SIAM J.
+//! Numer. Anal. 23 (1986) 707–716), so that full steps that cross a kink of `Φ` (a contact or a
+//! friction row changing between sticking, sliding and separating) are not cut to `2⁻⁶…2⁻¹²`.
 //!
 //! * **Problem class**: standard and boxed LCP with friction rows, any `A`; islands up to
 //!   [`Newton::max_dense`] rows (default 3000) dense, up to [`Newton::max_sparse`] (default
@@ -218,6 +222,14 @@ const MAX_REFINE_DEPTH: usize = 2;
 const SIGMA: f64 = 1e-4;
 /// Backtracking steps before a direction is given up.
 const MAX_BACKTRACKS: usize = 40;
+/// The non-monotone line search's memory: a step is accepted on sufficient decrease against
+/// the largest merit of the last this many iterates (Grippo, Lampariello and Lucidi's rule).
+/// Measured at 1 (monotone), 5 and 10 (`lcpbench simulate SCENE -s S --steps 50 --tol 1e-8
+/// --max-iter 10000`): pyramid_10 newton-fb 256 → 56 → 47 ms/step, newton-min 47/50 steps
+/// converged at 1.8 s/step → 50/50 at 18 and 20 ms; house_of_cards newton-fb+warm 49/50 at
+/// 29 ms → 50/50 at 3.2 and 0.9 ms; FCLIB spheres-in-a-box newton-fb 150 → 70 iterations,
+/// newton-min stalled at 2.4e-6 → converged in 63.
+const NONMONOTONE_MEMORY: usize = 10;
 
 /// `φ(a, b) = a + b − √(a² + b²)` and its partial derivatives.
 #[inline]
@@ -620,6 +632,9 @@ impl Newton {
         scaled_velocity(&f, &mut vel);
         let mut phi = vec![0.0; n];
         let mut theta = self.merit(problem, &f, &vel, &mut phi);
+        // The merits of the last NONMONOTONE_MEMORY iterates; the line search's reference.
+        let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
+        recent.push_back(theta);
         let mut trial_f = vec![0.0; n];
         let mut trial_vel = vec![0.0; n];
         let mut trial_phi = vec![0.0; n];
@@ -695,6 +710,8 @@ impl Newton {
             } else {
                 vec![(&gradient_dir, gslope)]
             };
+            // Non-monotone Armijo rule: sufficient decrease against the largest recent merit.
+            let reference = recent.iter().copied().fold(theta, f64::max);
             let mut accepted = false;
             for (direction, slope) in candidates {
                 if slope.is_nan() || slope >= 0.0 {
@@ -708,10 +725,9 @@ impl Newton {
                         trial_vel[i] = vel[i] + t * ad[i];
                     }
                     let trial_theta = self.merit(problem, &trial_f, &trial_vel, &mut trial_phi);
-                    if trial_theta <= theta + SIGMA * t * slope {
+                    if trial_theta <= reference + SIGMA * t * slope {
                         std::mem::swap(&mut f, &mut trial_f);
                         std::mem::swap(&mut phi, &mut trial_phi);
-                        theta = trial_theta;
                         accepted = true;
                         break;
                     }
@@ -732,6 +748,10 @@ impl Newton {
             // Recompute the velocity from scratch so round-off does not accumulate.
             scaled_velocity(&f, &mut vel);
             theta = self.merit(problem, &f, &vel, &mut phi);
+            recent.push_back(theta);
+            if recent.len() > NONMONOTONE_MEMORY {
+                recent.pop_front();
+            }
             monitor.record(iterations, &f);
             if f.iter().any(|v| !v.is_finite()) {
                 break Outcome::NumericalFailure(format!(
