@@ -310,3 +310,38 @@ fn newton_converges_on_a_sphere_pile_step_with_round_off_level_friction_rows() {
         );
     }
 }
+
+#[test]
+fn the_warm_suffix_decides_warm_starting_as_in_bench() {
+    let run = |solver: &str| -> serde_json::Value {
+        let o = lcpbench(&[
+            "simulate",
+            "bench_scenes/tower_10.toml",
+            "-s",
+            solver,
+            "--steps",
+            "10",
+            "--tol",
+            "1e-3",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let (cold, warm) = (run("pgs"), run("pgs+warm"));
+    assert_eq!(cold["warm_start"], false);
+    assert_eq!(warm["warm_start"], true);
+    // A resting tower: from the previous step's impulses PGS needs a fraction of the sweeps.
+    let iters = |v: &serde_json::Value| v["mean_iterations"].as_f64().unwrap();
+    assert!(
+        iters(&warm) < 0.5 * iters(&cold),
+        "warm {} vs cold {} sweeps per step",
+        iters(&warm),
+        iters(&cold)
+    );
+    // `+warm` on a pivoting solver is refused with the reason, not as an unknown solver.
+    let o = lcpbench(&["simulate", "bench_scenes/tower_10.toml", "-s", "lemke+warm"]);
+    assert!(!o.status.success());
+    let e = text(&o.stderr);
+    assert!(e.contains("+warm applies only to iterative solvers"), "{e}");
+}

@@ -22,6 +22,8 @@ pub struct SimulateArgs {
     /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
     /// body-level one (si, body-micro, penalty), or, for friction model cone, a cone solver
     /// (nsgs-cone, newton-ac). A solver that does not take the friction model is refused.
+    /// `NAME` starts every step cold and `NAME+warm` from the previous step's impulses, as in
+    /// `bench` (without `--solver`, the scene's `warm_start` applies).
     #[arg(long, short)]
     pub solver: Option<String>,
     /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K
@@ -68,7 +70,7 @@ pub struct ExportArgs {
     #[arg(long, default_value_t = 0)]
     pub step: usize,
     /// Solver used for the steps before `--step` (overrides the scene's; a cone solver for
-    /// friction model cone).
+    /// friction model cone; `NAME+warm` warm-starts them, `NAME` starts them cold).
     #[arg(long, short)]
     pub solver: Option<String>,
     /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K, or
@@ -130,17 +132,19 @@ fn load_world(
             })?;
     }
     if let Some(name) = solver {
-        let choice = name
+        let spec = name
             .parse::<SolverSpec>()
-            .ok()
-            .and_then(|spec| spec.contact_solver(&scene))
-            .with_context(|| {
-                format!(
-                    "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
-                    ContactSolver::all_names()
-                )
-            })?;
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let choice = spec.contact_solver(&scene).with_context(|| {
+            format!(
+                "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
+                ContactSolver::all_names()
+            )
+        })?;
         scene.settings.solver = choice;
+        // As in `bench` and the report's rows: `NAME` starts every step cold, `NAME+warm`
+        // from the previous step's impulses (the scene's `warm_start` applies without `-s`).
+        scene.settings.warm_start = spec.warm();
     }
     check_solver(
         &scene.settings.solver,
@@ -420,6 +424,7 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
     let out = json!({
         "scene": run.scene.name,
         "solver": world.settings.solver.name(),
+        "warm_start": world.settings.warm_start,
         "bodies": world.bodies.len(),
         "steps": steps,
         "dt": world.settings.dt,
@@ -451,10 +456,15 @@ fn print_text(run: &SimRun, t: &SimTotals) {
     let n = steps.max(1) as f64;
     let statuses: Vec<String> = t.statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
     println!(
-        "scene {} ({} bodies), solver {}, {steps} steps of {} s",
+        "scene {} ({} bodies), solver {}{}, {steps} steps of {} s",
         run.scene.name,
         world.bodies.len(),
         world.settings.solver.name(),
+        if world.settings.warm_start {
+            " (warm-started)"
+        } else {
+            " (cold)"
+        },
         world.settings.dt
     );
     println!(
