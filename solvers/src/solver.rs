@@ -189,11 +189,13 @@ pub enum Outcome {
 }
 
 impl Outcome {
-    /// The outcome a finished solve's status stands for (`Converged` and `Stalled` both mean
-    /// the solver's own rule stopped it).
+    /// The outcome a finished solve's status stands for (`Converged`: the solver's own rule
+    /// stopped it; `Stalled` keeps its reason, so an island's or an equilibrated solve's
+    /// diagnosis reaches the caller's status when the residual there is short of tolerance).
     pub fn of(status: Status) -> Self {
         match status {
-            Status::Converged | Status::Stalled { .. } => Outcome::Stopped,
+            Status::Converged => Outcome::Stopped,
+            Status::Stalled { reason } => Outcome::Stalled(reason),
             Status::IterationLimit => Outcome::IterationLimit,
             Status::TimeLimit => Outcome::TimeLimit,
             Status::NoSolution { reason } => Outcome::NoSolution(reason),
@@ -611,5 +613,40 @@ mod tests {
         let r = monitor.finish(bad.clone(), 1, Outcome::Stopped);
         assert_eq!(r.residuals, residuals(&p, &bad));
         assert_ne!(r.status, Status::Converged);
+    }
+
+    /// An island's own diagnosis of a stall reaches the whole problem's status, so a user sees
+    /// why a multi-island solve stopped short (not only that its stopping rule was met).
+    #[test]
+    fn an_island_stall_keeps_its_reason() {
+        // Two independent 20-row SPD blocks (above the size solved in one piece).
+        let n = 40;
+        let a = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                4.0
+            } else if i / 20 == j / 20 && i.abs_diff(j) == 1 {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
+        let settings = Settings::default();
+        let mut islands = 0;
+        let r = solve_by_islands(&p, &settings, 1000, |island, s| {
+            islands += 1;
+            Monitor::new(island, s).finish(
+                vec![0.0; island.n()],
+                1,
+                Outcome::Stalled("no decrease along either direction".into()),
+            )
+        });
+        assert_eq!(islands, 2);
+        match r.status {
+            Status::Stalled { reason } => {
+                assert_eq!(reason, "no decrease along either direction")
+            }
+            other => panic!("expected the island's stall, got {other:?}"),
+        }
     }
 }
