@@ -775,23 +775,13 @@ impl Newton {
             self.workspace.symbolic = Some(j.pattern);
             self.workspace.numeric = j.numeric;
         }
-        // A stop within tolerance returns the finished iterate already; otherwise the best of
-        // the iterate, its projection and the polished projection.
+        // A stop within tolerance returns the finished iterate already; otherwise the better of
+        // the iterate itself and `best`. Every other exit leaves `f` as [`finished`] measured
+        // it at the top of the last iteration, so its projection and polish are in `best`
+        // already; the one exception, a non-finite iterate, falls back on `best` too.
         if outcome != Outcome::Stopped {
-            let mut lowest = monitor.residual_of(&f);
-            let mut fp = f.clone();
-            project(problem, &mut fp);
-            for polish in [false, true] {
-                if polish {
-                    sweep_assembled(problem, &mut fp, &skip, d, 1.0);
-                }
-                let r = monitor.residual_of(&fp);
-                if r <= lowest {
-                    lowest = r;
-                    f.clone_from(&fp);
-                }
-            }
-            if best.0 < lowest {
+            let raw = monitor.residual_of(&f);
+            if raw.is_nan() || best.0 <= raw {
                 f = best.1;
             }
         }
