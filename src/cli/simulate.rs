@@ -132,9 +132,7 @@ fn load_world(
             })?;
     }
     if let Some(name) = solver {
-        let spec = name
-            .parse::<SolverSpec>()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let spec: SolverSpec = name.parse()?;
         let choice = spec.contact_solver(&scene).with_context(|| {
             format!(
                 "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
