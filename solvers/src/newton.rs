@@ -1168,12 +1168,8 @@ impl Elimination {
         system: &System<'_>,
         mut entry: impl FnMut(usize, usize, f64),
     ) -> Vec<f64> {
-        let &System {
-            alpha,
-            beta,
-            gamma,
-            phi,
-            mu_reg,
+        let System {
+            beta, gamma, phi, ..
         } = system;
         let mut rhs = vec![0.0; self.kept.len()];
         let mut add = |r: usize, c: usize, v: f64, rhs: &mut [f64]| {
@@ -1192,7 +1188,7 @@ impl Elimination {
             for (c, a) in problem.row(i).iter() {
                 add(r, c, beta[i] * a, &mut rhs);
             }
-            add(r, i, alpha[i] + mu_reg, &mut rhs);
+            add(r, i, system.alpha[i] + system.mu_reg, &mut rhs);
             if gamma[i] != 0.0 {
                 if let Some((k, _)) = problem.friction_of(i) {
                     add(r, k, gamma[i], &mut rhs);
