@@ -1541,6 +1541,30 @@ mod tests {
         );
     }
 
+    /// A warm start whose every row is clamped (impulses on separating contacts): the reduced
+    /// system is empty and the direction comes from the eliminated rows alone.
+    #[test]
+    fn a_system_with_every_row_eliminated_is_solved() {
+        let p = lcp(&[&[2.0, 1.0], &[1.0, 2.0]], &[10.0, 10.0]);
+        for linear_system in [LinearSystem::Dense, LinearSystem::Sparse] {
+            let mut s = Newton {
+                linear_system,
+                ..Newton::min_map()
+            };
+            let settings = Settings {
+                warm_start: Some(vec![1.0, 1.0]),
+                ..tight()
+            };
+            let r = s.solve(&p, &settings);
+            assert_eq!(r.status, Status::Converged, "{linear_system:?}");
+            assert!(
+                r.f.iter().all(|&v| v == 0.0),
+                "{linear_system:?}: {:?}",
+                r.f
+            );
+        }
+    }
+
     #[test]
     fn dense_sparse_and_body_space_systems_give_the_same_answer() {
         for seed in 0..4 {
