@@ -360,9 +360,7 @@ impl Newton {
             f64::INFINITY
         }
     }
-}
 
-impl Newton {
     /// The element `H = diag(α) + diag(β) D⁻¹ A + coupling` of the generalised Jacobian at
     /// `f` (`vel` the scaled velocity): `alpha`, `beta` (holding `β_i / d_i`) and `gamma`.
     #[allow(clippy::too_many_arguments)]
@@ -591,7 +589,14 @@ impl SparseJacobian {
                 }
             }
         };
-        let values = vec![0.0; entries.len()];
+        // Fixed entries hold their values from the start; the others are set per iteration.
+        let values = entries
+            .iter()
+            .map(|&(_, _, kind)| match kind {
+                EntryKind::Fixed(v) => v,
+                _ => 0.0,
+            })
+            .collect();
         let scratch = StackReq::any_of(&[
             pattern
                 .lu
@@ -756,17 +761,13 @@ impl Newton {
                     Err(e) => break Outcome::NumericalFailure(e),
                 }
             }
-            let grad = merit_gradient(problem, &alpha, &beta, &gamma, &phi);
+            let grad = merit_gradient(problem, &system);
             let newton_dir = match (elimination, jacobian.as_mut()) {
                 (Some(e), _) => {
                     reduced_direction(problem, &e, &system, !sparse, &mut self.workspace.reduced)
                 }
-                (None, Some(Jacobian::Dense(a))) => {
-                    dense_direction(problem, a, &alpha, &beta, &gamma, &phi, mu_reg)
-                }
-                (None, Some(Jacobian::Sparse(j))) => {
-                    sparse_direction(j, &alpha, &beta, &gamma, &phi, mu_reg)
-                }
+                (None, Some(Jacobian::Dense(a))) => dense_direction(problem, a, &system),
+                (None, Some(Jacobian::Sparse(j))) => sparse_direction(j, &system),
                 (None, None) => {
                     break Outcome::NumericalFailure("no Newton system was formed".into())
                 }
@@ -975,15 +976,17 @@ fn augmented_pays(problem: &Problem, factors: &DelassusFactors) -> bool {
     problem.nnz() > 2 * augmented
 }
 
-/// The merit gradient `∇θ = HᵀΦ` for `H = diag(α) + diag(β) D⁻¹A + coupling` (`beta` holds
-/// `β_i / d_i`), in one pass over the stored entries of `A`, whatever its storage.
-fn merit_gradient(
-    problem: &Problem,
-    alpha: &[f64],
-    beta: &[f64],
-    gamma: &[f64],
-    phi: &[f64],
-) -> Vec<f64> {
+/// The merit gradient `∇θ = HᵀΦ` for `H = diag(α) + diag(β) D⁻¹A + coupling` (the
+/// regularisation is not part of `H`), in one pass over the stored entries of `A`, whatever its
+/// storage.
+fn merit_gradient(problem: &Problem, system: &System<'_>) -> Vec<f64> {
+    let &System {
+        alpha,
+        beta,
+        gamma,
+        phi,
+        ..
+    } = system;
     let n = phi.len();
     let mut grad = vec![0.0; n];
     for i in 0..n {
@@ -1004,15 +1007,14 @@ fn merit_gradient(
 }
 
 /// The Newton direction `(H + μI)⁻¹(−Φ)`, dense.
-fn dense_direction(
-    problem: &Problem,
-    a: &Mat<f64>,
-    alpha: &[f64],
-    beta: &[f64],
-    gamma: &[f64],
-    phi: &[f64],
-    mu_reg: f64,
-) -> Vec<f64> {
+fn dense_direction(problem: &Problem, a: &Mat<f64>, system: &System<'_>) -> Vec<f64> {
+    let &System {
+        alpha,
+        beta,
+        gamma,
+        phi,
+        mu_reg,
+    } = system;
     let n = phi.len();
     let mut h = Mat::from_fn(n, n, |i, j| beta[i] * a[(i, j)]);
     for i in 0..n {
@@ -1030,14 +1032,14 @@ fn dense_direction(
 
 /// The Newton direction `(H + μI)⁻¹(−Φ)` with the sparse LU. A failed numeric factorisation
 /// gives a non-finite direction (the gradient step is then taken).
-fn sparse_direction(
-    j: &mut SparseJacobian,
-    alpha: &[f64],
-    beta: &[f64],
-    gamma: &[f64],
-    phi: &[f64],
-    mu_reg: f64,
-) -> Vec<f64> {
+fn sparse_direction(j: &mut SparseJacobian, system: &System<'_>) -> Vec<f64> {
+    let &System {
+        alpha,
+        beta,
+        gamma,
+        phi,
+        mu_reg,
+    } = system;
     for (v, &(i, _, kind)) in j.values.iter_mut().zip(&j.entries) {
         *v = match kind {
             EntryKind::A(a) | EntryKind::Jacobian(a) => beta[i] * a,
@@ -1215,7 +1217,6 @@ impl Elimination {
 /// `β_i = 0`: dense LU of the reduced matrix when `dense`, else sparse LU on its pattern
 /// (the symbolic analysis in `cache` reused while the kept rows, and so the pattern, stay the
 /// same). A failed factorisation gives a non-finite direction.
-#[allow(clippy::too_many_arguments)]
 fn reduced_direction(
     problem: &Problem,
     elimination: &Elimination,
@@ -1238,11 +1239,6 @@ fn reduced_direction(
         match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
             Ok(mut j) => {
                 j.numeric = std::mem::take(&mut cache.numeric);
-                for (v, &(_, _, kind)) in j.values.iter_mut().zip(&j.entries) {
-                    if let EntryKind::Fixed(x) = kind {
-                        *v = x;
-                    }
-                }
                 let x = factor_and_solve(&mut j, &rhs);
                 cache.symbolic = Some(j.pattern);
                 cache.numeric = j.numeric;
@@ -1516,7 +1512,7 @@ mod tests {
                 };
                 assert!(e.kept.len() < n);
                 coupled += e.slope.iter().filter(|g| g.is_some()).count();
-                let full = dense_direction(&p, &a, &alpha, &beta, &gamma, &phi, mu_reg);
+                let full = dense_direction(&p, &a, &system);
                 let scale = full.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
                 let mut cache = ReducedCache::default();
                 for dense in [true, false] {
