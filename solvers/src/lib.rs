@@ -53,6 +53,7 @@ mod nsgs_cone;
 mod pgs;
 mod problem;
 mod solver;
+mod sparse_lu;
 #[cfg(test)]
 mod test_util;
 

@@ -35,9 +35,10 @@
 //! normal's `d_k`, and substituting it leaves the system of the kept rows alone, whose pattern
 //! lies within `A`'s (a kept normal's column gains the entries of its eliminated friction rows,
 //! which touch the same bodies). That is the primal-dual active-set step (Hintermüller, Ito,
-//! Kunisch, SIAM J. Optim. 13, 2002) with the friction coupling kept; its LU (dense, or sparse
-//! with its own ordering, reused while the kept rows stay the same) replaces the full one and
-//! gives the same direction. The direction is accepted when it makes
+//! Kunisch, SIAM J. Optim. 13, 2002) with the friction coupling kept; its LU (dense, or sparse:
+//! up to 400 rows on the island's ordering restricted to the kept rows, above with its own
+//! ordering, reused while the kept rows stay the same) replaces the full one and gives the same
+//! direction. The direction is accepted when it makes
 //! an angle with `−∇θ` below 90° by a margin, `∇θᵀd <= −10⁻⁸ ‖∇θ‖ ‖d‖`, for the merit
 //! `θ = ½‖Φ‖²` (a scale-free form of De Luca, Facchinei, Kanzow's test `∇θᵀd <= −ρ‖d‖ᵖ`, which
 //! rejects the long steps along the null space of a rank-deficient `A` once `θ` is small);
@@ -61,9 +62,11 @@
 //!   tower's 480 rows in the Delassus form; on the kept rows only when rows are eliminated:
 //!   201 kept rows of FCLIB spheres-in-a-box's 735-row island factorise, symbolic analysis
 //!   included, in 0.15 ms, where the full system's numeric LU takes about 0.45 ms; the kept
-//!   rows change at almost every iteration there, so their ordering is recomputed), plus
-//!   `O(nnz)` for `H`,
-//!   `∇θ` and the products with `A`; line-search trials cost `O(n)` each.
+//!   rows change at almost every iteration there, so a reduced system of up to 400 rows takes
+//!   its ordering from the island's AMD ordering, computed once per solve, and a left-looking
+//!   LU that needs no symbolic analysis (`sparse_lu`); a larger one gets its own COLAMD
+//!   ordering), plus
+//!   `O(nnz)` for `H`, `∇θ` and the products with `A`; line-search trials cost `O(n)` each.
 //! * **Failure modes**: a line search that cannot decrease `θ` along either direction ends the
 //!   solve (`Stalled`, at a stationary point of `θ` that is not a solution, possible when `A` is
 //!   not a P-matrix or with the min-map merit at a kink); a non-finite iterate gives
@@ -89,8 +92,10 @@ use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
     SolveResult, Solver,
 };
+use crate::sparse_lu::SparseLu;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
@@ -155,12 +160,18 @@ pub struct NewtonWorkspace {
     reduced: ReducedCache,
 }
 
-/// The last reduced system's symbolic analysis and numeric factors' storage
-/// ([`reduced_direction`]).
+/// What the sparse reduced systems ([`reduced_direction`]) keep: the last large reduced
+/// system's symbolic analysis and numeric factors' storage, and the island's ordering for the
+/// small ones.
 #[derive(Debug, Clone, Default)]
 struct ReducedCache {
     symbolic: Option<SymbolicCache>,
     numeric: NumericLu<usize, f64>,
+    /// The island's fill-reducing ordering, as each row's rank ([`island_rank`]); emptied at
+    /// the start of each island solve.
+    rank: Vec<usize>,
+    /// The small reduced systems' LU storage.
+    lu: SparseLu,
 }
 
 /// A sparse pattern with its column ordering and symbolic LU.
@@ -414,6 +425,16 @@ impl Solver for Newton {
 
 /// Density (stored entries over `n²`) below which [`LinearSystem::Auto`] factorises sparse.
 const SPARSE_BELOW_DENSITY: f64 = 0.1;
+/// Largest sparse reduced system solved by [`sparse_reduced_solve`] (no ordering or symbolic
+/// analysis of its own); larger ones get faer's COLAMD ordering and supernodal LU, their
+/// symbolic analysis reused while the kept rows stay the same. FCLIB spheres-in-a-box's
+/// 303–368 kept rows take the cheaper path. Above, measured with `lcpbench simulate
+/// bench_scenes/S.toml -s newton-min+warm --steps 50 --tol 1e-8 --max-iter 10000`: with faer's
+/// simplicial LU for every reduced system, pyramid_20 (reduced systems of thousands of rows)
+/// took 55.5 ms per step against 27.2 with COLAMD and supernodal LU; with [`SparseLu`]
+/// (diagonal preference `0.1`) for every one, pyramid_20 was within noise of this limit, and
+/// sphere_pile_100 left 9 of 50 steps at the iteration limit, against 6 with this limit.
+const SIMPLICIAL_UP_TO: usize = 400;
 /// Fraction of an island's rows with `β_i = 0` from which the Newton system is solved through
 /// their [`Elimination`]. Measured against no elimination (`lcpbench simulate SCENE -s S
 /// --steps 50 --tol 1e-8 --max-iter 10000`, solver time per step): sphere_pile_100
@@ -642,6 +663,7 @@ impl Newton {
     ) -> SolveResult {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
+        self.workspace.reduced.rank.clear();
         let limit = if sparse {
             self.max_sparse
         } else {
@@ -763,9 +785,14 @@ impl Newton {
             }
             let grad = merit_gradient(problem, &system);
             let newton_dir = match (elimination, jacobian.as_mut()) {
-                (Some(e), _) => {
-                    reduced_direction(problem, &e, &system, !sparse, &mut self.workspace.reduced)
-                }
+                (Some(e), _) => reduced_direction(
+                    problem,
+                    &e,
+                    &system,
+                    !sparse,
+                    SIMPLICIAL_UP_TO,
+                    &mut self.workspace.reduced,
+                ),
                 (None, Some(Jacobian::Dense(a))) => dense_direction(problem, a, &system),
                 (None, Some(Jacobian::Sparse(j))) => sparse_direction(j, &system),
                 (None, None) => {
@@ -1214,14 +1241,16 @@ impl Elimination {
 }
 
 /// The Newton direction `(H + μI)⁻¹(−Φ)` through the [`Elimination`] of the rows with
-/// `β_i = 0`: dense LU of the reduced matrix when `dense`, else sparse LU on its pattern
-/// (the symbolic analysis in `cache` reused while the kept rows, and so the pattern, stay the
-/// same). A failed factorisation gives a non-finite direction.
+/// `β_i = 0`: dense LU of the reduced matrix when `dense`; else, up to `simplicial_up_to`
+/// ([`SIMPLICIAL_UP_TO`]) kept rows, [`sparse_reduced_solve`], and above, faer's sparse LU on
+/// the reduced pattern (the symbolic analysis in `cache` reused while the kept rows, and so the
+/// pattern, stay the same). A failed factorisation gives a non-finite direction.
 fn reduced_direction(
     problem: &Problem,
     elimination: &Elimination,
     system: &System<'_>,
     dense: bool,
+    simplicial_up_to: usize,
     cache: &mut ReducedCache,
 ) -> Vec<f64> {
     let m = elimination.kept.len();
@@ -1232,22 +1261,171 @@ fn reduced_direction(
         r.partial_piv_lu().solve_in_place(&mut x);
         (0..m).map(|i| x[(i, 0)]).collect::<Vec<f64>>()
     } else {
-        let mut entries = Vec::with_capacity(problem.nnz());
-        let rhs = elimination.reduced_system(problem, system, |i, j, v| {
-            entries.push((i, j, EntryKind::Fixed(v)))
-        });
-        match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
-            Ok(mut j) => {
-                j.numeric = std::mem::take(&mut cache.numeric);
-                let x = factor_and_solve(&mut j, &rhs);
-                cache.symbolic = Some(j.pattern);
-                cache.numeric = j.numeric;
-                x
+        let mut rows = RowAssembly::new(m, problem.nnz());
+        let rhs = elimination.reduced_system(problem, system, |i, j, v| rows.add(i, j, v));
+        let rt = rows.transpose();
+        if m <= simplicial_up_to {
+            sparse_reduced_solve(problem, elimination, rt, &rhs, cache)
+        } else {
+            let mut entries = Vec::with_capacity(rt.val().len());
+            for r in 0..m {
+                for (c, &v) in rt.row_idx_of_col(r).zip(rt.val_of_col(r)) {
+                    entries.push((r, c, EntryKind::Fixed(v)));
+                }
             }
-            Err(_) => vec![f64::NAN; m],
+            match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
+                Ok(mut j) => {
+                    j.numeric = std::mem::take(&mut cache.numeric);
+                    let x = factor_and_solve(&mut j, &rhs);
+                    cache.symbolic = Some(j.pattern);
+                    cache.numeric = j.numeric;
+                    x
+                }
+                Err(_) => vec![f64::NAN; m],
+            }
         }
     };
     elimination.expand(&x)
+}
+
+/// A sparse matrix `R` assembled row by row into the compressed columns of `Rᵀ`: the entries of
+/// a row arrive together and rows in increasing order, as [`Elimination::reduced_system`] gives
+/// them, so no sort of the entries is needed; duplicated positions add up.
+struct RowAssembly {
+    size: usize,
+    /// Start of each row begun so far (the column pointers of `Rᵀ`).
+    start: Vec<usize>,
+    col: Vec<usize>,
+    val: Vec<f64>,
+    /// Per column, where its entry of the current row is (an older position: none yet).
+    slot: Vec<usize>,
+}
+
+impl RowAssembly {
+    fn new(size: usize, capacity: usize) -> Self {
+        let mut start = Vec::with_capacity(size + 1);
+        start.push(0);
+        Self {
+            size,
+            start,
+            col: Vec::with_capacity(capacity),
+            val: Vec::with_capacity(capacity),
+            slot: vec![usize::MAX; size],
+        }
+    }
+
+    fn add(&mut self, r: usize, c: usize, v: f64) {
+        while self.start.len() <= r {
+            self.start.push(self.col.len());
+        }
+        let s = self.slot[c];
+        if s != usize::MAX && s >= self.start[r] {
+            self.val[s] += v;
+        } else {
+            self.slot[c] = self.col.len();
+            self.col.push(c);
+            self.val.push(v);
+        }
+    }
+
+    /// `Rᵀ`, each column's row indices sorted.
+    fn transpose(mut self) -> SparseColMat<usize, f64> {
+        while self.start.len() <= self.size {
+            self.start.push(self.col.len());
+        }
+        let mut pairs = Vec::new();
+        for r in 0..self.size {
+            let (a, b) = (self.start[r], self.start[r + 1]);
+            pairs.clear();
+            pairs.extend((a..b).map(|k| (self.col[k], self.val[k])));
+            pairs.sort_unstable_by_key(|&(c, _)| c);
+            for (k, &(c, v)) in (a..b).zip(&pairs) {
+                self.col[k] = c;
+                self.val[k] = v;
+            }
+        }
+        let symbolic =
+            SymbolicSparseColMat::new_checked(self.size, self.size, self.start, None, self.col);
+        SparseColMat::new(symbolic, self.val)
+    }
+}
+
+/// The solution of the reduced system `R x = rhs`, given `Rᵀ`, by the sparse LU of `Rᵀ`
+/// ([`SparseLu`]: left-looking, threshold partial pivoting, no symbolic analysis) and a
+/// transposed solve. The column order is the island's fill-reducing ordering ([`island_rank`],
+/// computed once per island solve) restricted to the kept rows, so an iteration does no
+/// ordering or symbolic analysis of its own; the kept rows change at almost every iteration
+/// where contacts separate and slide, which made the per-iteration ordering (COLAMD, 17 % of
+/// the solve) the largest single cost on FCLIB spheres-in-a-box. Measured there (newton-min to
+/// 1e-6, 63 iterations; fastest of 30 solves in one process): 34.1 ms per solve with COLAMD
+/// and faer's supernodal LU per reduced system; with the restricted ordering, 29.0 ms with
+/// faer's supernodal LU (its symbolic analysis still runs per iteration, and on the
+/// symmetric ordering it assumes more fill), 25.6 ms with faer's simplicial LU, 23.1 ms with
+/// [`SparseLu`]. A restricted COLAMD ordering of the island instead of AMD: 33–35 ms. `NaN`
+/// when the factorisation fails.
+fn sparse_reduced_solve(
+    problem: &Problem,
+    elimination: &Elimination,
+    rt: SparseColMat<usize, f64>,
+    rhs: &[f64],
+    cache: &mut ReducedCache,
+) -> Vec<f64> {
+    let m = rhs.len();
+    if cache.rank.len() != problem.n() {
+        cache.rank = island_rank(problem);
+    }
+    let mut fwd: Vec<usize> = (0..m).collect();
+    fwd.sort_unstable_by_key(|&p| cache.rank[elimination.kept[p]]);
+    let (symbolic, val) = (rt.symbolic(), rt.val());
+    let res = cache
+        .lu
+        .factorize(symbolic.col_ptr(), symbolic.row_idx(), val, &fwd);
+    if res.is_err() {
+        return vec![f64::NAN; m];
+    }
+    let mut x = rhs.to_vec();
+    cache.lu.solve_transpose(&mut x);
+    x
+}
+
+/// A fill-reducing ordering of an island, as each row's rank: approximate minimum degree
+/// (faer's AMD) on the pattern of `A` and the friction coupling (symmetrised). The identity
+/// when AMD fails (any order gives the same direction, only with more fill).
+fn island_rank(problem: &Problem) -> Vec<usize> {
+    let n = problem.n();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(problem.nnz() + n);
+    col_ptr.push(0);
+    let mut col = Vec::new();
+    for i in 0..n {
+        col.clear();
+        col.extend(problem.row(i).iter().map(|(j, _)| j));
+        col.push(i);
+        if let Some((k, _)) = problem.friction_of(i) {
+            col.push(k);
+        }
+        col.sort_unstable();
+        col.dedup();
+        row_idx.extend_from_slice(&col);
+        col_ptr.push(row_idx.len());
+    }
+    let nnz = row_idx.len();
+    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    let mut fwd = vec![0usize; n];
+    let mut inv = vec![0usize; n];
+    let Ok(mut mem) = MemBuffer::try_new(amd::order_scratch::<usize>(n, nnz)) else {
+        return (0..n).collect();
+    };
+    match amd::order(
+        &mut fwd,
+        &mut inv,
+        pattern.as_ref(),
+        Default::default(),
+        MemStack::new(&mut mem),
+    ) {
+        Ok(_) => inv,
+        Err(_) => (0..n).collect(),
+    }
 }
 
 #[cfg(test)]
@@ -1515,8 +1693,10 @@ mod tests {
                 let full = dense_direction(&p, &a, &system);
                 let scale = full.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
                 let mut cache = ReducedCache::default();
-                for dense in [true, false] {
-                    let reduced = reduced_direction(&p, &e, &system, dense, &mut cache);
+                // Dense; sparse on the island's ordering (simplicial); sparse with its own.
+                for (dense, simplicial_up_to) in [(true, 0), (false, usize::MAX), (false, 0)] {
+                    let reduced =
+                        reduced_direction(&p, &e, &system, dense, simplicial_up_to, &mut cache);
                     for i in 0..n {
                         assert!(
                             (reduced[i] - full[i]).abs() <= 1e-10 * scale,
