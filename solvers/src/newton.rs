@@ -65,8 +65,8 @@
 //!   rows change at almost every iteration there, so a reduced system of up to 400 rows takes
 //!   its ordering from the island's AMD ordering, computed once per solve, and a left-looking
 //!   LU that needs no symbolic analysis (`sparse_lu`); a larger one gets its own COLAMD
-//!   ordering), plus
-//!   `O(nnz)` for `H`, `∇θ` and the products with `A`; line-search trials cost `O(n)` each.
+//!   ordering), plus `O(nnz)` for `H`, `∇θ` and the products with `A`; line-search trials
+//!   cost `O(n)` each.
 //! * **Failure modes**: a line search that cannot decrease `θ` along either direction ends the
 //!   solve (`Stalled`, at a stationary point of `θ` that is not a solution, possible when `A` is
 //!   not a P-matrix or with the min-map merit at a kink); a non-finite iterate gives
@@ -1377,10 +1377,11 @@ fn sparse_reduced_solve(
     let mut fwd: Vec<usize> = (0..m).collect();
     fwd.sort_unstable_by_key(|&p| cache.rank[elimination.kept[p]]);
     let (symbolic, val) = (rt.symbolic(), rt.val());
-    let res = cache
+    if cache
         .lu
-        .factorize(symbolic.col_ptr(), symbolic.row_idx(), val, &fwd);
-    if res.is_err() {
+        .factorize(symbolic.col_ptr(), symbolic.row_idx(), val, &fwd)
+        .is_err()
+    {
         return vec![f64::NAN; m];
     }
     let mut x = rhs.to_vec();
