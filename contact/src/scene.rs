@@ -746,6 +746,7 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
         keep_problem: false,
         residuals: true,
         record_history: false,
+        step_time_budget: None,
         deadline: None,
     };
     Ok((settings, penalty))

@@ -60,7 +60,7 @@ use lcpbench_solvers::{
 };
 use nalgebra::Vector3;
 use serde::Serialize;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The contact solver of a scene, as an owned, configured instance: a matrix solver of
 /// `lcpbench-solvers`, a body-level one, or a solver of the exact Coulomb cone. Every parameter
@@ -184,43 +184,39 @@ impl ContactSolver {
             .join(", ")
     }
 
-    /// Solve island `k` of `partition` with this (matrix or cone) solver.
+    /// Solve one island's problem with this (matrix or cone) solver.
     fn solve_island(
         &mut self,
-        system: &ContactSystem,
-        partition: &Partition,
-        k: usize,
+        problem: &IslandProblem,
         settings: &Settings,
     ) -> Result<SolveResult, String> {
-        match self {
-            ContactSolver::Matrix(s) => {
-                let problem = system
-                    .island_problem(partition, k)
-                    .map_err(|e| e.to_string())?;
-                Ok(s.solve(&problem, settings))
-            }
-            ContactSolver::Cone(s) => {
-                let problem = system
-                    .island_cone_problem(partition, k)
-                    .map_err(|e| e.to_string())?;
-                Ok(s.solve_cone(&problem, settings))
-            }
-            ContactSolver::Body(s) => {
-                Err(format!("body-level solver `{}` has no islands", s.name()))
-            }
+        match (self, problem) {
+            (ContactSolver::Matrix(s), IslandProblem::Lcp(p)) => Ok(s.solve(p, settings)),
+            (ContactSolver::Cone(s), IslandProblem::Cone(p)) => Ok(s.solve_cone(p, settings)),
+            (s, _) => Err(format!(
+                "solver `{}` does not take this island's problem",
+                s.name()
+            )),
         }
     }
 
     /// Solve the whole step as one problem with this (matrix or cone) solver.
     fn solve_whole(&mut self, system: &ContactSystem, settings: &Settings) -> Solved {
         let n = system.n();
-        let (result, problem, cone_problem) = match self {
+        let t0 = Instant::now();
+        let (result, problem, cone_problem, assembly_s) = match self {
             ContactSolver::Matrix(s) => match system.problem() {
-                Ok(p) => (s.solve(&p, settings), Some(p), None),
+                Ok(p) => {
+                    let assembly_s = t0.elapsed().as_secs_f64();
+                    (s.solve(&p, settings), Some(p), None, assembly_s)
+                }
                 Err(e) => return Solved::invalid(n, &e),
             },
             ContactSolver::Cone(s) => match system.cone_problem() {
-                Ok(p) => (s.solve_cone(&p, settings), None, Some(p)),
+                Ok(p) => {
+                    let assembly_s = t0.elapsed().as_secs_f64();
+                    (s.solve_cone(&p, settings), None, Some(p), assembly_s)
+                }
                 Err(e) => return Solved::invalid(n, &e),
             },
             ContactSolver::Body(s) => {
@@ -228,16 +224,48 @@ impl ContactSolver {
                 return Solved::unsupported(n, reason);
             }
         };
+        let call_s = t0.elapsed().as_secs_f64() - assembly_s;
         Solved {
             f: usable_impulse(&result, n),
             status: result.status,
             iterations: result.iterations,
             time_s: result.time.as_secs_f64(),
             wall_s: 0.0,
+            assembly_s,
+            measure_s: (call_s - result.time.as_secs_f64()).max(0.0),
             residuals: Some(result.residuals),
             problem,
             cone_problem,
             history: result.history,
+            warm_start: None,
+        }
+    }
+}
+
+/// One island's problem, in the form its solver takes.
+enum IslandProblem {
+    Lcp(Problem),
+    Cone(ConeProblem),
+}
+
+impl IslandProblem {
+    /// The problem of island `k` of `partition`: the cone problem when `cone`, else the LCP.
+    fn of(
+        system: &ContactSystem,
+        partition: &Partition,
+        k: usize,
+        cone: bool,
+    ) -> Result<Self, String> {
+        if cone {
+            system
+                .island_cone_problem(partition, k)
+                .map(IslandProblem::Cone)
+                .map_err(|e| e.to_string())
+        } else {
+            system
+                .island_problem(partition, k)
+                .map(IslandProblem::Lcp)
+                .map_err(|e| e.to_string())
         }
     }
 }
@@ -281,9 +309,14 @@ pub struct SimSettings {
     /// Solve each island (contacts sharing no dynamic body) on its own, in parallel when there
     /// are several \[`true`\]. Off: one problem for the whole step.
     pub islands: bool,
-    /// Wall-clock deadline of the solves: each matrix or cone solve gets the time left as its
-    /// time budget and ends `time_limit` when it runs out, so a run with a time budget cannot
-    /// be held past it by one long step \[none\].
+    /// Wall-time budget of each step's solve: the solves of one step (every island, in
+    /// parallel or not) end by the time this has passed since the solve phase began, each
+    /// ending `time_limit` with the best point it has when it runs out, and the next step
+    /// starts as usual \[none\].
+    pub step_time_budget: Option<Duration>,
+    /// Wall-clock deadline of the solves of every step: a solve ends `time_limit` at the
+    /// deadline (or at the end of its [`SimSettings::step_time_budget`], if earlier), so a run
+    /// cannot be held past it by one long step \[none\].
     pub deadline: Option<Instant>,
 }
 
@@ -304,6 +337,7 @@ impl Default for SimSettings {
             residuals: true,
             record_history: false,
             islands: true,
+            step_time_budget: None,
             deadline: None,
         }
     }
@@ -348,6 +382,115 @@ pub struct ContactRecord {
     pub complementarity: f64,
 }
 
+/// Wall time of the phases of one step, seconds. The phases follow one another and are read off
+/// one clock, so they add up to [`StepReport::step_time_s`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct PhaseTimes {
+    /// Scheduled events and collision detection: broad plus narrow phase.
+    pub collision: f64,
+    /// Of `collision`: the broad phase (candidate pairs).
+    pub broad_phase: f64,
+    /// Of `collision`: the narrow phase (contact manifolds).
+    pub narrow_phase: f64,
+    /// Free velocities, the contact system (`J`'s rows, `b`, bounds) and the problems the
+    /// solver is given (`A = J M⁻¹ Jᵀ` of each island, or of the whole step).
+    pub assembly: f64,
+    /// The partition of the contacts into islands.
+    pub islands: f64,
+    /// The solver calls, their own residual measurements excluded.
+    pub solve: f64,
+    /// Measuring the solved impulse: the shared residual (the solvers' final measurement, and
+    /// the assembled `A` body-level solvers are measured on), the contact records and the
+    /// step's energy, momentum and penetration figures.
+    pub residual: f64,
+    /// Split-impulse correction, impulses applied, positions integrated (time of impact
+    /// included), warm-start cache updated.
+    pub integration: f64,
+}
+
+impl PhaseTimes {
+    /// The phases' names, as the JSON keys and the report's columns give them.
+    pub const NAMES: [&'static str; 6] = [
+        "collision",
+        "assembly",
+        "islands",
+        "solve",
+        "residual",
+        "integration",
+    ];
+
+    /// The top-level phases in the order of [`PhaseTimes::NAMES`].
+    pub fn values(&self) -> [f64; 6] {
+        [
+            self.collision,
+            self.assembly,
+            self.islands,
+            self.solve,
+            self.residual,
+            self.integration,
+        ]
+    }
+
+    /// Sum of the top-level phases: the step's wall time.
+    pub fn total(&self) -> f64 {
+        self.values().iter().sum()
+    }
+
+    /// Add `other` phase by phase.
+    pub fn add(&mut self, other: &PhaseTimes) {
+        self.collision += other.collision;
+        self.broad_phase += other.broad_phase;
+        self.narrow_phase += other.narrow_phase;
+        self.assembly += other.assembly;
+        self.islands += other.islands;
+        self.solve += other.solve;
+        self.residual += other.residual;
+        self.integration += other.integration;
+    }
+
+    /// Every phase multiplied by `k` (a mean from a sum).
+    pub fn scaled(&self, k: f64) -> PhaseTimes {
+        PhaseTimes {
+            collision: self.collision * k,
+            broad_phase: self.broad_phase * k,
+            narrow_phase: self.narrow_phase * k,
+            assembly: self.assembly * k,
+            islands: self.islands * k,
+            solve: self.solve * k,
+            residual: self.residual * k,
+            integration: self.integration * k,
+        }
+    }
+}
+
+/// A clock read once per phase boundary: each lap is the time since the previous one, so the
+/// laps add up to the time since the start.
+struct PhaseClock {
+    start: Instant,
+    last: Instant,
+}
+
+impl PhaseClock {
+    fn start() -> Self {
+        let now = Instant::now();
+        Self {
+            start: now,
+            last: now,
+        }
+    }
+
+    fn lap(&mut self) -> f64 {
+        let now = Instant::now();
+        let dt = now.duration_since(self.last).as_secs_f64();
+        self.last = now;
+        dt
+    }
+
+    fn total(&self) -> f64 {
+        self.last.duration_since(self.start).as_secs_f64()
+    }
+}
+
 /// What one step did and measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct StepReport {
@@ -375,8 +518,10 @@ pub struct StepReport {
     pub islands: usize,
     /// Rows of each island, in the order of their first contact.
     pub island_rows: Vec<usize>,
-    /// Whole step wall time, s.
+    /// Whole step wall time, s (the sum of [`StepReport::phases`]).
     pub step_time_s: f64,
+    /// Wall time of each phase of the step.
+    pub phases: PhaseTimes,
     /// Shared residuals of the impulse for the step's LCP (when measured).
     pub residuals: Option<Residuals>,
     /// Deepest penetration at detection, m (`>= 0`).
@@ -409,6 +554,10 @@ pub struct StepReport {
     /// solved the step (friction model `cone`).
     #[serde(skip)]
     pub cone_problem: Option<ConeProblem>,
+    /// The warm start the step's matrix or cone solver was given, when
+    /// [`SimSettings::keep_problem`] is set and the solver was warm-started.
+    #[serde(skip)]
+    pub warm_start: Option<Vec<f64>>,
 }
 
 /// The solved impulse of one step.
@@ -418,45 +567,68 @@ struct Solved {
     iterations: usize,
     time_s: f64,
     wall_s: f64,
+    /// Of the solve phase's wall time: the share spent assembling the solvers' problems.
+    assembly_s: f64,
+    /// Of the solve phase's wall time: the share spent measuring residuals (the solvers' final
+    /// measurement and recorded histories, the assembled `A` of body-level solvers).
+    measure_s: f64,
     residuals: Option<Residuals>,
     problem: Option<Problem>,
     cone_problem: Option<ConeProblem>,
     history: Vec<HistoryPoint>,
+    /// The warm start given to a matrix or cone solver, kept with the problem.
+    warm_start: Option<Vec<f64>>,
 }
 
-/// Solve each island of `partition` on its own with `solve_island(solver, k, settings)` (one
-/// clone of `solver` per island, in parallel with rayon) and scatter the impulses back. The island's settings
-/// carry its part of the warm start. The step's residuals are those of the whole: every
-/// measure is a maximum over rows (or contacts, for the cone residual) except the
-/// complementarity gap, a sum, and `A` has no entry between islands. The status is the worst
-/// island's.
+/// Solve each island of `partition` on its own (one clone of `solver` per island, in parallel
+/// with rayon) and scatter the impulses back. The islands' problems are assembled first, then
+/// solved; each solve's settings carry its part of the warm start and the time left before
+/// `deadline`. The step's residuals are those of the whole: every measure is a maximum over rows
+/// (or contacts, for the cone residual) except the complementarity gap, a sum, and `A` has no
+/// entry between islands. The status is the worst island's.
 fn solve_islands(
     system: &ContactSystem,
     partition: &Partition,
     settings: &Settings,
     solver: &ContactSolver,
+    deadline: Option<Instant>,
 ) -> Solved {
     use rayon::prelude::*;
     let n = system.n();
-    let solvers: Vec<ContactSolver> = (0..partition.len()).map(|_| solver.clone()).collect();
-    let results: Vec<Result<SolveResult, String>> = solvers
+    let t0 = Instant::now();
+    let cone = solver.is_cone();
+    let problems: Vec<Result<IslandProblem, String>> = (0..partition.len())
         .into_par_iter()
+        .map(|k| IslandProblem::of(system, partition, k, cone))
+        .collect();
+    let assembly_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let solvers: Vec<ContactSolver> = (0..partition.len()).map(|_| solver.clone()).collect();
+    // Each result with the wall time of its call.
+    let results: Vec<Result<(SolveResult, f64), String>> = solvers
+        .into_par_iter()
+        .zip(problems)
         .enumerate()
-        .map(|(k, mut solver)| {
+        .map(|(k, (mut solver, problem))| {
             let rows = &partition.islands[k].rows;
             let island_settings = Settings {
                 warm_start: settings
                     .warm_start
                     .as_ref()
                     .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
+                time_budget: deadline.map(|d| d.saturating_duration_since(Instant::now())),
                 ..settings.clone()
             };
-            solver.solve_island(system, partition, k, &island_settings)
+            let call = Instant::now();
+            let result = solver.solve_island(&problem?, &island_settings)?;
+            Ok((result, call.elapsed().as_secs_f64()))
         })
         .collect();
+    let solve_wall_s = t1.elapsed().as_secs_f64();
     let mut f = vec![0.0; n];
     let mut status = Status::Converged;
     let (mut iterations, mut time_s) = (0, 0.0);
+    let (mut calls_s, mut measured_s) = (0.0, 0.0);
     // The history shown for the step: the largest island's.
     let (mut history, mut history_rows) = (Vec::new(), 0);
     let mut res = Residuals {
@@ -466,7 +638,7 @@ fn solve_islands(
         bound_violation: 0.0,
     };
     for (island, result) in partition.islands.iter().zip(results) {
-        let result = match result {
+        let (result, call_s) = match result {
             Ok(r) => r,
             Err(e) => return Solved::invalid(n, &e),
         };
@@ -481,7 +653,10 @@ fn solve_islands(
             status = result.status;
         }
         iterations = iterations.max(result.iterations);
-        time_s += result.time.as_secs_f64();
+        let own_s = result.time.as_secs_f64();
+        time_s += own_s;
+        calls_s += call_s;
+        measured_s += (call_s - own_s).max(0.0);
         if island.rows.len() > history_rows {
             history_rows = island.rows.len();
             history = result.history;
@@ -492,16 +667,26 @@ fn solve_islands(
         res.complementarity_gap += r.complementarity_gap;
         res.bound_violation = res.bound_violation.max(r.bound_violation);
     }
+    // The calls ran in parallel: their measuring share of the phase's wall time is their
+    // share of the summed call times.
+    let measure_s = if calls_s > 0.0 {
+        solve_wall_s * measured_s / calls_s
+    } else {
+        0.0
+    };
     Solved {
         f,
         status,
         iterations,
         time_s,
         wall_s: 0.0,
+        assembly_s,
+        measure_s,
         residuals: Some(res),
         problem: None,
         cone_problem: None,
         history,
+        warm_start: None,
     }
 }
 
@@ -539,10 +724,13 @@ impl Solved {
             iterations: 0,
             time_s: 0.0,
             wall_s: 0.0,
+            assembly_s: 0.0,
+            measure_s: 0.0,
             residuals: None,
             problem: None,
             cone_problem: None,
             history: Vec::new(),
+            warm_start: None,
         }
     }
 
@@ -556,10 +744,13 @@ impl Solved {
             iterations: 0,
             time_s: 0.0,
             wall_s: 0.0,
+            assembly_s: 0.0,
+            measure_s: 0.0,
             residuals: None,
             problem: None,
             cone_problem: None,
             history: Vec::new(),
+            warm_start: None,
         }
     }
 
@@ -629,12 +820,16 @@ impl World {
 
     /// One time step: detect, build, solve, apply and integrate, measure.
     pub fn step(&mut self) -> StepReport {
-        let start = Instant::now();
+        let mut clock = PhaseClock::start();
+        let mut phases = PhaseTimes::default();
         self.apply_events();
         let (h, gravity) = (self.settings.dt, self.settings.gravity);
         let contacts = self
             .pipeline
             .detect(&self.bodies, self.settings.prediction_distance);
+        phases.collision = clock.lap();
+        let timings = self.pipeline.timings();
+        (phases.broad_phase, phases.narrow_phase) = (timings.broad_phase, timings.narrow_phase);
         let free = builder::free_velocities(&self.bodies, &gravity, h);
         let system = builder::build(
             &self.bodies,
@@ -644,13 +839,23 @@ impl World {
             &self.settings.builder,
             h,
         );
+        phases.assembly = clock.lap();
         let partition = system.islands();
+        phases.islands = clock.lap();
         let solved = self.solve(&system, &partition);
+        let solve_wall = clock.lap();
+        // The solve phase's shares of assembly and measurement go to those phases.
+        let assembly = solved.assembly_s.min(solve_wall);
+        let measure = solved.measure_s.min(solve_wall - assembly);
+        phases.assembly += assembly;
+        phases.residual += measure;
+        phases.solve = solve_wall - assembly - measure;
         let pseudo = self.split_impulse_velocities(&system);
         let toi = self.integrate(&system, &solved.f, pseudo.as_deref());
         self.step_index += 1;
         self.time += h;
-        self.report(&system, &partition, solved, toi, start)
+        phases.integration = clock.lap();
+        self.report(&system, &partition, solved, toi, clock, phases)
     }
 
     /// Run `n` steps, returning their reports.
@@ -683,24 +888,36 @@ impl World {
         self.warm.clear();
     }
 
-    fn solver_settings(&self) -> Settings {
+    /// The deadline of a solve starting now: the step's time budget from now, or the run's
+    /// deadline if earlier.
+    fn solve_deadline(&self) -> Option<Instant> {
+        let step = self
+            .settings
+            .step_time_budget
+            .and_then(|b| Instant::now().checked_add(b));
+        match (step, self.settings.deadline) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// The solver settings of a solve that must end by `deadline`.
+    fn solver_settings(&self, deadline: Option<Instant>) -> Settings {
         Settings {
             tolerance: self.settings.tolerance,
             max_iterations: self.settings.max_iterations,
-            time_budget: self
-                .settings
-                .deadline
-                .map(|d| d.saturating_duration_since(Instant::now())),
+            time_budget: deadline.map(|d| d.saturating_duration_since(Instant::now())),
             ..Settings::default()
         }
     }
 
     /// Solve the step's system with the world's solver: nothing for no rows, `Unsupported`
     /// when the solver does not take the friction model, else the body-level or the matrix /
-    /// cone path. Stores the warm start for the next step.
+    /// cone path, within the step's time budget. Stores the warm start for the next step.
     fn solve(&mut self, system: &ContactSystem, partition: &Partition) -> Solved {
         let n = system.n();
         let wall = Instant::now();
+        let deadline = self.solve_deadline();
         if n == 0 {
             self.warm.clear();
             return Solved::empty();
@@ -715,9 +932,9 @@ impl World {
                 .warm_start
                 .then(|| system.warm_start(&self.warm));
             if matches!(self.settings.solver, ContactSolver::Body(_)) {
-                self.solve_on_bodies(system, warm_start)
+                self.solve_on_bodies(system, warm_start, deadline)
             } else {
-                self.solve_problem(system, partition, warm_start)
+                self.solve_problem(system, partition, warm_start, deadline)
             }
         };
         solved.wall_s = wall.elapsed().as_secs_f64();
@@ -731,17 +948,29 @@ impl World {
         system: &ContactSystem,
         partition: &Partition,
         warm_start: Option<Vec<f64>>,
+        deadline: Option<Instant>,
     ) -> Solved {
-        let mut settings = self.solver_settings();
+        let mut settings = self.solver_settings(deadline);
         settings.record_history = self.settings.record_history;
         if self.settings.solver.takes_warm_start() {
             settings.warm_start = warm_start;
         }
+        let kept_warm_start = if self.settings.keep_problem {
+            settings.warm_start.clone()
+        } else {
+            None
+        };
         if self.whole.name() != self.settings.solver.name() {
             self.whole = self.settings.solver.clone();
         }
         let mut solved = if self.settings.islands && partition.len() > 1 {
-            solve_islands(system, partition, &settings, &self.settings.solver)
+            solve_islands(
+                system,
+                partition,
+                &settings,
+                &self.settings.solver,
+                deadline,
+            )
         } else {
             self.whole.solve_whole(system, &settings)
         };
@@ -755,18 +984,27 @@ impl World {
             }
         }
         self.warm.store(system, &solved.f);
+        solved.warm_start = kept_warm_start;
         solved
     }
 
     /// The body-level path: the solver works on `system`, and the status is decided from the
     /// shared residual of the step's assembled LCP when residuals (or the problem) are wanted.
-    fn solve_on_bodies(&mut self, system: &ContactSystem, warm_start: Option<Vec<f64>>) -> Solved {
-        let settings = Settings {
-            warm_start,
-            ..self.solver_settings()
-        };
+    fn solve_on_bodies(
+        &mut self,
+        system: &ContactSystem,
+        warm_start: Option<Vec<f64>>,
+        deadline: Option<Instant>,
+    ) -> Solved {
+        let t0 = Instant::now();
         let assembled = (self.settings.residuals || self.settings.keep_problem)
             .then(|| system.problem().map_err(|e| e.to_string()));
+        let assembly_s = t0.elapsed().as_secs_f64();
+        let settings = Settings {
+            warm_start,
+            ..self.solver_settings(deadline)
+        };
+        let call = Instant::now();
         let measure = match &assembled {
             Some(Ok(p)) => Measure::Lcp(p),
             Some(Err(e)) => Measure::Invalid(e),
@@ -776,19 +1014,25 @@ impl World {
             ContactSolver::Body(s) => s.solve(system, &settings, measure),
             _ => return Solved::unsupported(system.n(), "not a body-level solver".into()),
         };
+        let call_s = call.elapsed().as_secs_f64();
         self.warm.store(system, &out.warm);
         let problem = assembled.and_then(Result::ok);
         let r = out.result;
+        let own_s = r.time.as_secs_f64();
         Solved {
             f: r.f,
             status: r.status,
             iterations: r.iterations,
-            time_s: r.time.as_secs_f64(),
+            time_s: own_s,
             wall_s: 0.0,
+            // The assembled `A` serves only the measurement.
+            assembly_s: 0.0,
+            measure_s: assembly_s + (call_s - own_s).max(0.0),
             residuals: problem.is_some().then_some(r.residuals),
             problem,
             cone_problem: None,
             history: Vec::new(),
+            warm_start: None,
         }
     }
 
@@ -800,7 +1044,8 @@ impl World {
         }
         let zero = vec![BodyVelocity::default(); system.inv_mass.len()];
         let (problem, normals) = system.position_problem(&zero)?;
-        let result = ProjectedSor::pgs().solve(&problem, &self.solver_settings());
+        let settings = self.solver_settings(self.solve_deadline());
+        let result = ProjectedSor::pgs().solve(&problem, &settings);
         let mut f = vec![0.0; system.n()];
         for (&row, &v) in normals.iter().zip(&result.f) {
             if v.is_finite() {
@@ -906,7 +1151,8 @@ impl World {
         partition: &Partition,
         solved: Solved,
         time_of_impact: Option<f64>,
-        start: Instant,
+        mut clock: PhaseClock,
+        mut phases: PhaseTimes,
     ) -> StepReport {
         let gravity = self.settings.gravity;
         let pen: Vec<f64> = system.contacts.iter().map(|c| (-c.dist).max(0.0)).collect();
@@ -927,6 +1173,12 @@ impl World {
         }
         let f = &solved.f;
         let contact_records = self.contact_records(system, f);
+        let friction_cone_violation = if f.len() == system.n() {
+            system.friction_cone_violation(f)
+        } else {
+            0.0
+        };
+        phases.residual += clock.lap();
         StepReport {
             step: self.step_index - 1,
             time: self.time,
@@ -939,7 +1191,8 @@ impl World {
             solve_wall_s: solved.wall_s,
             islands: partition.len(),
             island_rows: partition.islands.iter().map(|i| i.rows.len()).collect(),
-            step_time_s: start.elapsed().as_secs_f64(),
+            step_time_s: clock.total(),
+            phases,
             residuals: solved.residuals,
             max_penetration,
             mean_penetration,
@@ -947,11 +1200,7 @@ impl World {
             potential_energy: pe,
             linear_momentum: lin.into(),
             angular_momentum: ang.into(),
-            friction_cone_violation: if f.len() == system.n() {
-                system.friction_cone_violation(f)
-            } else {
-                0.0
-            },
+            friction_cone_violation,
             contact_records,
             history: solved.history,
             time_of_impact,
@@ -965,6 +1214,7 @@ impl World {
             } else {
                 None
             },
+            warm_start: solved.warm_start,
         }
     }
 }

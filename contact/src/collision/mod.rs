@@ -68,6 +68,16 @@ pub fn candidate_pairs(bodies: &[RigidBody]) -> Vec<(usize, usize)> {
 #[derive(Debug, Default)]
 pub struct CollisionPipeline {
     narrow: NarrowPhase,
+    timings: CollisionTimings,
+}
+
+/// Wall time of the last [`CollisionPipeline::detect`], seconds, by phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CollisionTimings {
+    /// Sweep and prune: candidate pairs.
+    pub broad_phase: f64,
+    /// Contact manifolds of the candidate pairs.
+    pub narrow_phase: f64,
 }
 
 impl CollisionPipeline {
@@ -82,8 +92,20 @@ impl CollisionPipeline {
     /// `b`. Contacts come out grouped by pair, pairs in increasing order.
     pub fn detect(&mut self, bodies: &[RigidBody], prediction: f64) -> Vec<Contact> {
         let prediction = prediction.max(0.0);
+        let start = std::time::Instant::now();
         let pairs = broad_phase::candidate_pairs_with_margin(bodies, prediction);
-        self.narrow.contacts(bodies, &pairs, prediction)
+        let broad = start.elapsed();
+        let contacts = self.narrow.contacts(bodies, &pairs, prediction);
+        self.timings = CollisionTimings {
+            broad_phase: broad.as_secs_f64(),
+            narrow_phase: (start.elapsed() - broad).as_secs_f64(),
+        };
+        contacts
+    }
+
+    /// Wall time of the phases of the last [`CollisionPipeline::detect`].
+    pub fn timings(&self) -> CollisionTimings {
+        self.timings
     }
 
     /// The narrow phase, for its settings ([`NarrowPhase::merge_distance`]).
