@@ -39,10 +39,11 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sweep");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/tower_10.toml");
-    // A 1 ms run limit (half the budget's 2 ms): a few steps of the 1,000 at most.
+    // 1 µs per step's solve, so a run limit of 2 ms for the 1,000 steps: collision and
+    // assembly alone outlast it after a few steps.
     let status = Command::new(EXE)
         .args(["bench", "--no-progress", "--solvers", "enum,pgs"])
-        .args(["--budgets", "1e-8:10000:0.002", "--out"])
+        .args(["--budgets", "1e-8:10000:0.000001", "--out"])
         .arg(&out)
         .arg("--lcps")
         .arg(format!("scene:{scene}"))
@@ -54,7 +55,7 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
     for r in &rows {
         let steps = r.steps.unwrap();
         assert!((1..1000).contains(&steps), "{r:?}");
-        let stopped = format!("stopped after {steps} of 1000 steps (0.001 s)");
+        let stopped = format!("stopped after {steps} of 1000 steps at the run limit of 0.002 s");
         assert!(r.reason.contains(&stopped), "{r:?}");
         match r.solver.as_str() {
             "enum" => {
@@ -64,4 +65,49 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
             _ => assert_eq!(r.status.as_str(), "time_limit", "{r:?}"),
         }
     }
+}
+
+/// A budget's seconds bound each step's solve: a step that runs out of them ends `time_limit`
+/// and the run goes on to its last step (the run's own limit, twice the steps times the
+/// seconds, is far away here), recording how many steps ran out.
+#[test]
+fn a_step_over_its_budget_ends_time_limit_and_the_run_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/pyramid_10.toml");
+    // Dantzig takes about half a second per step of pyramid_10 here; 50 ms per step stops its
+    // solves, and 6 steps leave a run limit of 0.6 s, more than the 6 steps take.
+    let status = Command::new(EXE)
+        .args(["bench", "--no-progress", "--solvers", "dantzig"])
+        .args(["--budgets", "1e-8:10000:0.05", "--out"])
+        .arg(&out)
+        .arg("--lcps")
+        .arg(format!("scene:{scene}?steps=6"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 1);
+    let r = &rows[0];
+    assert_eq!(r.steps, Some(6), "{r:?}");
+    assert_eq!(r.steps_planned, Some(6), "{r:?}");
+    let limited = r.time_limit_steps.unwrap();
+    assert!(limited >= 1, "{r:?}");
+    assert_eq!(r.status.as_str(), "time_limit", "{r:?}");
+    assert!(
+        r.reason.contains("steps not converged, first time_limit"),
+        "{r:?}"
+    );
+    // The phase means add up to the mean step time.
+    let phases = [
+        r.phase_collision_s,
+        r.phase_assembly_s,
+        r.phase_islands_s,
+        r.phase_solve_s,
+        r.phase_residual_s,
+        r.phase_integration_s,
+    ];
+    let sum: f64 = phases.iter().map(|p| p.unwrap()).sum();
+    let step = r.step_time_s.unwrap();
+    assert!((sum - step).abs() <= 0.05 * step, "{sum} vs {step}");
 }

@@ -95,6 +95,51 @@ fn simulate_json_summary() {
     assert!(v["time_per_step_s"].as_f64().unwrap() > 0.0);
 }
 
+/// `--time-budget` bounds each step's solve: steps that run out end `time_limit` and the run
+/// takes every step; the phase keys name the phases and add up to the step time.
+#[test]
+fn simulate_time_budget_is_per_step_and_phases_add_up() {
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/pyramid_10.toml",
+        "-s",
+        "dantzig",
+        "--steps",
+        "4",
+        "--tol",
+        "1e-10",
+        "--time-budget",
+        "0.01",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["steps"], 4);
+    assert_eq!(v["step_time_budget_s"], 0.01);
+    assert!(v["statuses"]["time_limit"].as_u64().unwrap() >= 1, "{v}");
+    let phases = &v["phases_per_step_s"];
+    let sum: f64 = [
+        "collision",
+        "assembly",
+        "islands",
+        "solve",
+        "residual",
+        "integration",
+    ]
+    .iter()
+    .map(|k| {
+        phases[k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("no phase {k}: {v}"))
+    })
+    .sum();
+    let step = v["time_per_step_s"].as_f64().unwrap();
+    assert!((sum - step).abs() <= 0.05 * step, "{sum} vs {step}");
+    let collision = phases["collision"].as_f64().unwrap();
+    let parts = phases["broad_phase"].as_f64().unwrap() + phases["narrow_phase"].as_f64().unwrap();
+    assert!(parts <= collision * 1.0001 + 1e-9, "{parts} vs {collision}");
+}
+
 #[test]
 fn export_writes_a_problem_that_solve_reads() {
     let dir = tempfile::tempdir().unwrap();

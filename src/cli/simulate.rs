@@ -6,9 +6,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench::harness::export::{step_problem, StepProblem};
 use lcpbench::harness::SolverSpec;
 use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
-use lcpbench_contact::step::{ContactSolver, StepReport, World};
+use lcpbench_contact::step::{ContactSolver, PhaseTimes, StepReport, World};
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::{cone_problem_to_json, write_problem, ConeProblem};
+use lcpbench_solvers::{
+    cone_problem_to_json, problem_to_json, write_problem, ConeProblem, Problem,
+};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -39,6 +41,10 @@ pub struct SimulateArgs {
     /// Solver iteration / pivot / sweep cap per step (overrides the scene's).
     #[arg(long)]
     pub max_iter: Option<usize>,
+    /// Wall-time budget of each step's solve, seconds: a step whose solve runs out of it ends
+    /// `time_limit` with the solver's best point, and the run goes on (none by default).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
     /// Skip the shared residual for body-level solvers (it needs the assembled `A`, which they
     /// do not use), so the step time is theirs alone.
     #[arg(long)]
@@ -77,7 +83,19 @@ pub struct ExportArgs {
     /// cone (writes the step's cone problem, which `lcpbench solve` reads too).
     #[arg(long)]
     pub friction_model: Option<String>,
-    /// Output problem file (JSON, the `lcpbench solve` format).
+    /// Solver tolerance for the steps before `--step` (overrides the scene's).
+    #[arg(long)]
+    pub tol: Option<f64>,
+    /// Solver iteration / pivot / sweep cap per step for the steps before `--step` (overrides
+    /// the scene's).
+    #[arg(long)]
+    pub max_iter: Option<usize>,
+    /// Wall-time budget of each step's solve before `--step`, seconds (none by default).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
+    /// Output problem file (JSON, the `lcpbench solve` format). With a warm-started solver the
+    /// file also holds the step's warm start (`warm_start`: the previous step's impulses,
+    /// projected as the stepper passes them), which `lcpbench solve --warm` starts from.
     #[arg(long, short)]
     pub output: PathBuf,
 }
@@ -215,20 +233,37 @@ impl TopBody {
     }
 }
 
-/// Apply the `--tol`, `--no-residuals`, `--max-iter` and history options to the world.
-fn apply_overrides(args: &SimulateArgs, world: &mut World) -> Result<()> {
-    if let Some(tol) = args.tol {
+/// Apply the `--tol`, `--max-iter` and `--time-budget` options to the world.
+fn apply_solver_overrides(
+    tol: Option<f64>,
+    max_iter: Option<usize>,
+    time_budget: Option<f64>,
+    world: &mut World,
+) -> Result<()> {
+    if let Some(tol) = tol {
         world.settings.tolerance =
             lcpbench::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
     }
-    if args.no_residuals {
-        world.settings.residuals = false;
-    }
-    if let Some(max_iter) = args.max_iter {
+    if let Some(max_iter) = max_iter {
         if max_iter == 0 {
             bail!("--max-iter must be at least 1");
         }
         world.settings.max_iterations = max_iter;
+    }
+    if let Some(seconds) = time_budget {
+        world.settings.step_time_budget = Some(
+            lcpbench::harness::budget::time_budget(seconds)
+                .map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?,
+        );
+    }
+    Ok(())
+}
+
+/// Apply the solver, `--no-residuals` and history options to the world.
+fn apply_overrides(args: &SimulateArgs, world: &mut World) -> Result<()> {
+    apply_solver_overrides(args.tol, args.max_iter, args.time_budget, world)?;
+    if args.no_residuals {
+        world.settings.residuals = false;
     }
     world.settings.record_history = args.history || args.html.is_some();
     Ok(())
@@ -301,6 +336,8 @@ struct SimTotals {
     islands: usize,
     largest_island: usize,
     solve_wall: f64,
+    max_solve_wall: f64,
+    phases: PhaseTimes,
     energy0: f64,
     last_energy: f64,
 }
@@ -328,6 +365,8 @@ impl SimTotals {
         self.max_step_time = self.max_step_time.max(report.step_time_s);
         self.solve_time += report.solve_time_s;
         self.solve_wall += report.solve_wall_s;
+        self.max_solve_wall = self.max_solve_wall.max(report.solve_wall_s);
+        self.phases.add(&report.phases);
         self.islands += report.islands;
         self.largest_island = self
             .largest_island
@@ -419,6 +458,7 @@ struct SimRun<'a> {
 fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
     let (world, steps) = (run.world, run.steps);
     let n = steps.max(1) as f64;
+    let p = t.phases.scaled(1.0 / n);
     let out = json!({
         "scene": run.scene.name,
         "solver": world.settings.solver.name(),
@@ -430,6 +470,18 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "max_step_time_s": t.max_step_time,
         "solver_time_per_step_s": t.solve_time / n,
         "solve_wall_per_step_s": t.solve_wall / n,
+        "max_solve_wall_s": t.max_solve_wall,
+        "step_time_budget_s": world.settings.step_time_budget.map(|d| d.as_secs_f64()),
+        "phases_per_step_s": {
+            "collision": p.collision,
+            "broad_phase": p.broad_phase,
+            "narrow_phase": p.narrow_phase,
+            "assembly": p.assembly,
+            "islands": p.islands,
+            "solve": p.solve,
+            "residual": p.residual,
+            "integration": p.integration,
+        },
         "mean_islands": t.islands as f64 / n,
         "largest_island_rows": t.largest_island,
         "mean_iterations": t.iters as f64 / n,
@@ -471,9 +523,27 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         1e3 * t.max_step_time
     );
     println!(
-        "solver time/step  {:.3} ms (solve phase wall time {:.3} ms)",
+        "solver time/step  {:.3} ms (solve phase wall time {:.3} ms, max {:.3} ms{})",
         1e3 * t.solve_time / n,
-        1e3 * t.solve_wall / n
+        1e3 * t.solve_wall / n,
+        1e3 * t.max_solve_wall,
+        world
+            .settings
+            .step_time_budget
+            .map(|d| format!(", budget {:.3} ms per step", 1e3 * d.as_secs_f64()))
+            .unwrap_or_default()
+    );
+    let p = t.phases.scaled(1.0 / n);
+    let phases: Vec<String> = PhaseTimes::NAMES
+        .iter()
+        .zip(p.values())
+        .map(|(name, v)| format!("{name} {:.3}", 1e3 * v))
+        .collect();
+    println!("phases, ms/step   {}", phases.join(", "));
+    println!(
+        "  of collision    broad phase {:.3}, narrow phase {:.3}",
+        1e3 * p.broad_phase,
+        1e3 * p.narrow_phase
     );
     println!(
         "islands           mean {:.1}, largest {} rows",
@@ -516,11 +586,15 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
         args.friction_model.as_deref(),
     )?;
     check_steps("--step", args.step)?;
+    apply_solver_overrides(args.tol, args.max_iter, args.time_budget, &mut world)?;
     let bar = step_progress(args.step as u64, &scene.name);
     let (problem, contacts) = step_problem(&mut world, &scene.name, args.step, || bar.inc(1));
     bar.finish_and_clear();
-    let problem = match problem {
-        StepProblem::Lcp(problem) => problem,
+    let (problem, warm_start) = match problem {
+        StepProblem::Lcp {
+            problem,
+            warm_start,
+        } => (problem, warm_start),
         StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
         StepProblem::NoContacts => bail!(
             "step {} of {} has no contacts, so there is no LCP to export",
@@ -528,15 +602,33 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
             args.scene.display()
         ),
     };
-    write_problem(&problem, &args.output)?;
+    match &warm_start {
+        Some(ws) => write_problem_with_warm_start(&problem, ws, &args.output)?,
+        None => write_problem(&problem, &args.output)?,
+    }
     println!(
-        "wrote {}: {} rows ({contacts} contacts) of step {} of {}",
+        "wrote {}: {} rows ({contacts} contacts) of step {} of {}{}",
         args.output.display(),
         problem.n(),
         args.step,
-        scene.name
+        scene.name,
+        if warm_start.is_some() {
+            ", with its warm start"
+        } else {
+            ""
+        }
     );
     Ok(())
+}
+
+/// Write `problem` as JSON with the key `warm_start` added.
+fn write_problem_with_warm_start(problem: &Problem, warm_start: &[f64], path: &Path) -> Result<()> {
+    let mut value: serde_json::Value = serde_json::from_str(&problem_to_json(problem))?;
+    if let Some(object) = value.as_object_mut() {
+        object.insert("warm_start".into(), json!(warm_start));
+    }
+    std::fs::write(path, serde_json::to_string(&value)?)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Write the cone problem of `lcpbench export` (friction model `cone`).

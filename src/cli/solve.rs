@@ -39,6 +39,11 @@ pub struct SolveArgs {
     /// Record and print the convergence history.
     #[arg(long)]
     pub history: bool,
+    /// Start from the file's warm start (the JSON key `warm_start`, one value per row, which
+    /// `lcpbench export` writes for a warm-started solver); solvers that take no warm start
+    /// ignore it.
+    #[arg(long)]
+    pub warm: bool,
 }
 
 /// An LCP solver or a cone solver, by name.
@@ -115,11 +120,16 @@ pub fn run(args: SolveArgs) -> Result<()> {
         ProblemFormat::detect(&args.problem, head),
         ProblemFormat::Json
     );
+    let warm_start = if args.warm {
+        Some(file_warm_start(&args.problem, &bytes, json)?)
+    } else {
+        None
+    };
     let settings = Settings {
         tolerance: args.tol,
         max_iterations: args.max_iter,
         time_budget,
-        warm_start: None,
+        warm_start,
         record_history: args.history,
     };
     // A JSON file with a `mu` key is a cone problem; everything else goes through the reader
@@ -131,6 +141,18 @@ pub fn run(args: SolveArgs) -> Result<()> {
         }
     }
     let problem = read_problem(&args.problem)?;
+    if let Some(ws) = settings
+        .warm_start
+        .as_ref()
+        .filter(|ws| ws.len() != problem.n())
+    {
+        bail!(
+            "{}: warm_start has {} values for {} rows",
+            args.problem.display(),
+            ws.len(),
+            problem.n()
+        );
+    }
     let mut solver = match lcp_solver {
         Some(solver) => solver,
         None => {
@@ -151,6 +173,28 @@ pub fn run(args: SolveArgs) -> Result<()> {
         solver.name(),
         &r,
     )
+}
+
+/// The `warm_start` array of a JSON problem file: finite numbers.
+fn file_warm_start(path: &std::path::Path, bytes: &[u8], json: bool) -> Result<Vec<f64>> {
+    let display = path.display();
+    if !json {
+        bail!("{display}: --warm needs a JSON problem file with a `warm_start` key");
+    }
+    let value: serde_json::Value =
+        serde_json::from_slice(bytes).with_context(|| format!("{display}: not valid JSON"))?;
+    let Some(values) = value.get("warm_start").and_then(|v| v.as_array()) else {
+        bail!("{display}: --warm needs the key `warm_start` (an array of numbers)");
+    };
+    values
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            v.as_f64()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| anyhow!("{display}: warm_start[{i}] is not a finite number"))
+        })
+        .collect()
 }
 
 /// Solve a cone problem: with a cone solver, or `unsupported` for an LCP solver (the box

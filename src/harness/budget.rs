@@ -76,9 +76,11 @@ pub struct Budget {
     pub tolerance: f64,
     /// Iteration or pivot cap (per step for scenes).
     pub max_iterations: usize,
-    /// Time budget in seconds: per solve for LCP cases, for the whole run for scenes (see
-    /// [`Budget::scene_time_limit`]). The child process is killed (and the run recorded as
-    /// `timeout`) when it exceeds [`Budget::kill_after`].
+    /// Time budget in seconds: per solve for LCP cases; for scenes, per step's solve (a step
+    /// whose solve runs out of it ends `time_limit` with the best point the solver has, and the
+    /// run goes on), with the whole run capped at [`Budget::scene_run_limit`]. The child
+    /// process is killed (and the run recorded as `timeout`) when it exceeds
+    /// [`Budget::kill_after`].
     pub time_s: f64,
 }
 
@@ -90,7 +92,7 @@ impl Budget {
             Budget {
                 tolerance: 1e-4,
                 max_iterations: 1_000,
-                time_s: 2.0,
+                time_s: 1.0,
             },
         ),
         (
@@ -98,7 +100,7 @@ impl Budget {
             Budget {
                 tolerance: 1e-8,
                 max_iterations: 10_000,
-                time_s: 5.0,
+                time_s: 1.0,
             },
         ),
         (
@@ -114,7 +116,7 @@ impl Budget {
             Budget {
                 tolerance: 1e-6,
                 max_iterations: 20,
-                time_s: 2.0,
+                time_s: 1.0,
             },
         ),
     ];
@@ -140,17 +142,15 @@ impl Budget {
 
     /// Wall time after which the isolated child is killed: for an LCP three times the budget plus
     /// five seconds (process start, problem generation and the residual measurements of the
-    /// convergence history are outside the solver's clock); for a
-    /// scene, which stops stepping by itself after [`Budget::scene_time_limit`] (each solve in
-    /// it gets the time left, so one long step ends at the limit too), that limit plus half of
-    /// it plus five seconds: the margin covers collision detection and assembly, which do not
-    /// watch the clock.
+    /// convergence history are outside the solver's clock); for a scene of `steps` steps, which
+    /// stops stepping by itself at [`Budget::scene_run_limit`] (the solve of the step running
+    /// then ends at that limit too), that limit plus a quarter of it plus ten seconds: the margin
+    /// covers loading the scene and the step under way when the limit passes.
     /// Saturates at [`Duration::MAX`] for a budget that was not validated.
-    pub fn kill_after(&self, scene: bool) -> Duration {
-        let seconds = if scene {
-            1.5 * self.scene_time_limit() + 5.0
-        } else {
-            3.0 * self.time_s + 5.0
+    pub fn kill_after(&self, scene_steps: Option<usize>) -> Duration {
+        let seconds = match scene_steps {
+            Some(steps) => 1.25 * self.scene_run_limit(steps) + 10.0,
+            None => 3.0 * self.time_s + 5.0,
         };
         Duration::try_from_secs_f64(seconds).unwrap_or(Duration::MAX)
     }
@@ -165,10 +165,13 @@ impl Budget {
         Ok(())
     }
 
-    /// Wall time after which a scene run stops stepping and records `time_limit` with the steps
-    /// it took: half the budget's time.
-    pub fn scene_time_limit(&self) -> f64 {
-        0.5 * self.time_s
+    /// Wall time after which a scene run of `steps` steps stops stepping and records
+    /// `time_limit` with the steps it took: twice `steps` times the per-step seconds, the
+    /// solves' share plus as much again for collision detection, assembly, measurement and
+    /// integration. A run whose steps each stay within their budget is cut short only when
+    /// everything outside the solver costs more than the solve budget per step.
+    pub fn scene_run_limit(&self, steps: usize) -> f64 {
+        2.0 * steps.max(1) as f64 * self.time_s
     }
 }
 
@@ -769,7 +772,18 @@ mod tests {
             max_iterations: 1,
             time_s: 1e300,
         };
-        assert_eq!(huge.kill_after(false), Duration::MAX);
+        assert_eq!(huge.kill_after(None), Duration::MAX);
+        assert_eq!(huge.kill_after(Some(100)), Duration::MAX);
         assert_eq!(huge.settings().time_budget, None);
+    }
+
+    /// A scene's seconds are per step: the run limit is twice the steps times the seconds, and
+    /// the child's kill time a quarter more plus ten seconds.
+    #[test]
+    fn scene_limits_scale_with_the_steps() {
+        let b: NamedBudget = "1e-8:100:0.5".parse().unwrap();
+        assert_eq!(b.budget.scene_run_limit(40), 40.0);
+        assert_eq!(b.budget.kill_after(Some(40)), Duration::from_secs(60));
+        assert_eq!(b.budget.kill_after(None), Duration::from_secs_f64(6.5));
     }
 }

@@ -397,6 +397,24 @@ impl Case {
         matches!(self, Case::Scene { .. })
     }
 
+    /// For a scene case, the steps a run takes: the cap, or the scene's own count when that is
+    /// smaller or there is no cap (the cap alone when the scene does not load; a run of it then
+    /// records the error). `None` for LCP cases.
+    pub fn planned_steps(&self) -> Option<usize> {
+        let Case::Scene { path, steps, .. } = self else {
+            return None;
+        };
+        let own = lcpbench_contact::scene::Scene::load(path)
+            .ok()
+            .map(|s| s.settings.steps);
+        Some(match (steps, own) {
+            (Some(cap), Some(own)) => (*cap).min(own),
+            (Some(cap), None) => *cap,
+            (None, Some(own)) => own,
+            (None, None) => 1,
+        })
+    }
+
     /// A generated case.
     pub fn generated(family: GenFamily, n: usize, seed: u64) -> Self {
         Case::Generated { family, n, seed }

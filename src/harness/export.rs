@@ -10,8 +10,14 @@ use std::path::{Path, PathBuf};
 /// The problem of one step.
 #[derive(Debug, Clone)]
 pub enum StepProblem {
-    /// A (boxed) LCP, named `SCENE step K`.
-    Lcp(Problem),
+    /// A (boxed) LCP, named `SCENE step K`, with the warm start the step's solver was given
+    /// (`None` for a solver started cold).
+    Lcp {
+        /// The problem.
+        problem: Problem,
+        /// The warm start.
+        warm_start: Option<Vec<f64>>,
+    },
     /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`.
     Cone(ConeProblem),
     /// The step had no contacts.
@@ -36,7 +42,10 @@ pub fn step_problem(
     let name = format!("{scene_name} step {step}");
     let problem = match (report.problem, report.cone_problem) {
         (_, Some(cone)) => StepProblem::Cone(cone.with_name(name)),
-        (Some(lcp), None) => StepProblem::Lcp(lcp.with_name(name)),
+        (Some(lcp), None) => StepProblem::Lcp {
+            problem: lcp.with_name(name),
+            warm_start: report.warm_start,
+        },
         (None, None) => StepProblem::NoContacts,
     };
     (problem, report.contacts)
@@ -66,7 +75,8 @@ pub fn export_suite_lcps(
         }
         let k = (scene.settings.steps / 2).min(30);
         let mut world = scene.world();
-        let (StepProblem::Lcp(problem), _) = step_problem(&mut world, &scene.name, k, || {}) else {
+        let (StepProblem::Lcp { problem, .. }, _) = step_problem(&mut world, &scene.name, k, || {})
+        else {
             continue;
         };
         if problem.n() == 0 || problem.n() > max_rows {

@@ -114,7 +114,7 @@ pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBu
             )
         }
     };
-    let limit = b.kill_after(case.is_scene());
+    let limit = b.kill_after(case.planned_steps());
     let (exit, out, err) = wait_with_limit(&mut child, start, limit);
     let wall = start.elapsed().as_secs_f64();
     let Some(exit) = exit else {

@@ -39,7 +39,7 @@
 
 use crate::harness::record::{RunRecord, RunStatus};
 use lcpbench_contact::body::RigidBody;
-use lcpbench_contact::step::{StepReport, World};
+use lcpbench_contact::step::{PhaseTimes, StepReport, World};
 use lcpbench_contact::SceneMetrics;
 use lcpbench_solvers::Status;
 use nalgebra::{Point3, Vector3};
@@ -182,6 +182,11 @@ pub struct StepTotals {
     unsupported: usize,
     fallbacks: usize,
     worst_status: Option<Status>,
+    time_limits: usize,
+    solve_wall_max: f64,
+    /// Relative residual of each step with rows, for the median.
+    step_residuals: Vec<f64>,
+    phases: PhaseTimes,
 }
 
 impl StepTotals {
@@ -189,6 +194,8 @@ impl StepTotals {
         self.taken += 1;
         self.solve_time += report.solve_time_s;
         self.step_time += report.step_time_s;
+        self.phases.add(&report.phases);
+        self.solve_wall_max = self.solve_wall_max.max(report.solve_wall_s);
         self.iterations += report.iterations;
         self.contacts += report.contacts;
         self.contacts_max = self.contacts_max.max(report.contacts);
@@ -205,6 +212,10 @@ impl StepTotals {
         }
         if let Some(res) = &report.residuals {
             self.residuals.observe(res);
+            self.step_residuals.push(res.natural_map_rel);
+        }
+        if report.status == Status::TimeLimit {
+            self.time_limits += 1;
         }
         if !report.status.is_converged() {
             self.nonconverged += 1;
@@ -240,7 +251,35 @@ impl StepTotals {
         r.penetration_max = Some(self.pen_max);
         r.penetration_mean = Some(self.pen_sum / n);
         r.cone_violation = Some(self.cone);
+        r.time_limit_steps = Some(self.time_limits);
+        r.solve_wall_max_s = Some(self.solve_wall_max);
+        r.residual_rel_median = median(&self.step_residuals);
+        let p = self.phases.scaled(1.0 / n);
+        r.phase_collision_s = Some(p.collision);
+        r.phase_broad_s = Some(p.broad_phase);
+        r.phase_narrow_s = Some(p.narrow_phase);
+        r.phase_assembly_s = Some(p.assembly);
+        r.phase_islands_s = Some(p.islands);
+        r.phase_solve_s = Some(p.solve);
+        r.phase_residual_s = Some(p.residual);
+        r.phase_integration_s = Some(p.integration);
     }
+}
+
+/// The median of `values` (the mean of the two middle ones for an even count); `None` when
+/// empty. NaNs sort last.
+fn median(values: &[f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    Some(if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    })
 }
 
 /// Energy and momentum drift, speeds, non-finite steps, lift-off and the blow-up test.
@@ -628,6 +667,7 @@ impl SceneMetricsAccumulator {
         time: TimeStop,
         r: &mut RunRecord,
     ) {
+        r.steps_planned = Some(self.n_steps);
         self.totals.finish(r);
         self.stability.finish(world, &self.frame, r);
         self.rest.finish(world, last, &self.frame, r);
@@ -660,14 +700,14 @@ impl SceneMetricsAccumulator {
             r.status = RunStatus::Unsupported;
             r.reason = format!(
                 "all {} steps with contacts unsupported ({why}); stopped after {taken} of \
-                 {n_steps} steps ({} s)",
+                 {n_steps} steps at the run limit of {} s",
                 self.totals.solved, time.limit_s
             );
             r.reason.truncate(200);
         } else if time.stopped {
             r.status = RunStatus::TimeLimit;
             r.reason = format!(
-                "stopped after {taken} of {n_steps} steps ({} s)",
+                "stopped after {taken} of {n_steps} steps at the run limit of {} s",
                 time.limit_s
             );
         } else if let Some(s) = &self.totals.worst_status {

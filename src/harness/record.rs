@@ -137,6 +137,34 @@ pub struct RunRecord {
     /// Scene: largest separating normal speed at sliding contacts right after a solve, m/s
     /// (the lift-off that a convex relaxation of friction causes).
     pub liftoff_speed: Option<f64>,
+    /// Scene: the steps the run was to take (`steps` is smaller when the run was cut short).
+    pub steps_planned: Option<usize>,
+    /// Scene: steps whose solve ran out of its per-step time budget.
+    pub time_limit_steps: Option<usize>,
+    /// Scene: the longest wall time of a step's solve phase, seconds.
+    pub solve_wall_max_s: Option<f64>,
+    /// Scene: median over the steps with contact rows of the step's relative residual.
+    pub residual_rel_median: Option<f64>,
+    /// Scene: mean wall time per step of the collision phase (events, broad and narrow phase),
+    /// seconds. The six `phase_*` means without `broad`/`narrow` add up to `step_time_s`.
+    pub phase_collision_s: Option<f64>,
+    /// Scene: of `phase_collision_s`, the broad phase.
+    pub phase_broad_s: Option<f64>,
+    /// Scene: of `phase_collision_s`, the narrow phase.
+    pub phase_narrow_s: Option<f64>,
+    /// Scene: mean wall time per step of assembly (free velocities, `J`, `b`, bounds, the
+    /// solvers' problems), seconds.
+    pub phase_assembly_s: Option<f64>,
+    /// Scene: mean wall time per step of the island partition, seconds.
+    pub phase_islands_s: Option<f64>,
+    /// Scene: mean wall time per step of the solver calls (their own measurements excluded),
+    /// seconds.
+    pub phase_solve_s: Option<f64>,
+    /// Scene: mean wall time per step of residual measurement and the step's figures, seconds.
+    pub phase_residual_s: Option<f64>,
+    /// Scene: mean wall time per step of integration (split impulses, time of impact, warm-start
+    /// cache), seconds.
+    pub phase_integration_s: Option<f64>,
 }
 
 impl RunRecord {

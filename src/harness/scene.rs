@@ -2,11 +2,13 @@
 //! one row through a [`SceneMetricsAccumulator`] (the metrics, the blow-up test and the
 //! analytic checks are documented in [`crate::harness::metrics`]).
 //!
-//! The budget's tolerance and iteration cap replace the scene's per-step solver settings; the
-//! run stops stepping after [`Budget::scene_time_limit`](crate::harness::Budget::scene_time_limit)
-//! of wall time and is then recorded as `time_limit` with the steps it took; each matrix and
-//! cone solve gets the time left as its budget, so one long step ends at the limit too (that
-//! step counts as not converged). A plain solver
+//! The budget's tolerance and iteration cap replace the scene's per-step solver settings, and
+//! its seconds bound each step's solve: a step whose solve runs out of them ends `time_limit`
+//! with the solver's best point (it counts as not converged) and the run goes on. The run as a
+//! whole stops stepping after
+//! [`Budget::scene_run_limit`](crate::harness::Budget::scene_run_limit) of wall time and is then
+//! recorded as `time_limit` with the steps it took (the solve under way then ends at that limit
+//! too). A plain solver
 //! steps cold (no warm start across steps); `NAME+warm` warm-starts from the previous step's
 //! impulses, as real-time engines do. A case key `scene:PATH?friction=MODEL` replaces the
 //! scene's friction model (`cone` needs a cone solver, `nsgs-cone`, `newton-ac` or
@@ -54,11 +56,12 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
     scene.settings.warm_start = spec.warm();
     let n_steps = steps.map_or(scene.settings.steps, |s| s.min(scene.settings.steps));
     let mut world = scene.world();
+    world.settings.step_time_budget = crate::harness::budget::time_budget(b.time_s).ok();
     measure(
         &scene,
         &mut world,
         n_steps,
-        b.scene_time_limit(),
+        b.scene_run_limit(n_steps),
         &mut record,
     );
     RunOutput::row(record)
