@@ -231,3 +231,146 @@ fn time_budget_is_reported() {
     let r = solve(SolverKind::Pgs, &g.problem, &s);
     assert_eq!(r.status, Status::TimeLimit);
 }
+
+/// The relative natural-map residual of `f` written from the README's definition with dense
+/// products over [`Problem::entry`], independently of the crate's `metrics` module.
+fn independent_relative_residual(p: &Problem, f: &[f64]) -> f64 {
+    let n = p.n();
+    let (mut lo, mut hi) = (p.lo().to_vec(), p.hi().to_vec());
+    for fr in p.friction() {
+        let bound = fr.mu * f[fr.normal].max(0.0);
+        (lo[fr.row], hi[fr.row]) = (-bound, bound);
+    }
+    let mut worst: f64 = 0.0;
+    for i in 0..n {
+        let row: Vec<f64> = (0..n).map(|j| p.entry(i, j)).collect();
+        let d = if row[i] > 0.0 {
+            row[i]
+        } else {
+            row.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+        };
+        let w: f64 = row.iter().zip(f).map(|(a, x)| a * x).sum::<f64>() + p.b()[i];
+        let magnitude: f64 = row.iter().zip(f).map(|(a, x)| (a * x).abs()).sum::<f64>();
+        let step = (f[i] - (f[i] - w / d).max(lo[i]).min(hi[i])).abs();
+        let scale = (p.b()[i].abs() + magnitude) / d;
+        let rel = if step == 0.0 {
+            0.0
+        } else if scale > 0.0 {
+            step / scale
+        } else {
+            f64::INFINITY
+        };
+        worst = worst.max(rel);
+    }
+    worst
+}
+
+/// A problem file of `tests/data/spin/` with its `warm_start`.
+fn spin_case(name: &str) -> (Problem, Vec<f64>) {
+    let path = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/spin"))
+        .join(name);
+    let problem = lcpbench_solvers::read_problem(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let warm = value["warm_start"]
+        .as_array()
+        .map(|a| a.iter().map(|v| v.as_f64().unwrap()).collect())
+        .unwrap_or_default();
+    (problem, warm)
+}
+
+/// Never spin, Newton: the 1,008-row island of `sphere_pile_200`'s step 31 (exported with
+/// `newton-fb+warm` at `1e-8`, warm start included) went on for 10,000 iterations warm-started
+/// at a residual of `7e-15`, because the projection of that iterate was 100 % wrong in some
+/// friction rows. It now stops within tolerance in a few dozen iterations, warm and cold.
+#[test]
+fn newton_stops_on_a_sphere_pile_island_it_used_to_spin_on() {
+    let (p, warm) = spin_case("sphere_pile_200_step31_island.json");
+    assert_eq!(p.n(), 1008);
+    for kind in [SolverKind::NewtonFb, SolverKind::NewtonMin] {
+        for warm_start in [Some(warm.clone()), None] {
+            let s = Settings {
+                warm_start: warm_start.clone(),
+                ..settings(1e-8, 10_000)
+            };
+            let r = solve(kind, &p, &s);
+            assert!(r.status.is_converged(), "{}: {}", kind.name(), r.status);
+            assert!(
+                r.iterations <= 200,
+                "{}: {} iterations",
+                kind.name(),
+                r.iterations
+            );
+            let rel = independent_relative_residual(&p, &r.f);
+            assert!(rel <= 1e-8, "{}: independent residual {rel:e}", kind.name());
+        }
+    }
+}
+
+/// Never spin, first-order methods: on the pyramid-friction LCP of the 60 Hz 10-box tower
+/// (step 30; its slack rows have a zero diagonal and the matrix is not symmetric), PGS, SOR,
+/// NSGS and NNCG ran to a cap of 100,000 sweeps at a residual near 0.3. Each now stops
+/// `stalled` once its residual has made no new low for the stagnation window, and Newton's
+/// stagnation rule stops a problem with no solution after its window (and one restart from a
+/// warm start).
+#[test]
+fn first_order_methods_stall_instead_of_spinning_to_the_cap() {
+    let (p, _) = spin_case("tower_10_60hz_pyramid_step30.json");
+    let cap = 100_000;
+    for kind in [
+        SolverKind::Pgs,
+        SolverKind::Sor,
+        SolverKind::Nsgs,
+        SolverKind::Nncg,
+    ] {
+        let r = solve(kind, &p, &settings(1e-8, cap));
+        match &r.status {
+            Status::Stalled { reason } => assert!(reason.contains("no progress"), "{reason}"),
+            other => panic!("{}: {other}", kind.name()),
+        }
+        assert!(r.iterations < 10_000, "{}: {}", kind.name(), r.iterations);
+        assert!(independent_relative_residual(&p, &r.f) > 1e-8);
+    }
+    // Newton solves it, so it is a solver's stall and not the problem's.
+    let r = solve(SolverKind::NewtonMin, &p, &settings(1e-8, 200));
+    assert!(r.status.is_converged(), "{}", r.status);
+    assert!(independent_relative_residual(&p, &r.f) <= 1e-8);
+}
+
+/// Newton's stagnation rule on the 1,155-row island of `sphere_pile_200`'s step 33 (exported
+/// with `newton-fb+warm` at `1e-8`, warm start included), where the warm-started solve ran to
+/// its cap of 10,000 iterations: warm, it now restarts from zero once its best residual has
+/// made no new low for the window, and stops `stalled` after the second window; cold, after
+/// the first. Either way it returns its best point, far from the cap.
+#[test]
+fn newton_restarts_a_warm_start_that_stagnates_and_then_stalls() {
+    let (p, warm) = spin_case("sphere_pile_200_step33_island.json");
+    assert_eq!(p.n(), 1155);
+    let s = Settings {
+        warm_start: Some(warm),
+        ..settings(1e-8, 10_000)
+    };
+    let r = solve(SolverKind::NewtonFb, &p, &s);
+    match &r.status {
+        Status::Stalled { reason } => {
+            assert!(reason.contains("no progress"), "{reason}");
+            assert!(reason.contains("after a restart from zero"), "{reason}");
+        }
+        other => panic!("{other}"),
+    }
+    assert!(r.iterations <= 400, "{} iterations", r.iterations);
+    let rel = independent_relative_residual(&p, &r.f);
+    assert!(
+        (rel - r.residuals.natural_map_rel).abs() <= 1e-6 * rel,
+        "{rel:e}"
+    );
+    let cold = solve(SolverKind::NewtonFb, &p, &settings(1e-8, 10_000));
+    match &cold.status {
+        Status::Stalled { reason } => {
+            assert!(reason.contains("no progress"), "{reason}");
+            assert!(!reason.contains("restart"), "{reason}");
+        }
+        other => panic!("{other}"),
+    }
+    assert!(cold.iterations <= 300, "{} iterations", cold.iterations);
+}

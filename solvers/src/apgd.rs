@@ -23,6 +23,9 @@
 //!   trial point, and the shared residual), `O(n²)` each on the dense `A`.
 //! * **Returns** the iterate with the smallest shared residual seen (the method is not monotone).
 //! * **Stopping rule**: shared relative residual at most the tolerance.
+//! * **Never spins**: when the shared residual has not reached a new low (1 % below the best) in
+//!   [`FIRST_ORDER_STAGNATION_WINDOW`] iterations, the solve stops `Stalled`
+//!   ([`crate::solver`]'s stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected.
 //!
 //! References: H. Mazhar, T. Heyn, D. Negrut, A. Tasora, *Using Nesterov's method to accelerate
@@ -31,7 +34,10 @@
 
 use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
+    FIRST_ORDER_STAGNATION_WINDOW,
+};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
@@ -109,6 +115,7 @@ impl Solver for Apgd {
         let tol = settings.tolerance;
         let mut iterations = 0;
         let mut trial = vec![0.0; n];
+        let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let outcome = loop {
             if best_res <= tol {
                 break Outcome::Stopped;
@@ -162,6 +169,9 @@ impl Solver for Apgd {
             if res < best_res {
                 best_res = res;
                 best.copy_from_slice(&f);
+            }
+            if stagnation.stagnated(iterations, best_res) {
+                break Outcome::Stalled(stagnation.reason("relative residual"));
             }
         };
         monitor.finish(best, iterations, outcome)

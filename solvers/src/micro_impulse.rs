@@ -52,6 +52,9 @@
 //!   scratch so rounding drift in the incremental updates cannot end the solve early. An
 //!   actionable step that is zero while the row is violated (a normal row that over-shot) is
 //!   left to the shared residual, which reports it.
+//! * **Never spins**: when the largest relative step of a sweep-equivalent (`n` impulses) has not reached a new low (1 % below the best) in
+//!   [`FIRST_ORDER_STAGNATION_WINDOW`] iterations, the solve stops `Stalled`
+//!   ([`crate::solver`]'s stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds. A warm start that
 //!   is too large on a normal row is never reduced.
 //!
@@ -60,7 +63,10 @@
 //! simulation of rigid bodies*, Proc. Symposium on Interactive 3D Graphics, 1995.
 
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
+    FIRST_ORDER_STAGNATION_WINDOW,
+};
 use faer::sparse::SparseColMat;
 use faer::Mat;
 
@@ -163,6 +169,9 @@ impl Solver for MicroImpulse {
         let cap = settings.max_iterations.saturating_mul(n);
         let mut impulses: usize = 0;
         let mut refreshed = false;
+        let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
+        // The largest relative step seen during the current sweep-equivalent.
+        let mut sweep_worst = 0.0_f64;
         let outcome = loop {
             // Pick the row with the largest actionable step relative to its own scale.
             let mut best = None;
@@ -211,8 +220,15 @@ impl Solver for MicroImpulse {
                 scale[j] = (scale[j] + aji.abs() * grow / d[j]).max(0.0);
             });
             impulses += 1;
+            sweep_worst = sweep_worst.max(best_rel);
             if impulses.is_multiple_of(n) {
                 monitor.record(impulses / n, &f);
+                if stagnation.stagnated(impulses / n, sweep_worst) {
+                    break Outcome::Stalled(
+                        stagnation.reason("relative step of a sweep-equivalent"),
+                    );
+                }
+                sweep_worst = 0.0;
             }
         };
         let iterations = impulses.div_ceil(n.max(1));

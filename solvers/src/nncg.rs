@@ -19,6 +19,9 @@
 //! * **Cost**: one PGS sweep (`O(n²)` on the dense `A`) plus `O(n)` per iteration, and the shared
 //!   residual for the stopping rule.
 //! * **Returns** the iterate with the smallest shared residual seen.
+//! * **Never spins**: when the shared residual has not reached a new low (1 % below the best) in
+//!   [`FIRST_ORDER_STAGNATION_WINDOW`] iterations, the solve stops `Stalled`
+//!   ([`crate::solver`]'s stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected.
 //!
 //! Reference: M. Silcowitz, S. Niebe, K. Erleben, *A nonsmooth nonlinear conjugate gradient method
@@ -27,7 +30,10 @@
 use crate::apgd::project;
 use crate::metrics::residuals;
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
+    FIRST_ORDER_STAGNATION_WINDOW,
+};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
@@ -89,6 +95,7 @@ impl Solver for Nncg {
         let mut previous = vec![0.0; n];
         let tol = settings.tolerance;
         let mut iterations = 0;
+        let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let outcome = loop {
             if best_res <= tol {
                 break Outcome::Stopped;
@@ -136,6 +143,9 @@ impl Solver for Nncg {
             if g2 == 0.0 {
                 // A PGS fixed point that is not a solution (only with skipped rows).
                 break Outcome::Stopped;
+            }
+            if stagnation.stagnated(iterations, best_res) {
+                break Outcome::Stalled(stagnation.reason("relative residual"));
             }
         };
         monitor.finish(best, iterations, outcome)

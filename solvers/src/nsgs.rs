@@ -32,6 +32,9 @@
 //!   sweep (decoupled contacts are solved exactly by it), which saves that `O(nnz)` pass on the
 //!   sweeps far from convergence. The
 //!   starting impulse is measured too, so a converged warm start takes no sweep.
+//! * **Never spins**: when the largest relative row error of a sweep has not reached a new low (1 % below the best) in
+//!   [`FIRST_ORDER_STAGNATION_WINDOW`] iterations, the solve stops `Stalled`
+//!   ([`crate::solver`]'s stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected.
 //!
 //! References: M. Jean, *The non-smooth contact dynamics method*, CMAME 177, 1999; V. Acary,
@@ -44,7 +47,10 @@ use crate::enumeration::{
 use crate::metrics::{relative_row_error, residuals_and_velocity};
 use crate::nncg::usable_diagonal;
 use crate::problem::Problem;
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
+    FIRST_ORDER_STAGNATION_WINDOW,
+};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
@@ -255,6 +261,7 @@ impl Solver for Nsgs {
         // solves decoupled contacts exactly) and after each sweep whose rows were all within
         // `MEASURE_WITHIN` times the tolerance at the running iterate.
         let mut measure = true;
+        let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let outcome = loop {
             if measure && residuals_and_velocity(problem, &f, &mut w).natural_map_rel <= tol {
                 break Outcome::Stopped;
@@ -283,6 +290,9 @@ impl Solver for Nsgs {
                     "sweep {iterations} left every impulse unchanged (a fixed point of the block \
                      sweep that is not a solution)"
                 ));
+            }
+            if stagnation.stagnated(iterations, worst) {
+                break Outcome::Stalled(stagnation.reason("row error of a sweep"));
             }
         };
         monitor.finish(f, iterations, outcome)

@@ -19,6 +19,10 @@
 //!   sweep's running iterate) is within `tolerance` of that row's own scale
 //!   ([`relative_row_error`], the per-row measure of the shared residual); the shared residual
 //!   is then recomputed and the sweeps continue if it is not yet within tolerance.
+//! * **Never spins**: when the largest relative row error of a sweep (the moved rows' updates
+//!   and the skipped rows' errors) has not reached a new low (1 % below the best) in
+//!   [`FIRST_ORDER_STAGNATION_WINDOW`] sweeps, the solve stops `Stalled` ([`crate::solver`]'s
+//!   stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds.
 //! * **Matrix-free sweeps** ([`SweepForm::MatrixFree`]): when the problem carries its factors
 //!   `A = J M⁻¹ Jᵀ` ([`Problem::factors`]), the sweep keeps the body velocities `u = M⁻¹ Jᵀ f`
@@ -33,7 +37,10 @@
 
 use crate::metrics::{relative_row_error, residuals};
 use crate::problem::{DelassusFactors, Problem};
-use crate::solver::{initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver};
+use crate::solver::{
+    initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
+    FIRST_ORDER_STAGNATION_WINDOW,
+};
 
 /// How a sweep computes `w_i`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -171,6 +178,7 @@ impl Solver for ProjectedSor {
             None => usize::MAX,
         };
         let mut iterations = 0;
+        let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let outcome = loop {
             if iterations >= settings.max_iterations {
                 break Outcome::IterationLimit;
@@ -202,6 +210,12 @@ impl Solver for ProjectedSor {
                 // A fixed point that is not a solution (only possible with skipped rows).
                 break Outcome::Stopped;
             }
+            // Skipped rows never move, so their errors are not in `worst`: measured on their
+            // own (a pyramid LCP's slack rows, whose diagonal is zero).
+            let progress = worst.max(skipped_row_error(problem, &f, &skip));
+            if stagnation.stagnated(iterations, progress) {
+                break Outcome::Stalled(stagnation.reason("relative row error of a sweep"));
+            }
         };
         monitor.finish(f, iterations, outcome)
     }
@@ -214,6 +228,20 @@ pub(crate) fn skipped_rows(problem: &Problem) -> Vec<bool> {
     (0..problem.n())
         .map(|i| problem.diagonal(i) <= 1e-12 * amax)
         .collect()
+}
+
+/// The largest relative row error ([`relative_row_error`]) of the skipped rows at `f`; zero
+/// when none is skipped.
+pub(crate) fn skipped_row_error(problem: &Problem, f: &[f64], skip: &[bool]) -> f64 {
+    let b = problem.b();
+    skip.iter()
+        .enumerate()
+        .filter(|(_, s)| **s)
+        .map(|(i, _)| {
+            let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+            relative_row_error(problem, i, f, af + b[i], magnitude + b[i].abs())
+        })
+        .fold(0.0, f64::max)
 }
 
 /// One sweep over the stored rows of `A`. Returns the largest relative row error of the rows

@@ -424,6 +424,73 @@ impl<'a, P: Measured> Monitor<'a, P> {
     }
 }
 
+/// The never-spin rule of the iterative solvers: a measure of the residual (the shared
+/// residual where the solver measures it, or the solver's own per-iteration estimate of it) must
+/// reach a new low, at least [`STAGNATION_DROP`] below the best so far, once in every `window`
+/// iterations. A solve whose measure has not done so has stagnated: continuing cannot meet the
+/// tolerance within any cap the harness uses (at a per-window decrease of under 1 %, reaching
+/// `1e-8` from `1` takes over 1,800 windows), so the solver stops with
+/// [`Outcome::Stalled`] (or restarts, as [`crate::Newton`] does from a warm start) instead of
+/// spinning to its iteration cap. Measured on the iteration counter, so the bound on wasted work
+/// is `window` iterations whatever their cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Stagnation {
+    window: usize,
+    best: f64,
+    best_at: usize,
+}
+
+/// Relative decrease of the best residual measure that counts as progress for [`Stagnation`].
+pub(crate) const STAGNATION_DROP: f64 = 0.01;
+
+/// The [`Stagnation`] window of the first-order methods (PGS, SOR, NSGS, APGD, NNCG,
+/// micro-impulses), in sweeps or sweep-equivalents. Their largest residual is a maximum over
+/// rows and falls in steps: on the hardest exported step of the report (a 1,155-row island of
+/// `sphere_pile_200`, tolerance `1e-8`) NNCG went 2,179 sweeps and SOR 1,066 without a 1 %
+/// new low before converging, and PGS 4,316 before its next one. 5,000 leaves room for those
+/// and still ends a stalled solve at half the default cap of 10,000 (a twentieth of `tight`'s).
+pub(crate) const FIRST_ORDER_STAGNATION_WINDOW: usize = 5_000;
+
+impl Stagnation {
+    /// A detector that allows `window` iterations without a new low.
+    pub(crate) fn new(window: usize) -> Self {
+        Self {
+            window: window.max(1),
+            best: f64::INFINITY,
+            best_at: 0,
+        }
+    }
+
+    /// Watch the measure `value` after `iteration`; true when the last `window` iterations gave
+    /// no new low. A NaN measure is no progress.
+    pub(crate) fn stagnated(&mut self, iteration: usize, value: f64) -> bool {
+        if value < self.best * (1.0 - STAGNATION_DROP)
+            || (self.best.is_infinite() && value.is_finite())
+        {
+            self.best = value;
+            self.best_at = iteration;
+        }
+        iteration.saturating_sub(self.best_at) >= self.window
+    }
+
+    /// Forget the history from `iteration` on (a restart).
+    pub(crate) fn restart(&mut self, iteration: usize) {
+        self.best = f64::INFINITY;
+        self.best_at = iteration;
+    }
+
+    /// The reason a stagnated solve gives.
+    pub(crate) fn reason(&self, measure: &str) -> String {
+        format!(
+            "no progress: the best {measure} ({:.3e}) has not fallen by {:.0} % in the last {} \
+             iterations",
+            self.best,
+            100.0 * STAGNATION_DROP,
+            self.window
+        )
+    }
+}
+
 /// Why `x` is not a usable answer, when one of its entries is not finite:
 /// `non-finite {noun} {symbol}[i] = value` for the first such entry (the reason of
 /// [`Status::NumericalFailure`] that every monitor gives).
@@ -595,6 +662,25 @@ mod tests {
 
     /// A measured point is reused only when it is bit for bit the returned impulse; any other
     /// impulse is measured afresh, so the status always comes from the returned `f`.
+    #[test]
+    fn stagnation_needs_a_new_low_once_per_window() {
+        let mut s = Stagnation::new(3);
+        // Steady progress never stagnates.
+        for k in 1..20 {
+            assert!(!s.stagnated(k, 0.5f64.powi(k as i32)));
+        }
+        // A plateau (and a 0.5 % decrease, below the 1 % that counts) stagnates after 3.
+        let low = 0.5f64.powi(19);
+        assert!(!s.stagnated(20, low));
+        assert!(!s.stagnated(21, low * 0.995));
+        assert!(s.stagnated(22, low));
+        // A restart forgets the plateau.
+        s.restart(22);
+        assert!(!s.stagnated(23, 1.0));
+        assert!(!s.stagnated(25, 1.0));
+        assert!(s.stagnated(26, f64::NAN));
+    }
+
     #[test]
     fn finish_reuses_a_measurement_only_of_the_returned_impulse() {
         let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
