@@ -55,7 +55,8 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
     for r in &rows {
         let steps = r.steps.unwrap();
         assert!((1..1000).contains(&steps), "{r:?}");
-        let stopped = format!("stopped after {steps} of 1000 steps at the run limit of 0.002 s");
+        // Stopped by the run limit or by three steps over their budget, whichever came first.
+        let stopped = format!("stopped after {steps} of 1000 steps");
         assert!(r.reason.contains(&stopped), "{r:?}");
         match r.solver.as_str() {
             "enum" => {
@@ -68,46 +69,53 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
 }
 
 /// A budget's seconds bound each step's solve: a step that runs out of them ends `time_limit`
-/// and the run goes on to its last step (the run's own limit, twice the steps times the
-/// seconds, is far away here), recording how many steps ran out.
+/// and the run goes on (the run's own limit, twice the steps times the seconds, is far away
+/// here), recording how many steps ran out; three such steps in a row stop the run, which says
+/// so.
 #[test]
 fn a_step_over_its_budget_ends_time_limit_and_the_run_goes_on() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sweep");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/pyramid_10.toml");
     // Dantzig takes about half a second per step of pyramid_10 here; 50 ms per step stops its
-    // solves, and 6 steps leave a run limit of 0.6 s, more than the 6 steps take.
+    // solves.
     let status = Command::new(EXE)
         .args(["bench", "--no-progress", "--solvers", "dantzig"])
         .args(["--budgets", "1e-8:10000:0.05", "--out"])
         .arg(&out)
         .arg("--lcps")
-        .arg(format!("scene:{scene}?steps=6"))
+        .arg(format!("scene:{scene}?steps=2,scene:{scene}?steps=6"))
         .status()
         .unwrap();
     assert!(status.success());
     let rows = read_results(&out.join("results.csv")).unwrap();
-    assert_eq!(rows.len(), 1);
-    let r = &rows[0];
-    assert_eq!(r.steps, Some(6), "{r:?}");
-    assert_eq!(r.steps_planned, Some(6), "{r:?}");
-    let limited = r.time_limit_steps.unwrap();
-    assert!(limited >= 1, "{r:?}");
-    assert_eq!(r.status.as_str(), "time_limit", "{r:?}");
+    assert_eq!(rows.len(), 2);
+    let two = rows.iter().find(|r| r.case.ends_with("steps=2")).unwrap();
+    assert_eq!(two.steps, Some(2), "{two:?}");
+    assert_eq!(two.steps_planned, Some(2), "{two:?}");
+    assert!(two.time_limit_steps.unwrap() >= 1, "{two:?}");
+    assert_eq!(two.status.as_str(), "time_limit", "{two:?}");
     assert!(
-        r.reason.contains("steps not converged, first time_limit"),
-        "{r:?}"
+        two.reason.contains("steps not converged, first time_limit"),
+        "{two:?}"
+    );
+    let six = rows.iter().find(|r| r.case.ends_with("steps=6")).unwrap();
+    assert_eq!(six.steps, Some(3), "{six:?}");
+    assert_eq!(six.steps_planned, Some(6), "{six:?}");
+    assert!(
+        six.reason.contains("stopped after 3 of 6 steps after 3 consecutive steps over the per-step budget of 0.05 s"),
+        "{six:?}"
     );
     // The phase means add up to the mean step time.
     let phases = [
-        r.phase_collision_s,
-        r.phase_assembly_s,
-        r.phase_islands_s,
-        r.phase_solve_s,
-        r.phase_residual_s,
-        r.phase_integration_s,
+        two.phase_collision_s,
+        two.phase_assembly_s,
+        two.phase_islands_s,
+        two.phase_solve_s,
+        two.phase_residual_s,
+        two.phase_integration_s,
     ];
     let sum: f64 = phases.iter().map(|p| p.unwrap()).sum();
-    let step = r.step_time_s.unwrap();
+    let step = two.step_time_s.unwrap();
     assert!((sum - step).abs() <= 0.05 * step, "{sum} vs {step}");
 }

@@ -610,13 +610,33 @@ fn final_velocities(world: &World, expect: &SceneMetrics, r: &mut RunRecord) {
     r.analytic_error = Some(e);
 }
 
-/// Why stepping stopped early, if it did.
+/// Why stepping stopped before the last step, if it did.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TimeStop {
-    /// True when the wall-time limit stopped the run.
-    pub stopped: bool,
-    /// The limit, seconds.
-    pub limit_s: f64,
+pub enum TimeStop {
+    /// The run took every step (or blew up).
+    No,
+    /// The run's wall time passed its limit, seconds.
+    RunLimit(f64),
+    /// This many consecutive steps' solves ran out of their per-step budget, seconds.
+    SlowSteps(usize, f64),
+}
+
+impl TimeStop {
+    /// True when the run was cut short by time.
+    pub fn stopped(&self) -> bool {
+        *self != TimeStop::No
+    }
+
+    /// Where the run stopped, for the row's reason.
+    fn describe(&self) -> String {
+        match self {
+            TimeStop::No => String::new(),
+            TimeStop::RunLimit(s) => format!("at the run limit of {s} s"),
+            TimeStop::SlowSteps(k, s) => {
+                format!("after {k} consecutive steps over the per-step budget of {s} s")
+            }
+        }
+    }
 }
 
 /// Every scene metric of one run: `observe` each step, then `finish` into the row.
@@ -684,14 +704,14 @@ impl SceneMetricsAccumulator {
         let nonconverged = self.totals.nonconverged;
         let blow_up = self.stability.blow_up;
         r.converged =
-            nonconverged == 0 && !blow_up && !time.stopped && self.stability.nan_steps == 0;
+            nonconverged == 0 && !blow_up && !time.stopped() && self.stability.nan_steps == 0;
         if blow_up {
             r.status = RunStatus::BlowUp;
             r.reason = format!(
                 "state non-finite or speed above {:.0} m/s at step {taken}",
                 self.stability.speed_limit
             );
-        } else if time.stopped
+        } else if time.stopped()
             && self.totals.unsupported > 0
             && self.totals.unsupported == self.totals.solved
         {
@@ -700,15 +720,16 @@ impl SceneMetricsAccumulator {
             r.status = RunStatus::Unsupported;
             r.reason = format!(
                 "all {} steps with contacts unsupported ({why}); stopped after {taken} of \
-                 {n_steps} steps at the run limit of {} s",
-                self.totals.solved, time.limit_s
+                 {n_steps} steps {}",
+                self.totals.solved,
+                time.describe()
             );
             r.reason.truncate(200);
-        } else if time.stopped {
+        } else if time.stopped() {
             r.status = RunStatus::TimeLimit;
             r.reason = format!(
-                "stopped after {taken} of {n_steps} steps at the run limit of {} s",
-                time.limit_s
+                "stopped after {taken} of {n_steps} steps {}",
+                time.describe()
             );
         } else if let Some(s) = &self.totals.worst_status {
             r.status = RunStatus::from(s);

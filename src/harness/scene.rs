@@ -8,7 +8,8 @@
 //! whole stops stepping after
 //! [`Budget::scene_run_limit`](crate::harness::Budget::scene_run_limit) of wall time and is then
 //! recorded as `time_limit` with the steps it took (the solve under way then ends at that limit
-//! too). A plain solver
+//! too), and after [`SLOW_STEPS_STOP`] consecutive steps over their per-step budget, which say
+//! the solver cannot keep up with the scene at this budget. A plain solver
 //! steps cold (no warm start across steps); `NAME+warm` warm-starts from the previous step's
 //! impulses, as real-time engines do. A case key `scene:PATH?friction=MODEL` replaces the
 //! scene's friction model (`cone` needs a cone solver, `nsgs-cone`, `newton-ac` or
@@ -23,6 +24,7 @@ use crate::harness::metrics::{SceneMetricsAccumulator, TimeStop};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::World;
+use lcpbench_solvers::Status;
 use std::time::{Duration, Instant};
 
 /// Run a scene case in this process.
@@ -67,29 +69,44 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
     RunOutput::row(record)
 }
 
-/// Step `world` up to `n_steps` times (or until `time_limit` seconds, or a blow-up) and fill
-/// the row.
+/// Consecutive steps whose solves run out of their per-step budget after which a scene run
+/// stops: the solver cannot keep up with the scene at this budget, and further steps would
+/// measure the budget, not the solver.
+pub const SLOW_STEPS_STOP: usize = 3;
+
+/// Step `world` up to `n_steps` times (or until `time_limit` seconds, [`SLOW_STEPS_STOP`]
+/// consecutive steps over their budget, or a blow-up) and fill the row.
 fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r: &mut RunRecord) {
     let mut metrics = SceneMetricsAccumulator::new(world, scene.metrics.clone(), n_steps);
     let start = Instant::now();
     world.settings.deadline = Some(start + Duration::from_secs_f64(time_limit));
     let mut last = None;
-    let mut stopped = false;
-    for _ in 0..n_steps {
+    let mut stop = TimeStop::No;
+    let mut slow = 0;
+    for k in 0..n_steps {
         if start.elapsed().as_secs_f64() > time_limit {
-            stopped = true;
+            stop = TimeStop::RunLimit(time_limit);
             break;
         }
         let report = world.step();
+        slow = if report.status == Status::TimeLimit {
+            slow + 1
+        } else {
+            0
+        };
         let go_on = metrics.observe(&report, world);
         last = Some(report);
         if !go_on {
             break;
         }
+        if slow >= SLOW_STEPS_STOP && k + 1 < n_steps {
+            let per_step = world
+                .settings
+                .step_time_budget
+                .map_or(0.0, |d| d.as_secs_f64());
+            stop = TimeStop::SlowSteps(slow, per_step);
+            break;
+        }
     }
-    let time = TimeStop {
-        stopped,
-        limit_s: time_limit,
-    };
-    metrics.finish(world, last.as_ref(), time, r);
+    metrics.finish(world, last.as_ref(), stop, r);
 }
