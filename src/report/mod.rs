@@ -23,7 +23,10 @@
 //! sections/            one module per section of the README, listed in sections/mod.rs:
 //!   overview           title, header table (machine, commit, command, sweep), how to read it
 //!   budgets            the budget presets
-//!   scenes             scenes at a glance, one table per scene, fastest per scene, Pareto plots
+//!   scenes             scenes at a glance, solver × budget and details per scene, fastest per
+//!                      scene, speed–accuracy plots (median step residual)
+//!   large_scenes       best solver per budget on the large scenes, worst-residual plots
+//!   pipeline           phase times of a step on the large scenes, stacked bars
 //!   towers             60 Hz towers under low iteration budgets: sag, drift, time, steps short
 //!   friction           box, pyramid and cone friction on the same scenes
 //!   robustness         converged / runs per solver and problem class
@@ -115,9 +118,11 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let sweep_seconds = start.elapsed().as_secs_f64();
     let header = Header::collect(&options.command, options.sweep.jobs, &options.out_dir);
     let readme = write_report(&options.out_dir, &suite, &header, sweep_seconds)?;
-    if !options.quick {
-        append_replays(&options.out_dir, &options.scenes, &readme)?;
-    }
+    append_replays(
+        &options.out_dir,
+        &suite::suite_scenes(options.quick, &options.scenes),
+        &readme,
+    )?;
     Ok(ReportSummary {
         sweep,
         sweep_seconds,

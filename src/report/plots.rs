@@ -266,6 +266,113 @@ fn staircase(pts: &[(f64, f64)], x_end: f64) -> Vec<(f64, f64)> {
     stair
 }
 
+/// Horizontal stacked bars: one bar per category (top to bottom in the given order), made of
+/// one segment per part, the parts in order from the left, each part a colour with a legend
+/// entry. `parts[k].1[i]` is part `k`'s length in category `i` (non-finite or negative values
+/// count as zero). Writes the SVG (820 wide) and the CSV of the values (`series,x,y`: part,
+/// category index, value) next to it.
+pub fn stacked_bars(
+    svg_path: &Path,
+    title: &str,
+    x_label: &str,
+    categories: &[String],
+    parts: &[(String, Vec<f64>)],
+) -> Result<()> {
+    let series: Vec<Series> = parts
+        .iter()
+        .map(|(name, values)| Series {
+            name: name.clone(),
+            color_key: name.clone(),
+            points: values
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (i as f64, *v))
+                .collect(),
+            mark: Mark::Points,
+        })
+        .collect();
+    write_series_csv(&svg_path.with_extension("csv"), &series)?;
+    let clean = |v: f64| if v.is_finite() && v > 0.0 { v } else { 0.0 };
+    let totals: Vec<f64> = (0..categories.len())
+        .map(|i| {
+            parts
+                .iter()
+                .map(|(_, v)| clean(v.get(i).copied().unwrap_or(0.0)))
+                .sum()
+        })
+        .collect();
+    let x_max = totals.iter().copied().fold(0.0_f64, f64::max).max(1e-12) * 1.05;
+    let n = categories.len().max(1) as f64;
+    let height = (140 + 46 * categories.len()).min(2000) as u32;
+    let root = SVGBackend::new(svg_path, (820, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(draw_err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(20)
+        .build_cartesian_2d(0.0..x_max, 0.0..n)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_labels(0)
+        .x_label_formatter(&|v| tick_label(*v, false))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(draw_err)?;
+    // Each bar's category is written just above it, at the left.
+    chart
+        .draw_series(categories.iter().enumerate().map(|(i, label)| {
+            Text::new(
+                label.clone(),
+                (0.005 * x_max, n - i as f64 - 0.02),
+                ("sans-serif", 13).into_font(),
+            )
+        }))
+        .map_err(draw_err)?;
+    for (name, values) in parts {
+        let color = color_for(name);
+        let mut rects = Vec::new();
+        for i in 0..categories.len() {
+            let start: f64 = parts
+                .iter()
+                .take_while(|(other, _)| other != name)
+                .map(|(_, v)| clean(v.get(i).copied().unwrap_or(0.0)))
+                .sum();
+            let len = clean(values.get(i).copied().unwrap_or(0.0));
+            let top = n - i as f64 - 0.3;
+            let bottom = n - i as f64 - 0.9;
+            rects.push(Rectangle::new(
+                [(start, bottom), (start + len, top)],
+                ShapeStyle::from(&color).filled(),
+            ));
+        }
+        chart
+            .draw_series(rects)
+            .map_err(draw_err)?
+            .label(name.clone())
+            .legend(move |(x, y)| {
+                Rectangle::new(
+                    [(x, y - 5), (x + 14, y + 5)],
+                    ShapeStyle::from(&color).filled(),
+                )
+            });
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(draw_err)?;
+    root.present().map_err(draw_err)?;
+    Ok(())
+}
+
 /// Least-squares slope and intercept of `log10 y` against `log10 x` (positive points only).
 pub fn loglog_fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     let pts: Vec<(f64, f64)> = points
@@ -300,6 +407,22 @@ mod tests {
             .collect();
         let (slope, _) = loglog_fit(&pts).unwrap();
         assert!((slope - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stacked_bars_write_svg_and_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bars.svg");
+        let categories = vec!["scene a".to_owned(), "scene b".to_owned()];
+        let parts = vec![
+            ("collision".to_owned(), vec![1.0, 2.0]),
+            ("solve".to_owned(), vec![3.0, f64::NAN]),
+        ];
+        stacked_bars(&path, "t", "ms", &categories, &parts).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("collision") && svg.contains("scene b"));
+        let csv = std::fs::read_to_string(path.with_extension("csv")).unwrap();
+        assert_eq!(csv.lines().count(), 5);
     }
 
     #[test]

@@ -19,7 +19,8 @@ pub(super) fn blew_up(r: &RunRecord) -> bool {
     r.status == RunStatus::BlowUp
 }
 
-/// The scene run stopped after half its budget's time.
-pub(super) fn hit_time_limit(r: &RunRecord) -> bool {
-    r.status == RunStatus::TimeLimit
+/// The scene run stopped before its last step for lack of time: at its run limit, or after
+/// consecutive steps over their per-step budget (fewer steps than it was to take).
+pub(super) fn cut_short(r: &RunRecord) -> bool {
+    r.status == RunStatus::TimeLimit && r.steps.zip(r.steps_planned).is_some_and(|(s, p)| s < p)
 }

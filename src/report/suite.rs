@@ -10,21 +10,27 @@
 //!   time against the number of rows.
 //! * **omega**: SOR with `omega` from 0.2 to 1.9 on three problems.
 //! * **warm**: the iterative solvers warm and cold on four problems.
-//! * **scenes**: every scene file (at most [`SCENE_STEPS`] steps) × every matrix and body-level
-//!   solver × budgets `realtime`, `loose`, `default`, plus `+warm` for the iterative solvers
-//!   (budget `default`); large scenes run under `default` only (cold, and warm for the iterative
-//!   solvers), at most [`LARGE_SCENE_STEPS`] steps; and the LCPs exported from the scenes (`file:` cases) × every matrix
-//!   solver × budgets `default`, `tight`, and their cone form × every cone solver × budget
-//!   `tight` (the cone solvers' performance profiles).
+//! * **scenes**: every scene file × every matrix and body-level solver, cold, and the iterative
+//!   ones warm-started too, × budgets [`SCENE_BUDGETS`] (`realtime`, `loose`, `default`; a
+//!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps,
+//!   large ones [`large_scene_steps`]; and the LCPs exported from the scenes (`file:` cases) ×
+//!   every matrix solver × budgets `default`, `tight`, and their cone form × every cone solver
+//!   × budget `tight` (the cone solvers' performance profiles).
 //! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
 //!   friction models box, pyramid and cone, each with the solvers of [`FRICTION_MODELS`] warm
-//!   started, budget [`FRICTION_BUDGET`], at most [`FRICTION_STEPS`] steps (about 15 s in all).
+//!   started, budget [`FRICTION_BUDGET`], at most [`FRICTION_STEPS`] steps.
+//! * **towers**: the 60 Hz towers of [`TOWER_SCENES`], whole runs, with the warm-started
+//!   iterative solvers under [`TOWER_BUDGETS`] (20 and 50 iterations per step).
 //! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
 //!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
-//!   [`SCALING_STEPS`] steps: solver time per step against contacts (full suite only).
+//!   [`SCALING_STEPS`] steps: solver time per step against contacts.
 //! * **FCLIB**: the FCLIB problems of `fclib/` next to the scene files (frictional-contact
 //!   problems from Siconos' test data, read as box-friction LCPs) × every matrix solver, budget
-//!   [`FCLIB_BUDGET`]: time to the relative residual 1e-6 (full suite only).
+//!   [`FCLIB_BUDGET`]: time to the relative residual 1e-6.
+//!
+//! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
+//! the generated families at 8 rows, two members of the scene scaling family and the smallest
+//! FCLIB file.
 
 use crate::harness::case::GenFamily;
 use crate::harness::{Case, Job, NamedBudget, SolverSpec};
@@ -33,15 +39,40 @@ use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
 
-/// Budgets of the scene runs in the full suite (the points of the speed–accuracy plots).
+/// Budgets of the scene runs (the points of the speed–accuracy plots), on every scene, each
+/// solver cold and the iterative ones warm-started too. A budget's seconds bound each step's
+/// solve. `tight` is not run on scenes: at 10 s per step, the runs of the solvers that cannot
+/// keep up would take more than the rest of the report; the LCP sections carry it.
 pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
 
-/// Scenes with more dynamic bodies than this are *large*: one budget (`default`, cold and
-/// warm) and [`LARGE_SCENE_STEPS`] steps in the full suite.
+/// Scenes with more dynamic bodies than this are *large*: [`large_scene_steps`] steps, and
+/// their own section (speed–accuracy per budget, phase times).
 pub const LARGE_SCENE_BODIES: usize = 30;
 
-/// Steps of a large scene's runs in the full suite.
-pub const LARGE_SCENE_STEPS: usize = 50;
+/// Steps of a large scene's runs: [`LARGE_SCENE_STEPS`] unless [`LARGE_SCENE_STEP_EXCEPTIONS`]
+/// names the scene (by file stem).
+pub fn large_scene_steps(path: &std::path::Path) -> usize {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    LARGE_SCENE_STEP_EXCEPTIONS
+        .iter()
+        .find(|(name, _)| stem.as_deref() == Some(*name))
+        .map_or(LARGE_SCENE_STEPS, |(_, steps)| *steps)
+}
+
+/// Steps of a large scene's runs in the full suite: the stacks and walls rest from the first
+/// step, so 20 steps show a solver's steady state.
+pub const LARGE_SCENE_STEPS: usize = 20;
+
+/// The large scenes that run a different number of steps: the sphere piles fall for their
+/// first 17 steps (no contacts), so 50 steps are 33 with contacts (40 for the 1,000-sphere pile,
+/// whose steps cost most); the 1,016-box pyramid costs a third of a second per step outside the
+/// solver, so 10.
+pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 4] = [
+    ("sphere_pile_100", 50),
+    ("sphere_pile_200", 50),
+    ("sphere_pile_1000", 40),
+    ("pyramid_3d_1015", 10),
+];
 
 /// True when the scene has more than [`LARGE_SCENE_BODIES`] dynamic bodies (false when it does
 /// not load; its runs then record the error).
@@ -54,13 +85,33 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
 /// Steps of each scene run in the full suite (the scene's own count when smaller).
 pub const SCENE_STEPS: usize = 100;
 
+/// The scenes of the quick suite (file stems): two small analytic scenes, the 60 Hz tower of
+/// the tower and friction sections, and a large scene.
+pub const QUICK_SCENES: [&str; 4] = ["box_on_ground", "v_groove", "tower_10_60hz", "tower_40"];
+
+/// The scene files a suite runs: all of `scenes`, or for the quick suite those of
+/// [`QUICK_SCENES`] among them.
+pub fn suite_scenes(quick: bool, scenes: &[PathBuf]) -> Vec<PathBuf> {
+    if !quick {
+        return scenes.to_vec();
+    }
+    scenes
+        .iter()
+        .filter(|p| {
+            p.file_stem()
+                .is_some_and(|s| QUICK_SCENES.iter().any(|q| s == *q))
+        })
+        .cloned()
+        .collect()
+}
+
 /// The towers of the low-budget comparison (file names in the scene directory), run for their
 /// whole length.
 pub const TOWER_SCENES: [&str; 2] = ["tower_10_60hz.toml", "tower_40_60hz.toml"];
 
 /// Budgets of the low-budget tower comparison: tolerance 1e-6, 20 and 50 iterations per step,
-/// 20 s (a scene run stops after half of it).
-pub const TOWER_BUDGETS: [&str; 2] = ["1e-6:20:20", "1e-6:50:20"];
+/// 1 s per step.
+pub const TOWER_BUDGETS: [&str; 2] = ["1e-6:20:1", "1e-6:50:1"];
 
 /// Steps of each run of the scene scaling family.
 pub const SCALING_STEPS: usize = 10;
@@ -102,8 +153,8 @@ pub const FRICTION_STEPS: usize = 100;
 
 /// Budget of the friction-model comparison: tolerance `1e-8` with at most 1000 sweeps or
 /// iterations per step, so that a tower's Gauss–Seidel runs stay short (they rarely reach
-/// `1e-8`, which the converged-step counts show), and 30 s (15 s of stepping) per run.
-pub const FRICTION_BUDGET: &str = "1e-8:1000:30";
+/// `1e-8`, which the converged-step counts show), and 1 s per step.
+pub const FRICTION_BUDGET: &str = "1e-8:1000:1";
 
 /// The friction models compared and the solvers run on each: a Gauss–Seidel method (warm
 /// started) and a Newton or pivoting method. PGS is left out of the pyramid: its LCP matrix is
@@ -155,6 +206,8 @@ pub struct Suite {
     pub warm_cases: Vec<Case>,
     /// Scene cases.
     pub scene_cases: Vec<Case>,
+    /// The large ones among them ([`is_large_scene`]).
+    pub large_scene_cases: Vec<Case>,
     /// Cases of the scene scaling family (time per step against contacts).
     pub scene_scaling_cases: Vec<Case>,
     /// Cases of the friction-model comparison ([`friction_cases`]).
@@ -211,29 +264,35 @@ struct Plan {
     mid: usize,
     /// SOR relaxation factors.
     omegas: &'static [f64],
-    /// Budgets of the scenes that are not large.
-    scene_budgets: &'static [&'static str],
-    /// Steps of a scene run, and of a large scene's.
+    /// Cap on the steps of a scene run (small scenes), and of a large scene's (which also
+    /// caps [`large_scene_steps`]).
     scene_steps: usize,
     large_scene_steps: usize,
     /// Steps of a friction-model run.
     friction_steps: usize,
-    /// Whether the tower comparison and the scene scaling family run.
-    towers_and_scaling: bool,
+    /// Cap on the steps of a tower run of the low-budget comparison (`None`: the whole run).
+    tower_steps: Option<usize>,
+    /// How many of the scene scaling family run (smallest first), and their steps.
+    scaling_scenes: usize,
+    scaling_steps: usize,
+    /// How many FCLIB files run (smallest first).
+    fclib_files: usize,
 }
 
 const QUICK: Plan = Plan {
-    sizes: &[8, 16],
+    sizes: &[8],
     conds: &[1e2, 1e8],
     murty: &[6],
-    scaling: &[8, 16, 32],
-    mid: 16,
-    omegas: &[0.8, 1.0, 1.4],
-    scene_budgets: &["default"],
-    scene_steps: 20,
-    large_scene_steps: 20,
-    friction_steps: 20,
-    towers_and_scaling: false,
+    scaling: &[8, 16],
+    mid: 8,
+    omegas: &[1.0, 1.4],
+    scene_steps: 5,
+    large_scene_steps: 5,
+    friction_steps: 5,
+    tower_steps: Some(10),
+    scaling_scenes: 2,
+    scaling_steps: 2,
+    fclib_files: 1,
 };
 
 const FULL: Plan = Plan {
@@ -245,11 +304,13 @@ const FULL: Plan = Plan {
     omegas: &[
         0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9,
     ],
-    scene_budgets: &SCENE_BUDGETS,
     scene_steps: SCENE_STEPS,
-    large_scene_steps: LARGE_SCENE_STEPS,
+    large_scene_steps: usize::MAX,
     friction_steps: FRICTION_STEPS,
-    towers_and_scaling: true,
+    tower_steps: None,
+    scaling_scenes: usize::MAX,
+    scaling_steps: SCALING_STEPS,
+    fclib_files: usize::MAX,
 };
 
 /// Families of the robustness matrix besides SPD, each at every size with seed 1.
@@ -265,23 +326,24 @@ fn matrix_families(n: usize) -> [GenFamily; 6] {
     ]
 }
 
-/// Build the default suite (`quick`: a much smaller one for tests). `scenes` are scene files and
+/// Build the default suite (`quick`: a much smaller one, with every section, for tests and a
+/// first look). `scenes` are scene files (the quick suite keeps those of [`QUICK_SCENES`]) and
 /// `exported` problem files exported from scenes.
 pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> Suite {
     let plan = if quick { &QUICK } else { &FULL };
+    let all_scenes = scenes;
+    let scenes = &suite_scenes(quick, scenes)[..];
     let mut suite = Suite::default();
     generated_cases(&mut suite, plan);
     let large_scenes = scene_cases(&mut suite, plan, scenes);
     exported_cases(&mut suite, exported);
     lcp_jobs(&mut suite);
-    scene_jobs(&mut suite, plan, &large_scenes);
+    scene_jobs(&mut suite, &large_scenes);
     suite.friction_cases = friction_cases(scenes, plan.friction_steps);
     friction_jobs(&mut suite);
-    if plan.towers_and_scaling {
-        tower_jobs(&mut suite, scenes);
-        scene_scaling_jobs(&mut suite, scenes);
-        fclib_jobs(&mut suite, scenes);
-    }
+    tower_jobs(&mut suite, scenes, plan.tower_steps);
+    scene_scaling_jobs(&mut suite, all_scenes, plan);
+    fclib_jobs(&mut suite, all_scenes, plan.fclib_files);
     suite
 }
 
@@ -330,7 +392,7 @@ fn scene_cases(suite: &mut Suite, plan: &Plan, scenes: &[PathBuf]) -> Vec<Case> 
     for path in scenes {
         let large = is_large_scene(path);
         let steps = if large {
-            plan.large_scene_steps
+            large_scene_steps(path).min(plan.large_scene_steps)
         } else {
             plan.scene_steps
         };
@@ -340,6 +402,7 @@ fn scene_cases(suite: &mut Suite, plan: &Plan, scenes: &[PathBuf]) -> Vec<Case> 
         }
         suite.scene_cases.push(case);
     }
+    suite.large_scene_cases = large_scenes.clone();
     large_scenes
 }
 
@@ -399,20 +462,14 @@ fn warm_scene_solvers() -> Vec<SolverSpec> {
         .collect()
 }
 
-/// Every scene solver on the scenes that are not large (the plan's budgets) and on the large
-/// ones (`default`), then the iterative ones warm started on every scene (`default`).
-fn scene_jobs(suite: &mut Suite, plan: &Plan, large_scenes: &[Case]) {
-    let scene_budgets: Vec<NamedBudget> = plan.scene_budgets.iter().map(|b| budget(b)).collect();
-    let small: Vec<Case> = suite
-        .scene_cases
-        .iter()
-        .filter(|c| !large_scenes.contains(c))
-        .cloned()
-        .collect();
-    push(suite, &small, &scene_solvers(), &scene_budgets);
-    push(suite, large_scenes, &scene_solvers(), &[budget("default")]);
+/// Every scene solver, cold and (the iterative ones) warm-started, on every scene under every
+/// budget of [`SCENE_BUDGETS`].
+fn scene_jobs(suite: &mut Suite, _large_scenes: &[Case]) {
+    let scene_budgets: Vec<NamedBudget> = SCENE_BUDGETS.iter().map(|b| budget(b)).collect();
+    let mut solvers = scene_solvers();
+    solvers.extend(warm_scene_solvers());
     let all = suite.scene_cases.clone();
-    push(suite, &all, &warm_scene_solvers(), &[budget("default")]);
+    push(suite, &all, &solvers, &scene_budgets);
 }
 
 /// Each friction-model case with the solvers [`FRICTION_MODELS`] gives its model.
@@ -441,16 +498,16 @@ fn friction_jobs(suite: &mut Suite) {
     }
 }
 
-/// The towers of [`TOWER_SCENES`] found among `scenes`, whole runs, with the warm-started
-/// iterative scene solvers under [`TOWER_BUDGETS`].
-fn tower_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
+/// The towers of [`TOWER_SCENES`] found among `scenes`, whole runs (or `steps`), with the
+/// warm-started iterative scene solvers under [`TOWER_BUDGETS`].
+fn tower_jobs(suite: &mut Suite, scenes: &[PathBuf], steps: Option<usize>) {
     suite.tower_cases = scenes
         .iter()
         .filter(|p| {
             p.file_name()
                 .is_some_and(|f| TOWER_SCENES.iter().any(|t| f == *t))
         })
-        .map(|p| Case::scene(p, None))
+        .map(|p| Case::scene(p, steps))
         .collect();
     suite.tower_solvers = warm_scene_solvers();
     suite.tower_budgets = TOWER_BUDGETS.into_iter().map(budget).collect();
@@ -462,19 +519,30 @@ fn tower_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
     push(suite, &cases, &solvers, &budgets);
 }
 
-/// The scene scaling family × every scene solver, budget `default`.
-fn scene_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
-    suite.scene_scaling_cases = scaling_scenes(scenes)
+/// The scene scaling family (the plan's smallest) × every scene solver, budget `default`.
+fn scene_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf], plan: &Plan) {
+    let mut family = scaling_scenes(scenes);
+    family.sort_by_cached_key(|p| {
+        lcpbench_contact::scene::Scene::load(p).map_or(usize::MAX, |s| s.bodies.len())
+    });
+    suite.scene_scaling_cases = family
         .iter()
-        .map(|p| Case::scene(p, Some(SCALING_STEPS)))
+        .take(plan.scaling_scenes)
+        .map(|p| Case::scene(p, Some(plan.scaling_steps)))
         .collect();
     let cases = suite.scene_scaling_cases.clone();
     push(suite, &cases, &scene_solvers(), &[budget("default")]);
 }
 
-/// The FCLIB problems × every matrix solver, budget [`FCLIB_BUDGET`].
-fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf]) {
-    suite.fclib_cases = fclib_files(scenes).into_iter().map(Case::File).collect();
+/// The FCLIB problems (the plan's smallest, by file size) × every matrix solver, budget
+/// [`FCLIB_BUDGET`].
+fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf], count: usize) {
+    let mut files = fclib_files(scenes);
+    if count < files.len() {
+        files.sort_by_key(|p| std::fs::metadata(p).map_or(u64::MAX, |m| m.len()));
+        files.truncate(count);
+    }
+    suite.fclib_cases = files.into_iter().map(Case::File).collect();
     let cases = suite.fclib_cases.clone();
     push(suite, &cases, &all_solvers(), &[budget(FCLIB_BUDGET)]);
 }
@@ -509,7 +577,16 @@ mod tests {
             .inspect(|j| assert_eq!(j.budget.name, FCLIB_BUDGET))
             .count();
         assert_eq!(jobs, 5 * SolverKind::ALL.len());
-        assert!(default_suite(true, &scenes, &[]).fclib_cases.is_empty());
+        // The quick suite keeps the smallest file.
+        let quick: Vec<String> = default_suite(true, &scenes, &[])
+            .fclib_cases
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+        assert_eq!(
+            quick,
+            ["file:bench_scenes/fclib/Box_Stacks-i0122-82-5.hdf5"]
+        );
     }
 
     #[test]
@@ -526,9 +603,9 @@ mod tests {
         assert_eq!(
             keys,
             [
-                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=box",
-                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=pyramid",
-                "scene:bench_scenes/tower_10_60hz.toml?steps=20&friction=cone",
+                "scene:bench_scenes/tower_10_60hz.toml?steps=5&friction=box",
+                "scene:bench_scenes/tower_10_60hz.toml?steps=5&friction=pyramid",
+                "scene:bench_scenes/tower_10_60hz.toml?steps=5&friction=cone",
             ]
         );
         let cone_jobs: Vec<String> = s

@@ -11,7 +11,9 @@ mod convergence;
 mod fastest;
 mod fclib;
 mod friction;
+mod large_scenes;
 mod overview;
+mod pipeline;
 mod profiles;
 mod robustness;
 mod scaling;
@@ -35,6 +37,8 @@ const SECTIONS: &[&dyn Section] = &[
     &overview::Overview,
     &budgets::Budgets,
     &scenes::Scenes,
+    &large_scenes::LargeScenes,
+    &pipeline::Pipeline,
     &towers::Towers,
     &friction::FrictionModels,
     &robustness::Robustness,
@@ -201,5 +205,119 @@ mod tests {
                 "plots/scaling_lcp.svg",
             ]
         );
+    }
+
+    fn scene_record(
+        case: &Case,
+        solver: &str,
+        budget: &str,
+        converged_steps: usize,
+        time_per_step_s: f64,
+    ) -> RunRecord {
+        let steps = 10;
+        RunRecord {
+            case: case.to_string(),
+            class: "scene".to_owned(),
+            solver: solver.to_owned(),
+            solver_base: solver.trim_end_matches("+warm").to_owned(),
+            warm: solver.ends_with("+warm"),
+            budget: budget.to_owned(),
+            status: if converged_steps == steps {
+                "converged"
+            } else {
+                "iteration_limit"
+            }
+            .parse()
+            .unwrap(),
+            converged: converged_steps == steps,
+            n: Some(480),
+            steps: Some(steps),
+            steps_planned: Some(steps),
+            nonconverged_steps: Some(steps - converged_steps),
+            contacts_mean: Some(160.0),
+            time_per_step_s: Some(time_per_step_s),
+            step_time_s: Some(3e-3),
+            residual_rel: Some(1e-7),
+            residual_rel_median: Some(1e-9),
+            residual_rel_mean: Some(2e-9),
+            phase_collision_s: Some(2e-4),
+            phase_broad_s: Some(5e-5),
+            phase_narrow_s: Some(1.5e-4),
+            phase_assembly_s: Some(4e-4),
+            phase_islands_s: Some(1e-5),
+            phase_solve_s: Some(2e-3),
+            phase_residual_s: Some(3e-4),
+            phase_integration_s: Some(9e-5),
+            ..RunRecord::default()
+        }
+    }
+
+    /// The scene sections from hand-made rows of one large scene: the scenes section with its
+    /// solver × budget table, the large-scene section with the best solver per budget, and the
+    /// pipeline section with the phases (their CSV and the stacked bars).
+    #[test]
+    fn scene_sections_render_budgets_best_solvers_and_phases() {
+        let dir = tempfile::tempdir().unwrap();
+        let tower: Case = "scene:bench_scenes/tower_40.toml?steps=10".parse().unwrap();
+        let rows = [
+            scene_record(&tower, "pgs+warm", "realtime", 4, 2e-3),
+            scene_record(&tower, "pgs+warm", "default", 10, 2e-3),
+            scene_record(&tower, "newton-fb", "default", 10, 1e-3),
+            scene_record(&tower, "newton-fb", "loose", 7, 1e-3),
+        ];
+        std::fs::create_dir_all(dir.path().join("data")).unwrap();
+        let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();
+        for r in &rows {
+            w.serialize(r).unwrap();
+        }
+        w.flush().unwrap();
+        let suite = Suite {
+            scene_cases: vec![tower.clone()],
+            large_scene_cases: vec![tower],
+            ..Suite::default()
+        };
+        let header = Header {
+            cpu: "cpu".into(),
+            cores: 2,
+            os: "os".into(),
+            commit: "abc".into(),
+            date: "today".into(),
+            command: "lcpbench report".into(),
+            workers: 2,
+        };
+        let readme = write_report(dir.path(), &suite, &header, 1.0).unwrap();
+        let md = std::fs::read_to_string(readme).unwrap();
+        for heading in [
+            "## Scenes",
+            "### tower_40",
+            "## Large scenes",
+            "## Pipeline",
+        ] {
+            assert!(md.contains(heading), "missing {heading}");
+        }
+        // Solver × budget cells: converged steps over steps where some did not converge.
+        assert!(
+            md.contains("| pgs+warm | ~ 2.00 ms (4/10) | – | ✓ 2.00 ms |"),
+            "{md}"
+        );
+        let best =
+            std::fs::read_to_string(dir.path().join("tables/large_scenes_best.csv")).unwrap();
+        assert!(
+            best.contains("none on every step; most: pgs+warm 2.00 ms (4/10)"),
+            "{best}"
+        );
+        assert!(best.contains("most: newton-fb 1.00 ms (7/10)"), "{best}");
+        assert!(best.contains(",newton-fb 1.00 ms (10/10)"), "{best}");
+        let pipeline = std::fs::read_to_string(dir.path().join("tables/pipeline.csv")).unwrap();
+        let line = pipeline.lines().nth(1).unwrap();
+        assert!(
+            line.starts_with("tower_40,160,3.00,0.20,0.40,0.01,2.00,0.30,0.09"),
+            "{line}"
+        );
+        let by_budget =
+            std::fs::read_to_string(dir.path().join("tables/scenes_by_budget.csv")).unwrap();
+        assert_eq!(by_budget.lines().count(), 5, "{by_budget}");
+        assert!(dir.path().join("plots/pipeline_phases.svg").exists());
+        assert!(dir.path().join("plots/large_worst_tower_40.svg").exists());
     }
 }

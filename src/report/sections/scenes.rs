@@ -1,19 +1,22 @@
-//! The scenes: each scene stepped with each matrix and body-level solver.
+//! The scenes: each scene stepped with each matrix and body-level solver, cold and (the
+//! iterative ones) warm-started, under budgets `realtime`, `loose` and `default`.
 //!
-//! * **At a glance**: scene × solver, the solver time per step under budget `default` with a
-//!   mark for how many steps converged, or what stopped the run.
-//! * **One table per scene**: status, steps, contacts, time and iterations per step, the largest
-//!   residual and penetration, energy drift, failures, lift-off and the analytic error (all
-//!   rows also in `tables/scenes.csv`).
+//! * **At a glance**: scene × solver, the solver time per step under budget `default` with the
+//!   steps that converged, or what stopped the run.
+//! * **One section per scene**: solver × budget, the time per step and the converged steps
+//!   (all in `tables/scenes_by_budget.csv`), then, under budget `default`, status, steps,
+//!   contacts, time and iterations per step, the largest residual and penetration, energy
+//!   drift, failures, lift-off and the analytic error (all rows also in `tables/scenes.csv`).
 //! * **Fastest solver per scene** among the runs whose every step converged, at budgets
 //!   `loose` and `default`.
-//! * A speed–accuracy figure per scene: time per step against mean residual per step under
-//!   budgets `realtime`, `loose` and `default`, with the Pareto front.
+//! * A speed–accuracy figure per scene: time per step against the median residual per step
+//!   under budgets `realtime`, `loose` and `default`, with the Pareto front.
 
 use crate::harness::{Case, RunRecord};
 use crate::report::context::{scene_solver_names, Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::status;
+use crate::report::suite;
 use crate::report::table::{fmt_sci, fmt_time, slug, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -48,15 +51,32 @@ impl Section for Scenes {
         }
         let _ = writeln!(
             md,
-            "## Scenes\n\nEach scene stepped with each solver (budget `default` per step: tolerance \
-             1e-8, 10 000 iterations; time budget for the whole run). Time/step is solver time; \
-             residual is the largest shared relative residual over the steps; penetration the \
-             largest depth; drift the relative change of total energy; failures count \
-             non-converged steps / NaN steps / blow-up; lift-off is the largest separating normal \
-             speed at a sliding contact after a solve (what a convex relaxation of friction \
-             causes; Baumgarte correction of a penetrating contact shows up here too).\n"
+            "## Scenes\n\nEach scene stepped with each solver, cold and (the iterative ones, \
+             `+warm`) warm-started from the previous step's impulses, under budgets `realtime`, \
+             `loose` and `default`. A budget's seconds bound each step's solve: a step that runs \
+             out of them ends `time_limit` with the solver's best point and the run goes on; a \
+             run stops early only at twice its steps times those seconds, or after three \
+             consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
+             steps; the large ones (more than {} dynamic bodies) {} steps, except {} (see the \
+             large-scene section). Budget `tight` is not run on scenes: at 10 s per step the runs \
+             of the solvers that cannot keep up would take longer than the rest of the report. \
+             Time/step is solver time; residual is the largest shared relative residual over the \
+             steps; penetration the largest depth; drift the relative change of total energy; \
+             failures count non-converged steps / NaN steps / blow-up; lift-off is the largest \
+             separating normal speed at a sliding contact after a solve (what a convex \
+             relaxation of friction causes; Baumgarte correction of a penetrating contact shows \
+             up here too).\n",
+            suite::SCENE_STEPS,
+            suite::LARGE_SCENE_BODIES,
+            suite::LARGE_SCENE_STEPS,
+            suite::LARGE_SCENE_STEP_EXCEPTIONS
+                .iter()
+                .map(|(name, steps)| format!("{name} ({steps})"))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         at_a_glance(ctx, md)?;
+        let mut by_budget = Table::new("scenes_by_budget", &BY_BUDGET_COLUMNS);
         let mut all = Table::new("scenes", &COLUMNS);
         let mut fastest = Table::new(
             "scenes_fastest",
@@ -71,11 +91,17 @@ impl Section for Scenes {
         let mut figures = Vec::new();
         for case in &ctx.suite.scene_cases {
             let name = case.short_name();
-            let _ = writeln!(md, "### {name}\n\n{}", scene_table(ctx, case, &mut all));
+            let _ = writeln!(
+                md,
+                "### {name}\n\n{}\nUnder budget `default`:\n\n{}",
+                budget_matrix(ctx, case, &mut by_budget),
+                scene_table(ctx, case, &mut all)
+            );
             fastest.rows.push(fastest_row(ctx, case));
             figures.push(pareto_figure(ctx, case)?);
         }
         all.write_csv(&ctx.tables_dir)?;
+        by_budget.write_csv(&ctx.tables_dir)?;
         let _ = writeln!(
             md,
             "### Fastest solver per scene\n\nAmong runs whose every step converged.\n\n{}",
@@ -102,12 +128,88 @@ fn at_a_glance(ctx: &ReportContext, md: &mut String) -> Result<()> {
     let _ = writeln!(
         md,
         "### At a glance\n\nSolver time per step under budget `default`, cold start. ✓ every \
-         step converged; ~ some steps did not (count in brackets); ✗ none did or the solver \
-         declined the problem; `blow-up`, `time limit` (steps done in brackets: the run stops \
-         after half the budget's time), `timeout`, `crash` and `panic` as recorded.\n\n{}",
+         step converged; ~ some steps did not (converged steps / steps in brackets); ✗ none \
+         did or the solver declined the problem; `cut` a run stopped before its last step \
+         (steps done / steps planned: three consecutive steps over the per-step budget, or the \
+         run limit); `blow-up`, `timeout`, `crash` and `panic` as recorded.\n\n{}",
         ctx.table(&glance)?
     );
     Ok(())
+}
+
+/// Columns of `tables/scenes_by_budget.csv`.
+const BY_BUDGET_COLUMNS: [&str; 12] = [
+    "scene",
+    "solver",
+    "budget",
+    "status",
+    "steps",
+    "steps planned",
+    "converged steps",
+    "time-limited steps",
+    "time/step",
+    "step time",
+    "residual median",
+    "residual max",
+];
+
+/// The solver specifications with a run on `case`, in the order of the scene solvers, each
+/// cold then warm.
+fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<String> {
+    scene_solver_names()
+        .into_iter()
+        .flat_map(|s| [s.to_owned(), format!("{s}+warm")])
+        .filter(|s| {
+            suite::SCENE_BUDGETS
+                .iter()
+                .any(|b| ctx.get(case, s, b).is_some())
+        })
+        .collect()
+}
+
+/// Solver × budget: the time per step and the converged steps of every run on `case` (as in
+/// the glance table), as Markdown; the runs' rows are added to `by_budget`.
+fn budget_matrix(ctx: &ReportContext, case: &Case, by_budget: &mut Table) -> String {
+    let mut header = vec!["solver".to_owned()];
+    header.extend(suite::SCENE_BUDGETS.iter().map(|b| b.to_string()));
+    let mut t = Table::with_header("budgets", header);
+    for solver in solvers_of(ctx, case) {
+        let mut row = vec![solver.clone()];
+        for budget in suite::SCENE_BUDGETS {
+            match ctx.get(case, &solver, budget) {
+                Some(r) => {
+                    row.push(glance_cell(r));
+                    by_budget.rows.push(by_budget_row(case, r));
+                }
+                None => row.push("–".into()),
+            }
+        }
+        t.rows.push(row);
+    }
+    t.markdown()
+}
+
+fn by_budget_row(case: &Case, r: &RunRecord) -> Vec<String> {
+    let count = |v: Option<usize>| v.map_or("–".into(), |v| v.to_string());
+    vec![
+        case.to_string(),
+        r.solver.clone(),
+        r.budget.clone(),
+        r.status.to_string(),
+        count(r.steps),
+        count(r.steps_planned),
+        count(converged_steps(r)),
+        count(r.time_limit_steps),
+        fmt_time(r.time_per_step_s),
+        fmt_time(r.step_time_s),
+        fmt_sci(r.residual_rel_median),
+        fmt_sci(r.residual_rel),
+    ]
+}
+
+/// Steps of the run that converged (steps without contacts count as converged).
+pub(super) fn converged_steps(r: &RunRecord) -> Option<usize> {
+    Some(r.steps?.saturating_sub(r.nonconverged_steps?))
 }
 
 /// The scene's table (budget `default`) as Markdown; its rows are added to `all` too.
@@ -149,22 +251,51 @@ fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
     row
 }
 
-/// Time per step against mean residual per step of every solver and budget, with the Pareto
-/// front over all of them.
+/// Time per step against the median residual per step of every solver and budget, with the
+/// Pareto front over all of them.
 fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
+    let name = case.short_name();
+    let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
+    speed_accuracy_figure(
+        ctx,
+        case,
+        &path,
+        |r| r.residual_rel_median,
+        "median relative residual per step",
+    )?;
+    Ok(Figure::new(
+        format!("Speed–accuracy on scene {name} (median step residual)"),
+        path,
+    ))
+}
+
+/// Time per step against `residual` of every run of `case` (each solver, cold and warm, one
+/// point per budget), with the Pareto front over all of them, drawn to `path`.
+pub(super) fn speed_accuracy_figure(
+    ctx: &ReportContext,
+    case: &Case,
+    path: &std::path::Path,
+    residual: impl Fn(&RunRecord) -> Option<f64>,
+    y_label: &str,
+) -> Result<()> {
     let mut pareto = Vec::new();
-    for solver in scene_solver_names() {
-        let pts: Vec<(f64, f64)> = ["realtime", "loose", "default"]
+    for solver in solvers_of(ctx, case) {
+        let pts: Vec<(f64, f64)> = suite::SCENE_BUDGETS
             .iter()
-            .filter_map(|b| ctx.get(case, solver, b))
-            .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel_mean?)))
+            .filter_map(|b| ctx.get(case, &solver, b))
+            .filter_map(|r| Some((r.time_per_step_s?, residual(r)?)))
             .collect();
         if !pts.is_empty() {
+            let base = solver.trim_end_matches("+warm").to_owned();
             pareto.push(Series {
-                name: solver.to_owned(),
-                color_key: solver.to_owned(),
+                name: solver.clone(),
+                color_key: base,
                 points: pts,
-                mark: Mark::Points,
+                mark: if solver.ends_with("+warm") {
+                    Mark::LinePoints
+                } else {
+                    Mark::Points
+                },
             });
         }
     }
@@ -182,22 +313,22 @@ fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
             p.1 = p.1.max(1e-17);
         }
     }
-    let name = case.short_name();
-    let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
     plot(
-        &path,
+        path,
         &PlotSpec {
-            title: format!("{name}: speed against accuracy (budgets realtime, loose, default)"),
+            title: format!(
+                "{}: speed against accuracy (budgets realtime, loose, default)",
+                case.short_name()
+            ),
             x_label: "solver time per step (s)".into(),
-            y_label: "mean relative residual per step".into(),
+            y_label: y_label.into(),
             log_x: true,
             log_y: true,
             y_range: None,
             legend: LegendAt::LowerLeft,
         },
         &pareto,
-    )?;
-    Ok(Figure::new(format!("Speed–accuracy on scene {name}"), path))
+    )
 }
 
 /// The points no other point beats in both time and residual, by increasing time.
@@ -216,7 +347,7 @@ fn pareto_front(series: &[Series]) -> Vec<(f64, f64)> {
     front
 }
 
-fn glance_cell(r: &RunRecord) -> String {
+pub(super) fn glance_cell(r: &RunRecord) -> String {
     let t = fmt_time(r.time_per_step_s);
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
@@ -224,8 +355,9 @@ fn glance_cell(r: &RunRecord) -> String {
         r.status.to_string()
     } else if status::blew_up(r) {
         format!("blow-up ({steps} steps)")
-    } else if status::hit_time_limit(r) {
-        format!("time limit ({steps} steps, {t})")
+    } else if status::cut_short(r) {
+        let planned = r.steps_planned.unwrap_or(steps);
+        format!("cut ({steps}/{planned} steps, {t})")
     } else if status::unsupported(r) && steps == 0 {
         "✗ unsupported".into()
     } else if nc == 0 {
@@ -233,7 +365,7 @@ fn glance_cell(r: &RunRecord) -> String {
     } else if nc >= steps {
         format!("✗ {t} ({})", r.status)
     } else {
-        format!("~ {t} ({nc} nc)")
+        format!("~ {t} ({}/{steps})", steps - nc)
     }
 }
 
@@ -282,6 +414,7 @@ mod tests {
         RunRecord {
             status: status.parse().expect("a run status"),
             steps: Some(steps),
+            steps_planned: Some(10),
             nonconverged_steps: Some(nonconverged),
             time_per_step_s: Some(2e-3),
             ..RunRecord::default()
@@ -294,20 +427,22 @@ mod tests {
         assert_eq!(glance_cell(&run("blow_up", 7, 1)), "blow-up (7 steps)");
         assert_eq!(
             glance_cell(&run("time_limit", 9, 0)),
-            "time limit (9 steps, 2.00 ms)"
+            "cut (9/10 steps, 2.00 ms)"
         );
+        // Every step taken, some over the per-step budget: judged by the steps.
+        assert_eq!(glance_cell(&run("time_limit", 10, 2)), "~ 2.00 ms (8/10)");
         assert_eq!(glance_cell(&run("unsupported", 0, 0)), "✗ unsupported");
         assert_eq!(glance_cell(&run("converged", 10, 0)), "✓ 2.00 ms");
         assert_eq!(
             glance_cell(&run("iteration_limit", 10, 3)),
-            "~ 2.00 ms (3 nc)"
+            "~ 2.00 ms (7/10)"
         );
         assert_eq!(
             glance_cell(&run("iteration_limit", 10, 10)),
             "✗ 2.00 ms (iteration_limit)"
         );
         // Unsupported after some steps: judged by the steps, like any other run.
-        assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (1 nc)");
+        assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (3/4)");
     }
 
     #[test]

@@ -77,8 +77,8 @@ fn tower_table(ctx: &ReportContext, case: &Case, name: &str) -> Table {
 
 fn cells(r: &RunRecord) -> [String; 4] {
     let short = match (r.nonconverged_steps, r.steps) {
-        (Some(nc), Some(steps)) if status::hit_time_limit(r) => {
-            format!("{nc} of {steps} (time limit)")
+        (Some(nc), Some(steps)) if status::cut_short(r) => {
+            format!("{nc} of {steps} (cut short: {})", r.reason)
         }
         (Some(nc), Some(steps)) => format!("{nc} of {steps}"),
         _ => r.status.to_string(),
