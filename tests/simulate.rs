@@ -390,3 +390,47 @@ fn the_warm_suffix_decides_warm_starting_as_in_bench() {
     let e = text(&o.stderr);
     assert!(e.contains("+warm applies only to iterative solvers"), "{e}");
 }
+
+/// Never spin, body-level sequential impulses: on `heavy_removed` at `1e-8` with a cap of
+/// 100,000 sweeps, steps 2 and 3 ran every sweep to the cap at a relative impulse change near
+/// `1e-6`; they now stop `stalled` after 5,000 sweeps without a new low.
+#[test]
+fn sequential_impulses_stall_instead_of_sweeping_to_the_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("run.jsonl");
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/heavy_removed.toml",
+        "-s",
+        "si",
+        "--tol",
+        "1e-8",
+        "--max-iter",
+        "100000",
+        "--steps",
+        "4",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let lines = std::fs::read_to_string(&rec).unwrap();
+    let stalled: Vec<(u64, u64)> = lines
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| {
+            v["status"]["reason"]
+                .as_str()
+                .is_some_and(|r| r.contains("no progress"))
+        })
+        .map(|v| {
+            (
+                v["step"].as_u64().unwrap(),
+                v["iterations"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert!(!stalled.is_empty(), "no step stalled");
+    for (step, iterations) in stalled {
+        assert!(iterations < 100_000, "step {step}: {iterations} sweeps");
+    }
+}

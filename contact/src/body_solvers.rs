@@ -37,12 +37,15 @@
 //! start is `Settings::warm_start`), and [`BodySolver::solve`] decides the status with the same
 //! rule as every matrix solver ([`lcpbench_solvers::decide`]) from the shared residual of the
 //! step's LCP, when that LCP is given to measure on. The bounce threshold is the builder's
-//! ([`ContactSystem::restitution_threshold`]).
+//! ([`ContactSystem::restitution_threshold`]). `si` and `body-micro` never spin: when a sweep's
+//! largest impulse change, relative to the impulse scale, has made no new low (1 % below the
+//! best) in [`FIRST_ORDER_STAGNATION_WINDOW`] sweeps, they stop `Stalled`
+//! ([`lcpbench_solvers::Stagnation`]).
 
 use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
 use lcpbench_solvers::{
     decide, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals, Settings,
-    SolveResult, Status,
+    SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
 };
 use nalgebra::{Matrix2, Vector2};
 use std::time::Instant;
@@ -143,6 +146,9 @@ pub struct BodySweep {
     pub iterations: usize,
     /// True when the solver's own stopping rule was met.
     pub stopped: bool,
+    /// Why the sweeps stopped short of that rule, when they made no progress
+    /// ([`Stagnation`]).
+    pub stalled: Option<String>,
 }
 
 /// What [`BodySolver::solve`] returns: the shared [`SolveResult`] and the warm-start part.
@@ -256,6 +262,9 @@ pub fn body_status(
         };
     }
     let outcome = match (out.stopped, residuals) {
+        (false, _) if out.stalled.is_some() => {
+            Outcome::Stalled(out.stalled.clone().unwrap_or_default())
+        }
         (false, _) => Outcome::IterationLimit,
         (true, None) => Outcome::Stalled(format!(
             "{name} met its own stopping rule; the shared residual was not measured"
@@ -277,12 +286,13 @@ impl BodySolver for SequentialImpulses {
     }
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
         let warm = settings.warm_start.as_deref().unwrap_or(&[]);
-        let (f, warm, iterations, stopped) = sequential_impulses(system, warm, settings);
+        let (f, warm, iterations, stopped, stalled) = sequential_impulses(system, warm, settings);
         BodySweep {
             f,
             warm,
             iterations,
             stopped,
+            stalled,
         }
     }
 }
@@ -296,12 +306,13 @@ impl BodySolver for MicroImpulses {
         BodySolverKind::MicroImpulses
     }
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
-        let (f, warm, iterations, stopped) = micro_impulses(system, settings);
+        let (f, warm, iterations, stopped, stalled) = micro_impulses(system, settings);
         BodySweep {
             f,
             warm,
             iterations,
             stopped,
+            stalled,
         }
     }
 }
@@ -338,6 +349,7 @@ impl BodySolver for Penalty {
             f,
             iterations: 1,
             stopped: true,
+            stalled: None,
         }
     }
 }
@@ -413,7 +425,7 @@ fn sequential_impulses(
     system: &ContactSystem,
     warm: &[f64],
     settings: &Settings,
-) -> (Vec<f64>, Vec<f64>, usize, bool) {
+) -> (Vec<f64>, Vec<f64>, usize, bool, Option<String>) {
     let n = system.n();
     let op = system.operator();
     let k = diagonals(&op, n);
@@ -445,6 +457,8 @@ fn sequential_impulses(
         .map(|i| ((system.free_rate[i] + bias[i]) / k[i]).abs())
         .fold(0.0, f64::max);
     let mut stopped = false;
+    let mut stalled = None;
+    let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
     let mut iterations = 0;
     while iterations < settings.max_iterations {
         iterations += 1;
@@ -471,21 +485,28 @@ fn sequential_impulses(
                 max_change = max_change.max(d.abs());
             }
         }
-        let scale = lambda.iter().fold(scale_b, |m, v| m.max(v.abs()));
-        if max_change <= settings.tolerance * scale.max(f64::MIN_POSITIVE) {
+        let scale = lambda
+            .iter()
+            .fold(scale_b, |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
+        if max_change <= settings.tolerance * scale {
             stopped = true;
+            break;
+        }
+        if stagnation.stagnated(iterations, max_change / scale) {
+            stalled = Some(stagnation.reason("relative impulse change of a sweep"));
             break;
         }
     }
     sweeps += iterations;
     let f = f_rest.iter().zip(&lambda).map(|(a, b)| a + b).collect();
-    (f, lambda, sweeps, stopped)
+    (f, lambda, sweeps, stopped, stalled)
 }
 
 fn micro_impulses(
     system: &ContactSystem,
     settings: &Settings,
-) -> (Vec<f64>, Vec<f64>, usize, bool) {
+) -> (Vec<f64>, Vec<f64>, usize, bool, Option<String>) {
     let n = system.n();
     let op = system.operator();
     let k = diagonals(&op, n);
@@ -516,6 +537,8 @@ fn micro_impulses(
         .fold(0.0, f64::max);
     let mut iterations = 0;
     let mut stopped = false;
+    let mut stalled = None;
+    let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
     while iterations < settings.max_iterations {
         iterations += 1;
         let mut max_impulse: f64 = 0.0;
@@ -553,13 +576,20 @@ fn micro_impulses(
                 f[b] += jt.y;
             }
         }
-        let scale = f.iter().fold(scale_b, |m, v| m.max(v.abs()));
-        if max_impulse <= settings.tolerance * scale.max(f64::MIN_POSITIVE) {
+        let scale = f
+            .iter()
+            .fold(scale_b, |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
+        if max_impulse <= settings.tolerance * scale {
             stopped = true;
             break;
         }
+        if stagnation.stagnated(iterations, max_impulse / scale) {
+            stalled = Some(stagnation.reason("relative impulse of a sweep"));
+            break;
+        }
     }
-    (f.clone(), f, iterations, stopped)
+    (f.clone(), f, iterations, stopped, stalled)
 }
 
 fn penalty(system: &ContactSystem, params: &Penalty) -> Vec<f64> {

@@ -86,7 +86,8 @@ pub use nsgs_cone::NsgsCone;
 pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{
-    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, Status,
+    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, Stagnation,
+    Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP,
 };
 
 /// The solvers lcpbench ships, by name.

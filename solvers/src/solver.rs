@@ -434,26 +434,27 @@ impl<'a, P: Measured> Monitor<'a, P> {
 /// spinning to its iteration cap. Measured on the iteration counter, so the bound on wasted work
 /// is `window` iterations whatever their cost.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Stagnation {
+pub struct Stagnation {
     window: usize,
     best: f64,
     best_at: usize,
 }
 
 /// Relative decrease of the best residual measure that counts as progress for [`Stagnation`].
-pub(crate) const STAGNATION_DROP: f64 = 0.01;
+pub const STAGNATION_DROP: f64 = 0.01;
 
 /// The [`Stagnation`] window of the first-order methods (PGS, SOR, NSGS, APGD, NNCG,
-/// micro-impulses), in sweeps or sweep-equivalents. Their largest residual is a maximum over
+/// micro-impulses, and the body-level sequential and micro-impulses of `lcpbench-contact`), in
+/// sweeps or sweep-equivalents. Their largest residual is a maximum over
 /// rows and falls in steps: on the hardest exported step of the report (a 1,155-row island of
 /// `sphere_pile_200`, tolerance `1e-8`) NNCG went 2,179 sweeps and SOR 1,066 without a 1 %
 /// new low before converging, and PGS 4,316 before its next one. 5,000 leaves room for those
 /// and still ends a stalled solve at half the default cap of 10,000 (a twentieth of `tight`'s).
-pub(crate) const FIRST_ORDER_STAGNATION_WINDOW: usize = 5_000;
+pub const FIRST_ORDER_STAGNATION_WINDOW: usize = 5_000;
 
 impl Stagnation {
     /// A detector that allows `window` iterations without a new low.
-    pub(crate) fn new(window: usize) -> Self {
+    pub fn new(window: usize) -> Self {
         Self {
             window: window.max(1),
             best: f64::INFINITY,
@@ -463,7 +464,7 @@ impl Stagnation {
 
     /// Watch the measure `value` after `iteration`; true when the last `window` iterations gave
     /// no new low. A NaN measure is no progress.
-    pub(crate) fn stagnated(&mut self, iteration: usize, value: f64) -> bool {
+    pub fn stagnated(&mut self, iteration: usize, value: f64) -> bool {
         if value < self.best * (1.0 - STAGNATION_DROP)
             || (self.best.is_infinite() && value.is_finite())
         {
@@ -474,13 +475,13 @@ impl Stagnation {
     }
 
     /// Forget the history from `iteration` on (a restart).
-    pub(crate) fn restart(&mut self, iteration: usize) {
+    pub fn restart(&mut self, iteration: usize) {
         self.best = f64::INFINITY;
         self.best_at = iteration;
     }
 
     /// The reason a stagnated solve gives.
-    pub(crate) fn reason(&self, measure: &str) -> String {
+    pub fn reason(&self, measure: &str) -> String {
         format!(
             "no progress: the best {measure} ({:.3e}) has not fallen by {:.0} % in the last {} \
              iterations",
