@@ -87,7 +87,7 @@ pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{
     decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, Stagnation,
-    Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP,
+    Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,
 };
 
 /// The solvers lcpbench ships, by name.

@@ -52,7 +52,8 @@
 //!   scratch so rounding drift in the incremental updates cannot end the solve early. An
 //!   actionable step that is zero while the row is violated (a normal row that over-shot) is
 //!   left to the shared residual, which reports it.
-//! * **Never spins**: when the largest relative step of a sweep-equivalent (`n` impulses) has not reached a new low (1 % below the best) in
+//! * **Never spins**: when the shared residual, measured every [`STAGNATION_MEASURE_EVERY`]
+//!   sweep-equivalents (`n` impulses each), has not reached a new low (1 % below the best) in
 //!   [`FIRST_ORDER_STAGNATION_WINDOW`] iterations, the solve stops `Stalled`
 //!   ([`crate::solver`]'s stagnation rule).
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds. A warm start that
@@ -62,10 +63,11 @@
 //! University of California, Berkeley, 1996, ch. 4; B. Mirtich and J. Canny, *Impulse-based
 //! simulation of rigid bodies*, Proc. Symposium on Interactive 3D Graphics, 1995.
 
+use crate::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
-    FIRST_ORDER_STAGNATION_WINDOW,
+    FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_MEASURE_EVERY,
 };
 use faer::sparse::SparseColMat;
 use faer::Mat;
@@ -170,8 +172,6 @@ impl Solver for MicroImpulse {
         let mut impulses: usize = 0;
         let mut refreshed = false;
         let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
-        // The largest relative step seen during the current sweep-equivalent.
-        let mut sweep_worst = 0.0_f64;
         let outcome = loop {
             // Pick the row with the largest actionable step relative to its own scale.
             let mut best = None;
@@ -220,15 +220,14 @@ impl Solver for MicroImpulse {
                 scale[j] = (scale[j] + aji.abs() * grow / d[j]).max(0.0);
             });
             impulses += 1;
-            sweep_worst = sweep_worst.max(best_rel);
             if impulses.is_multiple_of(n) {
-                monitor.record(impulses / n, &f);
-                if stagnation.stagnated(impulses / n, sweep_worst) {
-                    break Outcome::Stalled(
-                        stagnation.reason("relative step of a sweep-equivalent"),
-                    );
+                let sweeps = impulses / n;
+                monitor.record(sweeps, &f);
+                if sweeps.is_multiple_of(STAGNATION_MEASURE_EVERY)
+                    && stagnation.stagnated(sweeps, residuals(problem, &f).natural_map_rel)
+                {
+                    break Outcome::Stalled(stagnation.reason("relative residual"));
                 }
-                sweep_worst = 0.0;
             }
         };
         let iterations = impulses.div_ceil(n.max(1));

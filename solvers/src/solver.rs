@@ -452,6 +452,11 @@ pub const STAGNATION_DROP: f64 = 0.01;
 /// and still ends a stalled solve at half the default cap of 10,000 (a twentieth of `tight`'s).
 pub const FIRST_ORDER_STAGNATION_WINDOW: usize = 5_000;
 
+/// How often, in sweeps, the first-order methods that do not measure the shared residual every
+/// sweep (PGS, SOR, NSGS, micro-impulses) measure it for the [`Stagnation`] rule: one extra pass
+/// over `A` per 50 sweeps.
+pub const STAGNATION_MEASURE_EVERY: usize = 50;
+
 impl Stagnation {
     /// A detector that allows `window` iterations without a new low.
     pub fn new(window: usize) -> Self {
