@@ -136,7 +136,6 @@ fn bad_files_give_one_clear_error() {
     assert!(stderr(&o).contains("missing.hdf5"), "{}", stderr(&o));
 }
 
-#[cfg(feature = "fclib")]
 #[test]
 fn fclib_files_solve_import_and_bench() {
     use faer::sparse::{SparseColMat, Triplet};
@@ -161,6 +160,20 @@ fn fclib_files_solve_import_and_bench() {
     let p = read_problem(&json).unwrap();
     assert_eq!(p.friction().len(), 2);
     assert_eq!(p.to_dense(), w.to_dense());
+    // And back: JSON to a local FCLIB file that reads as the same problem.
+    let back = dir.path().join("back.hdf5");
+    let o = lcpbench(&[
+        "import",
+        json.to_str().unwrap(),
+        "-o",
+        back.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let q = read_problem(&back).unwrap();
+    assert_eq!(
+        (q.to_dense(), q.b(), q.friction()),
+        (p.to_dense(), p.b(), p.friction())
+    );
     let out = dir.path().join("sweep");
     let o = Command::new(EXE)
         .args(["bench", "--no-progress", "--lcps", &format!("file:{file}")])
@@ -184,7 +197,6 @@ fn fclib_files_solve_import_and_bench() {
 /// The FCLIB problems of Siconos' test data in `bench_scenes/fclib/` (three in the global form,
 /// condensed on reading) read with their contact counts, and each solves to the relative
 /// residual 1e-6 with the solver the report finds fastest on it.
-#[cfg(feature = "fclib")]
 #[test]
 fn siconos_fclib_problems_read_and_solve() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/fclib");

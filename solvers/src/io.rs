@@ -1,5 +1,5 @@
 //! Problem files: lcpbench's JSON form (dense or sparse `A`), Siconos numerics LCP `.dat` files
-//! ([`siconos`]) and FCLIB HDF5 frictional-contact files ([`fclib`], cargo feature `fclib`).
+//! ([`siconos`]) and FCLIB HDF5 frictional-contact files ([`fclib`]).
 //!
 //! [`read_problem`] picks the reader by extension (`.json`; `.dat`; `.hdf5`, `.h5`) and, for
 //! `.dat` and unknown extensions, by content: a file that opens with `{` is JSON, one that opens
@@ -41,7 +41,6 @@
 //! [`problem_to_json`] writes whichever form of `A` is smaller: dense when `n²` numbers are
 //! fewer than the `2 nnz + n + 1` numbers of the compressed-row form, compressed rows otherwise.
 
-#[cfg(feature = "fclib")]
 pub mod fclib;
 pub mod siconos;
 
@@ -446,7 +445,7 @@ pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
     let bytes = std::fs::read(path).map_err(io_err)?;
     let format = ProblemFormat::detect(path, &bytes[..bytes.len().min(64)]);
     match format {
-        ProblemFormat::Fclib => read_fclib(path),
+        ProblemFormat::Fclib => fclib::parse_fclib(bytes, path),
         ProblemFormat::Json | ProblemFormat::Siconos => {
             let text = String::from_utf8(bytes).map_err(|e| ProblemFileError::Unsupported {
                 path: path.to_owned(),
@@ -462,21 +461,6 @@ pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
             }
         }
     }
-}
-
-#[cfg(feature = "fclib")]
-fn read_fclib(path: &Path) -> Result<Problem, ProblemFileError> {
-    fclib::read_fclib(path)
-}
-
-#[cfg(not(feature = "fclib"))]
-fn read_fclib(path: &Path) -> Result<Problem, ProblemFileError> {
-    Err(ProblemFileError::Unsupported {
-        path: path.to_owned(),
-        message: "FCLIB (HDF5) files need lcpbench built with the cargo feature `fclib` (on by \
-                  default; it needs the system HDF5 library, libhdf5-dev)"
-            .into(),
-    })
 }
 
 /// Bounds and friction rows of a frictional-contact problem with `mu.len()` contacts of

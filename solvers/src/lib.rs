@@ -67,8 +67,7 @@ pub use cone::{
 pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use dantzig::Dantzig;
 pub use enumeration::{Enumeration, MAX_BASES};
-#[cfg(feature = "fclib")]
-pub use io::fclib::{read_fclib, write_fclib_local, write_problem_as_fclib};
+pub use io::fclib::{parse_fclib, read_fclib, write_fclib_local, write_problem_as_fclib};
 pub use io::siconos::{parse_siconos, parse_siconos_lcp};
 pub use io::{
     parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,

@@ -50,7 +50,6 @@ pub fn run(args: ImportArgs) -> Result<()> {
     Ok(())
 }
 
-#[cfg(feature = "fclib")]
 fn write_fclib(problem: &lcpbench_solvers::Problem, args: &ImportArgs) -> Result<()> {
     lcpbench_solvers::write_problem_as_fclib(problem, &args.output)?;
     println!(
@@ -60,12 +59,4 @@ fn write_fclib(problem: &lcpbench_solvers::Problem, args: &ImportArgs) -> Result
         problem.friction().len()
     );
     Ok(())
-}
-
-#[cfg(not(feature = "fclib"))]
-fn write_fclib(_: &lcpbench_solvers::Problem, args: &ImportArgs) -> Result<()> {
-    bail!(
-        "writing {} needs lcpbench built with the cargo feature `fclib` (HDF5)",
-        args.output.display()
-    )
 }

@@ -26,12 +26,34 @@
 //! bounded by `±mu_c f_n`. The box is an outer approximation of the cone (its corners allow
 //! `‖f_t‖ = √2 mu f_n` in 3-D), so a solution of the LCP is a solution of the FCLIB problem only
 //! where the friction is inside the cone or a single tangent direction slides.
+//!
+//! # Reading and writing HDF5
+//!
+//! The HDF5 layer is [`hdf5_pure`], a pure-Rust reader and writer of the HDF5 format (The HDF
+//! Group, *HDF5 File Format Specification*, version 3.0), so no C library is needed. It reads
+//! superblocks 0 to 3, both object-header versions, old- and new-style groups, and contiguous,
+//! compact and chunked storage with the deflate and shuffle filters: what FCLIB's C library
+//! (superblock 0, contiguous `int32` and `float64` datasets) and h5py write. It treats a file as
+//! untrusted input (bounds-checked reads, decompression-bomb limits, fuzz targets and
+//! malformed-file regression tests in its suite; its files are checked against libhdf5 in its
+//! CI), and one crate both reads and writes with one small dependency (`byteorder`, and `flate2`
+//! for deflate). `hdf5-reader` is as carefully tested against corrupted input but reads only
+//! (its sibling `hdf5-writer` writes) and brings `ndarray`, `memmap2`, `lru` and `parking_lot`.
+//!
+//! Limits, checked before anything is allocated from a size the file declares: the file is read
+//! whole into memory; a dataset's declared size (elements × element size) is at most the file's
+//! length when stored unfiltered and at most [`MAX_FILTER_RATIO`] times it when compressed; the
+//! condensation of a global problem is refused when `M⁻¹ [H f]` (`nv × (nr + 1)` numbers), `W`
+//! (`nr × nr`) or the Cholesky factor of `M` would hold more than [`MAX_CONDENSED_VALUES`]
+//! numbers. A file that breaks a limit, or that the HDF5 reader rejects, gives a
+//! [`ProblemFileError`] naming the file and the dataset.
 
 use super::{contact_rows, ProblemFileError};
 use crate::problem::{sparse_from_triplets, Problem};
+use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
-use hdf5::{File, Group};
+use hdf5_pure::{File, FileBuilder, FormatError, Group, H5Element};
 use std::path::Path;
 
 /// A sparse matrix read from a file, as triplets `(row, column, value)`.
@@ -41,9 +63,32 @@ struct SparseData {
     triplets: Vec<(usize, usize, f64)>,
 }
 
+/// Largest ratio of a compressed dataset's declared size to the file's length: deflate's
+/// maximum compression ratio (1032:1).
+pub const MAX_FILTER_RATIO: u64 = 1032;
+
+/// Most numbers the condensation of a global problem may hold in one array (`M⁻¹ [H f]`, `W`,
+/// the Cholesky factor of `M`): 2²⁸, 2 GiB of `f64`.
+pub const MAX_CONDENSED_VALUES: usize = 1 << 28;
+
+/// An HDF5 group and its path in the file (`/fclib_local/W`), for messages.
+struct Node {
+    group: Group,
+    name: String,
+}
+
+impl Node {
+    /// The path of member `name`.
+    fn member(&self, name: &str) -> String {
+        format!("{}/{name}", self.name.trim_end_matches('/'))
+    }
+}
+
 /// Reads datasets of one file, with errors that name the file and the dataset.
 struct Reader<'a> {
     path: &'a Path,
+    /// The file's length in bytes, which bounds what an unfiltered dataset can hold.
+    file_len: u64,
 }
 
 impl Reader<'_> {
@@ -51,54 +96,106 @@ impl Reader<'_> {
         ProblemFileError::field(self.path, field, message)
     }
 
-    fn ints(&self, group: &Group, name: &str) -> Result<Vec<i64>, ProblemFileError> {
-        let field = format!("{}/{name}", group.name());
-        group
-            .dataset(name)
-            .and_then(|d| d.read_raw::<i64>())
-            .map_err(|e| self.err(&field, e.to_string()))
+    /// Whether `node` has a member (group or dataset) called `name`.
+    fn has(&self, node: &Node, name: &str) -> Result<bool, ProblemFileError> {
+        let listing =
+            |e: hdf5_pure::Error| self.err(&node.name, format!("cannot list its members: {e}"));
+        Ok(node
+            .group
+            .groups()
+            .map_err(listing)?
+            .iter()
+            .any(|g| g == name)
+            || node
+                .group
+                .datasets()
+                .map_err(listing)?
+                .iter()
+                .any(|d| d == name))
     }
 
-    fn int(&self, group: &Group, name: &str) -> Result<i64, ProblemFileError> {
-        let v = self.ints(group, name)?;
+    fn group(&self, node: &Node, name: &str) -> Result<Node, ProblemFileError> {
+        let field = node.member(name);
+        let group = node
+            .group
+            .group(name)
+            .map_err(|e| self.err(&field, format!("cannot open the group: {}", describe(e))))?;
+        Ok(Node { group, name: field })
+    }
+
+    /// All of dataset `name` of `node` as `T`, after checking the size the file declares for it
+    /// (see the module doc).
+    fn read<T: H5Element>(&self, node: &Node, name: &str) -> Result<Vec<T>, ProblemFileError> {
+        let field = node.member(name);
+        let fail = |e: hdf5_pure::Error| self.err(&field, describe(e));
+        let dataset = node.group.dataset(name).map_err(fail)?;
+        let shape = dataset.shape().map_err(fail)?;
+        let element = dataset.element_size().map_err(fail)?;
+        let filtered = !dataset.filters().is_empty();
+        let limit = if filtered {
+            self.file_len.saturating_mul(MAX_FILTER_RATIO)
+        } else {
+            self.file_len
+        };
+        let bytes = shape
+            .iter()
+            .try_fold(element.max(1), |acc, &dim| acc.checked_mul(dim));
+        if bytes.is_none_or(|b| b > limit) {
+            let message = if filtered {
+                format!(
+                    "declares {shape:?} elements of {element} bytes, more than \
+                     {MAX_FILTER_RATIO} times its file of {} bytes can decompress to",
+                    self.file_len
+                )
+            } else {
+                format!(
+                    "declares {shape:?} elements of {element} bytes, more than its file of {} \
+                     bytes can hold",
+                    self.file_len
+                )
+            };
+            return Err(self.err(&field, message));
+        }
+        dataset.read::<T>().map_err(fail)
+    }
+
+    fn ints(&self, node: &Node, name: &str) -> Result<Vec<i64>, ProblemFileError> {
+        self.read::<i64>(node, name)
+    }
+
+    fn int(&self, node: &Node, name: &str) -> Result<i64, ProblemFileError> {
+        let v = self.ints(node, name)?;
         v.first()
             .copied()
-            .ok_or_else(|| self.err(&format!("{}/{name}", group.name()), "is empty"))
+            .ok_or_else(|| self.err(&node.member(name), "is empty"))
     }
 
-    fn size(&self, group: &Group, name: &str) -> Result<usize, ProblemFileError> {
-        let v = self.int(group, name)?;
-        usize::try_from(v)
-            .map_err(|_| self.err(&format!("{}/{name}", group.name()), format!("is {v} < 0")))
+    fn size(&self, node: &Node, name: &str) -> Result<usize, ProblemFileError> {
+        let v = self.int(node, name)?;
+        usize::try_from(v).map_err(|_| self.err(&node.member(name), format!("is {v} < 0")))
     }
 
-    fn numbers(&self, group: &Group, name: &str, len: usize) -> Result<Vec<f64>, ProblemFileError> {
-        let field = format!("{}/{name}", group.name());
-        let v = group
-            .dataset(name)
-            .and_then(|d| d.read_raw::<f64>())
-            .map_err(|e| self.err(&field, e.to_string()))?;
+    fn numbers(&self, node: &Node, name: &str, len: usize) -> Result<Vec<f64>, ProblemFileError> {
+        let v = self.read::<f64>(node, name)?;
         if v.len() != len {
-            return Err(self.err(&field, format!("has {} entries, expected {len}", v.len())));
+            return Err(self.err(
+                &node.member(name),
+                format!("has {} entries, expected {len}", v.len()),
+            ));
         }
         Ok(v)
-    }
-
-    fn group(&self, file: &Group, name: &str) -> Result<Group, ProblemFileError> {
-        file.group(name)
-            .map_err(|e| self.err(name, format!("cannot open the group: {e}")))
     }
 
     /// Indices in `0..bound` from a dataset of at least `len` entries.
     fn indices(
         &self,
-        group: &Group,
+        node: &Node,
         name: &str,
         len: usize,
         bound: usize,
     ) -> Result<Vec<usize>, ProblemFileError> {
-        let field = format!("{}/{name}", group.name());
-        let v = self.ints(group, name)?;
+        let field = node.member(name);
+        let v = self.ints(node, name)?;
         if v.len() < len {
             return Err(self.err(
                 &field,
@@ -122,52 +219,52 @@ impl Reader<'_> {
     /// Compressed pointers: `len` entries from 0, non-decreasing, ending at most at `nzmax`.
     fn pointers(
         &self,
-        group: &Group,
+        node: &Node,
         len: usize,
         nzmax: usize,
     ) -> Result<Vec<usize>, ProblemFileError> {
-        let field = format!("{}/p", group.name());
-        let p = self.indices(group, "p", len, nzmax + 1)?;
+        let field = node.member("p");
+        let p = self.indices(node, "p", len, nzmax + 1)?;
         if p[0] != 0 || p.windows(2).any(|w| w[0] > w[1]) {
             return Err(self.err(&field, "pointers must start at 0 and not decrease"));
         }
         Ok(p)
     }
 
-    /// A CSparse matrix stored in `group`.
-    fn matrix(&self, group: &Group) -> Result<SparseData, ProblemFileError> {
-        let rows = self.size(group, "m")?;
-        let cols = self.size(group, "n")?;
-        let nzmax = self.size(group, "nzmax")?;
-        let nz = self.int(group, "nz")?;
+    /// A CSparse matrix stored in `node`.
+    fn matrix(&self, node: &Node) -> Result<SparseData, ProblemFileError> {
+        let rows = self.size(node, "m")?;
+        let cols = self.size(node, "n")?;
+        let nzmax = self.size(node, "nzmax")?;
+        let nz = self.int(node, "nz")?;
         let mut triplets = Vec::new();
         match nz {
             nz if nz >= 0 => {
                 let nz = nz as usize;
-                let i = self.indices(group, "i", nz, rows)?;
-                let p = self.indices(group, "p", nz, cols)?;
-                let x = self.values(group, nz)?;
+                let i = self.indices(node, "i", nz, rows)?;
+                let p = self.indices(node, "p", nz, cols)?;
+                let x = self.values(node, nz)?;
                 triplets.extend((0..nz).map(|k| (i[k], p[k], x[k])));
             }
             -1 => {
-                let p = self.pointers(group, cols + 1, nzmax)?;
-                let i = self.indices(group, "i", p[cols], rows)?;
-                let x = self.values(group, p[cols])?;
+                let p = self.pointers(node, cols + 1, nzmax)?;
+                let i = self.indices(node, "i", p[cols], rows)?;
+                let x = self.values(node, p[cols])?;
                 for j in 0..cols {
                     triplets.extend((p[j]..p[j + 1]).map(|k| (i[k], j, x[k])));
                 }
             }
             -2 => {
-                let p = self.pointers(group, rows + 1, nzmax)?;
-                let i = self.indices(group, "i", p[rows], cols)?;
-                let x = self.values(group, p[rows])?;
+                let p = self.pointers(node, rows + 1, nzmax)?;
+                let i = self.indices(node, "i", p[rows], cols)?;
+                let x = self.values(node, p[rows])?;
                 for r in 0..rows {
                     triplets.extend((p[r]..p[r + 1]).map(|k| (r, i[k], x[k])));
                 }
             }
             other => {
                 return Err(self.err(
-                    &format!("{}/nz", group.name()),
+                    &node.member("nz"),
                     format!("is {other}: expected >= 0 (triplets), -1 (CSC) or -2 (CSR)"),
                 ))
             }
@@ -180,28 +277,38 @@ impl Reader<'_> {
     }
 
     /// The first `len` values of `x`.
-    fn values(&self, group: &Group, len: usize) -> Result<Vec<f64>, ProblemFileError> {
-        let field = format!("{}/x", group.name());
-        let x = group
-            .dataset("x")
-            .and_then(|d| d.read_raw::<f64>())
-            .map_err(|e| self.err(&field, e.to_string()))?;
+    fn values(&self, node: &Node, len: usize) -> Result<Vec<f64>, ProblemFileError> {
+        let x = self.read::<f64>(node, "x")?;
         if x.len() < len {
             return Err(self.err(
-                &field,
+                &node.member("x"),
                 format!("has {} entries, expected at least {len}", x.len()),
             ));
         }
         Ok(x)
     }
 
-    fn spacedim(&self, group: &Group) -> Result<usize, ProblemFileError> {
-        let d = self.int(group, "spacedim")?;
+    /// Refuse a condensation array of `rows × cols` numbers above [`MAX_CONDENSED_VALUES`].
+    fn condensed_size(&self, what: &str, rows: usize, cols: usize) -> Result<(), ProblemFileError> {
+        if rows
+            .checked_mul(cols)
+            .is_some_and(|n| n <= MAX_CONDENSED_VALUES)
+        {
+            return Ok(());
+        }
+        Err(self.err(
+            "/fclib_global",
+            format!(
+                "condensing to the local form would hold {what} in {rows} × {cols} numbers, \
+                 more than the limit of {MAX_CONDENSED_VALUES}"
+            ),
+        ))
+    }
+
+    fn spacedim(&self, node: &Node) -> Result<usize, ProblemFileError> {
+        let d = self.int(node, "spacedim")?;
         if d != 2 && d != 3 {
-            return Err(self.err(
-                &format!("{}/spacedim", group.name()),
-                format!("is {d}, expected 2 or 3"),
-            ));
+            return Err(self.err(&node.member("spacedim"), format!("is {d}, expected 2 or 3")));
         }
         Ok(d as usize)
     }
@@ -209,15 +316,32 @@ impl Reader<'_> {
 
 /// Read an FCLIB file (local or global form) as a box-friction LCP.
 pub fn read_fclib(path: &Path) -> Result<Problem, ProblemFileError> {
-    let file = File::open(path).map_err(|e| ProblemFileError::Unsupported {
+    let bytes = std::fs::read(path).map_err(|source| ProblemFileError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    parse_fclib(bytes, path)
+}
+
+/// Read the bytes of an FCLIB file (local or global form) as a box-friction LCP; `path` names
+/// the file in messages and the problem.
+pub fn parse_fclib(bytes: Vec<u8>, path: &Path) -> Result<Problem, ProblemFileError> {
+    let r = Reader {
+        path,
+        file_len: bytes.len() as u64,
+    };
+    let file = File::from_bytes(bytes).map_err(|e| ProblemFileError::Unsupported {
         path: path.to_owned(),
         message: format!("cannot open as HDF5: {e}"),
     })?;
-    let r = Reader { path };
-    let (w, q, mu, d) = if file.link_exists("fclib_local") {
-        read_local(&r, &file)?
-    } else if file.link_exists("fclib_global") {
-        read_global(&r, &file)?
+    let root = Node {
+        group: file.root(),
+        name: "/".into(),
+    };
+    let (w, q, mu, d) = if r.has(&root, "fclib_local")? {
+        read_local(&r, &root)?
+    } else if r.has(&root, "fclib_global")? {
+        read_global(&r, &root)?
     } else {
         return Err(ProblemFileError::Unsupported {
             path: path.to_owned(),
@@ -235,10 +359,10 @@ pub fn read_fclib(path: &Path) -> Result<Problem, ProblemFileError> {
 /// The local form: `W`, `q`, `mu`, `d`.
 fn read_local(
     r: &Reader,
-    file: &File,
+    root: &Node,
 ) -> Result<(SparseData, Vec<f64>, Vec<f64>, usize), ProblemFileError> {
-    let local = r.group(file, "fclib_local")?;
-    if local.link_exists("V") || local.link_exists("R") {
+    let local = r.group(root, "fclib_local")?;
+    if r.has(&local, "V")? || r.has(&local, "R")? {
         return Err(ProblemFileError::Unsupported {
             path: r.path.to_owned(),
             message: "FCLIB local problems with equality constraints (V, R, s) are not supported"
@@ -265,10 +389,10 @@ fn read_local(
 /// The global form condensed to the local one: `W = Hᵀ M⁻¹ H`, `q = Hᵀ M⁻¹ f + w`.
 fn read_global(
     r: &Reader,
-    file: &File,
+    root: &Node,
 ) -> Result<(SparseData, Vec<f64>, Vec<f64>, usize), ProblemFileError> {
-    let global = r.group(file, "fclib_global")?;
-    if global.link_exists("G") {
+    let global = r.group(root, "fclib_global")?;
+    if r.has(&global, "G")? {
         return Err(ProblemFileError::Unsupported {
             path: r.path.to_owned(),
             message: "FCLIB global problems with equality constraints (G, b) are not supported"
@@ -293,6 +417,8 @@ fn read_global(
     let f = r.numbers(&vectors, "f", nv)?;
     let w_vec = r.numbers(&vectors, "w", nr)?;
     let mu = r.numbers(&vectors, "mu", nr / d)?;
+    r.condensed_size("M⁻¹ [H f]", nv, nr + 1)?;
+    r.condensed_size("W", nr, nr)?;
     let to_csc = |s: &SparseData, what: &str| {
         let t: Vec<_> = s
             .triplets
@@ -303,6 +429,14 @@ fn read_global(
             .map_err(|e| r.err(what, format!("{e:?}")))
     };
     let m_csc = to_csc(&m, "/fclib_global/M")?;
+    let symbolic = factorize_symbolic_cholesky(
+        m_csc.symbolic(),
+        Side::Lower,
+        Default::default(),
+        Default::default(),
+    )
+    .map_err(|e| r.err("/fclib_global/M", format!("{e:?}")))?;
+    r.condensed_size("the Cholesky factor of M", symbolic.len_val(), 1)?;
     let llt = m_csc.sp_cholesky(Side::Lower).map_err(|e| {
         r.err(
             "/fclib_global/M",
@@ -364,7 +498,8 @@ fn box_friction_lcp(
 }
 
 /// Write a local FCLIB problem (`W` as compressed columns): for tests and for turning lcpbench
-/// problems with one normal and `d - 1` friction rows per contact into FCLIB files.
+/// problems with one normal and `d - 1` friction rows per contact into FCLIB files. Sizes and
+/// indices are written as FCLIB's 32-bit integers.
 pub fn write_fclib_local(
     path: &Path,
     d: usize,
@@ -372,47 +507,51 @@ pub fn write_fclib_local(
     q: &[f64],
     mu: &[f64],
 ) -> Result<(), ProblemFileError> {
-    let hdf = |e: hdf5::Error| ProblemFileError::Unsupported {
-        path: path.to_owned(),
-        message: format!("writing HDF5: {e}"),
+    let int = |what: &str, v: usize| {
+        i32::try_from(v).map_err(|_| ProblemFileError::Unsupported {
+            path: path.to_owned(),
+            message: format!("{what} = {v} does not fit FCLIB's 32-bit integers"),
+        })
     };
-    let file = File::create(path).map_err(hdf)?;
-    let local = file.create_group("fclib_local").map_err(hdf)?;
-    let int = |g: &Group, name: &str, v: i32| {
-        g.new_dataset_builder()
-            .with_data(&[v][..])
-            .create(name)
-            .map(|_| ())
+    let ints = |what: &str, v: &[usize]| {
+        v.iter()
+            .map(|&x| int(what, x))
+            .collect::<Result<Vec<_>, _>>()
     };
-    int(&local, "spacedim", d as i32).map_err(hdf)?;
-    let wg = local.create_group("W").map_err(hdf)?;
     let sym = w.symbolic();
     let nnz = sym.col_ptr()[w.ncols()];
-    int(&wg, "m", w.nrows() as i32).map_err(hdf)?;
-    int(&wg, "n", w.ncols() as i32).map_err(hdf)?;
-    int(&wg, "nzmax", nnz as i32).map_err(hdf)?;
-    int(&wg, "nz", -1).map_err(hdf)?;
-    let p: Vec<i32> = sym.col_ptr().iter().map(|&v| v as i32).collect();
-    let i: Vec<i32> = sym.row_idx()[..nnz].iter().map(|&v| v as i32).collect();
-    let data = |g: &Group, name: &str, v: &[f64]| {
-        g.new_dataset_builder()
-            .with_data(v)
-            .create(name)
-            .map(|_| ())
-    };
-    wg.new_dataset_builder()
-        .with_data(&p[..])
-        .create("p")
-        .map_err(hdf)?;
-    wg.new_dataset_builder()
-        .with_data(&i[..])
-        .create("i")
-        .map_err(hdf)?;
-    data(&wg, "x", &w.val()[..nnz]).map_err(hdf)?;
-    let vectors = local.create_group("vectors").map_err(hdf)?;
-    data(&vectors, "q", q).map_err(hdf)?;
-    data(&vectors, "mu", mu).map_err(hdf)?;
-    Ok(())
+    let mut file = FileBuilder::new();
+    let mut local = file.create_group("fclib_local");
+    local
+        .create_dataset("spacedim")
+        .with_i32_data(&[int("spacedim", d)?]);
+    let mut wg = local.create_group("W");
+    wg.create_dataset("m")
+        .with_i32_data(&[int("W rows", w.nrows())?]);
+    wg.create_dataset("n")
+        .with_i32_data(&[int("W columns", w.ncols())?]);
+    wg.create_dataset("nzmax")
+        .with_i32_data(&[int("W entries", nnz)?]);
+    wg.create_dataset("nz").with_i32_data(&[-1]);
+    wg.create_dataset("p")
+        .with_i32_data(&ints("W column pointer", sym.col_ptr())?);
+    wg.create_dataset("i")
+        .with_i32_data(&ints("W row index", &sym.row_idx()[..nnz])?);
+    wg.create_dataset("x").with_f64_data(&w.val()[..nnz]);
+    local.add_group(wg.finish());
+    let mut vectors = local.create_group("vectors");
+    vectors.create_dataset("q").with_f64_data(q);
+    vectors.create_dataset("mu").with_f64_data(mu);
+    local.add_group(vectors.finish());
+    file.add_group(local.finish());
+    let bytes = file.finish().map_err(|e| ProblemFileError::Unsupported {
+        path: path.to_owned(),
+        message: format!("writing HDF5: {e}"),
+    })?;
+    std::fs::write(path, bytes).map_err(|source| ProblemFileError::Io {
+        path: path.to_owned(),
+        source,
+    })
 }
 
 /// Write a box-friction problem as a local FCLIB file: every row must be a normal row with
@@ -485,305 +624,13 @@ pub fn write_problem_as_fclib(
     Ok(perm)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::metrics::residuals;
-    use crate::problem::FrictionRow;
-    use crate::{Settings, SolverKind, Status};
-    use faer::linalg::solvers::Solve;
-
-    /// How a test writes a sparse matrix.
-    #[derive(Clone, Copy)]
-    enum Storage {
-        Triplet,
-        Csc,
-        Csr,
-    }
-
-    fn write_ints(g: &Group, name: &str, v: &[i32]) {
-        g.new_dataset_builder().with_data(v).create(name).unwrap();
-    }
-
-    fn write_numbers(g: &Group, name: &str, v: &[f64]) {
-        g.new_dataset_builder().with_data(v).create(name).unwrap();
-    }
-
-    /// Write a dense `rows × cols` matrix (row-major `a`, zeros dropped) in CSparse's layout.
-    fn write_matrix(g: &Group, rows: usize, cols: usize, a: &[f64], storage: Storage) {
-        let entries: Vec<(usize, usize, f64)> = (0..rows * cols)
-            .map(|k| (k / cols, k % cols, a[k]))
-            .filter(|e| e.2 != 0.0)
-            .collect();
-        let nnz = entries.len() as i32;
-        write_ints(g, "m", &[rows as i32]);
-        write_ints(g, "n", &[cols as i32]);
-        write_ints(g, "nzmax", &[nnz]);
-        let (nz, p, i, x): (i32, Vec<i32>, Vec<i32>, Vec<f64>) = match storage {
-            Storage::Triplet => {
-                // Any order: reversed.
-                let e: Vec<_> = entries.iter().rev().collect();
-                (
-                    nnz,
-                    e.iter().map(|e| e.1 as i32).collect(),
-                    e.iter().map(|e| e.0 as i32).collect(),
-                    e.iter().map(|e| e.2).collect(),
-                )
-            }
-            Storage::Csc => {
-                let mut e = entries.clone();
-                e.sort_by_key(|e| (e.1, e.0));
-                let p = (0..=cols)
-                    .map(|j| e.iter().filter(|e| e.1 < j).count() as i32)
-                    .collect();
-                (
-                    -1,
-                    p,
-                    e.iter().map(|e| e.0 as i32).collect(),
-                    e.iter().map(|e| e.2).collect(),
-                )
-            }
-            Storage::Csr => {
-                let p = (0..=rows)
-                    .map(|r| entries.iter().filter(|e| e.0 < r).count() as i32)
-                    .collect();
-                (
-                    -2,
-                    p,
-                    entries.iter().map(|e| e.1 as i32).collect(),
-                    entries.iter().map(|e| e.2).collect(),
-                )
-            }
-        };
-        write_ints(g, "nz", &[nz]);
-        write_ints(g, "p", &p);
-        write_ints(g, "i", &i);
-        write_numbers(g, "x", &x);
-    }
-
-    /// Two contacts on a plane, uncoupled: contact 0 (`W` block `2 I`, `mu = 0.5`) is pushed
-    /// tangentially by less than friction holds, so it sticks: `r = (1, 0.2, 0)`, `u = 0`;
-    /// contact 1 (`W` block `I`, `mu = 0.3`) is pushed harder and slides: `r = (1, -0.3, 0)`,
-    /// `u_t = 1.7`. A small coupling between the two tangent directions of contact 0 keeps `W`
-    /// from being diagonal.
-    fn plane_contacts(path: &Path, storage: Storage) {
-        let n = 6;
-        let mut w = vec![0.0; n * n];
-        for (i, d) in [2.0, 2.0, 2.0, 1.0, 1.0, 1.0].into_iter().enumerate() {
-            w[i * n + i] = d;
-        }
-        w[n + 2] = 0.1;
-        w[2 * n + 1] = 0.1;
-        // Contact 0's second tangent has q = -0.1 · 0.2 so that r_t2 = 0 is exact.
-        let q = [-2.0, -0.4, -0.02, -1.0, 2.0, 0.0];
-        let file = File::create(path).unwrap();
-        let local = file.create_group("fclib_local").unwrap();
-        write_ints(&local, "spacedim", &[3]);
-        write_matrix(&local.create_group("W").unwrap(), n, n, &w, storage);
-        let vectors = local.create_group("vectors").unwrap();
-        write_numbers(&vectors, "q", &q);
-        write_numbers(&vectors, "mu", &[0.5, 0.3]);
-    }
-
-    #[test]
-    fn local_problem_reads_as_box_friction_lcp_and_solves() {
-        let dir = tempfile::tempdir().unwrap();
-        for (k, storage) in [Storage::Triplet, Storage::Csc, Storage::Csr]
-            .into_iter()
-            .enumerate()
-        {
-            let path = dir.path().join(format!("plane{k}.hdf5"));
-            plane_contacts(&path, storage);
-            let p = read_fclib(&path).unwrap();
-            assert_eq!(p.n(), 6);
-            assert!(p.is_sparse());
-            assert_eq!(p.name(), Some(format!("plane{k}").as_str()));
-            assert_eq!(p.entry(1, 2), 0.1);
-            assert_eq!(p.entry(0, 0), 2.0);
-            let fr: Vec<_> = p
-                .friction()
-                .iter()
-                .map(|f| (f.row, f.normal, f.mu))
-                .collect();
-            assert_eq!(fr, [(1, 0, 0.5), (2, 0, 0.5), (4, 3, 0.3), (5, 3, 0.3)]);
-            assert_eq!((p.lo()[0], p.hi()[0], p.lo()[3]), (0.0, f64::INFINITY, 0.0));
-            let expected = [1.0, 0.2, 0.0, 1.0, -0.3, 0.0];
-            assert!(residuals(&p, &expected).natural_map < 1e-15);
-            for kind in [SolverKind::Pgs, SolverKind::Sor, SolverKind::Dantzig] {
-                let r = kind.create().solve(&p, &Settings::default());
-                assert_eq!(r.status, Status::Converged, "{}", kind.name());
-                for (a, b) in r.f.iter().zip(expected) {
-                    assert!((a - b).abs() < 1e-6, "{}: {:?}", kind.name(), r.f);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn written_local_files_read_back() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("w.hdf5");
-        let t = [(0, 0, 2.0), (1, 1, 1.0), (0, 1, 0.5), (1, 0, 0.5)];
-        let t: Vec<_> = t.iter().map(|&(i, j, v)| Triplet::new(i, j, v)).collect();
-        let w = SparseColMat::try_new_from_triplets(2, 2, &t).unwrap();
-        write_fclib_local(&path, 2, &w, &[-1.0, 0.5], &[0.4]).unwrap();
-        let p = read_fclib(&path).unwrap();
-        assert_eq!(p.to_dense(), w.to_dense());
-        assert_eq!(p.b(), &[-1.0, 0.5]);
-        assert_eq!(
-            p.friction(),
-            &[FrictionRow {
-                row: 1,
-                normal: 0,
-                mu: 0.4
-            }]
-        );
-    }
-
-    #[test]
-    fn box_friction_problems_write_as_fclib_and_read_back() {
-        // Rows out of contact order: normal 2 with friction rows 0 and 1, normal 3 with 4, 5.
-        let n = 6;
-        let a = Mat::from_fn(n, n, |i, j| {
-            if i == j {
-                2.0
-            } else if i.abs_diff(j) == 1 {
-                0.5
-            } else {
-                0.0
-            }
-        });
-        let fr = |row, normal, mu| FrictionRow { row, normal, mu };
-        let mut lo = vec![0.0; n];
-        lo[0] = -1.0;
-        let p = Problem::boxed(
-            a,
-            vec![0.1, 0.2, -1.0, -2.0, 0.3, 0.4],
-            lo,
-            vec![f64::INFINITY; n],
-            vec![fr(0, 2, 0.5), fr(1, 2, 0.5), fr(4, 3, 0.2), fr(5, 3, 0.2)],
-        )
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("p.hdf5");
-        let perm = write_problem_as_fclib(&p, &path).unwrap();
-        assert_eq!(perm, [2, 0, 1, 3, 4, 5]);
-        let back = read_fclib(&path).unwrap();
-        let restored = back.permuted(
-            &(0..n)
-                .map(|i| perm.iter().position(|&k| k == i).unwrap())
-                .collect::<Vec<_>>(),
-        );
-        assert_eq!(restored.to_dense(), p.to_dense());
-        assert_eq!(restored.b(), p.b());
-        // The same solution, row for row.
-        let r = SolverKind::Dantzig.create().solve(&p, &Settings::default());
-        let f_back: Vec<f64> = perm.iter().map(|&k| r.f[k]).collect();
-        assert!(residuals(&back, &f_back).natural_map_rel < 1e-8);
-        // A normal row without friction rows cannot be written.
-        let lcp = Problem::lcp(Mat::identity(2, 2), vec![1.0, 1.0]).unwrap();
-        let e = write_problem_as_fclib(&lcp, &path).unwrap_err().to_string();
-        assert!(e.contains("row 0 has 0 friction rows"), "{e}");
-    }
-
-    #[test]
-    fn global_problem_is_condensed_to_the_delassus_matrix() {
-        // M SPD (5×5, tridiagonal), H 5×3 (one 3-D contact), f, w: W = Hᵀ M⁻¹ H, q = Hᵀ M⁻¹ f + w.
-        let nv = 5;
-        let m = Mat::from_fn(nv, nv, |i, j| match i.abs_diff(j) {
-            0 => 3.0 + i as f64,
-            1 => -1.0,
-            _ => 0.0,
-        });
-        let h = Mat::from_fn(nv, 3, |i, j| {
-            [
-                [1., 0., 0.],
-                [0.5, 1., 0.],
-                [0., 0., 1.],
-                [0., -0.5, 0.],
-                [0.2, 0., 0.3],
-            ][i][j]
-        });
-        let f = [1.0, -2.0, 0.5, 0.0, 1.5];
-        let w = [0.1, -0.2, 0.3];
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("g.hdf5");
-        {
-            let file = File::create(&path).unwrap();
-            let g = file.create_group("fclib_global").unwrap();
-            write_ints(&g, "spacedim", &[3]);
-            let row_major = |a: &Mat<f64>| {
-                (0..a.nrows())
-                    .flat_map(|i| (0..a.ncols()).map(move |j| (i, j)))
-                    .map(|(i, j)| a[(i, j)])
-                    .collect::<Vec<_>>()
-            };
-            write_matrix(
-                &g.create_group("M").unwrap(),
-                nv,
-                nv,
-                &row_major(&m),
-                Storage::Csc,
-            );
-            write_matrix(
-                &g.create_group("H").unwrap(),
-                nv,
-                3,
-                &row_major(&h),
-                Storage::Triplet,
-            );
-            let v = g.create_group("vectors").unwrap();
-            write_numbers(&v, "f", &f);
-            write_numbers(&v, "w", &w);
-            write_numbers(&v, "mu", &[0.6]);
-        }
-        let p = read_fclib(&path).unwrap();
-        let minv_h = m.partial_piv_lu().solve(&h);
-        let expected_w = h.transpose() * &minv_h;
-        let fcol = Mat::from_fn(nv, 1, |i, _| f[i]);
-        let minv_f = m.partial_piv_lu().solve(&fcol);
-        let expected_q = h.transpose() * &minv_f;
-        let a = p.to_dense();
-        for i in 0..3 {
-            assert!((p.b()[i] - expected_q[(i, 0)] - w[i]).abs() < 1e-12);
-            for j in 0..3 {
-                assert!((a[(i, j)] - expected_w[(i, j)]).abs() < 1e-12, "{a:?}");
-            }
-        }
-        assert_eq!(p.friction().len(), 2);
-    }
-
-    #[test]
-    fn errors_name_the_dataset() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("bad.hdf5");
-        {
-            let file = File::create(&path).unwrap();
-            let local = file.create_group("fclib_local").unwrap();
-            write_ints(&local, "spacedim", &[3]);
-            write_matrix(
-                &local.create_group("W").unwrap(),
-                3,
-                3,
-                &[1., 0., 0., 0., 1., 0., 0., 0., 1.],
-                Storage::Csc,
-            );
-            let v = local.create_group("vectors").unwrap();
-            write_numbers(&v, "q", &[1.0, 2.0]);
-            write_numbers(&v, "mu", &[0.5]);
-        }
-        let e = read_fclib(&path).unwrap_err().to_string();
-        assert!(
-            e.ends_with("field `/fclib_local/vectors/q`: has 2 entries, expected 3"),
-            "{e}"
-        );
-        let path = dir.path().join("none.hdf5");
-        File::create(&path).unwrap().create_group("other").unwrap();
-        let e = read_fclib(&path).unwrap_err().to_string();
-        assert!(e.contains("without /fclib_local or /fclib_global"), "{e}");
-        let path = dir.path().join("text.hdf5");
-        std::fs::write(&path, "not hdf5").unwrap();
-        let e = read_fclib(&path).unwrap_err().to_string();
-        assert!(e.contains("cannot open as HDF5"), "{e}");
+/// An HDF5 error as a message: a missing object reads "is missing".
+fn describe(e: hdf5_pure::Error) -> String {
+    match e {
+        hdf5_pure::Error::Format(FormatError::PathNotFound(_)) => "is missing".into(),
+        e => e.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests;
