@@ -19,6 +19,7 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
+use crate::harness::machine::Machine;
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use lcpbench_solvers::HistoryPoint;
 use std::io::{Read, Write};
@@ -79,8 +80,16 @@ pub fn parse_protocol(text: &str) -> Result<RunOutput, String> {
 }
 
 /// Run one (case, solver, budget) in a child process of `exe` and return its output, or a
-/// failure row (`panic`, `crash`, `timeout`, `error`).
+/// failure row (`panic`, `crash`, `timeout`, `error`); either row records this machine (the
+/// child's).
 pub fn run_isolated(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
+    let mut output = run_child(exe, case, spec, budget);
+    output.record.set_machine(Machine::current());
+    output
+}
+
+/// [`run_isolated`] without the machine columns.
+fn run_child(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     let start = Instant::now();
     let b = &budget.budget;
     let budget_spec = format!("{:e}:{}:{}", b.tolerance, b.max_iterations, b.time_s);

@@ -5,14 +5,16 @@
 //! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
 //! solve an LCP, or step a scene via [`scene`], whose rows [`metrics`] fills) → [`record`] (the
 //! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
+//! [`machine`] names the machine a run ran on (`isolate` records it in every row).
 //!
-//! Imports go one way: `record` knows `case` and `budget`; `run`, `scene` and `isolate` know
-//! `record`; `sweep` knows `isolate`.
+//! Imports go one way: `record` knows `case`, `budget` and `machine`; `run`, `scene` and
+//! `isolate` know `record`; `sweep` knows `isolate`.
 
 pub mod budget;
 pub mod case;
 pub mod export;
 pub mod isolate;
+pub mod machine;
 pub mod metrics;
 pub mod record;
 pub mod run;

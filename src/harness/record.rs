@@ -11,6 +11,7 @@
 
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
+use crate::harness::machine::Machine;
 use lcpbench_solvers::{HistoryPoint, Status};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -165,6 +166,13 @@ pub struct RunRecord {
     /// Scene: mean wall time per step of integration (split impulses, time of impact, warm-start
     /// cache), seconds.
     pub phase_integration_s: Option<f64>,
+    /// Host name of the machine the run ran on (see [`Machine`]); empty in rows written before
+    /// sweeps recorded it.
+    pub host: Option<String>,
+    /// CPU model of that machine.
+    pub cpu_model: Option<String>,
+    /// Logical cores available on that machine.
+    pub cores: Option<usize>,
 }
 
 impl RunRecord {
@@ -194,6 +202,22 @@ impl RunRecord {
     /// True for failures of the isolation layer (`panic`, `crash`, `timeout`, `error`).
     pub fn is_isolation_failure(&self) -> bool {
         self.status.is_isolation_failure()
+    }
+
+    /// The machine the run ran on, when the row records it.
+    pub fn machine(&self) -> Option<Machine> {
+        Some(Machine {
+            host: self.host.clone()?,
+            cpu_model: self.cpu_model.clone()?,
+            cores: self.cores?,
+        })
+    }
+
+    /// Record that the run ran on `machine`.
+    pub fn set_machine(&mut self, machine: &Machine) {
+        self.host = Some(machine.host.clone());
+        self.cpu_model = Some(machine.cpu_model.clone());
+        self.cores = Some(machine.cores);
     }
 }
 

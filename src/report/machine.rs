@@ -1,11 +1,12 @@
 //! The report header: machine, commit, date and the command, so each figure can be regenerated.
 
+use crate::harness::machine::Machine;
 use std::process::Command;
 
 /// Where and when a report was produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Header {
-    /// CPU model (`/proc/cpuinfo`), or `unknown`.
+    /// CPU model of the machine writing the report (`/proc/cpuinfo`), or `unknown`.
     pub cpu: String,
     /// Logical cores available to the process.
     pub cores: usize,
@@ -26,52 +27,46 @@ impl Header {
     /// Collect the header for the current machine and working directory, for a sweep run by
     /// `workers` worker processes.
     pub fn collect(command: &str, workers: usize, out_dir: &std::path::Path) -> Self {
-        let cpu = std::fs::read_to_string("/proc/cpuinfo")
-            .ok()
-            .and_then(|s| {
-                s.lines()
-                    .find(|l| l.starts_with("model name"))
-                    .and_then(|l| l.split_once(':'))
-                    .map(|(_, v)| v.trim().to_owned())
-            })
-            .unwrap_or_else(|| "unknown".into());
-        let cores = std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1);
-        let git = |args: &[&str]| {
-            Command::new("git")
-                .args(args)
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
-        };
-        let commit = match git(&["rev-parse", "--short", "HEAD"]) {
-            Some(c) => {
-                // The report's own outputs (already being rewritten) do not make the tree dirty.
-                let exclude = report_pathspec(out_dir, git(&["rev-parse", "--show-toplevel"]));
-                let mut args = vec!["status", "--porcelain", "--untracked-files=no"];
-                if let Some(e) = &exclude {
-                    args.extend(["--", ".", e.as_str()]);
-                }
-                let dirty = git(&args).is_some_and(|s| !s.is_empty());
-                if dirty {
-                    format!("{c}+dirty")
-                } else {
-                    c
-                }
-            }
-            None => "unknown".into(),
-        };
+        let machine = Machine::current();
         Self {
-            cpu,
-            cores,
+            cpu: machine.cpu_model.clone(),
+            cores: machine.cores,
             os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
-            commit,
+            commit: commit(out_dir),
             date: utc_now(),
             command: command.to_owned(),
             workers,
         }
+    }
+}
+
+/// The lcpbench commit of the working directory: `git rev-parse --short HEAD`, with `+dirty`
+/// when tracked files have changes outside `out_dir` (a report's or sweep's own outputs, which
+/// are being rewritten, do not count), or `unknown` outside a git checkout.
+pub fn commit(out_dir: &std::path::Path) -> String {
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    };
+    match git(&["rev-parse", "--short", "HEAD"]) {
+        Some(c) => {
+            let exclude = report_pathspec(out_dir, git(&["rev-parse", "--show-toplevel"]));
+            let mut args = vec!["status", "--porcelain", "--untracked-files=no"];
+            if let Some(e) = &exclude {
+                args.extend(["--", ".", e.as_str()]);
+            }
+            let dirty = git(&args).is_some_and(|s| !s.is_empty());
+            if dirty {
+                format!("{c}+dirty")
+            } else {
+                c
+            }
+        }
+        None => "unknown".into(),
     }
 }
 
