@@ -1,11 +1,13 @@
 //! What every section reads and the interface each implements.
 //!
 //! [`ReportContext`] holds the suite, the header, the result rows indexed once by run key
-//! (case, solver, budget), the convergence histories and the output directories; a
+//! (case, solver, budget) (those of one machine for the tables that show times, when the rows
+//! come from several: see [`Machines`]), the convergence histories and the output directories; a
 //! [`Section`] renders its Markdown into the README, writes its tables and figures, and
 //! returns the figures for the gallery at the end.
 
 use super::machine::Header;
+use super::machines::Machines;
 use super::suite::Suite;
 use super::table::Table;
 use crate::harness::{Case, HistoryRow, ProblemClass, RunKey, RunRecord};
@@ -57,7 +59,12 @@ pub(super) struct ReportContext<'a> {
     pub(super) feasible_cases: Vec<&'a Case>,
     pub(super) tables_dir: PathBuf,
     pub(super) plots_dir: PathBuf,
+    /// The machines the rows ran on, and which one's rows the timing tables use.
+    pub(super) machines: Machines,
+    /// The rows the timing tables use (every row when they come from one machine).
     by_key: HashMap<RunKey, &'a RunRecord>,
+    /// Every row.
+    all_by_key: HashMap<RunKey, &'a RunRecord>,
 }
 
 impl<'a> ReportContext<'a> {
@@ -79,6 +86,7 @@ impl<'a> ReportContext<'a> {
             .copied()
             .filter(|c| c.class() != ProblemClass::Infeasible)
             .collect();
+        let machines = Machines::of(rows);
         Self {
             suite,
             header,
@@ -89,13 +97,33 @@ impl<'a> ReportContext<'a> {
             feasible_cases,
             tables_dir: out_dir.join("tables"),
             plots_dir: out_dir.join("plots"),
-            by_key: rows.iter().map(|r| (r.key(), r)).collect(),
+            by_key: rows
+                .iter()
+                .filter(|r| machines.timed(r))
+                .map(|r| (r.key(), r))
+                .collect(),
+            all_by_key: rows.iter().map(|r| (r.key(), r)).collect(),
+            machines,
         }
     }
 
-    /// The run of `case` by `solver` under `budget`, if there is one.
+    /// The run of `case` by `solver` under `budget`, if there is one among the rows the timing
+    /// tables use (see [`Machines`]).
     pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
         self.by_key
+            .get(&RunKey::new(&case.to_string(), solver, budget))
+            .copied()
+    }
+
+    /// The run of `case` by `solver` under `budget` on whichever machine ran it, for tables
+    /// that show no times.
+    pub(super) fn get_any_machine(
+        &self,
+        case: &Case,
+        solver: &str,
+        budget: &str,
+    ) -> Option<&'a RunRecord> {
+        self.all_by_key
             .get(&RunKey::new(&case.to_string(), solver, budget))
             .copied()
     }

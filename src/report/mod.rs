@@ -42,6 +42,7 @@
 //! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
 //! status.rs            the run-status predicates the sections use
 //! machine.rs           the header's machine, commit and date
+//! machines.rs          the machines the rows ran on; the rows the timing tables use
 //! replays.rs           the replay pages and the section linking them (appended after a run)
 //! ```
 //!
@@ -49,6 +50,7 @@
 
 mod context;
 pub mod machine;
+mod machines;
 pub mod plots;
 pub mod replays;
 mod sections;

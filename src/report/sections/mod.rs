@@ -25,6 +25,7 @@ mod warm_start;
 
 use super::context::{Figure, ReportContext, Section};
 use super::machine::Header;
+use super::machines::Machines;
 use super::rel;
 use super::suite::Suite;
 use crate::harness::sweep::{read_histories, read_results};
@@ -68,6 +69,8 @@ pub fn write_report(
     } else {
         Vec::new()
     };
+    // Histories plot residuals against time: those of the timing machine's runs only.
+    let histories = Machines::of(&rows).timed_histories(&rows, histories);
     let ctx = ReportContext::new(suite, header, sweep_seconds, &rows, &histories, out_dir);
     std::fs::create_dir_all(&ctx.tables_dir)?;
     std::fs::create_dir_all(&ctx.plots_dir)?;

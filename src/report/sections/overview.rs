@@ -1,8 +1,11 @@
 //! The report's opening: the title, how to regenerate it, the header table (date, commit,
 //! machine, command, and the sweep: rows, isolation failures, seconds, and the number of
-//! worker processes it actually ran on), and how residuals and times are measured.
+//! worker processes it actually ran on), and how residuals and times are measured. The machine
+//! is the one the rows record; rows from several machines are listed with their counts, and a
+//! note says which machine's rows the timing tables use.
 
 use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::machines;
 use crate::report::table::Table;
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -22,6 +25,17 @@ impl Section for Overview {
              `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
         );
         md.push_str(&ctx.table(&header_table(ctx))?);
+        if let Some((machine, rows)) = ctx.machines.timing() {
+            let _ = writeln!(
+                md,
+                "\n**Timings from {} machines.** Times measured on different machines do not \
+                 compare: every table and figure that shows times uses only the {rows} rows of \
+                 the machine with the most rows, {}; the robustness matrix, which counts \
+                 statuses, uses every row.",
+                ctx.machines.counts.len(),
+                machines::describe(machine),
+            );
+        }
         let _ = writeln!(
             md,
             "\nEvery run is one child process (a panic, abort or hang is recorded, not fatal). \
@@ -44,10 +58,7 @@ fn header_table(ctx: &ReportContext) -> Table {
     for (k, v) in [
         ("date (UTC)", header.date.clone()),
         ("commit", header.commit.clone()),
-        (
-            "machine",
-            format!("{}, {} cores, {}", header.cpu, header.cores, header.os),
-        ),
+        ("machine", machine_cell(ctx)),
         ("command", format!("`{}`", header.command)),
         (
             "runs",
@@ -73,4 +84,19 @@ fn header_table(ctx: &ReportContext) -> Table {
         h.rows.push(vec![k.to_owned(), v]);
     }
     h
+}
+
+/// Where the runs ran: the rows' machine, each machine with its row count when there are several,
+/// or (rows that record none) the machine writing the report.
+fn machine_cell(ctx: &ReportContext) -> String {
+    let header = ctx.header;
+    match &ctx.machines.counts[..] {
+        [(Some(m), _)] => format!("{m}, {}", header.os),
+        [] | [(None, _)] => format!("{}, {} cores, {}", header.cpu, header.cores, header.os),
+        several => several
+            .iter()
+            .map(|(m, n)| format!("{}: {n} rows", machines::describe(m)))
+            .collect::<Vec<_>>()
+            .join("; "),
+    }
 }

@@ -1,6 +1,7 @@
 //! The robustness matrix (as Siconos' expected-failure matrix): for each matrix solver and
 //! problem class, converged runs out of runs under budget `default`; for the infeasible class,
 //! the runs that report infeasibility. Unsupported and crashed runs are counted in the cell.
+//! It shows no times, so it counts the rows of every machine.
 
 use crate::harness::{ProblemClass, RunRecord};
 use crate::report::context::{solver_names, Figure, ReportContext, Section};
@@ -30,7 +31,7 @@ impl Section for Robustness {
                 let runs: Vec<&RunRecord> = ctx
                     .lcp_cases
                     .iter()
-                    .filter_map(|c| ctx.get(c, solver, "default"))
+                    .filter_map(|c| ctx.get_any_machine(c, solver, "default"))
                     .filter(|r| r.class == class.name())
                     .collect();
                 row.push(cell(*class, &runs));
