@@ -6,7 +6,9 @@ use clap::Args;
 use lcpbench::harness::budget::Fault;
 use lcpbench::harness::isolate::write_protocol;
 use lcpbench::harness::run::run_in_process;
-use lcpbench::harness::{cross_product, run_sweep, Case, NamedBudget, SolverSpec, SweepConfig};
+use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
+use lcpbench::harness::sweep::{lock_dir, run_sweep_locked};
+use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::FrictionModel;
@@ -50,6 +52,11 @@ pub struct BenchArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     pub no_progress: bool,
+    /// Run only the K-th of N parts of the sweep (1 <= K <= N): the same parts whatever runs
+    /// them, balanced by expected cost. `--out` then records the part in `shard.json`;
+    /// `lcpbench merge` joins the parts' directories (see docs/cluster.md).
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
 }
 
 /// Arguments of `lcpbench report`.
@@ -79,6 +86,11 @@ pub struct ReportArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     pub no_progress: bool,
+    /// Run only the K-th of N parts of the suite (1 <= K <= N) into `--out`, without writing
+    /// the report: `lcpbench merge` joins the parts' directories, `report --no-run` then writes
+    /// the report from the merged rows (see docs/cluster.md).
+    #[arg(long, value_name = "K/N", conflicts_with = "no_run")]
+    pub shard: Option<Shard>,
 }
 
 /// Arguments of the hidden `lcpbench bench-one` (one isolated run; prints the child protocol).
@@ -181,17 +193,43 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
     let mut config = SweepConfig::new(&args.out)?;
     config.jobs = args.jobs;
     config.progress = !args.no_progress;
-    eprintln!(
-        "{} runs ({} cases × {} solvers × {} budgets) → {}",
-        jobs.len(),
-        cases.len(),
-        solvers.len(),
-        budgets.len(),
-        config.results_path().display()
-    );
-    let summary = run_sweep(&config, jobs)?;
+    let lock = lock_dir(&args.out)?;
+    let jobs = match args.shard {
+        Some(shard) => bench_shard(shard, jobs, &config)?,
+        None => {
+            shard::refuse_shard_directory(&args.out)?;
+            eprintln!(
+                "{} runs ({} cases × {} solvers × {} budgets) → {}",
+                jobs.len(),
+                cases.len(),
+                solvers.len(),
+                budgets.len(),
+                config.results_path().display()
+            );
+            jobs
+        }
+    };
+    let summary = run_sweep_locked(&config, jobs, &lock)?;
     report_summary(&summary, &config);
     Ok(())
+}
+
+/// The jobs of `shard` of the sweep of `jobs`, after claiming the output directory for it
+/// (`shard.json`; the caller holds the directory's lock).
+fn bench_shard(shard: Shard, jobs: Vec<Job>, config: &SweepConfig) -> Result<Vec<Job>> {
+    let out = &config.out_dir;
+    let plan = ShardPlan::new(SweepKind::Bench, jobs, out);
+    let manifest = plan.manifest(shard, &report::machine::commit(out));
+    shard::claim(out, out, &manifest)?;
+    eprintln!(
+        "shard {shard} of sweep {}: {} of {} runs (expected {:.2} s under the cost model) → {}",
+        manifest.sweep,
+        manifest.keys.len(),
+        plan.len(),
+        manifest.expected_s,
+        config.results_path().display()
+    );
+    Ok(plan.jobs(shard))
 }
 
 /// Drop repeated entries of a list (by their key text), saying which were listed twice.
@@ -245,6 +283,7 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
     let scenes = report::scenes_matching(&args.scenes)?;
+    check_report_dir(&args)?;
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {
         // Tables from existing data: the LCPs exported by the run that produced it.
@@ -276,6 +315,19 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         sweep,
         command,
     };
+    if let Some(shard) = args.shard {
+        let summary = report::shard::run_shard(&options, shard)?;
+        eprintln!(
+            "shard {shard} of sweep {}: ran {} runs in {:.0} s ({} isolation failures), skipped \
+             {} already done; merge the shards with `lcpbench merge DIR... --out DIR`",
+            summary.manifest.sweep,
+            summary.sweep.ran,
+            summary.sweep_seconds,
+            summary.sweep.failed,
+            summary.sweep.skipped,
+        );
+        return Ok(());
+    }
     if args.no_run {
         let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
         let header =
@@ -292,6 +344,27 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         summary.sweep.failed,
         summary.readme.display()
     );
+    Ok(())
+}
+
+/// Check that `report`'s output directory suits what it is asked to do: a shard's directory is
+/// only resumed by the same `--shard`.
+fn check_report_dir(args: &ReportArgs) -> Result<()> {
+    if args.shard.is_none() {
+        if let Some(m) = shard::read_manifest(&args.out)? {
+            bail!(
+                "{} holds {} only; merge every shard with `lcpbench merge DIR... --out DIR` and \
+                 write the report from that directory{}",
+                args.out.display(),
+                m.describe(),
+                if args.no_run {
+                    ""
+                } else {
+                    ", or give this run another output directory"
+                }
+            );
+        }
+    }
     Ok(())
 }
 

@@ -5,10 +5,12 @@
 //! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
 //! solve an LCP, or step a scene via [`scene`], whose rows [`metrics`] fills) → [`record`] (the
 //! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
-//! [`machine`] names the machine a run ran on (`isolate` records it in every row).
+//! [`machine`] names the machine a run ran on (`isolate` records it in every row). For sweeps
+//! on several machines, [`shard`] splits a sweep into deterministic parts balanced by expected
+//! cost.
 //!
 //! Imports go one way: `record` knows `case`, `budget` and `machine`; `run`, `scene` and
-//! `isolate` know `record`; `sweep` knows `isolate`.
+//! `isolate` know `record`; `sweep` knows `isolate`; `shard` knows `sweep`'s jobs.
 
 pub mod budget;
 pub mod case;
@@ -19,6 +21,7 @@ pub mod metrics;
 pub mod record;
 pub mod run;
 pub mod scene;
+pub mod shard;
 pub mod sweep;
 
 pub use budget::{Budget, Fault, NamedBudget, SolverSpec};

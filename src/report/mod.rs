@@ -44,6 +44,7 @@
 //! machine.rs           the header's machine, commit and date
 //! machines.rs          the machines the rows ran on; the rows the timing tables use
 //! replays.rs           the replay pages and the section linking them (appended after a run)
+//! shard.rs             `report --shard K/N`: one part of the suite, no README
 //! ```
 //!
 //! A new table is a new module under `sections/` and one line in its `SECTIONS` list.
@@ -54,6 +55,7 @@ mod machines;
 pub mod plots;
 pub mod replays;
 mod sections;
+pub mod shard;
 mod status;
 pub mod suite;
 mod table;
