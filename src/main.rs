@@ -34,6 +34,8 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
     Report(cli::bench::ReportArgs),
+    /// Join the output directories of the shards of a sweep (`--shard K/N`) into one.
+    Merge(cli::merge::MergeArgs),
     /// One isolated run of a sweep (used internally by `bench` and `report`).
     #[command(hide = true, name = "bench-one")]
     BenchOne(cli::bench::BenchOneArgs),
@@ -51,6 +53,7 @@ fn main() -> ExitCode {
         Command::Import(args) => cli::import::run(args),
         Command::Bench(args) => cli::bench::run_bench(args),
         Command::Report(args) => cli::bench::run_report(args),
+        Command::Merge(args) => cli::merge::run(args),
         Command::BenchOne(args) => cli::bench::run_bench_one(args),
     };
     match result {

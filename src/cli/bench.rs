@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget::Fault;
 use lcpbench::harness::isolate::write_protocol;
+use lcpbench::harness::merge::{self, MergedManifest};
 use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
 use lcpbench::harness::sweep::{lock_dir, run_sweep_locked};
@@ -283,7 +284,7 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
     let scenes = report::scenes_matching(&args.scenes)?;
-    check_report_dir(&args)?;
+    let merged = check_report_dir(&args)?;
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {
         // Tables from existing data: the LCPs exported by the run that produced it.
@@ -330,8 +331,12 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
     }
     if args.no_run {
         let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
-        let header =
+        let mut header =
             report::Header::collect(&options.command, options.sweep.jobs, &options.out_dir);
+        if let Some(merged) = merged {
+            // The rows' commit, not the one rewriting the tables.
+            header.commit = merged.commit;
+        }
         let readme = report::write_report(&options.out_dir, &suite, &header, 0.0)?;
         eprintln!("wrote {}", readme.display());
         return Ok(());
@@ -348,8 +353,9 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
 }
 
 /// Check that `report`'s output directory suits what it is asked to do: a shard's directory is
-/// only resumed by the same `--shard`.
-fn check_report_dir(args: &ReportArgs) -> Result<()> {
+/// only resumed by the same `--shard`, and `--no-run` on a merged directory needs the suite its
+/// shards ran (`--quick` or not). Returns the merged directory's manifest, if it has one.
+fn check_report_dir(args: &ReportArgs) -> Result<Option<MergedManifest>> {
     if args.shard.is_none() {
         if let Some(m) = shard::read_manifest(&args.out)? {
             bail!(
@@ -365,7 +371,30 @@ fn check_report_dir(args: &ReportArgs) -> Result<()> {
             );
         }
     }
-    Ok(())
+    let merged = merge::read_merged(&args.out)?;
+    if let Some(m) = &merged {
+        if !args.no_run {
+            bail!(
+                "{} holds rows merged from shards; write their report with --no-run, or give \
+                 this run another output directory",
+                args.out.display()
+            );
+        }
+        let suite = SweepKind::report(args.quick);
+        if m.kind != suite {
+            bail!(
+                "{} holds the rows of a {} sweep; {}",
+                args.out.display(),
+                m.kind,
+                match m.kind {
+                    SweepKind::ReportQuick => "add --quick",
+                    SweepKind::ReportFull => "drop --quick",
+                    SweepKind::Bench => "the report is written from report sweeps",
+                }
+            );
+        }
+    }
+    Ok(merged)
 }
 
 /// Run `lcpbench bench-one` (the child side of the isolation).

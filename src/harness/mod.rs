@@ -7,16 +7,18 @@
 //! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
 //! [`machine`] names the machine a run ran on (`isolate` records it in every row). For sweeps
 //! on several machines, [`shard`] splits a sweep into deterministic parts balanced by expected
-//! cost.
+//! cost and [`merge`] joins the parts' directories into the rows of the whole sweep.
 //!
 //! Imports go one way: `record` knows `case`, `budget` and `machine`; `run`, `scene` and
-//! `isolate` know `record`; `sweep` knows `isolate`; `shard` knows `sweep`'s jobs.
+//! `isolate` know `record`; `sweep` knows `isolate`; `shard` knows `sweep`'s jobs, and `merge`
+//! knows `shard` and reads what `sweep` wrote.
 
 pub mod budget;
 pub mod case;
 pub mod export;
 pub mod isolate;
 pub mod machine;
+pub mod merge;
 pub mod metrics;
 pub mod record;
 pub mod run;

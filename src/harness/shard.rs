@@ -1,6 +1,6 @@
 //! Sharded sweeps: the K-th of N deterministic parts of one sweep, so a sweep too large for one
 //! machine runs as N independent processes (a Slurm array, GNU parallel, a shell loop) whose
-//! output directories `lcpbench merge` joins into exactly the rows of the
+//! output directories [`merge`](crate::harness::merge) joins into exactly the rows of the
 //! unsharded sweep.
 //!
 //! **Same parts whatever runs them.** The jobs are taken once each (by run key) in the sweep's
