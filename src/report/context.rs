@@ -1,8 +1,8 @@
 //! What every section reads and the interface each implements.
 //!
 //! [`ReportContext`] holds the suite, the header, the result rows indexed once by run key
-//! (case, solver, budget) (those of one machine for the tables that show times, when the rows
-//! come from several: see [`Machines`]), the convergence histories and the output directories; a
+//! (case, solver, budget) (those of one kind of machine for the tables that show times, when
+//! the rows come from several: see [`Machines`]), the convergence histories and the output directories; a
 //! [`Section`] renders its Markdown into the README, writes its tables and figures, and
 //! returns the figures for the gallery at the end.
 
@@ -59,9 +59,9 @@ pub(super) struct ReportContext<'a> {
     pub(super) feasible_cases: Vec<&'a Case>,
     pub(super) tables_dir: PathBuf,
     pub(super) plots_dir: PathBuf,
-    /// The machines the rows ran on, and which one's rows the timing tables use.
+    /// The machines the rows ran on, and which kind's rows the timing tables use.
     pub(super) machines: Machines,
-    /// The rows the timing tables use (every row when they come from one machine).
+    /// The rows the timing tables use (every row when they come from one kind of machine).
     by_key: HashMap<RunKey, &'a RunRecord>,
     /// Every row.
     all_by_key: HashMap<RunKey, &'a RunRecord>,

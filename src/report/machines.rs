@@ -1,52 +1,102 @@
 //! The machines the rows ran on (the `host`, `cpu_model` and `cores` columns), and the rows the
-//! timing tables use: times measured on different machines do not compare, so when the rows come
-//! from several, every table and figure that shows times uses the rows of one machine only, the
-//! one with the most rows (ties: the first by host name), and the overview says so. The
+//! timing tables use. Times compare only on the same hardware, so rows are grouped by *kind of
+//! machine*, a CPU model and core count: the hosts of one kind (the nodes of a homogeneous
+//! cluster partition) count as one machine for timings. When the rows come from several kinds,
+//! every table and figure that shows times uses the rows of one kind only, the one with the most
+//! rows (ties: the first by CPU model), and the overview says so and lists the hosts. The
 //! robustness matrix, which counts statuses, uses every row.
 
-use crate::harness::machine::Machine;
 use crate::harness::{HistoryRow, RunKey, RunRecord};
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashSet};
+
+/// A CPU model and core count: rows of one kind compare in time, whichever host ran them.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub(super) struct MachineKind {
+    cpu_model: String,
+    cores: usize,
+}
+
+impl MachineKind {
+    /// The kind of machine `r` ran on, when the row records it.
+    fn of(r: &RunRecord) -> Option<Self> {
+        r.machine().map(|m| MachineKind {
+            cpu_model: m.cpu_model,
+            cores: m.cores,
+        })
+    }
+}
+
+/// The rows of one kind of machine.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct MachineGroup {
+    /// The kind (`None`: rows that record no machine).
+    pub(super) kind: Option<MachineKind>,
+    /// The hosts that ran them.
+    pub(super) hosts: BTreeSet<String>,
+    /// How many rows.
+    pub(super) rows: usize,
+}
+
+impl MachineGroup {
+    /// The group's name in the report: `CPU, N cores on HOST` (or `on K hosts (A, B, …)`).
+    pub(super) fn describe(&self) -> String {
+        let Some(kind) = &self.kind else {
+            return "rows without a recorded machine".to_owned();
+        };
+        let hosts: Vec<&str> = self.hosts.iter().map(String::as_str).collect();
+        let on = match &hosts[..] {
+            [one] => (*one).to_owned(),
+            few if few.len() <= 3 => format!("{} hosts ({})", few.len(), few.join(", ")),
+            many => format!("{} hosts ({}, …)", many.len(), many[..3].join(", ")),
+        };
+        format!("{}, {} cores on {on}", kind.cpu_model, kind.cores)
+    }
+}
 
 /// The machines of a report's rows.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(super) struct Machines {
-    /// Each machine (`None`: rows that do not record one) with its row count, most rows first
-    /// (ties by machine).
-    pub(super) counts: Vec<(Option<Machine>, usize)>,
+    /// The rows by kind of machine, most rows first (ties by kind).
+    pub(super) groups: Vec<MachineGroup>,
 }
 
 impl Machines {
     pub(super) fn of(rows: &[RunRecord]) -> Self {
-        let mut by_machine: BTreeMap<Option<Machine>, usize> = BTreeMap::new();
+        let mut by_kind: BTreeMap<Option<MachineKind>, MachineGroup> = BTreeMap::new();
         for r in rows {
-            *by_machine.entry(r.machine()).or_default() += 1;
+            let kind = MachineKind::of(r);
+            let group = by_kind.entry(kind.clone()).or_insert(MachineGroup {
+                kind,
+                hosts: BTreeSet::new(),
+                rows: 0,
+            });
+            group.rows += 1;
+            if let Some(host) = &r.host {
+                group.hosts.insert(host.clone());
+            }
         }
-        let mut counts: Vec<(Option<Machine>, usize)> = by_machine.into_iter().collect();
-        // Stable: equal counts keep the machines' order.
-        counts.sort_by_key(|(_, n)| std::cmp::Reverse(*n));
-        Self { counts }
+        let mut groups: Vec<MachineGroup> = by_kind.into_values().collect();
+        // Stable: equal counts keep the kinds' order.
+        groups.sort_by_key(|g| std::cmp::Reverse(g.rows));
+        Self { groups }
     }
 
-    /// True when the rows come from more than one machine.
+    /// True when the rows come from more than one kind of machine.
     pub(super) fn several(&self) -> bool {
-        self.counts.len() > 1
+        self.groups.len() > 1
     }
 
-    /// The machine whose rows the timing tables use, and its row count (when there are several
-    /// machines).
-    pub(super) fn timing(&self) -> Option<(&Option<Machine>, usize)> {
-        self.several()
-            .then(|| self.counts.first().map(|(m, n)| (m, *n)))
-            .flatten()
+    /// The group whose rows the timing tables use, when there are several kinds of machine.
+    pub(super) fn timing(&self) -> Option<&MachineGroup> {
+        self.groups.first().filter(|_| self.several())
     }
 
     /// True when `r` is one of the rows the timing tables use.
     pub(super) fn timed(&self, r: &RunRecord) -> bool {
-        self.timing().is_none_or(|(m, _)| r.machine() == *m)
+        self.timing().is_none_or(|g| MachineKind::of(r) == g.kind)
     }
 
-    /// The history rows of the runs the timing tables use (all of them with one machine).
+    /// The history rows of the runs the timing tables use (all of them with one kind).
     pub(super) fn timed_histories(
         &self,
         rows: &[RunRecord],
@@ -67,29 +117,23 @@ impl Machines {
     }
 }
 
-/// A machine's name in the report.
-pub(super) fn describe(machine: &Option<Machine>) -> String {
-    match machine {
-        Some(m) => m.to_string(),
-        None => "rows without a recorded machine".to_owned(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::harness::machine::Machine;
 
-    fn row(case: &str, host: Option<&str>) -> RunRecord {
+    /// A row of `case` run on (host, CPU model), 4 cores.
+    fn row(case: &str, machine: Option<(&str, &str)>) -> RunRecord {
         let mut r = RunRecord {
             case: case.into(),
             solver: "pgs".into(),
             budget: "default".into(),
             ..RunRecord::default()
         };
-        if let Some(h) = host {
+        if let Some((host, cpu)) = machine {
             r.set_machine(&Machine {
-                host: h.into(),
-                cpu_model: "cpu".into(),
+                host: host.into(),
+                cpu_model: cpu.into(),
                 cores: 4,
             });
         }
@@ -97,21 +141,34 @@ mod tests {
     }
 
     #[test]
-    fn the_timing_rows_are_those_of_the_machine_with_the_most_rows() {
-        let one = [row("a", Some("x")), row("b", Some("x"))];
+    fn the_timing_rows_are_those_of_the_kind_of_machine_with_the_most_rows() {
+        let one = [row("a", Some(("x", "cpu"))), row("b", Some(("y", "cpu")))];
         let m = Machines::of(&one);
         assert!(!m.several() && m.timing().is_none());
+        assert_eq!(m.groups[0].describe(), "cpu, 4 cores on 2 hosts (x, y)");
+        let hosts: Vec<RunRecord> = ["h1", "h2", "h3", "h4"]
+            .iter()
+            .map(|h| row(h, Some((h, "cpu"))))
+            .collect();
+        let four = Machines::of(&hosts);
+        assert_eq!(
+            four.groups[0].describe(),
+            "cpu, 4 cores on 4 hosts (h1, h2, h3, …)"
+        );
         assert!(one.iter().all(|r| m.timed(r)));
         let rows = [
-            row("a", Some("x")),
-            row("b", Some("y")),
-            row("c", Some("y")),
+            row("a", Some(("x", "slow"))),
+            row("b", Some(("y", "fast"))),
+            row("c", Some(("z", "fast"))),
             row("d", None),
         ];
         let m = Machines::of(&rows);
         assert!(m.several());
-        let (machine, count) = m.timing().unwrap();
-        assert_eq!((machine.as_ref().unwrap().host.as_str(), count), ("y", 2));
+        let timing = m.timing().unwrap();
+        assert_eq!(
+            (timing.describe(), timing.rows),
+            ("fast, 4 cores on 2 hosts (y, z)".into(), 2)
+        );
         let timed: Vec<&str> = rows
             .iter()
             .filter(|r| m.timed(r))
@@ -128,23 +185,23 @@ mod tests {
         };
         let kept = m.timed_histories(&rows, vec![history("a"), history("c")]);
         assert_eq!(kept, vec![history("c")]);
-        // Ties go to the first machine by host name.
-        let tie = Machines::of(&[row("a", Some("y")), row("b", Some("x"))]);
-        assert_eq!(tie.timing().unwrap().0.as_ref().unwrap().host, "x");
+        // Ties go to the first kind by CPU model.
+        let tie = Machines::of(&[row("a", Some(("x", "b"))), row("b", Some(("x", "a")))]);
+        assert_eq!(tie.timing().unwrap().describe(), "a, 4 cores on x");
     }
 
-    /// A report from rows of two machines: the overview names both and says whose rows the
-    /// timing tables use; the fastest solver is the fastest on that machine, not the fastest
+    /// A report from rows of two kinds of machine: the overview names both and says whose rows
+    /// the timing tables use; the fastest solver is the fastest on that machine, not the fastest
     /// row; the robustness matrix counts the other machine's rows too.
     #[test]
-    fn timing_tables_use_one_machine_and_the_robustness_matrix_every_row() {
+    fn timing_tables_use_one_kind_of_machine_and_the_robustness_matrix_every_row() {
         use crate::harness::{Case, RunStatus};
         use crate::report::machine::Header;
         use crate::report::suite::Suite;
 
         let spd: Case = "spd:n=8:cond=1e2:seed=1".parse().unwrap();
-        let run = |solver: &str, budget: &str, tta: f64, host: &str| {
-            let mut r = row(&spd.to_string(), Some(host));
+        let run = |solver: &str, budget: &str, tta: f64, cpu: &str| {
+            let mut r = row(&spd.to_string(), Some(("node", cpu)));
             r.class = spd.class().name().to_owned();
             r.solver = solver.into();
             r.solver_base = solver.into();
@@ -187,12 +244,12 @@ mod tests {
         let readme = crate::report::write_report(dir.path(), &suite, &header, 0.0).unwrap();
         let md = std::fs::read_to_string(readme).unwrap();
         assert!(
-            md.contains("| machine | a (cpu, 4 cores): 3 rows; b (cpu, 4 cores): 2 rows |"),
+            md.contains("| machine | a, 4 cores on node: 3 rows; b, 4 cores on node: 2 rows |"),
             "{md}"
         );
-        assert!(md.contains("**Timings from 2 machines.**"), "{md}");
+        assert!(md.contains("**Timings from 2 kinds of machine.**"), "{md}");
         assert!(
-            md.contains("only the 3 rows of the machine with the most rows, a (cpu, 4 cores);"),
+            md.contains("only the 3 rows of the kind with the most rows, a, 4 cores on node;"),
             "{md}"
         );
         let fastest = std::fs::read_to_string(dir.path().join("tables/fastest.csv")).unwrap();

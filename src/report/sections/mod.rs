@@ -69,7 +69,7 @@ pub fn write_report(
     } else {
         Vec::new()
     };
-    // Histories plot residuals against time: those of the timing machine's runs only.
+    // Histories plot residuals against time: only those of the runs the timing tables use.
     let histories = Machines::of(&rows).timed_histories(&rows, histories);
     let ctx = ReportContext::new(suite, header, sweep_seconds, &rows, &histories, out_dir);
     std::fs::create_dir_all(&ctx.tables_dir)?;

@@ -1,11 +1,11 @@
 //! The report's opening: the title, how to regenerate it, the header table (date, commit,
 //! machine, command, and the sweep: rows, isolation failures, seconds, and the number of
 //! worker processes it actually ran on), and how residuals and times are measured. The machine
-//! is the one the rows record; rows from several machines are listed with their counts, and a
-//! note says which machine's rows the timing tables use.
+//! is the one the rows record; rows from several kinds of machine are listed with their counts,
+//! and a note says which kind's rows the timing tables use (or, for one kind on several hosts,
+//! that their times are compared as one machine's).
 
 use crate::report::context::{Figure, ReportContext, Section};
-use crate::report::machines;
 use crate::report::table::Table;
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -25,15 +25,24 @@ impl Section for Overview {
              `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
         );
         md.push_str(&ctx.table(&header_table(ctx))?);
-        if let Some((machine, rows)) = ctx.machines.timing() {
+        if let Some(timing) = ctx.machines.timing() {
             let _ = writeln!(
                 md,
-                "\n**Timings from {} machines.** Times measured on different machines do not \
-                 compare: every table and figure that shows times uses only the {rows} rows of \
-                 the machine with the most rows, {}; the robustness matrix, which counts \
-                 statuses, uses every row.",
-                ctx.machines.counts.len(),
-                machines::describe(machine),
+                "\n**Timings from {} kinds of machine.** Times measured on different CPU models \
+                 or core counts do not compare: every table and figure that shows times uses \
+                 only the {} rows of the kind with the most rows, {}; the robustness matrix, \
+                 which counts statuses, uses every row.",
+                ctx.machines.groups.len(),
+                timing.rows,
+                timing.describe(),
+            );
+        } else if let Some(group) = ctx.machines.groups.first().filter(|g| g.hosts.len() > 1) {
+            let _ = writeln!(
+                md,
+                "\n**Timings from {} hosts** of one kind of machine ({}); the tables compare \
+                 their times as those of one machine.",
+                group.hosts.len(),
+                group.describe(),
             );
         }
         let _ = writeln!(
@@ -86,16 +95,16 @@ fn header_table(ctx: &ReportContext) -> Table {
     h
 }
 
-/// Where the runs ran: the rows' machine, each machine with its row count when there are several,
-/// or (rows that record none) the machine writing the report.
+/// Where the runs ran: the rows' kind of machine and hosts, each kind with its row count when
+/// there are several, or (rows that record none) the machine writing the report.
 fn machine_cell(ctx: &ReportContext) -> String {
     let header = ctx.header;
-    match &ctx.machines.counts[..] {
-        [(Some(m), _)] => format!("{m}, {}", header.os),
-        [] | [(None, _)] => format!("{}, {} cores, {}", header.cpu, header.cores, header.os),
+    match &ctx.machines.groups[..] {
+        [one] if one.kind.is_some() => format!("{}, {}", one.describe(), header.os),
+        [] | [_] => format!("{}, {} cores, {}", header.cpu, header.cores, header.os),
         several => several
             .iter()
-            .map(|(m, n)| format!("{}: {n} rows", machines::describe(m)))
+            .map(|g| format!("{}: {} rows", g.describe(), g.rows))
             .collect::<Vec<_>>()
             .join("; "),
     }
