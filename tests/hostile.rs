@@ -1,0 +1,87 @@
+//! Hostile files and flags, seen from the command line: each input that used to crash, hang,
+//! destroy a file or be accepted as nonsense now ends with one clear message, a bounded run or a
+//! refusal, and never with a panic.
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lcpbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    if let Some(parent) = p.parent() {
+        std::fs::create_dir_all(parent).unwrap();
+    }
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_owned()
+}
+
+/// A refusal: exit status 1, one `error:` line naming what is wrong, no panic.
+#[track_caller]
+fn assert_refused(o: &Output, wanted: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "expected a refusal, got:\n{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.starts_with("error: "), "{err}");
+    for w in wanted {
+        assert!(err.contains(w), "`{w}` missing from:\n{err}");
+    }
+}
+
+const SMALL_PROBLEM: &str = r#"{"A": [[2, 1], [1, 2]], "b": [-1, 1]}"#;
+
+const BOX_SCENE: &str = r#"
+[settings]
+steps = 3
+
+[[bodies]]
+name = "ground"
+shape = { type = "plane", normal = [0.0, 0.0, 1.0] }
+static = true
+
+[[bodies]]
+name = "box"
+shape = { type = "box", half_extents = [0.5, 0.5, 0.5] }
+position = [0.0, 0.0, 0.5]
+"#;
+
+/// A command whose standard output is a pipe nobody reads (as `lcpbench … | head -1` once
+/// `head` has its line) ends at the first write, quietly, killed by `SIGPIPE` as `cat` would
+/// be, instead of panicking on the `EPIPE` error.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_printing_commands_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let problem = write(dir.path(), "p.json", SMALL_PROBLEM);
+    let scene = write(dir.path(), "s.toml", BOX_SCENE);
+    let commands: [&[&str]; 5] = [
+        &["solvers"],
+        &["solve", &problem, "-s", "pgs"],
+        &["solve", &problem, "-s", "pgs", "--json"],
+        &["simulate", &scene],
+        &["simulate", &scene, "--json"],
+    ];
+    for args in commands {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+            .args(args)
+            .stdout(writer)
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(err.is_empty(), "{args:?}: {err}");
+        assert_eq!(o.status.signal(), Some(libc::SIGPIPE), "{args:?}");
+    }
+}
