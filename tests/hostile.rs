@@ -85,3 +85,34 @@ fn a_closed_pipe_ends_printing_commands_quietly() {
         assert_eq!(o.status.signal(), Some(libc::SIGPIPE), "{args:?}");
     }
 }
+
+/// `bench --jobs` is a thread count this machine can run: 0 and 100,000 are refused with the
+/// range, before anything is written.
+#[test]
+fn bench_refuses_worker_counts_the_machine_cannot_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    for jobs in ["0", "100000"] {
+        let o = lcpbench(&[
+            "bench",
+            "--lcps",
+            "spd:n=5:cond=10:seed=1",
+            "--solvers",
+            "pgs",
+            "--jobs",
+            jobs,
+            "--out",
+            out,
+            "--no-progress",
+        ]);
+        assert_refused(
+            &o,
+            &["--jobs must be between 1 and", &format!("got {jobs}")],
+        );
+        assert!(
+            !Path::new(out).exists(),
+            "nothing is written for --jobs {jobs}"
+        );
+    }
+}

@@ -1,11 +1,12 @@
 //! `lcpbench bench`, `lcpbench report` and the hidden `lcpbench bench-one` that runs one
 //! isolated run in a child process.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget::Fault;
 use lcpbench::harness::isolate::write_protocol;
 use lcpbench::harness::run::run_in_process;
+use lcpbench::harness::sweep::check_jobs;
 use lcpbench::harness::{cross_product, run_sweep, Case, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
@@ -44,7 +45,7 @@ pub struct BenchArgs {
     /// Output directory (results.csv, histories.csv). An existing results.csv is resumed.
     #[arg(long, default_value = "bench-out")]
     pub out: PathBuf,
-    /// Worker threads (each drives one child process).
+    /// Worker threads (each drives one child process): 1 to 4 per core of the machine.
     #[arg(long, default_value_t = 2)]
     pub jobs: usize,
     /// Do not draw a progress bar.
@@ -73,7 +74,7 @@ pub struct ReportArgs {
     /// directory rebuilds the same tables.
     #[arg(long)]
     pub no_run: bool,
-    /// Worker threads.
+    /// Worker threads (each drives one child process): 1 to 4 per core of the machine.
     #[arg(long, default_value_t = 2)]
     pub jobs: usize,
     /// Do not draw a progress bar.
@@ -125,6 +126,7 @@ fn parse_budgets(list: &[String]) -> Result<Vec<NamedBudget>> {
 
 /// Run `lcpbench bench`.
 pub fn run_bench(args: BenchArgs) -> Result<()> {
+    check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let solvers = parse_solvers(&args.solvers)?;
     let budgets = parse_budgets(&args.budgets)?;
     let mut cases: Vec<Case> = Vec::new();
@@ -244,6 +246,7 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
 
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
+    check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let scenes = report::scenes_matching(&args.scenes)?;
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {

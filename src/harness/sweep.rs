@@ -120,6 +120,25 @@ pub struct SweepSummary {
     pub failed: usize,
 }
 
+/// Most worker threads per core of the machine: each drives one child process at a time, and
+/// more children than this only contend for the cores (and for memory).
+pub const JOBS_PER_CORE: usize = 4;
+
+/// Check a worker count against this machine: from 1 to [`JOBS_PER_CORE`] times the cores
+/// (`std::thread::available_parallelism`).
+pub fn check_jobs(jobs: usize) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = JOBS_PER_CORE * cores;
+    if (1..=max).contains(&jobs) {
+        Ok(jobs)
+    } else {
+        Err(format!(
+            "must be between 1 and {max} ({JOBS_PER_CORE} per core, and this machine has \
+             {cores}), got {jobs}"
+        ))
+    }
+}
+
 /// Name of the lock file a sweep holds in its output directory.
 pub const LOCK_FILE: &str = ".lcpbench.lock";
 
@@ -299,6 +318,7 @@ pub fn run_sweep_locked(
             config.out_dir.display()
         );
     }
+    check_jobs(config.jobs).map_err(|m| anyhow::anyhow!("worker count {m}"))?;
     let mut summary = SweepSummary {
         stale_runners: remove_stale_runners(&config.out_dir),
         ..SweepSummary::default()
@@ -318,7 +338,7 @@ pub fn run_sweep_locked(
     // not swap the binary under a running sweep.
     let runner = private_copy(&config.exe, &config.out_dir);
     let exe_for_children = runner.clone().unwrap_or_else(|| config.exe.clone());
-    let (rx, workers) = spawn_workers(exe_for_children, todo, config.jobs);
+    let (rx, workers, spawned) = spawn_workers(exe_for_children, todo, config.jobs);
     let written = write_outputs(config, rx, &mut writers, &bar, &mut summary);
     let panicked = workers
         .into_iter()
@@ -330,6 +350,7 @@ pub fn run_sweep_locked(
     }
     bar.finish_and_clear();
     written?;
+    spawned?;
     if panicked > 0 {
         bail!(
             "{panicked} worker thread(s) of the sweep panicked; {} of {total} runs were written \
@@ -398,30 +419,46 @@ fn progress_bar(visible: bool, len: usize) -> ProgressBar {
     bar
 }
 
+/// Worker threads of a sweep.
+type Workers = Vec<std::thread::JoinHandle<()>>;
+
 /// Start `jobs` worker threads, each taking runs off the queue and running them in isolated
-/// children of `exe`; the outputs arrive on the returned channel.
+/// children of `exe`; the outputs arrive on the returned channel. When the system refuses a
+/// thread, the workers already started do the runs and the error is returned beside them.
 fn spawn_workers(
     exe: PathBuf,
     todo: VecDeque<Job>,
     jobs: usize,
-) -> (mpsc::Receiver<RunOutput>, Vec<std::thread::JoinHandle<()>>) {
+) -> (mpsc::Receiver<RunOutput>, Workers, Result<()>) {
     let queue = Arc::new(Mutex::new(todo));
     let (tx, rx) = mpsc::channel::<RunOutput>();
     let mut workers = Vec::new();
-    for _ in 0..jobs.max(1) {
+    for k in 0..jobs.max(1) {
         let queue = Arc::clone(&queue);
         let tx = tx.clone();
         let exe = exe.clone();
-        workers.push(std::thread::spawn(move || loop {
-            let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
-            let Some(job) = job else { break };
-            let output = run_isolated(&exe, &job.case, &job.solver, &job.budget);
-            if tx.send(output).is_err() {
-                break;
+        let spawned = std::thread::Builder::new()
+            .name(format!("sweep-worker-{k}"))
+            .spawn(move || loop {
+                let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
+                let Some(job) = job else { break };
+                let output = run_isolated(&exe, &job.case, &job.solver, &job.budget);
+                if tx.send(output).is_err() {
+                    break;
+                }
+            });
+        match spawned {
+            Ok(worker) => workers.push(worker),
+            Err(e) => {
+                let error = anyhow::anyhow!(
+                    "could start only {k} of {jobs} worker threads: {e}; the runs went to those"
+                );
+                // The senders left are the running workers': the channel ends with them.
+                return (rx, workers, Err(error));
             }
-        }));
+        }
     }
-    (rx, workers)
+    (rx, workers, Ok(()))
 }
 
 /// The appenders of `results.csv` and `histories.csv`.
