@@ -116,3 +116,34 @@ fn bench_refuses_worker_counts_the_machine_cannot_run() {
         );
     }
 }
+
+/// `--max-iter` is a total for the solve: 2,000 one-row islands that each run to Newton's
+/// stall window once took 50 iterations apiece, 100,000 in all for `--max-iter 100`.
+#[test]
+fn max_iter_bounds_the_whole_solve_not_each_island() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 2000;
+    let triplets: Vec<Value> = (0..n).map(|i| serde_json::json!([i, i, 0.0])).collect();
+    let problem = serde_json::json!({
+        "A": {"n": n, "triplets": triplets},
+        "b": vec![-1.0; n],
+    });
+    let file = write(dir.path(), "diag0.json", &problem.to_string());
+    let o = lcpbench(&[
+        "solve",
+        &file,
+        "-s",
+        "newton-fb",
+        "--max-iter",
+        "100",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let iterations = v["iterations"].as_u64().unwrap();
+    assert!(
+        iterations <= 100,
+        "{iterations} iterations for --max-iter 100"
+    );
+    assert_ne!(v["status"], "converged", "{v}");
+}

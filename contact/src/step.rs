@@ -285,7 +285,9 @@ pub struct SimSettings {
     /// Solver tolerance on the relative natural-map residual \[`1e-6`\] (for body-level
     /// solvers also their own stopping scale).
     pub tolerance: f64,
-    /// Solver iteration / pivot / sweep cap \[`1000`\].
+    /// Solver iteration / pivot / sweep cap of a step's solve \[`1000`\]. Islands solved
+    /// apart ([`SimSettings::islands`]) run in parallel and each gets the whole cap; a solver
+    /// that splits one problem itself shares it ([`Settings::max_iterations`]).
     pub max_iterations: usize,
     /// Warm-start iterative solvers from the previous step's impulses \[`true`\].
     pub warm_start: bool,

@@ -38,7 +38,9 @@ pub struct SimulateArgs {
     /// Solver tolerance (overrides the scene's).
     #[arg(long)]
     pub tol: Option<f64>,
-    /// Solver iteration / pivot / sweep cap per step (overrides the scene's).
+    /// Solver iteration / pivot / sweep cap of each step's solve (overrides the scene's). With
+    /// `islands = true` the islands of a step are solved in parallel, each up to this cap;
+    /// `--time-budget` bounds the step as a whole.
     #[arg(long)]
     pub max_iter: Option<usize>,
     /// Wall-time budget of each step's solve, seconds: a step whose solve runs out of it ends

@@ -24,7 +24,8 @@ pub struct SolveArgs {
     /// Tolerance on the relative natural-map residual.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
-    /// Iteration / pivot cap.
+    /// Iteration / pivot cap of the whole solve: a solver that splits the problem into
+    /// independent islands gives each what the islands before it left.
     #[arg(long, default_value_t = 10_000)]
     pub max_iter: usize,
     /// SOR relaxation factor (only with `--solver sor`).
