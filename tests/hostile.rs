@@ -147,3 +147,53 @@ fn max_iter_bounds_the_whole_solve_not_each_island() {
     );
     assert_ne!(v["status"], "converged", "{v}");
 }
+
+/// Budgets of a picosecond and condition numbers beyond round-off are refused with the limit.
+#[test]
+fn budgets_and_condition_numbers_beyond_their_limits_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let problem = write(dir.path(), "p.json", SMALL_PROBLEM);
+    let scene = write(dir.path(), "s.toml", BOX_SCENE);
+    let o = lcpbench(&["solve", &problem, "-s", "pgs", "--time-budget", "1e-300"]);
+    assert_refused(&o, &["--time-budget", "below the minimum of 1e-6 s"]);
+    let o = lcpbench(&["simulate", &scene, "--time-budget", "1e-300"]);
+    assert_refused(&o, &["--time-budget", "below the minimum of 1e-6 s"]);
+    let out = dir.path().join("b");
+    let o = lcpbench(&[
+        "bench",
+        "--lcps",
+        "spd:n=5:cond=10:seed=1",
+        "--solvers",
+        "pgs",
+        "--budgets",
+        "1e-8:100:1e-300",
+        "--out",
+        out.to_str().unwrap(),
+        "--no-progress",
+    ]);
+    assert_refused(&o, &["below the minimum of 1e-6 s"]);
+    let g = dir.path().join("g.json");
+    let o = lcpbench(&[
+        "gen",
+        "spd",
+        "--n",
+        "10",
+        "--cond",
+        "1e300",
+        "-o",
+        g.to_str().unwrap(),
+    ]);
+    assert_refused(&o, &["--cond must be between 1 and 1e12", "got 1e300"]);
+    assert!(!g.exists());
+    let o = lcpbench(&[
+        "bench",
+        "--lcps",
+        "spd:n=5:cond=1e300:seed=1",
+        "--solvers",
+        "pgs",
+        "--out",
+        out.to_str().unwrap(),
+        "--no-progress",
+    ]);
+    assert_refused(&o, &["cond = 1e300 must be between 1 and 1e12"]);
+}

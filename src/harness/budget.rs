@@ -38,12 +38,21 @@ pub enum SpecError {
 /// derived kill time cannot be represented as a [`Duration`], are refused up front.
 pub const MAX_TIME_BUDGET_S: f64 = 1e9;
 
-/// Check a time budget in seconds: finite, positive, at most [`MAX_TIME_BUDGET_S`], and
-/// representable as a [`Duration`]. The error says what is wrong.
+/// Smallest time budget accepted, seconds: a microsecond, about the cost of reading the clock a
+/// few times. A budget below it would end every solve before its first iteration.
+pub const MIN_TIME_BUDGET_S: f64 = 1e-6;
+
+/// Check a time budget in seconds: finite, at least [`MIN_TIME_BUDGET_S`], at most
+/// [`MAX_TIME_BUDGET_S`], and representable as a [`Duration`]. The error says what is wrong.
 pub fn time_budget(seconds: f64) -> Result<Duration, String> {
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err(format!(
             "time budget must be a positive number of seconds, got {seconds}"
+        ));
+    }
+    if seconds < MIN_TIME_BUDGET_S {
+        return Err(format!(
+            "time budget {seconds:e} s is below the minimum of {MIN_TIME_BUDGET_S:e} s"
         ));
     }
     if seconds > MAX_TIME_BUDGET_S {
