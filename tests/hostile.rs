@@ -197,3 +197,102 @@ fn budgets_and_condition_numbers_beyond_their_limits_are_refused() {
     ]);
     assert_refused(&o, &["cond = 1e300 must be between 1 and 1e12"]);
 }
+
+/// A closed 1 × 1 × 0.2 slab as Wavefront OBJ text, every face a `k × k` grid of triangles.
+fn grid_slab_obj(k: usize) -> String {
+    let mut index = std::collections::HashMap::new();
+    let (mut vertices, mut faces) = (String::new(), String::new());
+    let mut vertex = |p: [f64; 3]| -> usize {
+        let key = p.map(|x| (x * 1e6).round() as i64);
+        let next = index.len() + 1;
+        *index.entry(key).or_insert_with(|| {
+            vertices.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+            next
+        })
+    };
+    let h = 0.2;
+    let sides: [([f64; 3], [f64; 3], [f64; 3], bool); 6] = [
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], true),
+        ([0.0, 0.0, h], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], false),
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, h], false),
+        ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, h], true),
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, h], true),
+        ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, h], false),
+    ];
+    for (o, u, v, flip) in sides {
+        let at = |i: usize, j: usize| {
+            let (a, b) = (i as f64 / k as f64, j as f64 / k as f64);
+            [0, 1, 2].map(|c| o[c] + a * u[c] + b * v[c])
+        };
+        for i in 0..k {
+            for j in 0..k {
+                let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)].map(&mut vertex);
+                let (t1, t2) = if flip {
+                    ([q[0], q[2], q[1]], [q[0], q[3], q[2]])
+                } else {
+                    ([q[0], q[1], q[2]], [q[0], q[2], q[3]])
+                };
+                for t in [t1, t2] {
+                    faces.push_str(&format!("f {} {} {}\n", t[0], t[1], t[2]));
+                }
+            }
+        }
+    }
+    vertices + &faces
+}
+
+/// Scenes that used to abort the process (a dense 7.5 GB Delassus matrix, 3.8 GB of narrow
+/// phase) or read a device end with one message naming the limit.
+#[test]
+fn scenes_past_the_memory_limits_end_with_one_message() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "meshes/slab.obj", &grid_slab_obj(100));
+    let slab = write(
+        dir.path(),
+        "slab.toml",
+        &format!(
+            "{}[[bodies]]\nname = \"slab\"\nshape = {{ type = \"mesh\", file = \"meshes/slab.obj\" }}\n\
+             position = [0.0, 0.0, 0.1]\n",
+            BOX_SCENE.split("[[bodies]]\nname = \"box\"").next().unwrap()
+        ),
+    );
+    let o = lcpbench(&["simulate", &slab]);
+    assert_refused(
+        &o,
+        &[
+            "slab.toml: step 0",
+            "Delassus matrix would store",
+            "beyond the limit of 50000000",
+            "\"slab\"",
+        ],
+    );
+    let o = lcpbench(&[
+        "export",
+        &slab,
+        "-o",
+        dir.path().join("x.json").to_str().unwrap(),
+    ]);
+    assert_refused(&o, &["step 0 has no problem to export", "Delassus matrix"]);
+    let piled = write(
+        dir.path(),
+        "piled.toml",
+        "[[bodies]]\nname = \"s\"\nshape = { type = \"sphere\", radius = 0.1 }\n\
+         repeat = { count = [9999, 1, 1], spacing = [0.0, 0.0, 0.0] }\n",
+    );
+    let o = lcpbench(&["simulate", &piled]);
+    assert_refused(
+        &o,
+        &["piled.toml: bodies: at the start, more than 500000 pairs of bodies"],
+    );
+    let device = write(
+        dir.path(),
+        "device.toml",
+        "[[bodies]]\nname = \"m\"\nshape = { type = \"mesh\", file = \"/dev/zero\" }\n",
+    );
+    let o = lcpbench(&["simulate", &device]);
+    assert_refused(&o, &["bodies[0] (\"m\").shape.file", "is an absolute path"]);
+    let o = lcpbench(&["simulate", &device, "--allow-outside-paths"]);
+    assert_refused(&o, &["/dev/zero", "a device"]);
+    let o = lcpbench(&["simulate", "/dev/zero"]);
+    assert_refused(&o, &["/dev/zero", "a device"]);
+}

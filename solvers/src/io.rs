@@ -43,6 +43,7 @@
 
 #[cfg(feature = "fclib")]
 pub mod fclib;
+pub mod input;
 pub mod siconos;
 
 use crate::problem::{sparse_from_triplets, FrictionRow, Problem, ProblemError, Row};
@@ -436,6 +437,10 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<Problem, ProblemFileErro
     })
 }
 
+/// Largest problem file read, bytes: a dense `n = 10,000` problem as `lcpbench gen` writes it
+/// is about 2.5 GB of JSON. Devices, pipes and directories are refused whatever their size.
+pub const MAX_PROBLEM_FILE_BYTES: u64 = 4_000_000_000;
+
 /// Read a problem file of any supported format (see the module doc for how the format is
 /// chosen).
 pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
@@ -443,7 +448,7 @@ pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
         path: path.to_owned(),
         source,
     };
-    let bytes = std::fs::read(path).map_err(io_err)?;
+    let bytes = input::read_input_file(path, MAX_PROBLEM_FILE_BYTES).map_err(io_err)?;
     let format = ProblemFormat::detect(path, &bytes[..bytes.len().min(64)]);
     match format {
         ProblemFormat::Fclib => read_fclib(path),

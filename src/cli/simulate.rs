@@ -5,7 +5,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench::harness::export::{step_problem, StepProblem};
 use lcpbench::harness::SolverSpec;
-use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
+use lcpbench_contact::scene::{check_solver, LoadOptions, Scene, MAX_STEPS};
 use lcpbench_contact::step::{ContactSolver, PhaseTimes, StepReport, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{
@@ -67,6 +67,10 @@ pub struct SimulateArgs {
     /// Print the run's figures as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
+    /// leading out), which are refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
 }
 
 /// Arguments of `lcpbench export`.
@@ -100,6 +104,10 @@ pub struct ExportArgs {
     /// projected as the stepper passes them), which `lcpbench solve --warm` starts from.
     #[arg(long, short)]
     pub output: PathBuf,
+    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
+    /// leading out), which are refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
 }
 
 /// Refuse a step count beyond [`MAX_STEPS`] (or zero, for `--steps`).
@@ -135,8 +143,9 @@ fn load_world(
     path: &Path,
     solver: Option<&str>,
     friction_model: Option<&str>,
+    options: &LoadOptions,
 ) -> Result<(Scene, World)> {
-    let mut scene = Scene::load(path)?;
+    let mut scene = Scene::load_with(path, options)?;
     if let Some(model) = friction_model {
         let directions = match scene.settings.builder.friction_model {
             FrictionModel::Pyramid { directions } => directions,
@@ -388,15 +397,16 @@ impl SimTotals {
     }
 }
 
-/// Refuse a step the solver declined (`unsupported`), naming the step and a way out.
+/// Stop at a step that was not solved (`unsupported`: the solver declined it, or it is past
+/// one of the stepper's limits), naming the step, the reason and a way out.
 fn check_supported(args: &SimulateArgs, report: &StepReport) -> Result<()> {
     if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
         bail!(
-            "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+            "{}: step {} ({} rows) was not solved with {}: {reason}{}",
             args.scene.display(),
-            report.solver,
             report.step,
             report.rows,
+            report.solver,
             if reason.contains("friction row") {
                 " (try friction_model = \"pyramid\" or \"none\")"
             } else {
@@ -413,6 +423,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         &args.scene,
         args.solver.as_deref(),
         args.friction_model.as_deref(),
+        &LoadOptions {
+            allow_outside_paths: args.allow_outside_paths,
+        },
     )?;
     let steps = args.steps.unwrap_or(scene.settings.steps);
     check_steps("--steps", steps)?;
@@ -586,6 +599,9 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
         &args.scene,
         args.solver.as_deref(),
         args.friction_model.as_deref(),
+        &LoadOptions {
+            allow_outside_paths: args.allow_outside_paths,
+        },
     )?;
     check_steps("--step", args.step)?;
     apply_solver_overrides(args.tol, args.max_iter, args.time_budget, &mut world)?;
@@ -602,6 +618,11 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
             "step {} of {} has no contacts, so there is no LCP to export",
             args.step,
             args.scene.display()
+        ),
+        StepProblem::Refused(reason) => bail!(
+            "{}: step {} has no problem to export: {reason}",
+            args.scene.display(),
+            args.step
         ),
     };
     match &warm_start {
