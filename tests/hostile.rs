@@ -26,15 +26,16 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     p.to_str().unwrap().to_owned()
 }
 
-/// A refusal: exit status 1, one `error:` line naming what is wrong, no panic.
+/// A refusal: exit status 1, a last line `error: …` naming what is wrong, no panic.
 #[track_caller]
 fn assert_refused(o: &Output, wanted: &[&str]) {
     let err = stderr(o);
     assert_eq!(o.status.code(), Some(1), "expected a refusal, got:\n{err}");
     assert!(!err.contains("panicked"), "{err}");
-    assert!(err.starts_with("error: "), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: "), "{err}");
     for w in wanted {
-        assert!(err.contains(w), "`{w}` missing from:\n{err}");
+        assert!(last.contains(w), "`{w}` missing from:\n{err}");
     }
 }
 
@@ -295,4 +296,141 @@ fn scenes_past_the_memory_limits_end_with_one_message() {
     assert_refused(&o, &["/dev/zero", "a device"]);
     let o = lcpbench(&["simulate", "/dev/zero"]);
     assert_refused(&o, &["/dev/zero", "a device"]);
+}
+
+/// A sweep into `out` of two quick LCP runs; the command's output.
+fn quick_sweep(out: &Path) -> Output {
+    lcpbench(&[
+        "bench",
+        "--lcps",
+        "spd:n=5:cond=10:seed=1,spd:n=6:cond=10:seed=2",
+        "--solvers",
+        "pgs,lemke",
+        "--out",
+        out.to_str().unwrap(),
+        "--no-progress",
+    ])
+}
+
+/// Tables in an output directory that lcpbench did not write, or that another version wrote,
+/// are refused before anything changes, and left byte for byte as they were (they used to be
+/// replaced, "torn or repeated").
+#[test]
+fn a_sweep_never_overwrites_a_table_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let real = dir.path().join("real");
+    assert!(quick_sweep(&real).status.success());
+    let text = std::fs::read_to_string(real.join("results.csv")).unwrap();
+    let (header, rows) = text.split_once('\n').unwrap();
+    let foreign = "name,score\nalice,10\nbob,12\n".to_owned();
+    let renamed = format!("{}\n{rows}", header.replacen("case,", "kase,", 1));
+    let cut = |line: &str| {
+        let cells: Vec<&str> = line.split(',').collect();
+        cells[..cells.len() - 3].join(",")
+    };
+    let older: String = text.lines().map(|l| cut(l) + "\n").collect();
+    for (name, file, contents, wanted) in [
+        (
+            "foreign",
+            "results.csv",
+            &foreign,
+            "is not a table lcpbench wrote",
+        ),
+        (
+            "renamed",
+            "results.csv",
+            &renamed,
+            "is not a table lcpbench wrote",
+        ),
+        (
+            "older",
+            "results.csv",
+            &older,
+            "written by an older lcpbench",
+        ),
+        (
+            "histories",
+            "histories.csv",
+            &"my,precious,data\n1,2,3\n".to_owned(),
+            "is not a table lcpbench wrote",
+        ),
+    ] {
+        let out = dir.path().join(name);
+        write(&out, file, contents);
+        let o = quick_sweep(&out);
+        assert_refused(&o, &[&format!("{name}/{file}"), wanted]);
+        let now = std::fs::read_to_string(out.join(file)).unwrap();
+        assert_eq!(&now, contents, "{name}: the file changed");
+        assert!(!out.join("results.csv").exists() || file == "results.csv");
+    }
+    // An older table is still lcpbench's: the report reads it (new columns empty).
+    let rows = lcpbench::harness::sweep::read_results(&dir.path().join("older/results.csv"));
+    assert_eq!(rows.unwrap().len(), 4);
+    // A fresh report does not remove another program's file either.
+    let report = dir.path().join("report");
+    write(&report, "data/results.csv", &foreign);
+    let o = lcpbench(&[
+        "report",
+        "--quick",
+        "--out",
+        report.to_str().unwrap(),
+        "--scenes",
+        "no/such/*.toml",
+        "--no-progress",
+    ]);
+    assert_refused(&o, &["data/results.csv", "is not a table lcpbench wrote"]);
+    assert_eq!(
+        std::fs::read_to_string(report.join("data/results.csv")).unwrap(),
+        foreign
+    );
+}
+
+/// An unterminated quote in the middle of `results.csv` once dropped every row after it (144
+/// of 4,057); resuming and `report --no-run` now refuse with its line and change nothing.
+#[test]
+fn a_damaged_results_table_is_refused_with_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    assert!(quick_sweep(&out).status.success());
+    let path = out.join("results.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    assert_eq!(lines.len(), 5);
+    lines[2] = lines[2].replacen(",spd,", ",\"spd,", 1);
+    let damaged = lines.join("\n") + "\n";
+    std::fs::write(&path, &damaged).unwrap();
+    let o = quick_sweep(&out);
+    assert_refused(&o, &["results.csv: line 3:", "damaged"]);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), damaged);
+    let e = lcpbench::harness::sweep::read_results(&path).unwrap_err();
+    assert!(format!("{e:#}").contains("line 3"), "{e:#}");
+    // The report reads its data with the same reader.
+    let report = dir.path().join("report");
+    write(&report, "data/results.csv", &damaged);
+    let o = lcpbench(&[
+        "report",
+        "--no-run",
+        "--out",
+        report.to_str().unwrap(),
+        "--scenes",
+        "no/such/*.toml",
+    ]);
+    assert_refused(&o, &["results.csv: line 3:"]);
+}
+
+/// The lock file is never followed through a symbolic link (a sweep wrote its process id into
+/// the link's target).
+#[cfg(unix)]
+#[test]
+fn the_lock_is_never_taken_through_a_symbolic_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("precious.txt");
+    std::fs::write(&target, "keep me\n").unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::os::unix::fs::symlink(&target, out.join(".lcpbench.lock")).unwrap();
+    let o = quick_sweep(&out);
+    assert_refused(&o, &[".lcpbench.lock is a symbolic link"]);
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep me\n");
+    assert!(!out.join("results.csv").exists());
 }

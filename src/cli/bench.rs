@@ -253,9 +253,7 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         // Tables from existing data: the LCPs exported by the run that produced it.
         report::recorded_exports(&args.out)?
     } else {
-        if lcp_dir.exists() {
-            std::fs::remove_dir_all(&lcp_dir)?;
-        }
+        remove_exported_lcps(&lcp_dir)?;
         // Sorted by path, the order `--no-run` lists them in.
         let mut exported = lcpbench::harness::export::export_suite_lcps(
             &suite::suite_scenes(args.quick, &scenes),
@@ -295,6 +293,28 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         summary.sweep.failed,
         summary.readme.display()
     );
+    Ok(())
+}
+
+/// Remove the problems an earlier report exported into `dir` (`SCENE_stepK.json`), and
+/// nothing else there: the directory may hold files lcpbench did not write.
+fn remove_exported_lcps(dir: &std::path::Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let exported = name
+            .strip_suffix(".json")
+            .and_then(|stem| stem.rsplit_once("_step"))
+            .is_some_and(|(_, k)| !k.is_empty() && k.bytes().all(|c| c.is_ascii_digit()));
+        let regular = entry.file_type().is_ok_and(|t| t.is_file());
+        if exported && regular {
+            std::fs::remove_file(entry.path())
+                .with_context(|| format!("removing {}", entry.path().display()))?;
+        }
+    }
     Ok(())
 }
 
