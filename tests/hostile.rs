@@ -199,6 +199,9 @@ fn budgets_and_condition_numbers_beyond_their_limits_are_refused() {
     assert_refused(&o, &["cond = 1e300 must be between 1 and 1e12"]);
 }
 
+/// A face of a box: origin, the two edge vectors, and whether `u × v` points inward.
+type Face = ([f64; 3], [f64; 3], [f64; 3], bool);
+
 /// A closed 1 × 1 × 0.2 slab as Wavefront OBJ text, every face a `k × k` grid of triangles.
 fn grid_slab_obj(k: usize) -> String {
     let mut index = std::collections::HashMap::new();
@@ -212,7 +215,7 @@ fn grid_slab_obj(k: usize) -> String {
         })
     };
     let h = 0.2;
-    let sides: [([f64; 3], [f64; 3], [f64; 3], bool); 6] = [
+    let sides: [Face; 6] = [
         ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], true),
         ([0.0, 0.0, h], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], false),
         ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, h], false),
@@ -433,4 +436,191 @@ fn the_lock_is_never_taken_through_a_symbolic_link() {
     assert_refused(&o, &[".lcpbench.lock is a symbolic link"]);
     assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep me\n");
     assert!(!out.join("results.csv").exists());
+}
+
+/// The text of a page's data element, as an HTML parser delimits it: up to the first `</script`.
+fn data_element(html: &str) -> &str {
+    let open = "<script id=\"lcpbench-data\" type=\"application/json\">";
+    let start = html.find(open).expect("a data element") + open.len();
+    let len = html[start..].to_ascii_lowercase().find("</script").unwrap();
+    &html[start..start + len]
+}
+
+/// Names with `<!--<script>` put the HTML parser in its double-escaped script state (no canvas,
+/// no plots); names with `{{DATA}}` were replaced by the page's data. Now no name changes how
+/// the page parses, and the data reads back the same names.
+#[test]
+fn names_cannot_change_how_a_page_parses() {
+    let dir = tempfile::tempdir().unwrap();
+    let hostile = "<!--<script>{{DATA}}</script>&amp;";
+    let scene = write(
+        dir.path(),
+        "s.toml",
+        &format!(
+            "name = {:?}\n{}",
+            hostile,
+            BOX_SCENE.replace("name = \"box\"", &format!("name = {hostile:?}"))
+        ),
+    );
+    let page = dir.path().join("replay.html");
+    let o = lcpbench(&["simulate", &scene, "--html", page.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let problem = write(
+        dir.path(),
+        "p.json",
+        &serde_json::json!({"name": hostile, "A": [[2.0, 1.0], [1.0, 2.0]], "b": [-1.0, 1.0]})
+            .to_string(),
+    );
+    let solve_page = dir.path().join("problem.html");
+    let o = lcpbench(&["view", &problem, "-o", solve_page.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The scripts of each page: its own, the data, the vendored libraries and the app.
+    for (page, scripts) in [(page, 5), (solve_page, 4)] {
+        let html = std::fs::read_to_string(&page).unwrap();
+        let data = data_element(&html);
+        for opener in ["<!--", "<script", "</script"] {
+            assert!(!data.contains(opener), "{opener} in the data of {page:?}");
+        }
+        let value: Value = serde_json::from_str(data).expect("the data element is whole JSON");
+        assert!(value
+            .to_string()
+            .contains("<!--<script>{{DATA}}</script>&amp;"));
+        let title = &html[html.find("<title>").unwrap()..html.find("</title>").unwrap()];
+        assert!(title.contains("&lt;!--&lt;script&gt;{{DATA}}"), "{title}");
+        assert_eq!(html.matches("<script").count(), scripts, "{page:?}");
+    }
+}
+
+/// Recordings are checked against their header, and the page against its size bound.
+#[test]
+fn recordings_that_do_not_fit_their_header_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = |extra: &str, bodies: &str| {
+        format!(
+            r#"{{"recording": {{"version": 1, "scene": "s", "solver": "pgs", "dt": 0.01, "tolerance": 1e-6, "gravity": [0, 0, -9.81], "bodies": [{bodies}]{extra}}}}}"#
+        )
+    };
+    let ball = r#"{"name": "ball", "static": false, "shape": {"type": "sphere", "radius": 0.1}}"#;
+    let step = |body: &str, contact: &str| {
+        format!(
+            r#"{{"step": 0, "time": 0.01, "status": {{"status": "converged"}}, "iterations": 1, "solve_time_s": 0.0, "max_penetration": 0.0, "kinetic_energy": 0.0, "potential_energy": 0.0, "contact_records": [{contact}], "bodies": [{{"name": "{body}", "position": [0, 0, 1], "orientation": [1, 0, 0, 0]}}]}}"#
+        )
+    };
+    let good = format!("{}\n{}\n", header("", ball), step("ball", ""));
+    let many: Vec<String> = (0..10_001)
+        .map(|i| ball.replace("\"ball\"", &format!("\"b{i}\"")))
+        .collect();
+    let ghost_contact = r#"{"bodies": ["ghost", "ball"], "point": [0, 0, 0], "normal": [0, 0, 1], "dist": 0, "impulse": [0, 0, 0]}"#;
+    let cases = [
+        (
+            "negative radius",
+            good.replace("\"radius\": 0.1", "\"radius\": -1"),
+            "line 1: bodies[0] (\"ball\").shape: `radius` must be positive",
+        ),
+        (
+            "dt",
+            good.replace("\"dt\": 0.01", "\"dt\": -1"),
+            "line 1: dt: must be between 1e-6 and 0.1 s, got -1",
+        ),
+        (
+            "version",
+            good.replace("\"version\": 1", "\"version\": 99"),
+            "line 1: recording version 99 is unknown",
+        ),
+        (
+            "ghost body",
+            format!("{}\n{}\n", header("", ball), step("ghost", "")),
+            "line 2: step 0: body \"ghost\" is not in the header",
+        ),
+        (
+            "ghost contact",
+            format!("{}\n{}\n", header("", ball), step("ball", ghost_contact)),
+            "line 2: step 0: a contact names body \"ghost\"",
+        ),
+        (
+            "10,001 bodies",
+            format!("{}\n{}\n", header("", &many.join(", ")), step("b0", "")),
+            "line 1: bodies: 10001 bodies, beyond the limit of 10000",
+        ),
+    ];
+    for (name, text, wanted) in cases {
+        let rec = write(dir.path(), "r.jsonl", &text);
+        let page = dir.path().join("r.html");
+        let o = lcpbench(&["view", &rec, "-o", page.to_str().unwrap()]);
+        assert_refused(&o, &["r.jsonl: ", wanted]);
+        assert!(!page.exists(), "{name}: a page was written");
+    }
+    // --max-bytes is honoured, or refused when no page can meet it.
+    let rec = write(dir.path(), "r.jsonl", &good);
+    let page = dir.path().join("r.html");
+    for bound in ["0", "1000"] {
+        let o = lcpbench(&[
+            "view",
+            &rec,
+            "-o",
+            page.to_str().unwrap(),
+            "--max-bytes",
+            bound,
+        ]);
+        assert_refused(
+            &o,
+            &["--max-bytes must be at least", &format!("got {bound}")],
+        );
+    }
+    let scene = write(dir.path(), "s.toml", BOX_SCENE);
+    let o = lcpbench(&[
+        "simulate",
+        &scene,
+        "--html",
+        page.to_str().unwrap(),
+        "--max-bytes",
+        "0",
+    ]);
+    assert_refused(&o, &["--max-bytes must be at least"]);
+    let o = lcpbench(&["view", &rec, "-o", page.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// `view` of a problem runs every solver: `--time-budget` bounds them all together.
+#[test]
+fn a_problem_page_keeps_to_its_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let problem = write(dir.path(), "p.json", SMALL_PROBLEM);
+    let page = dir.path().join("p.html");
+    let o = lcpbench(&[
+        "view",
+        &problem,
+        "-o",
+        page.to_str().unwrap(),
+        "--time-budget",
+        "1e-300",
+    ]);
+    assert_refused(&o, &["--time-budget", "below the minimum"]);
+    // Murty's problem takes Lemke 2^n pivots: n = 40 never ends without a budget.
+    let g = dir.path().join("murty.json");
+    let o = lcpbench(&["gen", "murty", "--n", "40", "-o", g.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let start = std::time::Instant::now();
+    let o = lcpbench(&[
+        "view",
+        g.to_str().unwrap(),
+        "-o",
+        page.to_str().unwrap(),
+        "--max-iter",
+        "1000000000000",
+        "--time-budget",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let elapsed = start.elapsed().as_secs_f64();
+    assert!(elapsed < 20.0, "view took {elapsed:.1} s for a 2 s budget");
+    let html = std::fs::read_to_string(&page).unwrap();
+    let data: Value = serde_json::from_str(data_element(&html)).unwrap();
+    let total: f64 = data["solvers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["time_s"].as_f64().unwrap())
+        .sum();
+    assert!(total < 4.0, "the solvers took {total:.2} s of a 2 s budget");
 }

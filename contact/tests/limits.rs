@@ -47,6 +47,9 @@ fn refused_with(status: &Status, wanted: &str) {
     }
 }
 
+/// A face of a box: origin, the two edge vectors, and whether `u × v` points inward.
+type Face = ([f64; 3], [f64; 3], [f64; 3], bool);
+
 /// A closed 1 × 1 × 0.2 slab whose faces are `k × k` grids of triangles: lying on the ground,
 /// every vertex of its bottom touches it.
 fn grid_slab(k: u32) -> Shape {
@@ -61,8 +64,7 @@ fn grid_slab(k: u32) -> Shape {
         })
     };
     let h = 0.2;
-    // (origin, u, v, outward flip) of the six faces.
-    let faces: [([f64; 3], [f64; 3], [f64; 3], bool); 6] = [
+    let faces: [Face; 6] = [
         ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], true),
         ([0.0, 0.0, h], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], false),
         ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, h], false),
@@ -216,10 +218,8 @@ fn scene_nonsense_is_refused_with_the_field_and_the_limit() {
         ],
     );
     refused_scene(
-        &format!(
-            "[[bodies]]\nname = \"s\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\n\
-             repeat = {{ count = [2, 1, 1], spacing = [0.0, 0.0, 0.0] }}\n"
-        ),
+        "[[bodies]]\nname = \"s\"\nshape = { type = \"sphere\", radius = 0.1 }\n\
+         repeat = { count = [2, 1, 1], spacing = [0.0, 0.0, 0.0] }\n",
         &["(\"s_0\").position", "deep in \"s_1\""],
     );
     // Distances and sizes beyond their limits.

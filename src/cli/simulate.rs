@@ -61,7 +61,8 @@ pub struct SimulateArgs {
     /// Write the run as an interactive replay page (self-contained HTML; see `lcpbench view`).
     #[arg(long)]
     pub html: Option<PathBuf>,
-    /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D.
+    /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D; a
+    /// page that cannot fit (or a bound below what its scripts take) is an error.
     #[arg(long, default_value_t = lcpbench::view::DEFAULT_MAX_BYTES)]
     pub max_bytes: usize,
     /// Print the run's figures as one JSON object instead of text.
@@ -430,6 +431,14 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let steps = args.steps.unwrap_or(scene.settings.steps);
     check_steps("--steps", steps)?;
     apply_overrides(&args, &mut world)?;
+    let min = lcpbench::view::min_page_bytes(true);
+    if args.html.is_some() && args.max_bytes < min {
+        bail!(
+            "--max-bytes must be at least {min} (the page's scripts, styles and smallest data), \
+             got {}",
+            args.max_bytes
+        );
+    }
     let mut recorder = Recorder::new(&args)?;
     recorder.push(lcpbench::view::header(&scene.name, &world).to_string())?;
     let mut totals = SimTotals::new(&world);
