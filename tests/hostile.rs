@@ -624,3 +624,26 @@ fn a_problem_page_keeps_to_its_time_budget() {
         .sum();
     assert!(total < 4.0, "the solvers took {total:.2} s of a 2 s budget");
 }
+
+/// `import` takes a time budget for reading its input, validated like the others.
+#[test]
+fn import_keeps_to_its_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 20_000;
+    let triplets: Vec<Value> = (0..n).map(|i| serde_json::json!([i, i, 1.0])).collect();
+    let problem = serde_json::json!({"A": {"n": n, "triplets": triplets}, "b": vec![-1.0; n]});
+    let input = write(dir.path(), "big.json", &problem.to_string());
+    let output = dir.path().join("out.json");
+    let out = output.to_str().unwrap();
+    let o = lcpbench(&["import", &input, "-o", out, "--time-budget", "1e-300"]);
+    assert_refused(&o, &["--time-budget", "below the minimum"]);
+    let o = lcpbench(&["import", &input, "-o", out, "--time-budget", "1e-6"]);
+    assert_refused(
+        &o,
+        &["big.json: reading it took longer than the time budget"],
+    );
+    assert!(!output.exists());
+    let o = lcpbench(&["import", &input, "-o", out, "--time-budget", "600"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(output.exists());
+}
