@@ -159,6 +159,13 @@ fn budgets_and_condition_numbers_beyond_their_limits_are_refused() {
     assert_refused(&o, &["--time-budget", "below the minimum of 1e-6 s"]);
     let o = lcpbench(&["simulate", &scene, "--time-budget", "1e-300"]);
     assert_refused(&o, &["--time-budget", "below the minimum of 1e-6 s"]);
+    for args in [
+        &["solve", &problem, "-s", "pgs", "--tol", "1e-300"][..],
+        &["simulate", &scene, "--tol", "1e-300"],
+    ] {
+        let o = lcpbench(args);
+        assert_refused(&o, &["--tol", "1e-300 is below 1e-15"]);
+    }
     let out = dir.path().join("b");
     let o = lcpbench(&[
         "bench",

@@ -54,6 +54,24 @@ pub const SIZE_RANGE: (f64, f64) = (1e-6, 1e6);
 /// enter the problem, so a larger one pairs every body with every body near it.
 pub const MAX_CONTACT_DISTANCE: f64 = 1.0;
 
+/// Smallest tolerance on the relative residual (scenes, `--tol`, budgets): below it the residual
+/// measures the round-off of computing `w`, not the solve.
+pub const MIN_TOLERANCE: f64 = 1e-15;
+
+/// Largest Coulomb coefficient of a material (real ones are below a few).
+pub const MAX_MU: f64 = 100.0;
+
+/// Largest `penalty_omega_h`: a spring integrated over a step of `h` is stable only for
+/// `ω h < 2`.
+pub const MAX_PENALTY_OMEGA_H: f64 = 2.0;
+
+/// Largest `penalty_damping_ratio` and `penalty_stiffness` (N/m): beyond them the penalty force
+/// of a millimetre's overlap leaves `f64`'s useful range.
+pub const MAX_PENALTY_DAMPING_RATIO: f64 = 100.0;
+
+/// See [`MAX_PENALTY_DAMPING_RATIO`].
+pub const MAX_PENALTY_STIFFNESS: f64 = 1e20;
+
 /// Largest scene file read, bytes (10,000 bodies written out one by one take a few megabytes).
 pub const MAX_SCENE_FILE_BYTES: u64 = 16_000_000;
 
@@ -559,8 +577,11 @@ fn convert_materials(files: &[MaterialFile]) -> Result<Vec<Material>, FieldError
     let mut materials = Vec::new();
     for (i, m) in files.iter().enumerate() {
         let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
-        if !(m.mu.is_finite() && m.mu >= 0.0) {
-            return Err((field("mu"), format!("must be >= 0, got {}", m.mu)));
+        if !(m.mu.is_finite() && (0.0..=MAX_MU).contains(&m.mu)) {
+            return Err((
+                field("mu"),
+                format!("must be between 0 and {MAX_MU}, got {}", readable(m.mu)),
+            ));
         }
         if !(0.0..=1.0).contains(&m.restitution) {
             return Err((
@@ -811,8 +832,18 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
     let position_correction = PositionCorrection::from_name(&s.position_correction)
         .map_err(|m| err("position_correction", m))?;
     let penalty = Penalty {
-        omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
-        damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
+        omega_h: at_most(
+            "penalty_omega_h",
+            positive("penalty_omega_h", s.penalty_omega_h)?,
+            MAX_PENALTY_OMEGA_H,
+            "",
+        )?,
+        damping_ratio: at_most(
+            "penalty_damping_ratio",
+            s.penalty_damping_ratio,
+            MAX_PENALTY_DAMPING_RATIO,
+            "",
+        )?,
         stiffness: s.penalty_stiffness,
     };
     let solver = match &s.solver {
@@ -836,7 +867,12 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
         ));
     }
     if let Some(k) = s.penalty_stiffness {
-        positive("penalty_stiffness", k)?;
+        at_most(
+            "penalty_stiffness",
+            positive("penalty_stiffness", k)?,
+            MAX_PENALTY_STIFFNESS,
+            " N/m",
+        )?;
     }
     let ccd = ToiMethod::from_ccd_name(&s.ccd).map_err(|m| err("ccd", m))?;
     if s.max_iterations == 0 {
@@ -854,7 +890,12 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
         prediction_distance: contact_distance("prediction_distance", s.prediction_distance)?,
         builder: BuilderParams {
             friction_model,
-            restitution_threshold: non_negative("restitution_threshold", s.restitution_threshold)?,
+            restitution_threshold: at_most(
+                "restitution_threshold",
+                s.restitution_threshold,
+                MAX_SPEED,
+                " m/s",
+            )?,
             position_correction,
             baumgarte,
             slop: contact_distance("slop", s.slop)?,
@@ -870,13 +911,36 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
 }
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
-/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing).
+/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing), and at
+/// least [`MIN_TOLERANCE`].
 pub fn tolerance(tol: f64) -> Result<f64, String> {
-    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
-        Ok(tol)
-    } else {
-        Err(format!("must be a number in (0, 1), got {}", readable(tol)))
+    if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+        return Err(format!("must be a number in (0, 1), got {}", readable(tol)));
     }
+    if tol < MIN_TOLERANCE {
+        return Err(format!(
+            "{} is below {MIN_TOLERANCE:e}, where the relative residual measures round-off \
+             (ε = 2.2e-16 per operation), not the solve",
+            readable(tol)
+        ));
+    }
+    Ok(tol)
+}
+
+/// `settings.{field}`, a number in `[0, max]`.
+fn at_most(field: &str, v: f64, max: f64, unit: &str) -> Result<f64, FieldError> {
+    let v = non_negative(field, v)?;
+    if v > max {
+        return Err((
+            format!("settings.{field}"),
+            format!(
+                "must be at most {}{unit}, got {}",
+                readable(max),
+                readable(v)
+            ),
+        ));
+    }
+    Ok(v)
 }
 
 /// Euclidean length of `v`, or its largest component when the length overflows (so a message
@@ -1225,6 +1289,17 @@ fn expand_repeats(
                     j as f64 * spacing[1],
                     k as f64 * spacing[2],
                 );
+                let position = vec3(b.position) + offset;
+                if !position.iter().all(|x| x.abs() <= MAX_COORDINATE) {
+                    return Err(err(
+                        "repeat.spacing",
+                        format!(
+                            "copy {index} lands at {}, beyond the coordinate limit of {} m",
+                            readable(position.amax()),
+                            readable(MAX_COORDINATE)
+                        ),
+                    ));
+                }
                 let name = if repeated {
                     format!("{}_{index}", b.name)
                 } else {
@@ -1235,7 +1310,7 @@ fn expand_repeats(
                     name,
                     shape.clone(),
                     mass,
-                    Point3::from(vec3(b.position) + offset),
+                    Point3::from(position),
                     orientation,
                     vec3(b.velocity),
                     vec3(b.angular_velocity),

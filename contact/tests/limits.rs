@@ -249,6 +249,34 @@ fn scene_nonsense_is_refused_with_the_field_and_the_limit() {
             "outside 1e-9 to 1e15 kg",
         ],
     );
+    // Settings whose values only round-off or overflow could meet.
+    for (setting, wanted) in [
+        (
+            "tolerance = 1e-300",
+            "settings.tolerance: 1e-300 is below 1e-15",
+        ),
+        ("restitution_threshold = 1e300", "at most 10000 m/s"),
+        ("slop = 1e300", "settings.slop: must be at most 1 m"),
+        (
+            "solver = \"penalty\"\npenalty_stiffness = 1e300",
+            "settings.penalty_stiffness: must be at most 1e20 N/m",
+        ),
+        (
+            "solver = \"penalty\"\npenalty_omega_h = 1e300",
+            "settings.penalty_omega_h: must be at most 2",
+        ),
+    ] {
+        refused_scene(&format!("[settings]\n{setting}\n{GROUND}{BOX}"), &[wanted]);
+    }
+    refused_scene(
+        &format!("[[materials]]\nname = \"m\"\nmu = 1e300\n{GROUND}{BOX}"),
+        &["materials[0] (\"m\").mu", "between 0 and 100"],
+    );
+    refused_scene(
+        "[[bodies]]\nname = \"s\"\nshape = { type = \"sphere\", radius = 0.1 }\n\
+         repeat = { count = [3, 1, 1], spacing = [1e300, 0.0, 0.0] }\n",
+        &["bodies[0] (\"s\").repeat.spacing", "copy 1 lands at 1e300"],
+    );
     // Resting and slightly overlapping bodies (bench_scenes/overlap_25) still load.
     Scene::parse(&format!("{GROUND}{BOX}"), Path::new("ok.toml")).unwrap();
 }

@@ -72,6 +72,14 @@ pub fn run(args: ViewArgs) -> Result<()> {
             args.max_bytes
         );
     }
+    let jsonl = first.extension().is_some_and(|e| e == "jsonl");
+    if first.exists() && jsonl && !recording {
+        bail!(
+            "{}: not a recording: it does not start with the header line {{\"recording\": …}} \
+             that `lcpbench simulate --record` writes",
+            first.display()
+        );
+    }
     let html = if recording {
         let recordings = args
             .inputs

@@ -196,9 +196,9 @@ pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T
                     rows.push(row);
                     continue;
                 }
-                Err(e) => e.to_string(),
+                Err(e) => csv_problem(&e),
             },
-            Err(e) => e.to_string(),
+            Err(e) => csv_problem(&e),
         };
         let at = start.byte() as usize;
         let line = start.line();
@@ -226,6 +226,21 @@ pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T
         rows,
         torn_at: tail_torn.then(|| lines_before(complete) as u64),
     })
+}
+
+/// What is wrong with a row, without the reader's own position (the caller gives the line).
+fn csv_problem(e: &csv::Error) -> String {
+    match e.kind() {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => format!("the row has {len} cells where the header has {expected_len}"),
+        csv::ErrorKind::Deserialize { err, .. } => match err.field() {
+            Some(k) => format!("cell {}: {}", k + 1, err.kind()),
+            None => err.kind().to_string(),
+        },
+        csv::ErrorKind::Utf8 { err, .. } => format!("not UTF-8 text: {err}"),
+        _ => e.to_string(),
+    }
 }
 
 /// True when some line of `bytes`, read as rows of the table with `headers`, makes a row.
