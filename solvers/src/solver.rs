@@ -15,7 +15,9 @@ pub struct Settings {
     pub tolerance: f64,
     /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
     /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
-    /// Default `10_000`.
+    /// It is a total for one solve: a solver that splits the problem into independent islands
+    /// gives each island what the islands before it left, and ends `iteration_limit` when
+    /// nothing is left. Default `10_000`.
     pub max_iterations: usize,
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
@@ -550,8 +552,8 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
 
 /// Solve `problem` island by island with a solver that needs a dense `A` of at most `limit`
 /// rows: each independent sub-problem ([`Problem::islands`]) is densified and solved on its own
-/// (the warm start, tolerance and remaining time budget passed on; `max_iterations` applies per
-/// island), and the impulses are assembled. An island above `limit` rows makes the whole solve
+/// (the warm start, tolerance, remaining time budget and remaining iterations passed on:
+/// [`Settings::max_iterations`] is a total for the whole solve), and the impulses are assembled. An island above `limit` rows makes the whole solve
 /// `Unsupported` with the reason, never an out-of-memory abort. The status of the whole is then
 /// decided by the shared residual as always. Problems of at most `limit` rows stored dense are
 /// solved directly.
@@ -633,24 +635,22 @@ fn solve_islands_with(
             }
             sub_settings.time_budget = Some(left);
         }
+        // The islands not reached keep a zero impulse.
+        sub_settings.max_iterations = settings.max_iterations.saturating_sub(iterations);
+        if sub_settings.max_iterations == 0 {
+            if island_rank(&outcome) < island_rank(&Outcome::IterationLimit) {
+                outcome = Outcome::IterationLimit;
+            }
+            break;
+        }
         let r = solve_one(&sub, &sub_settings);
         iterations += r.iterations;
         for (k, &i) in rows.iter().enumerate() {
             f[i] = r.f[k];
         }
         let island_outcome = Outcome::of(r.status);
-        if island_outcome != Outcome::Stopped {
-            let o = island_outcome;
-            // The most telling outcome wins: unsupported and failures over limits.
-            let rank = |o: &Outcome| match o {
-                Outcome::Stopped => 0,
-                Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
-                Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
-                Outcome::Unsupported(_) => 3,
-            };
-            if rank(&o) > rank(&outcome) {
-                outcome = o;
-            }
+        if island_rank(&island_outcome) > island_rank(&outcome) {
+            outcome = island_outcome;
         }
         if matches!(outcome, Outcome::Unsupported(_)) {
             break;
@@ -658,6 +658,17 @@ fn solve_islands_with(
     }
     monitor.record(iterations, &f);
     monitor.finish(f, iterations, outcome)
+}
+
+/// How telling an island's outcome is for the whole solve: unsupported and failures over limits
+/// and stalls, those over a stop.
+fn island_rank(o: &Outcome) -> u8 {
+    match o {
+        Outcome::Stopped => 0,
+        Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
+        Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
+        Outcome::Unsupported(_) => 3,
+    }
 }
 
 #[cfg(test)]
@@ -704,6 +715,45 @@ mod tests {
         monitor.residual_of(&good);
         let r = monitor.finish(bad.clone(), 1, Outcome::Stopped);
         assert_eq!(r.residuals, residuals(&p, &bad));
+        assert_ne!(r.status, Status::Converged);
+    }
+
+    /// `max_iterations` is a total for the solve: each island gets what the islands before it
+    /// left, and the islands past the cap are not solved (a 20,000-row problem of one-row
+    /// islands once ran `n` times the cap).
+    #[test]
+    fn islands_share_the_iteration_cap() {
+        let n = 60;
+        let a = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                4.0
+            } else if i / 20 == j / 20 && i.abs_diff(j) == 1 {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
+        let settings = Settings {
+            max_iterations: 25,
+            ..Settings::default()
+        };
+        let mut given = Vec::new();
+        let r = solve_by_islands(&p, &settings, 1000, |island, s| {
+            given.push(s.max_iterations);
+            // Every island spends 15 iterations, or the cap it is given.
+            let spent = s.max_iterations.min(15);
+            let outcome = if spent < 15 {
+                Outcome::IterationLimit
+            } else {
+                Outcome::Stopped
+            };
+            let mut r = Monitor::new(island, s).finish(vec![0.0; island.n()], spent, outcome);
+            r.iterations = spent;
+            r
+        });
+        assert_eq!(given, vec![25, 10], "the third island gets nothing");
+        assert_eq!(r.iterations, 25);
         assert_ne!(r.status, Status::Converged);
     }
 

@@ -3,6 +3,7 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget::{self, catalogue, SolverSpec};
+use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, read_problem, ConeProblem, ConeSolverKind,
     Problem, ProblemFileError, ProblemFormat, Settings, SolveResult, Solver, SolverKind, Status,
@@ -24,7 +25,8 @@ pub struct SolveArgs {
     /// Tolerance on the relative natural-map residual.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
-    /// Iteration / pivot cap.
+    /// Iteration / pivot cap of the whole solve: a solver that splits the problem into
+    /// independent islands gives each what the islands before it left.
     #[arg(long, default_value_t = 10_000)]
     pub max_iter: usize,
     /// SOR relaxation factor (only with `--solver sor`).
@@ -111,9 +113,11 @@ pub fn run(args: SolveArgs) -> Result<()> {
         SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
         SolverName::Cone(_) => None,
     };
-    let bytes = std::fs::read(&args.problem).map_err(|source| ProblemFileError::Io {
-        path: args.problem.clone(),
-        source,
+    let bytes = read_input_file(&args.problem, MAX_PROBLEM_FILE_BYTES).map_err(|source| {
+        ProblemFileError::Io {
+            path: args.problem.clone(),
+            source,
+        }
     })?;
     let head = &bytes[..bytes.len().min(64)];
     let json = matches!(

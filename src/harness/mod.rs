@@ -4,7 +4,8 @@
 //! Flow: [`case`] (what to solve) × [`budget`] (solver specification and budget) → [`sweep`]
 //! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
 //! solve an LCP, or step a scene via [`scene`], whose rows [`metrics`] fills) → [`record`] (the
-//! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
+//! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step;
+//! [`outdir`] keeps the rules of the output directory (lock, tables, what is never overwritten).
 //!
 //! Imports go one way: `record` knows `case` and `budget`; `run`, `scene` and `isolate` know
 //! `record`; `sweep` knows `isolate`.
@@ -14,6 +15,7 @@ pub mod case;
 pub mod export;
 pub mod isolate;
 pub mod metrics;
+pub mod outdir;
 pub mod record;
 pub mod run;
 pub mod scene;
