@@ -34,6 +34,14 @@
 //!     `nnz_i · ε` in these units, so tolerances down to about `1e-13` are reachable);
 //!   - a row whose data all vanish at `f` (`b_i = 0` and every `A_ij f_j = 0`) has `s_i = 0`
 //!     and must be solved exactly (`f_i` inside its bounds), which every solver here does.
+//!
+//!   The step is computed without forming `f_i − w_i / d_i` as a value: that point is only
+//!   compared with the bounds; inside them the step is `|w_i| / d_i`, at a bound `|f_i − bound|`.
+//!   So a huge `f_i` cannot absorb `w_i`, and a tiny, huge or subnormal `d_i` cannot make the step
+//!   or its ratio to `s_i` round to 0 (`step / s_i` is formed as `|w_i| / t_i` or
+//!   `|f_i − bound| · d_i / t_i`, through logarithms when the product leaves the normal range).
+//!   A row whose term magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` overflows, or whose ratio is NaN,
+//!   counts as `∞`: never as 0.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
@@ -78,29 +86,60 @@ impl Residuals {
     };
 }
 
+/// Row `i`'s natural-map step in velocity units, `d_i · |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|`,
+/// and the same step divided by `t_i`, computed without forming `f_i − w_i / d_i` as a value: the
+/// point `f_i − w_i / d_i` is only compared with the bounds. A row inside its bounds has step
+/// `|w_i|` (no division by `d_i`, no cancellation of `w_i` against a large `f_i`); a row clamped
+/// at a bound has step `|f_i − bound| · d_i`. So a tiny, huge or subnormal `d_i` or a huge `f_i`
+/// cannot round the step to 0, and the ratio `step / t_i` is formed without overflow or
+/// underflow to 0 ([`ratio`]).
 #[inline]
-fn mid(lo: f64, hi: f64, x: f64) -> f64 {
-    x.max(lo).min(hi)
+fn row_step(f_i: f64, lo: f64, hi: f64, w_i: f64, d: f64, t: f64) -> (f64, f64) {
+    let x = f_i - w_i / d;
+    let gap = if x < lo {
+        Some(f_i - lo)
+    } else if x > hi {
+        Some(f_i - hi)
+    } else {
+        None
+    };
+    match gap {
+        Some(g) => (g.abs() * d, ratio(g.abs(), d, t)),
+        None => (w_i.abs(), ratio(w_i.abs(), 1.0, t)),
+    }
+}
+
+/// `a · b / c` for `a, b >= 0` and `c >= 0`, with `0/0 = 0` and `x/0 = ∞` for `x > 0`, and
+/// without overflow or underflow of the intermediate product: when `a · b` leaves the normal
+/// range, the product is formed in logarithms.
+#[inline]
+fn ratio(a: f64, b: f64, c: f64) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    if c.is_nan() || c <= 0.0 {
+        return f64::INFINITY;
+    }
+    let p = a * b;
+    if p.is_normal() {
+        p / c
+    } else {
+        (a.ln() + b.ln() - c.ln()).exp()
+    }
 }
 
 /// Row `i`'s relative natural-map error `|f_i − mid(lo_i, hi_i, f_i − w_i/d_i)| / s_i` given
 /// `w_i` and the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of the terms that make it up (see the
 /// module doc; [`crate::Row::dot_and_magnitude`] gives both). Sweeping solvers use it for their
-/// own stopping rules, so that they stop where the shared residual agrees.
+/// own stopping rules, so that they stop where the shared residual agrees. A non-finite `t_i`
+/// (terms beyond the range of `f64`) gives `∞`: such a row cannot be measured.
 #[inline]
 pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i: f64) -> f64 {
     let d = problem.diagonal_scale_of(i);
     let (lo, hi) = problem.bounds_at(i, f);
-    let r = (f[i] - mid(lo, hi, f[i] - w_i / d)).abs();
-    relative(r, t_i / d)
-}
-
-#[inline]
-fn relative(r: f64, s: f64) -> f64 {
-    if r == 0.0 {
-        0.0
-    } else if s > 0.0 {
-        r / s
+    let rel = row_step(f[i], lo, hi, w_i, d, t_i).1;
+    if t_i.is_finite() && !rel.is_nan() {
+        rel
     } else {
         f64::INFINITY
     }
@@ -128,11 +167,17 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
         let d = problem.diagonal_scale_of(i);
         let (lo, hi) = problem.bounds_at(i, f);
         let fi = f[i];
-        r.natural_map = r.natural_map.max((fi - mid(lo, hi, fi - wi)).abs());
-        let step = (fi - mid(lo, hi, fi - wi / d)).abs();
-        r.natural_map_rel = r
-            .natural_map_rel
-            .max(relative(step, (b[i].abs() + magnitude) / d));
+        let t = b[i].abs() + magnitude;
+        let absolute = row_step(fi, lo, hi, wi, 1.0, 1.0).0;
+        let rel = row_step(fi, lo, hi, wi, d, t).1;
+        // A row whose terms overflow cannot be measured; a NaN never passes as 0.
+        let rel = if t.is_finite() && !rel.is_nan() {
+            rel
+        } else {
+            f64::INFINITY
+        };
+        r.natural_map = r.natural_map.max(absolute);
+        r.natural_map_rel = r.natural_map_rel.max(rel);
         if lo.is_finite() {
             r.complementarity_gap += (fi - lo).max(0.0) * wi.max(0.0);
         }
@@ -290,5 +335,58 @@ mod tests {
         .unwrap();
         let f = [0.2, 0.1, 0.7];
         assert_eq!(residuals(&dense, &f), residuals(&sparse, &f));
+    }
+
+    fn diagonal(d: f64, b: &[f64]) -> Problem {
+        let n = b.len();
+        Problem::lcp(
+            Mat::from_fn(n, n, |i, j| if i == j { d } else { 0.0 }),
+            b.to_vec(),
+        )
+        .unwrap()
+    }
+
+    /// A row scale that overflows, underflows or is subnormal cannot round a row's residual to
+    /// 0: at `f = 0` with `b < 0` every row is 100 % wrong, whatever `A_ii`.
+    #[test]
+    fn extreme_row_scales_cannot_zero_the_residual() {
+        for (d, b) in [
+            (1e-300, -1e10),
+            (5e-324, -1.0),
+            (1e300, -1e-300),
+            (1.0, -1.0),
+        ] {
+            let p = diagonal(d, &[b, b]);
+            assert_eq!(residuals(&p, &[0.0, 0.0]).natural_map_rel, 1.0, "d = {d:e}");
+        }
+        // A finite impulse far short of the (unrepresentable) solution 1/5e-324.
+        let p = diagonal(5e-324, &[-1.0, -1.0]);
+        let r = residuals(&p, &[1e300, 1e300]).natural_map_rel;
+        assert!(r > 0.9, "{r}");
+    }
+
+    /// A huge impulse cannot absorb the velocity in `f − (f − w)`: with `A = 0`, `b = −1` no `f`
+    /// solves the problem, and `f = 9e15` is as wrong as `f = 0`.
+    #[test]
+    fn a_huge_impulse_does_not_absorb_its_velocity() {
+        let p = diagonal(0.0, &[-1.0, -2.0]);
+        for f in [0.0, 9e15, 1e300] {
+            let r = residuals(&p, &[f, f]);
+            assert_eq!(r.natural_map_rel, 1.0, "f = {f:e}");
+            assert_eq!(r.natural_map, 2.0, "f = {f:e}");
+        }
+    }
+
+    /// Terms whose magnitudes overflow leave a row unmeasurable: `∞`, never 0 or NaN.
+    #[test]
+    fn overflowing_magnitudes_are_infinitely_wrong() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let r = residuals(&p, &[1.7e308, 1.7e308]);
+        assert_eq!(r.natural_map_rel, f64::INFINITY);
+        assert_eq!(
+            relative_row_error(&p, 0, &[1.7e308, 1.7e308], -1.0, f64::INFINITY),
+            f64::INFINITY
+        );
     }
 }
