@@ -321,6 +321,45 @@ fn solve_refuses_tolerances_outside_zero_one() {
     assert!(err.contains("got 1e300"), "{err}");
 }
 
+/// A tolerance below round-off is refused with the reason (it could be met only by chance, and
+/// its failure would say nothing about the problem), by `solve`, `simulate` and bench budgets.
+#[test]
+fn tolerances_below_round_off_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "p.json", TWO_ROWS);
+    for tol in ["1e-300", "1e-15", "5e-324"] {
+        refused(
+            &["solve", &file, "--solver", "enum", "--tol", tol],
+            &["--tol", "below 1e-14", "round"],
+        );
+    }
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/box_on_ground.toml"
+    );
+    refused(
+        &["simulate", scene, "--tol", "1e-300"],
+        &["--tol", "below 1e-14"],
+    );
+    let out = dir.path().join("out");
+    refused(
+        &[
+            "bench",
+            "--lcps",
+            &format!("file:{file}"),
+            "--solvers",
+            "pgs",
+            "--budgets",
+            "1e-300:100:1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &["below 1e-14"],
+    );
+    let o = lcpbench(&["solve", &file, "--solver", "enum", "--tol", "1e-14"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn an_invalid_omega_is_an_input_error_not_unsupported() {
     let dir = tempfile::tempdir().unwrap();

@@ -14,6 +14,7 @@ use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection}
 use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
 use crate::step::{ContactSolver, Event, SimSettings, World};
+use lcpbench_solvers::metrics::MIN_TOLERANCE;
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -752,12 +753,24 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
 }
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
-/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing).
+/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing), and at
+/// least [`MIN_TOLERANCE`] (below it the relative residual of a correctly rounded solution is
+/// round-off, so the tolerance would be met only by chance).
 pub fn tolerance(tol: f64) -> Result<f64, String> {
-    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
-        Ok(tol)
+    if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+        Err(format!(
+            "must be a number in (0, 1) on the relative residual, got {}",
+            readable(tol)
+        ))
+    } else if tol < MIN_TOLERANCE {
+        Err(format!(
+            "{} is below {MIN_TOLERANCE:e}: the relative residual of a correctly rounded \
+             solution is about 4 (nnz + 1) ε per row, so a smaller tolerance would be met only by \
+             chance",
+            readable(tol)
+        ))
     } else {
-        Err(format!("must be a number in (0, 1), got {}", readable(tol)))
+        Ok(tol)
     }
 }
 
