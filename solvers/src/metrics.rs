@@ -18,23 +18,27 @@
 //!   (`b_i / d_i` and each `A_ij f_j / d_i`, the row's own `f_i` included), the componentwise
 //!   backward-error scale of Oettli and Prager. So:
 //!   - no other row can hide a row's error: a weak row (tiny `A_ii`), a huge finite bound or a
-//!     huge `b_k` elsewhere changes only that row's own scale (an earlier definition divided
-//!     every row by one global `max(‖D⁻¹b‖∞, largest bound)` and was fooled by exactly these);
+//!     huge `b_k` elsewhere changes only that row's own scale (one global scale such as
+//!     `max(‖D⁻¹b‖∞, largest bound)` is fooled by exactly these);
 //!   - bounds do not enter `s_i`, so a huge finite bound cannot hide the error of its own row
 //!     either (an active bound enters through `|A_ii f_i| / d_i = |f_i|`);
 //!   - it is invariant under every positive diagonal scaling of rows and of columns
 //!     (`A → R A C`, `b → R b`, `f → C⁻¹ f`: row `i`'s numerator and `s_i` both scale by
 //!     `1 / c_i`), so under symmetric scaling over any number of decades, under `(A, b) → (σA, σb)`
 //!     and under `b → σb` for the standard LCP;
-//!   - a blown-up impulse cannot pass: a row's numerator is a step of the natural map, and a
-//!     diverging or wrong `f` makes that step as large as the terms it is measured against. When
-//!     `r_rel <= tol`, each row's natural-map step is at most `tol` times the magnitude of the
-//!     data that row's velocity is made of, the level of a relative perturbation `tol` of that
-//!     row of `A` and of `b_i` (the row's rounding error in computing `w_i` is about
+//!   - when `r_rel <= tol`, each row's natural-map step is at most `tol` times the magnitude of
+//!     the data that row's velocity is made of, the level of a relative perturbation `tol` of
+//!     that row of `A` and of `b_i` (the row's rounding error in computing `w_i` is about
 //!     `nnz_i · ε` in these units, so tolerances down to about `1e-13` are reachable; the command
 //!     line refuses tolerances below [`MIN_TOLERANCE`]);
 //!   - a row whose data all vanish at `f` (`b_i = 0` and every `A_ij f_j = 0`) has `s_i = 0`
-//!     and must be solved exactly (`f_i` inside its bounds), which every solver here does.
+//!     and must be solved exactly (`f_i` inside its bounds), which every solver here does;
+//!   - what it cannot see: `s_i` grows with `f`. On a problem without a solution, an impulse
+//!     growing along a direction that `A` cancels keeps every step bounded while the scales
+//!     grow, so `r_rel` falls like `1/‖f‖` and passes any tolerance. `A = [[1, −1], [−1, 1]]`,
+//!     `b = (−1, −1)` has none (`z = (1, 1) >= 0`, `A z = 0`, `zᵀ b < 0`: Farkas), yet
+//!     `f = t z` leaves `w = b` and `r_rel = 1 / (2t + 1)`. The data-resolution test below
+//!     catches it.
 //!
 //!   The step is computed without forming `f_i − w_i / d_i` as a value: that point is only
 //!   compared with the bounds; inside them the step is `|w_i| / d_i`, at a bound `|f_i − bound|`.
@@ -43,13 +47,37 @@
 //!   `|f_i − bound| · d_i / t_i`, through logarithms when the product leaves the normal range).
 //!   A row whose term magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` overflows, or whose ratio is NaN,
 //!   counts as `∞`: never as 0.
+//! * **data resolution**, the second half of `converged`. With `e_i = d_i · step_i` (velocity
+//!   units), `t_i = d_i s_i`, and the row's *data scale* `D_i` ([`data_scale`]: the largest
+//!   velocity the data put into row `i`, as `|b_i|` or through its couplings), a row is resolved
+//!   when
+//!
+//!   ```text
+//!   e_i <= RESOLUTION · D_i + 4 (nnz_i + 1) ε · t_i,      RESOLUTION = 0.05:
+//!   ```
+//!
+//!   its velocity error is at most 5 % of the velocities the problem's data produce there, or
+//!   round-off. A result with `r_rel <= tol` and an unresolved row ([`unresolved_row`]) met the
+//!   tolerance only because the row's terms are far larger than its data and cancel: a
+//!   diverging impulse (the example: `e = 1 = D`). `D_i` follows every positive diagonal
+//!   scaling of rows and columns as `w_i` does, so the test keeps the invariance above, and a
+//!   row whose own data are 0 or round-off (a resting contact's friction rows) takes its
+//!   neighbours'. What it cannot tell apart: a problem with a solution whose rows cancel by
+//!   `κ = t_i / D_i` (a mass ratio `κ`), solved to a tolerance with `tol · κ > RESOLUTION`,
+//!   leaves steps that may reach the data scale too, and is reported the same way (its
+//!   velocities are not known to 5 % of the data; a tighter tolerance resolves it); an impulse
+//!   diverging on a problem infeasible by less than `RESOLUTION` of a row's data scale, or next
+//!   to a row whose data are far larger (they raise `D_i`), passes; and a solution of a
+//!   floating-point problem whose terms exceed its data by `1/ε`, solved to round-off, passes
+//!   (the stored problem may well have it).
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
 //! * **bound violation** `max_i max(lo_i − f_i, f_i − hi_i, 0)`.
 //!
 //! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse, and
-//! any non-finite entry in `f` makes every measure `+∞`.
+//! any non-finite entry in `f` makes every measure `+∞`; the data scales cost a few more passes,
+//! taken only for a result that meets its tolerance.
 //!
 //! Reference: W. Oettli, W. Prager, *Compatibility of approximate solution of linear equations
 //! with given error bounds for coefficients and right-hand sides*, Numer. Math. 6 (1964).
@@ -198,6 +226,122 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
 /// `4 (nnz_i + 1) ε` in row `i` (`4e-15` for a row of a few entries, `1e-13` at a hundred), so
 /// a smaller tolerance is met only by chance, and its failure says nothing about the problem.
 pub const MIN_TOLERANCE: f64 = 1e-14;
+
+/// The largest natural-map step a converged result may leave in a row, as a share of the row's
+/// [data scale](data_scale) (the data-resolution test of the module doc).
+pub const RESOLUTION: f64 = 0.05;
+
+/// The row that a result resolves worst against the problem's data: its natural-map step
+/// `e_i = d_i · |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|` (velocity units), the row's
+/// [data scale](data_scale) `D_i` and the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of its terms.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Unresolved {
+    /// Row index.
+    pub row: usize,
+    /// `e_i`.
+    pub step: f64,
+    /// `D_i`.
+    pub data_scale: f64,
+    /// `t_i`.
+    pub magnitude: f64,
+}
+
+impl Unresolved {
+    /// `(e_i − u_i t_i)⁺ / D_i`, with `u_i = 4 (nnz_i + 1) ε` the round-off of the row's
+    /// velocity: the share of the data scale that the step exceeds round-off by.
+    pub fn ratio(&self, nnz: usize) -> f64 {
+        let excess = (self.step - round_off(nnz) * self.magnitude).max(0.0);
+        if excess == 0.0 {
+            0.0
+        } else if self.data_scale > 0.0 {
+            excess / self.data_scale
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The relative round-off `4 (nnz + 1) ε` of a velocity summed from `nnz` products and `b_i`.
+fn round_off(nnz: usize) -> f64 {
+    4.0 * (nnz as f64 + 1.0) * f64::EPSILON
+}
+
+/// Each row's data scale `D_i`, in the row's velocity units: the largest velocity the data put
+/// into row `i` directly (`|b_i|`) or through the rows it is coupled to. With `β_j = |b_j| / d_j`
+/// (the impulse that cancels row `j`'s own data), raised along the couplings to
+/// `β_i ← max(β_i, max_j |A_ij| β_j / d_i)` by alternating sweeps (at most 32, until no entry
+/// grows by more than 0.1 %), `D_i = max(|b_i|, max_{j≠i} |A_ij| β_j)`. It follows every
+/// positive diagonal scaling of rows and columns as `w_i` does, and a row whose own data are 0
+/// or round-off (a resting contact's friction rows) gets its neighbours'. `O(nnz)` per sweep.
+pub fn data_scale(problem: &Problem) -> Vec<f64> {
+    let n = problem.n();
+    let b = problem.b();
+    let d = problem.diagonal_scale();
+    let mut beta: Vec<f64> = (0..n).map(|i| ratio(b[i].abs(), 1.0, d[i])).collect();
+    let coupled = |beta: &[f64], i: usize| {
+        problem.row(i).iter().fold(0.0f64, |m, (j, a)| {
+            if j == i || a == 0.0 {
+                m
+            } else {
+                m.max(ratio(a.abs(), beta[j], 1.0))
+            }
+        })
+    };
+    for sweep in 0..32 {
+        let mut grew = false;
+        for k in 0..n {
+            let i = if sweep % 2 == 0 { k } else { n - 1 - k };
+            let through = ratio(coupled(&beta, i), 1.0, d[i]);
+            if through > beta[i] * (1.0 + 1e-3) {
+                beta[i] = through;
+                grew = true;
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
+    (0..n).map(|i| b[i].abs().max(coupled(&beta, i))).collect()
+}
+
+/// The row with the largest [`Unresolved::ratio`] at `f` (with `w = A f + b` given), when that
+/// ratio exceeds [`RESOLUTION`]: a row whose natural-map step is a sizeable share of the
+/// velocities the problem's data produce, so that its relative residual is small only because
+/// its terms are much larger than its data and cancel. `None` when every row is resolved (or
+/// the lengths do not match).
+pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresolved> {
+    let n = problem.n();
+    if f.len() != n || w.len() != n {
+        return None;
+    }
+    let b = problem.b();
+    let mut worst: Option<(f64, Unresolved)> = None;
+    let mut scales: Option<Vec<f64>> = None;
+    for i in 0..n {
+        let row = problem.row(i);
+        let (_, magnitude) = row.dot_and_magnitude(f);
+        let t = b[i].abs() + magnitude;
+        let (lo, hi) = problem.bounds_at(i, f);
+        let step = row_step(f[i], lo, hi, w[i], problem.diagonal_scale_of(i), t).0;
+        // Rows within round-off need no data scale; the scales are computed once, on demand.
+        if step.is_nan() || step <= round_off(row.len()) * t {
+            continue;
+        }
+        let data = scales.get_or_insert_with(|| data_scale(problem))[i];
+        let u = Unresolved {
+            row: i,
+            step,
+            data_scale: data,
+            magnitude: t,
+        };
+        let r = u.ratio(row.len());
+        let r = if r.is_nan() { f64::INFINITY } else { r };
+        if r > RESOLUTION && worst.as_ref().is_none_or(|(m, _)| r > *m) {
+            worst = Some((r, u));
+        }
+    }
+    worst.map(|(_, u)| u)
+}
 
 /// A global impulse scale `max(‖D⁻¹ b‖∞, largest finite fixed bound)` (1 when zero). It no
 /// longer defines the residual; pivoting solvers use it only to size their internal round-off
@@ -395,5 +539,69 @@ mod tests {
             relative_row_error(&p, 0, &[1.7e308, 1.7e308], -1.0, f64::INFINITY),
             f64::INFINITY
         );
+    }
+
+    /// The data-resolution test: an impulse growing along the null direction of the 2×2 problem
+    /// without a solution meets any tolerance but leaves its rows unresolved; the solution of a
+    /// solvable problem, a resting contact's friction row with `b = 0`, and a row solved to
+    /// round-off are resolved.
+    #[test]
+    fn a_diverging_impulse_is_unresolved() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        for t in [1e4, 1e8, 1e12] {
+            let f = [t, t];
+            let w = p.velocity(&f);
+            assert!(residuals(&p, &f).natural_map_rel < 1.0 / t);
+            let u = unresolved_row(&p, &f, &w).expect("unresolved");
+            assert_eq!((u.step, u.data_scale), (1.0, 1.0));
+        }
+        // Solvable: A = [[2, 1], [1, 2]], b = (−1, −1), f = (1/3, 1/3).
+        let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let f = [1.0 / 3.0, 1.0 / 3.0];
+        assert!(unresolved_row(&p, &f, &p.velocity(&f)).is_none());
+        // A friction row with b = 0 whose velocity is 1e-9 of its terms: its neighbours' data
+        // give it a scale, and the step is far inside it.
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, 0.5], [0.5, 1.0]][i][j]);
+        let p = Problem::boxed(
+            a,
+            vec![-1.0, 0.0],
+            vec![0.0, 0.0],
+            vec![f64::INFINITY, 0.0],
+            vec![crate::FrictionRow {
+                row: 1,
+                normal: 0,
+                mu: 1.0,
+            }],
+        )
+        .unwrap();
+        let f = [4.0 / 3.0, -2.0 / 3.0 + 1e-9];
+        let w = p.velocity(&f);
+        assert!(w[1].abs() > 1e-10);
+        assert!(unresolved_row(&p, &f, &w).is_none());
+        assert_eq!(data_scale(&p), vec![1.0, 0.5]);
+    }
+
+    /// Data scales follow every positive diagonal scaling of rows and columns as velocities
+    /// do, so the test's verdict is invariant: `D → R D` under `A → R A C`, `b → R b`.
+    #[test]
+    fn data_scales_follow_row_and_column_scaling() {
+        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, -1.0], [0.5, -1.0, 2.0]];
+        let b = [-1.0, 0.0, -2.0];
+        let p = Problem::lcp(Mat::from_fn(3, 3, |i, j| a[i][j]), b.to_vec()).unwrap();
+        let (rs, cs) = ([1e12, 1e-12, 3.0], [1e-9, 7.0, 1e11]);
+        let q = Problem::lcp(
+            Mat::from_fn(3, 3, |i, j| rs[i] * a[i][j] * cs[j]),
+            (0..3).map(|i| rs[i] * b[i]).collect(),
+        )
+        .unwrap();
+        let (dp, dq) = (data_scale(&p), data_scale(&q));
+        for i in 0..3 {
+            assert!(
+                (dq[i] / rs[i] - dp[i]).abs() <= 1e-12 * dp[i],
+                "{dp:?} {dq:?}"
+            );
+        }
     }
 }

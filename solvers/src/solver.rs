@@ -1,7 +1,8 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::metrics::{residuals_and_velocity, Residuals};
+use crate::certificate::{certificate_from, Certificate};
+use crate::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -44,7 +45,10 @@ impl Default for Settings {
 }
 
 /// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
-/// `Converged` if and only if `natural_map_rel <= tolerance`.
+/// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
+/// the problem's data ([`crate::metrics::unresolved_row`]); a result that meets the tolerance
+/// only through cancellation is `Diverged`, or `NoSolution` when a Farkas certificate read off it
+/// proves there is no solution.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum Status {
@@ -62,6 +66,15 @@ pub enum Status {
     /// The solver proved there is no solution (Lemke's ray termination, an infeasibility
     /// certificate).
     NoSolution {
+        /// Why.
+        reason: String,
+    },
+    /// The relative residual met the tolerance only through cancellation: a row's natural-map
+    /// step is a sizeable share of the velocities the problem's data produce, and the row's
+    /// terms exceed them by so much that the step is small beside the terms. What an impulse
+    /// growing along a direction that `A` cancels looks like (a problem without a solution, or
+    /// with none of moderate size); no proof of either.
+    Diverged {
         /// Why.
         reason: String,
     },
@@ -86,6 +99,7 @@ impl Status {
             Status::TimeLimit => "time_limit",
             Status::Stalled { .. } => "stalled",
             Status::NoSolution { .. } => "no_solution",
+            Status::Diverged { .. } => "diverged",
             Status::Unsupported { .. } => "unsupported",
             Status::NumericalFailure { .. } => "numerical_failure",
         }
@@ -96,6 +110,7 @@ impl Status {
         match self {
             Status::Stalled { reason }
             | Status::NoSolution { reason }
+            | Status::Diverged { reason }
             | Status::Unsupported { reason }
             | Status::NumericalFailure { reason } => Some(reason),
             _ => None,
@@ -149,6 +164,10 @@ pub struct SolveResult {
     /// count and the rows in the active set (Lemke's basic `f` variables, Dantzig's clamped
     /// set). Empty otherwise.
     pub active_sets: Vec<(usize, Vec<usize>)>,
+    /// For a `Diverged` or `NoSolution` status decided from the returned impulse: the Farkas
+    /// certificate read off it ([`crate::certificate`]), when it bounds the size of every
+    /// solution. `None` otherwise.
+    pub certificate: Option<Certificate>,
 }
 
 /// A contact solver: takes a problem, returns an impulse and an honest status.
@@ -182,6 +201,8 @@ pub enum Outcome {
     TimeLimit,
     /// Proof of no solution.
     NoSolution(String),
+    /// A part of the problem (an island) ended `Diverged`, for this reason.
+    Diverged(String),
     /// Problem class not handled.
     Unsupported(String),
     /// Breakdown.
@@ -199,6 +220,7 @@ impl Outcome {
             Status::IterationLimit => Outcome::IterationLimit,
             Status::TimeLimit => Outcome::TimeLimit,
             Status::NoSolution { reason } => Outcome::NoSolution(reason),
+            Status::Diverged { reason } => Outcome::Diverged(reason),
             Status::Unsupported { reason } => Outcome::Unsupported(reason),
             Status::NumericalFailure { reason } => Outcome::NumericalFailure(reason),
         }
@@ -261,6 +283,10 @@ pub(crate) trait Measured {
     fn velocity_at(&self, x: &[f64]) -> Vec<f64>;
     /// The shared residuals of `x`, writing the velocity into `v` in the same pass.
     fn measure(&self, x: &[f64], v: &mut [f64]) -> Residuals;
+    /// For a finite `x` whose relative residual meets the tolerance: the status that says it
+    /// does so only through cancellation, with the certificate read off `x`, if any (`None`:
+    /// `x` is resolved, the status stays `Converged`).
+    fn cancellation(&self, x: &[f64], v: &[f64]) -> Option<(Status, Option<Certificate>)>;
 }
 
 impl Measured for Problem {
@@ -274,6 +300,79 @@ impl Measured for Problem {
     }
     fn measure(&self, f: &[f64], w: &mut [f64]) -> Residuals {
         residuals_and_velocity(self, f, w)
+    }
+    fn cancellation(&self, f: &[f64], w: &[f64]) -> Option<(Status, Option<Certificate>)> {
+        lcp_cancellation(self, f, w)
+    }
+}
+
+/// The data-resolution test of a finite LCP impulse `f` (with `w = A f + b`) that meets the
+/// tolerance ([`crate::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
+/// `NoSolution` when the Farkas certificate read off `f` ([`certificate_from`]) proves there is
+/// no solution, and `Diverged` else, with the certificate when it bounds the size of every
+/// solution.
+fn lcp_cancellation(
+    problem: &Problem,
+    f: &[f64],
+    w: &[f64],
+) -> Option<(Status, Option<Certificate>)> {
+    let u = unresolved_row(problem, f, w)?;
+    let i = u.row;
+    let certificate = certificate_from(problem, f);
+    let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let found = format!(
+        "row {i}: natural-map step {:.3e}, {:.2} of the velocity {:.3e} the data put into the \
+         row (resolved: at most {RESOLUTION}) but {:.1e} of the magnitude {:.3e} of its terms; \
+         the residual meets the tolerance only because those terms cancel",
+        u.step,
+        u.step / u.data_scale,
+        u.data_scale,
+        u.step / u.magnitude,
+        u.magnitude
+    );
+    let status = match &certificate {
+        Some(c) if c.proves_no_solution => Status::NoSolution {
+            reason: format!(
+                "{found}: the impulse grows along a ray, and the Farkas certificate read off \
+                 it (bᵀy = {:.3e} < 0, Aᵀy <= 0 where f is unbounded, checked exactly) proves \
+                 there is no solution",
+                c.b_dot_y
+            ),
+        },
+        Some(c) => Status::Diverged {
+            reason: format!(
+                "{found}: the impulse (‖f‖∞ = {largest:.3e}) grows along a direction A nearly \
+                 cancels, and the Farkas certificate read off it shows every solution has \
+                 ‖f‖∞ >= {:.3e}",
+                c.min_solution_norm
+            ),
+        },
+        None => Status::Diverged {
+            reason: format!(
+                "{found}: the impulse (‖f‖∞ = {largest:.3e}) grows along a direction A nearly \
+                 cancels, or the tolerance is too loose for this row's cancellation"
+            ),
+        },
+    };
+    Some((status, certificate))
+}
+
+/// The status of a finite LCP impulse `f` with velocity `w = A f + b` and shared residuals
+/// `residuals`, given the solver's own `outcome`: [`decide`] on the relative residual, then,
+/// when that says `Converged`, the data-resolution test with its certificate. The rule every
+/// matrix solver's [`Monitor`] applies, for solvers outside this crate (the body-level solvers
+/// of `lcpbench-contact`).
+pub fn judge(
+    problem: &Problem,
+    f: &[f64],
+    w: &[f64],
+    residuals: &Residuals,
+    outcome: Outcome,
+    tol: f64,
+) -> (Status, Option<Certificate>) {
+    match decide(outcome, residuals.natural_map_rel, tol) {
+        Status::Converged => lcp_cancellation(problem, f, w).unwrap_or((Status::Converged, None)),
+        status => (status, None),
     }
 }
 
@@ -368,6 +467,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
         let tol = self.settings.tolerance;
         let n = problem.rows();
         let (noun, symbol) = P::UNKNOWN;
+        let mut certificate = None;
         let (f, w, res, status) = if let Outcome::Unsupported(reason) = outcome {
             let f = vec![0.0; n];
             let mut w = vec![0.0; n];
@@ -407,7 +507,16 @@ impl<'a, P: Measured> Monitor<'a, P> {
                     ),
                 }
             } else {
-                decide(outcome, res.natural_map_rel, tol)
+                match decide(outcome, res.natural_map_rel, tol) {
+                    Status::Converged => match problem.cancellation(&f, &w) {
+                        Some((status, c)) => {
+                            certificate = c;
+                            status
+                        }
+                        None => Status::Converged,
+                    },
+                    status => status,
+                }
             };
             (f, w, res, status)
         };
@@ -420,6 +529,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
             residuals: res,
             history: self.history,
             active_sets: self.active_sets,
+            certificate,
         }
     }
 }
@@ -436,6 +546,8 @@ pub fn non_finite_reason(x: &[f64], noun: &str, symbol: &str) -> Option<String> 
 /// The status of a finite result from its relative residual `rel` and the solver's own outcome:
 /// `Converged` if and only if `rel <= tol` (shared by the LCP and the cone monitors, and by the
 /// body-level solvers of `lcpbench-contact`). A `rel` of NaN (nothing measured) never converges.
+/// A `Converged` here is provisional: the monitors and [`judge`] then apply the data-resolution
+/// test.
 pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
     if rel <= tol {
         return Status::Converged;
@@ -450,6 +562,7 @@ pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
         Outcome::IterationLimit => Status::IterationLimit,
         Outcome::TimeLimit => Status::TimeLimit,
         Outcome::NoSolution(reason) => Status::NoSolution { reason },
+        Outcome::Diverged(reason) => Status::Diverged { reason },
         Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
         Outcome::Unsupported(reason) => Status::Unsupported { reason },
     }
@@ -572,7 +685,7 @@ fn solve_islands_with(
             let rank = |o: &Outcome| match o {
                 Outcome::Stopped => 0,
                 Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
-                Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
+                Outcome::NoSolution(_) | Outcome::Diverged(_) | Outcome::NumericalFailure(_) => 2,
                 Outcome::Unsupported(_) => 3,
             };
             if rank(&o) > rank(&outcome) {
@@ -613,6 +726,38 @@ mod tests {
         let r = monitor.finish(bad.clone(), 1, Outcome::Stopped);
         assert_eq!(r.residuals, residuals(&p, &bad));
         assert_ne!(r.status, Status::Converged);
+    }
+
+    /// An impulse that meets the tolerance by growing along the null direction of a problem
+    /// without a solution is not `converged`: with equal entries its direction is an exact
+    /// Farkas certificate (`no_solution`), with unequal ones an approximate one (`diverged`,
+    /// with a proven lower bound on the size of any solution).
+    #[test]
+    fn a_diverging_impulse_is_never_converged() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let settings = Settings::default();
+        let r = Monitor::new(&p, &settings).finish(vec![5.2e7, 5.2e7], 1, Outcome::Stopped);
+        assert!(r.residuals.natural_map_rel <= settings.tolerance);
+        assert_eq!(r.status.name(), "no_solution", "{}", r.status);
+        assert!(r.certificate.as_ref().unwrap().proves_no_solution);
+        let f = vec![5.2e8, 5.2e8 + 1.0];
+        let r = Monitor::new(&p, &settings).finish(f.clone(), 1, Outcome::Stopped);
+        assert!(r.residuals.natural_map_rel <= settings.tolerance);
+        assert_eq!(r.status.name(), "diverged", "{}", r.status);
+        let c = r.certificate.unwrap();
+        assert!(!c.proves_no_solution && c.min_solution_norm > 1e8, "{c:?}");
+        // The same through the rule the body-level solvers use.
+        let w = p.velocity(&f);
+        let res = crate::metrics::residuals(&p, &f);
+        let (status, c) = judge(&p, &f, &w, &res, Outcome::Stopped, settings.tolerance);
+        assert_eq!(status.name(), "diverged");
+        assert!(c.is_some());
+        // A solution of a solvable problem stays converged, without a certificate.
+        let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+        let q = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let r = Monitor::new(&q, &settings).finish(vec![1.0 / 3.0; 2], 1, Outcome::Stopped);
+        assert_eq!((r.status, r.certificate), (Status::Converged, None));
     }
 
     /// An island's own diagnosis of a stall reaches the whole problem's status, so a user sees

@@ -216,6 +216,7 @@ impl StepTotals {
             report.status,
             Status::Unsupported { .. }
                 | Status::NoSolution { .. }
+                | Status::Diverged { .. }
                 | Status::NumericalFailure { .. }
         ) {
             // The solve gave up: the step applied no impulse or an unverified one.
