@@ -29,6 +29,7 @@ fn scene_rows_carry_step_metrics_and_analytic_errors() {
         assert!(r.analytic_error.unwrap() < 1e-3, "{r:?}");
         assert!(r.symmetry_error.unwrap() < 1e-6, "{r:?}");
         assert_eq!(r.blow_up, Some(false));
+        assert_eq!(r.no_solution_steps, Some(0), "{r:?}");
     }
 }
 

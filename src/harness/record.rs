@@ -137,6 +137,14 @@ pub struct RunRecord {
     /// Scene: largest separating normal speed at sliding contacts right after a solve, m/s
     /// (the lift-off that a convex relaxation of friction causes).
     pub liftoff_speed: Option<f64>,
+    /// LCP case: when the status is `diverged` or `no_solution` and a Farkas certificate read
+    /// off the returned impulse was checked ([`lcpbench_solvers::certificate`]): the lower bound
+    /// it proves on `‖f‖∞` of every solution, `inf` when it proves there is none.
+    pub certificate_bound: Option<f64>,
+    /// Scene: steps whose solve ended `no_solution` or `diverged` (the step's problem has no
+    /// solution, or the impulse met the tolerance only by growing along a direction `A`
+    /// cancels). Absent in rows written before the column existed.
+    pub no_solution_steps: Option<usize>,
 }
 
 impl RunRecord {

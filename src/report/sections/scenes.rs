@@ -3,8 +3,8 @@
 //! * **At a glance**: scene × solver, the solver time per step under budget `default` with a
 //!   mark for how many steps converged, or what stopped the run.
 //! * **One table per scene**: status, steps, contacts, time and iterations per step, the largest
-//!   residual and penetration, energy drift, failures, lift-off and the analytic error (all
-//!   rows also in `tables/scenes.csv`).
+//!   residual and penetration, energy drift, failures (non-converged, no-solution and NaN steps,
+//!   blow-up), lift-off and the analytic error (all rows also in `tables/scenes.csv`).
 //! * **Fastest solver per scene** among the runs whose every step converged, at budgets
 //!   `loose` and `default`.
 //! * A speed–accuracy figure per scene: time per step against mean residual per step under
@@ -52,7 +52,8 @@ impl Section for Scenes {
              1e-8, 10 000 iterations; time budget for the whole run). Time/step is solver time; \
              residual is the largest shared relative residual over the steps; penetration the \
              largest depth; drift the relative change of total energy; failures count \
-             non-converged steps / NaN steps / blow-up; lift-off is the largest separating normal \
+             non-converged steps / of them, steps without a solution (`no_solution` or \
+             `diverged`) / NaN steps / blow-up; lift-off is the largest separating normal \
              speed at a sliding contact after a solve (what a convex relaxation of friction \
              causes; Baumgarte correction of a penetrating contact shows up here too).\n"
         );
@@ -239,8 +240,11 @@ fn glance_cell(r: &RunRecord) -> String {
 
 fn scene_cells(r: &RunRecord) -> Vec<String> {
     let failures = format!(
-        "{} / {} / {}",
+        "{} / {} / {} / {}",
         r.nonconverged_steps.unwrap_or(0),
+        r.no_solution_steps
+            .map(|n| n.to_string())
+            .unwrap_or("–".into()),
         r.nan_steps.unwrap_or(0),
         if r.blow_up == Some(true) { "yes" } else { "no" }
     );
