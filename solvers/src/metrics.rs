@@ -48,28 +48,28 @@
 //!   A row whose term magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` overflows, or whose ratio is NaN,
 //!   counts as `∞`: never as 0.
 //! * **data resolution**, the second half of `converged`. With `e_i = d_i · step_i` (velocity
-//!   units), `t_i = d_i s_i`, and the row's *data scale* `D_i` ([`data_scale`]: the largest
-//!   velocity the data put into row `i`, as `|b_i|` or through its couplings), a row is resolved
-//!   when
+//!   units), `t_i = d_i s_i`, `u_i = 4 (nnz_i + 1) ε` and the row's *data scale* `D_i`
+//!   ([`data_scale`]: the largest velocity the data put into row `i`, as `|b_i|` or through its
+//!   couplings), a row is resolved when
 //!
 //!   ```text
-//!   e_i <= RESOLUTION · D_i + 4 (nnz_i + 1) ε · t_i,      RESOLUTION = 0.05:
+//!   max(e_i, u_i t_i) <= RESOLUTION · D_i,      RESOLUTION = 0.05
 //!   ```
 //!
-//!   its velocity error is at most 5 % of the velocities the problem's data produce there, or
-//!   round-off. A result with `r_rel <= tol` and an unresolved row ([`unresolved_row`]) met the
-//!   tolerance only because the row's terms are far larger than its data and cancel: a
-//!   diverging impulse (the example: `e = 1 = D`). `D_i` follows every positive diagonal
+//!   (a row without data, `D_i = 0`, when `e_i <= u_i t_i`): its velocity error is at most 5 %
+//!   of the velocities the problem's data produce there, and so is the round-off of its terms.
+//!   A result with `r_rel <= tol` and an unresolved row ([`unresolved_row`]) met the tolerance
+//!   only because the row's terms are far larger than its data and cancel: a diverging impulse
+//!   (the example: `e = 1 = D`), or one so large (terms beyond `RESOLUTION / u_i ≈ 1e13` times
+//!   the data) that the data are lost in rounding. `D_i` follows every positive diagonal
 //!   scaling of rows and columns as `w_i` does, so the test keeps the invariance above, and a
 //!   row whose own data are 0 or round-off (a resting contact's friction rows) takes its
 //!   neighbours'. What it cannot tell apart: a problem with a solution whose rows cancel by
 //!   `κ = t_i / D_i` (a mass ratio `κ`), solved to a tolerance with `tol · κ > RESOLUTION`,
 //!   leaves steps that may reach the data scale too, and is reported the same way (its
-//!   velocities are not known to 5 % of the data; a tighter tolerance resolves it); an impulse
-//!   diverging on a problem infeasible by less than `RESOLUTION` of a row's data scale, or next
-//!   to a row whose data are far larger (they raise `D_i`), passes; and a solution of a
-//!   floating-point problem whose terms exceed its data by `1/ε`, solved to round-off, passes
-//!   (the stored problem may well have it).
+//!   velocities are not known to 5 % of the data; a tighter tolerance resolves it); and an
+//!   impulse diverging on a problem infeasible by less than `RESOLUTION` of a row's data scale,
+//!   or next to a row whose data are far larger (they raise `D_i`), passes.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
@@ -233,7 +233,8 @@ pub const RESOLUTION: f64 = 0.05;
 
 /// The row that a result resolves worst against the problem's data: its natural-map step
 /// `e_i = d_i · |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|` (velocity units), the row's
-/// [data scale](data_scale) `D_i` and the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of its terms.
+/// [data scale](data_scale) `D_i`, the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of its terms and
+/// their round-off `u_i t_i`, `u_i = 4 (nnz_i + 1) ε`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Unresolved {
     /// Row index.
@@ -244,19 +245,21 @@ pub struct Unresolved {
     pub data_scale: f64,
     /// `t_i`.
     pub magnitude: f64,
+    /// `u_i t_i`.
+    pub round_off: f64,
 }
 
 impl Unresolved {
-    /// `(e_i − u_i t_i)⁺ / D_i`, with `u_i = 4 (nnz_i + 1) ε` the round-off of the row's
-    /// velocity: the share of the data scale that the step exceeds round-off by.
-    pub fn ratio(&self, nnz: usize) -> f64 {
-        let excess = (self.step - round_off(nnz) * self.magnitude).max(0.0);
-        if excess == 0.0 {
-            0.0
-        } else if self.data_scale > 0.0 {
-            excess / self.data_scale
-        } else {
+    /// `max(e_i, u_i t_i) / D_i`: how much of the data scale the step, or the round-off of the
+    /// row's terms, reaches. A row without data (`D_i = 0`) gives `∞` when its step exceeds
+    /// round-off and `0` otherwise.
+    pub fn ratio(&self) -> f64 {
+        if self.data_scale > 0.0 {
+            self.step.max(self.round_off) / self.data_scale
+        } else if self.step > self.round_off {
             f64::INFINITY
+        } else {
+            0.0
         }
     }
 }
@@ -307,34 +310,31 @@ pub fn data_scale(problem: &Problem) -> Vec<f64> {
 /// The row with the largest [`Unresolved::ratio`] at `f` (with `w = A f + b` given), when that
 /// ratio exceeds [`RESOLUTION`]: a row whose natural-map step is a sizeable share of the
 /// velocities the problem's data produce, so that its relative residual is small only because
-/// its terms are much larger than its data and cancel. `None` when every row is resolved (or
-/// the lengths do not match).
+/// its terms are much larger than its data and cancel, or whose terms are so large that their
+/// round-off alone is (the data are lost in it). `None` when every row is resolved (or the
+/// lengths do not match).
 pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresolved> {
     let n = problem.n();
     if f.len() != n || w.len() != n {
         return None;
     }
     let b = problem.b();
+    let scales = data_scale(problem);
     let mut worst: Option<(f64, Unresolved)> = None;
-    let mut scales: Option<Vec<f64>> = None;
     for i in 0..n {
         let row = problem.row(i);
         let (_, magnitude) = row.dot_and_magnitude(f);
         let t = b[i].abs() + magnitude;
         let (lo, hi) = problem.bounds_at(i, f);
         let step = row_step(f[i], lo, hi, w[i], problem.diagonal_scale_of(i), t).0;
-        // Rows within round-off need no data scale; the scales are computed once, on demand.
-        if step.is_nan() || step <= round_off(row.len()) * t {
-            continue;
-        }
-        let data = scales.get_or_insert_with(|| data_scale(problem))[i];
         let u = Unresolved {
             row: i,
             step,
-            data_scale: data,
+            data_scale: scales[i],
             magnitude: t,
+            round_off: round_off(row.len()) * t,
         };
-        let r = u.ratio(row.len());
+        let r = u.ratio();
         let r = if r.is_nan() { f64::INFINITY } else { r };
         if r > RESOLUTION && worst.as_ref().is_none_or(|(m, _)| r > *m) {
             worst = Some((r, u));

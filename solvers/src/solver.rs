@@ -320,16 +320,28 @@ fn lcp_cancellation(
     let i = u.row;
     let certificate = certificate_from(problem, f);
     let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let found = format!(
-        "row {i}: natural-map step {:.3e}, {:.2} of the velocity {:.3e} the data put into the \
-         row (resolved: at most {RESOLUTION}) but {:.1e} of the magnitude {:.3e} of its terms; \
-         the residual meets the tolerance only because those terms cancel",
-        u.step,
-        u.step / u.data_scale,
-        u.data_scale,
-        u.step / u.magnitude,
-        u.magnitude
-    );
+    let found = if u.step >= u.round_off {
+        format!(
+            "row {i}: natural-map step {:.3e}, {:.2} of the velocity {:.3e} the data put into \
+             the row (resolved: at most {RESOLUTION}) but {:.1e} of the magnitude {:.3e} of its \
+             terms; the residual meets the tolerance only because those terms cancel",
+            u.step,
+            u.step / u.data_scale,
+            u.data_scale,
+            u.step / u.magnitude,
+            u.magnitude
+        )
+    } else {
+        format!(
+            "row {i}: the round-off {:.3e} of its terms (magnitude {:.3e}) is {:.2} of the \
+             velocity {:.3e} the data put into the row (resolved: at most {RESOLUTION}); the \
+             data are lost in the rounding of terms that cancel",
+            u.round_off,
+            u.magnitude,
+            u.round_off / u.data_scale,
+            u.data_scale
+        )
+    };
     let status = match &certificate {
         Some(c) if c.proves_no_solution => Status::NoSolution {
             reason: format!(
@@ -758,6 +770,23 @@ mod tests {
         let q = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
         let r = Monitor::new(&q, &settings).finish(vec![1.0 / 3.0; 2], 1, Outcome::Stopped);
         assert_eq!((r.status, r.certificate), (Status::Converged, None));
+    }
+
+    /// `A = [[1, −1], [−1, 1 + 2⁻⁵²]]` is regular, and with `b = (−1, −1)` its solution is
+    /// about `1.8e16`: the terms of each row exceed the data by so much that their round-off
+    /// alone is far above the data, so no answer can be resolved, even one a pivoting solver
+    /// finds to round-off.
+    #[test]
+    fn a_solution_lost_in_rounding_is_not_converged() {
+        let e = f64::EPSILON;
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0 + e]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        // The solution f_1 = 2 / ε, f_0 = f_1 + 1, rounded.
+        let f = vec![2.0 / e + 1.0, 2.0 / e];
+        let r = Monitor::new(&p, &Settings::default()).finish(f, 1, Outcome::Stopped);
+        assert!(r.residuals.natural_map_rel <= 1e-15, "{:?}", r.residuals);
+        assert_eq!(r.status.name(), "diverged", "{}", r.status);
+        assert!(r.status.reason().unwrap().contains("round-off"));
     }
 
     /// An island's own diagnosis of a stall reaches the whole problem's status, so a user sees
