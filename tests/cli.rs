@@ -207,9 +207,10 @@ fn solve_prints_the_certificate_of_a_diverging_impulse() {
             .map(|j| (0..y.len()).map(|i| a[i][j] * y[i]).sum::<f64>().max(0.0))
             .sum();
         assert!(bty < 0.0 && slope > 0.0);
+        // The library's bound carries rounding margins: it may be smaller, never larger.
         let ours = -bty / slope;
         assert!(
-            (bound - ours).abs() <= 1e-9 * ours,
+            bound > 0.0 && bound <= ours * (1.0 + 1e-9),
             "{solver}: bound {bound} vs {ours}"
         );
     }

@@ -741,28 +741,44 @@ mod tests {
     }
 
     /// An impulse that meets the tolerance by growing along the null direction of a problem
-    /// without a solution is not `converged`: with equal entries its direction is an exact
-    /// Farkas certificate (`no_solution`), with unequal ones an approximate one (`diverged`,
-    /// with a proven lower bound on the size of any solution).
+    /// without a solution is not `converged`. On `A = [[1, −1], [−1, 1]]`, `b = (−1, −1)` the
+    /// Farkas certificate read off it (`y ∝ (1, 1)`) is exact: `no_solution`. On the
+    /// floating-point `infeasible` family no certificate is exact, and the status is
+    /// `diverged`, with a proven lower bound on the size of any solution.
     #[test]
     fn a_diverging_impulse_is_never_converged() {
         let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
         let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
         let settings = Settings::default();
-        let r = Monitor::new(&p, &settings).finish(vec![5.2e7, 5.2e7], 1, Outcome::Stopped);
-        assert!(r.residuals.natural_map_rel <= settings.tolerance);
-        assert_eq!(r.status.name(), "no_solution", "{}", r.status);
-        assert!(r.certificate.as_ref().unwrap().proves_no_solution);
-        let f = vec![5.2e8, 5.2e8 + 1.0];
-        let r = Monitor::new(&p, &settings).finish(f.clone(), 1, Outcome::Stopped);
-        assert!(r.residuals.natural_map_rel <= settings.tolerance);
+        for f in [vec![5.2e7, 5.2e7], vec![5.2e8, 5.2e8 + 1.0]] {
+            let r = Monitor::new(&p, &settings).finish(f, 1, Outcome::Stopped);
+            assert!(r.residuals.natural_map_rel <= settings.tolerance);
+            assert_eq!(r.status.name(), "no_solution", "{}", r.status);
+            assert!(r.certificate.as_ref().unwrap().proves_no_solution);
+        }
+        let g = crate::generate::generate(crate::generate::Family::Infeasible, 6, 1);
+        let loose = Settings {
+            tolerance: 1e-4,
+            ..Settings::default()
+        };
+        let r = crate::Apgd.solve(&g.problem, &loose);
+        assert!(r.residuals.natural_map_rel <= loose.tolerance);
         assert_eq!(r.status.name(), "diverged", "{}", r.status);
         let c = r.certificate.unwrap();
-        assert!(!c.proves_no_solution && c.min_solution_norm > 1e8, "{c:?}");
+        let largest = r.f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            !c.proves_no_solution && c.min_solution_norm > largest,
+            "{c:?}"
+        );
         // The same through the rule the body-level solvers use.
-        let w = p.velocity(&f);
-        let res = crate::metrics::residuals(&p, &f);
-        let (status, c) = judge(&p, &f, &w, &res, Outcome::Stopped, settings.tolerance);
+        let (status, c) = judge(
+            &g.problem,
+            &r.f,
+            &r.w,
+            &r.residuals,
+            Outcome::Stopped,
+            loose.tolerance,
+        );
         assert_eq!(status.name(), "diverged");
         assert!(c.is_some());
         // A solution of a solvable problem stays converged, without a certificate.
