@@ -345,25 +345,20 @@ fn lcp_cancellation(
     let status = match &certificate {
         Some(c) if c.proves_no_solution => Status::NoSolution {
             reason: format!(
-                "{found}: the impulse grows along a ray, and the Farkas certificate read off \
-                 it (bᵀy = {:.3e} < 0, Aᵀy <= 0 where f is unbounded, checked exactly) proves \
-                 there is no solution",
+                "{found}; the Farkas certificate read off the impulse (bᵀy = {:.3e} < 0, \
+                 Aᵀy <= 0 where f is unbounded, checked exactly) proves there is no solution",
                 c.b_dot_y
             ),
         },
         Some(c) => Status::Diverged {
             reason: format!(
-                "{found}: the impulse (‖f‖∞ = {largest:.3e}) grows along a direction A nearly \
-                 cancels, and the Farkas certificate read off it shows every solution has \
-                 ‖f‖∞ >= {:.3e}",
+                "{found}; a Farkas certificate read off the impulse shows every solution has \
+                 ‖f‖∞ >= {:.3e} (this impulse: {largest:.3e})",
                 c.min_solution_norm
             ),
         },
         None => Status::Diverged {
-            reason: format!(
-                "{found}: the impulse (‖f‖∞ = {largest:.3e}) grows along a direction A nearly \
-                 cancels, or the tolerance is too loose for this row's cancellation"
-            ),
+            reason: format!("{found} (‖f‖∞ = {largest:.3e})"),
         },
     };
     Some((status, certificate))
