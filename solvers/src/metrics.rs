@@ -48,28 +48,31 @@
 //!   A row whose term magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` overflows, or whose ratio is NaN,
 //!   counts as `∞`: never as 0.
 //! * **data resolution**, the second half of `converged`. With `e_i = d_i · step_i` (velocity
-//!   units), `t_i = d_i s_i`, `u_i = 4 (nnz_i + 1) ε` and the row's *data scale* `D_i`
-//!   ([`data_scale`]: the largest velocity the data put into row `i`, as `|b_i|` or through its
-//!   couplings), a row is resolved when
+//!   units), `t_i = d_i s_i`, `u_i = 4 (nnz_i + 1) ε` and the row's *data scale*
+//!   `D_i = √d_i · max_j |b_j| / √d_j` over the row's island ([`data_scale`]: the largest data
+//!   velocity of the island, in the row's units), a row is resolved when
 //!
 //!   ```text
 //!   max(e_i, u_i t_i) <= RESOLUTION · D_i,      RESOLUTION = 0.05
 //!   ```
 //!
 //!   (a row without data, `D_i = 0`, when `e_i <= u_i t_i`): its velocity error is at most 5 %
-//!   of the velocities the problem's data produce there, and so is the round-off of its terms.
+//!   of the largest velocity the problem's data ask for, and so is the round-off of its terms.
 //!   A result with `r_rel <= tol` and an unresolved row ([`unresolved_row`]) met the tolerance
-//!   only because the row's terms are far larger than its data and cancel: a diverging impulse
+//!   only because the row's terms are far larger than the data and cancel: a diverging impulse
 //!   (the example: `e = 1 = D`), or one so large (terms beyond `RESOLUTION / u_i ≈ 1e13` times
-//!   the data) that the data are lost in rounding. `D_i` follows every positive diagonal
-//!   scaling of rows and columns as `w_i` does, so the test keeps the invariance above, and a
-//!   row whose own data are 0 or round-off (a resting contact's friction rows) takes its
-//!   neighbours'. What it cannot tell apart: a problem with a solution whose rows cancel by
-//!   `κ = t_i / D_i` (a mass ratio `κ`), solved to a tolerance with `tol · κ > RESOLUTION`,
-//!   leaves steps that may reach the data scale too, and is reported the same way (its
-//!   velocities are not known to 5 % of the data; a tighter tolerance resolves it); and an
-//!   impulse diverging on a problem infeasible by less than `RESOLUTION` of a row's data scale,
-//!   or next to a row whose data are far larger (they raise `D_i`), passes.
+//!   the data) that the data are lost in rounding. `D_i` follows every symmetric positive
+//!   diagonal scaling (`A → S A S`, `b → S b`: units, equilibration) as `w_i` does, so the test
+//!   is invariant under it; independent row and column scalings, which the residual above
+//!   survives, change it (it compares rows through the diagonal). A row whose own data are 0
+//!   or round-off (a resting contact's friction rows, the inner contacts of a stack) takes its
+//!   island's. What it cannot tell apart: a problem with a solution whose rows cancel by
+//!   `κ = t_i / D_i` (a mass ratio `κ`; about four times the height of a stack), solved to a
+//!   tolerance with `tol · κ > RESOLUTION`, may leave steps that reach the data scale too, and
+//!   is reported the same way (its velocities are not known to 5 % of the data; a tighter
+//!   tolerance resolves it); and an impulse diverging on a problem infeasible by less than
+//!   `RESOLUTION` of the island's largest data, or in an island with one much larger datum
+//!   (it raises every `D_i`), passes.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
@@ -269,42 +272,35 @@ fn round_off(nnz: usize) -> f64 {
     4.0 * (nnz as f64 + 1.0) * f64::EPSILON
 }
 
-/// Each row's data scale `D_i`, in the row's velocity units: the largest velocity the data put
-/// into row `i` directly (`|b_i|`) or through the rows it is coupled to. With `β_j = |b_j| / d_j`
-/// (the impulse that cancels row `j`'s own data), raised along the couplings to
-/// `β_i ← max(β_i, max_j |A_ij| β_j / d_i)` by alternating sweeps (at most 32, until no entry
-/// grows by more than 0.1 %), `D_i = max(|b_i|, max_{j≠i} |A_ij| β_j)`. It follows every
-/// positive diagonal scaling of rows and columns as `w_i` does, and a row whose own data are 0
-/// or round-off (a resting contact's friction rows) gets its neighbours'. `O(nnz)` per sweep.
+/// Each row's data scale `D_i`, in the row's velocity units: the largest data velocity of the
+/// row's island ([`Problem::islands`]), carried into the row's units through the diagonal,
+///
+/// ```text
+/// D_i = √d_i · max_{j in i's island} |b_j| / √d_j.
+/// ```
+///
+/// `|b_j| / √d_j` is row `j`'s data in the units of the symmetrically equilibrated problem
+/// `S A S` (`s_j = 1/√d_j`), where every row of a contact problem measures a velocity alike, so
+/// `D_i` follows every symmetric positive diagonal scaling (`A → S A S`, `b → S b`) as `w_i`
+/// does. A row whose own data are 0 or round-off (a resting contact's friction rows, the inner
+/// contacts of a stack, which fall with the boxes they join) gets its island's: a legitimate
+/// impulse carries the data of its whole load path (the bottom contact of a 40-box tower holds
+/// the weight of all the boxes above, from the one datum at the ground), so a scale that
+/// decays with the distance from the data would call it unresolved. `O(nnz)`.
 pub fn data_scale(problem: &Problem) -> Vec<f64> {
     let n = problem.n();
     let b = problem.b();
-    let d = problem.diagonal_scale();
-    let mut beta: Vec<f64> = (0..n).map(|i| ratio(b[i].abs(), 1.0, d[i])).collect();
-    let coupled = |beta: &[f64], i: usize| {
-        problem.row(i).iter().fold(0.0f64, |m, (j, a)| {
-            if j == i || a == 0.0 {
-                m
-            } else {
-                m.max(ratio(a.abs(), beta[j], 1.0))
-            }
-        })
-    };
-    for sweep in 0..32 {
-        let mut grew = false;
-        for k in 0..n {
-            let i = if sweep % 2 == 0 { k } else { n - 1 - k };
-            let through = ratio(coupled(&beta, i), 1.0, d[i]);
-            if through > beta[i] * (1.0 + 1e-3) {
-                beta[i] = through;
-                grew = true;
-            }
-        }
-        if !grew {
-            break;
+    let root: Vec<f64> = problem.diagonal_scale().iter().map(|d| d.sqrt()).collect();
+    let mut scale = vec![0.0; n];
+    for island in problem.islands() {
+        let largest = island
+            .iter()
+            .fold(0.0f64, |m, &j| m.max(ratio(b[j].abs(), 1.0, root[j])));
+        for &i in &island {
+            scale[i] = ratio(root[i], largest, 1.0);
         }
     }
-    (0..n).map(|i| b[i].abs().max(coupled(&beta, i))).collect()
+    scale
 }
 
 /// The row with the largest [`Unresolved::ratio`] at `f` (with `w = A f + b` given), when that
@@ -580,28 +576,37 @@ mod tests {
         let w = p.velocity(&f);
         assert!(w[1].abs() > 1e-10);
         assert!(unresolved_row(&p, &f, &w).is_none());
-        assert_eq!(data_scale(&p), vec![1.0, 0.5]);
+        assert_eq!(data_scale(&p), vec![1.0, 1.0]);
     }
 
-    /// Data scales follow every positive diagonal scaling of rows and columns as velocities
-    /// do, so the test's verdict is invariant: `D → R D` under `A → R A C`, `b → R b`.
+    /// Data scales follow every symmetric positive diagonal scaling as velocities do, so the
+    /// test's verdict is invariant: `D → S D` under `A → S A S`, `b → S b`, over 24 decades; and
+    /// every row of an island gets the island's data, however far from it.
     #[test]
-    fn data_scales_follow_row_and_column_scaling() {
+    fn data_scales_follow_symmetric_scaling() {
         let a = [[4.0, 1.0, 0.5], [1.0, 3.0, -1.0], [0.5, -1.0, 2.0]];
         let b = [-1.0, 0.0, -2.0];
         let p = Problem::lcp(Mat::from_fn(3, 3, |i, j| a[i][j]), b.to_vec()).unwrap();
-        let (rs, cs) = ([1e12, 1e-12, 3.0], [1e-9, 7.0, 1e11]);
+        let s = [1e12, 1e-12, 3.0];
         let q = Problem::lcp(
-            Mat::from_fn(3, 3, |i, j| rs[i] * a[i][j] * cs[j]),
-            (0..3).map(|i| rs[i] * b[i]).collect(),
+            Mat::from_fn(3, 3, |i, j| s[i] * a[i][j] * s[j]),
+            (0..3).map(|i| s[i] * b[i]).collect(),
         )
         .unwrap();
         let (dp, dq) = (data_scale(&p), data_scale(&q));
         for i in 0..3 {
             assert!(
-                (dq[i] / rs[i] - dp[i]).abs() <= 1e-12 * dp[i],
+                (dq[i] / s[i] - dp[i]).abs() <= 1e-12 * dp[i],
                 "{dp:?} {dq:?}"
             );
         }
+        // A chain 0 – 1 – 2 – 3 with data only at its end: every row gets it.
+        let chain = Mat::from_fn(4, 4, |i, j| match i.abs_diff(j) {
+            0 => 2.0,
+            1 => -1.0,
+            _ => 0.0,
+        });
+        let p = Problem::lcp(chain, vec![-1.0, 0.0, 0.0, 0.0]).unwrap();
+        assert_eq!(data_scale(&p), vec![1.0; 4]);
     }
 }
