@@ -66,3 +66,27 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
         }
     }
 }
+
+/// A scene whose steps have no solution (`wedged`: Baumgarte asks a box to leave two static
+/// boxes on opposite sides at once) counts them in `no_solution_steps`, and its status is the
+/// steps' `diverged`.
+#[test]
+fn steps_without_a_solution_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/wedged.toml");
+    let status = Command::new(EXE)
+        .args(["bench", "--no-progress", "--solvers", "apgd"])
+        .args(["--budgets", "loose", "--out"])
+        .arg(&out)
+        .arg("--lcps")
+        .arg(format!("scene:{scene}?steps=5"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].status.as_str(), "diverged", "{:?}", rows[0]);
+    assert_eq!(rows[0].no_solution_steps, Some(5));
+    assert_eq!(rows[0].nonconverged_steps, Some(5));
+}
