@@ -14,6 +14,7 @@ use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection}
 use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
 use crate::step::{ContactSolver, Event, SimSettings, World};
+use lcpbench_solvers::metrics::MIN_TOLERANCE;
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -53,10 +54,6 @@ pub const SIZE_RANGE: (f64, f64) = (1e-6, 1e6);
 /// Largest `prediction_distance` and `slop`, m: contacts closer than the prediction distance
 /// enter the problem, so a larger one pairs every body with every body near it.
 pub const MAX_CONTACT_DISTANCE: f64 = 1.0;
-
-/// Smallest tolerance on the relative residual (scenes, `--tol`, budgets): below it the residual
-/// measures the round-off of computing `w`, not the solve.
-pub const MIN_TOLERANCE: f64 = 1e-15;
 
 /// Largest Coulomb coefficient of a material (real ones are below a few).
 pub const MAX_MU: f64 = 100.0;
@@ -912,19 +909,24 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
 /// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing), and at
-/// least [`MIN_TOLERANCE`].
+/// least [`MIN_TOLERANCE`] (below it the relative residual of a correctly rounded solution is
+/// round-off, so the tolerance would be met only by chance).
 pub fn tolerance(tol: f64) -> Result<f64, String> {
     if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
-        return Err(format!("must be a number in (0, 1), got {}", readable(tol)));
-    }
-    if tol < MIN_TOLERANCE {
-        return Err(format!(
-            "{} is below {MIN_TOLERANCE:e}, where the relative residual measures round-off \
-             (ε = 2.2e-16 per operation), not the solve",
+        Err(format!(
+            "must be a number in (0, 1) on the relative residual, got {}",
             readable(tol)
-        ));
+        ))
+    } else if tol < MIN_TOLERANCE {
+        Err(format!(
+            "{} is below {MIN_TOLERANCE:e}: the relative residual of a correctly rounded \
+             solution is about 4 (nnz + 1) ε per row, so a smaller tolerance would be met only by \
+             chance",
+            readable(tol)
+        ))
+    } else {
+        Ok(tol)
     }
-    Ok(tol)
 }
 
 /// `settings.{field}`, a number in `[0, max]`.

@@ -700,7 +700,7 @@ fn status_rank(status: &Status) -> u8 {
         Status::Converged => 0,
         Status::Stalled { .. } => 1,
         Status::IterationLimit | Status::TimeLimit => 2,
-        Status::NoSolution { .. } | Status::NumericalFailure { .. } => 3,
+        Status::NoSolution { .. } | Status::Diverged { .. } | Status::NumericalFailure { .. } => 3,
         Status::Unsupported { .. } => 4,
     }
 }
