@@ -33,7 +33,8 @@ fn delassus(c: &mut Criterion) {
         let h = world.settings.dt;
         let contacts = world
             .pipeline
-            .detect(&world.bodies, world.settings.prediction_distance);
+            .detect(&world.bodies, world.settings.prediction_distance)
+            .expect("bench scenes are within the detection limits");
         let free = builder::free_velocities(&world.bodies, &world.settings.gravity, h);
         let system = builder::build(
             &world.bodies,

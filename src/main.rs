@@ -42,6 +42,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Solve(args) => cli::solve::run(args),
@@ -62,6 +63,24 @@ fn main() -> ExitCode {
             eprintln!("error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Let a write to a closed pipe end the process quietly, as it ends `cat` or `grep`: `lcpbench
+/// solve … | head -1` stops when `head` has its line, with the shell's usual status for it (141,
+/// killed by `SIGPIPE`), and no message.
+///
+/// The Rust runtime ignores `SIGPIPE`, which turns such a write into an `EPIPE` error that
+/// `println!` (and `eprintln!`, and every progress bar) answers with a panic. Restoring the
+/// default action before anything is printed covers every printing path at once, including
+/// clap's help and error output. The sweep's parent process never writes to its children's
+/// pipes, so it cannot be ended this way by a child that exits.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first in `main`, before any other thread exists; `signal` with `SIG_DFL`
+    // only changes this process's disposition of `SIGPIPE`.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

@@ -153,6 +153,69 @@ fn infeasible_problem_completes_with_no_solution() {
     assert_eq!(v["status"], "no_solution");
 }
 
+/// The issue's example: apgd's impulse grows along `z = (1, 1)` until the relative residual
+/// meets `1e-8`. `solve` reports `no_solution` with the Farkas certificate read off it, checked
+/// here from the data: `y >= 0`, `Aᵀ y = 0` (exactly: equal entries), `bᵀ y < 0`. On a random
+/// problem without a solution the iterative solvers' answers at `1e-4` are `diverged`, with a
+/// certificate that bounds the size of any solution: checked here too.
+#[test]
+fn solve_prints_the_certificate_of_a_diverging_impulse() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "inf.json",
+        r#"{"A": [[1, -1], [-1, 1]], "b": [-1, -1]}"#,
+    );
+    let o = lcpbench(&["solve", &file, "--solver", "apgd", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "no_solution", "{v}");
+    let c = &v["certificate"];
+    assert_eq!(c["proves_no_solution"], true, "{v}");
+    assert!(c["min_solution_norm"].is_null());
+    let y: Vec<f64> = serde_json::from_value(c["y"].clone()).unwrap();
+    assert!(y[0] > 0.0 && y[0] == y[1], "{y:?}");
+    assert!(-y[0] - y[1] < 0.0);
+    let text = lcpbench(&["solve", &file, "--solver", "apgd"]);
+    let text = String::from_utf8(text.stdout).unwrap();
+    assert!(text.contains("status      no_solution"), "{text}");
+    assert!(text.contains("certificate Farkas multipliers"), "{text}");
+    assert!(text.contains("so there is no solution"), "{text}");
+
+    let file = dir.path().join("gen.json");
+    let file = file.to_str().unwrap();
+    assert!(
+        lcpbench(&["gen", "infeasible", "--n", "6", "--seed", "1", "-o", file])
+            .status
+            .success()
+    );
+    let p: Value = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+    let a: Vec<Vec<f64>> = serde_json::from_value(p["A"].clone()).unwrap();
+    let b: Vec<f64> = serde_json::from_value(p["b"].clone()).unwrap();
+    for solver in ["pgs", "apgd", "nsgs", "newton-fb"] {
+        let o = lcpbench(&["solve", file, "--solver", solver, "--tol", "1e-4", "--json"]);
+        let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["status"], "diverged", "{solver}: {v}");
+        let c = &v["certificate"];
+        let bound = c["min_solution_norm"].as_f64().unwrap();
+        let y: Vec<f64> = serde_json::from_value(c["y"].clone()).unwrap();
+        // Independently: every solution f >= 0 has yᵀ(A f + b) >= 0, and
+        // yᵀ A f <= Σ_j (Aᵀy)_j⁺ ‖f‖∞, so ‖f‖∞ >= −bᵀy / Σ_j (Aᵀy)_j⁺.
+        assert!(y.iter().all(|&v| v >= 0.0), "{y:?}");
+        let bty: f64 = b.iter().zip(&y).map(|(b, y)| b * y).sum();
+        let slope: f64 = (0..y.len())
+            .map(|j| (0..y.len()).map(|i| a[i][j] * y[i]).sum::<f64>().max(0.0))
+            .sum();
+        assert!(bty < 0.0 && slope > 0.0);
+        // The library's bound carries rounding margins: it may be smaller, never larger.
+        let ours = -bty / slope;
+        assert!(
+            bound > 0.0 && bound <= ours * (1.0 + 1e-9),
+            "{solver}: bound {bound} vs {ours}"
+        );
+    }
+}
+
 #[test]
 fn bad_input_gets_one_clear_message() {
     let dir = tempfile::tempdir().unwrap();
@@ -319,6 +382,45 @@ fn solve_refuses_tolerances_outside_zero_one() {
     }
     let err = refused(&["solve", &file, "--solver", "pgs", "--tol", "1e300"], &[]);
     assert!(err.contains("got 1e300"), "{err}");
+}
+
+/// A tolerance below round-off is refused with the reason (it could be met only by chance, and
+/// its failure would say nothing about the problem), by `solve`, `simulate` and bench budgets.
+#[test]
+fn tolerances_below_round_off_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "p.json", TWO_ROWS);
+    for tol in ["1e-300", "1e-15", "5e-324"] {
+        refused(
+            &["solve", &file, "--solver", "enum", "--tol", tol],
+            &["--tol", "below 1e-14", "round"],
+        );
+    }
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/box_on_ground.toml"
+    );
+    refused(
+        &["simulate", scene, "--tol", "1e-300"],
+        &["--tol", "below 1e-14"],
+    );
+    let out = dir.path().join("out");
+    refused(
+        &[
+            "bench",
+            "--lcps",
+            &format!("file:{file}"),
+            "--solvers",
+            "pgs",
+            "--budgets",
+            "1e-300:100:1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &["below 1e-14"],
+    );
+    let o = lcpbench(&["solve", &file, "--solver", "enum", "--tol", "1e-14"]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]

@@ -29,6 +29,7 @@ fn scene_rows_carry_step_metrics_and_analytic_errors() {
         assert!(r.analytic_error.unwrap() < 1e-3, "{r:?}");
         assert!(r.symmetry_error.unwrap() < 1e-6, "{r:?}");
         assert_eq!(r.blow_up, Some(false));
+        assert_eq!(r.no_solution_steps, Some(0), "{r:?}");
     }
 }
 
@@ -118,4 +119,28 @@ fn a_step_over_its_budget_ends_time_limit_and_the_run_goes_on() {
     let sum: f64 = phases.iter().map(|p| p.unwrap()).sum();
     let step = two.step_time_s.unwrap();
     assert!((sum - step).abs() <= 0.05 * step, "{sum} vs {step}");
+}
+
+/// A scene whose steps have no solution (`wedged`: Baumgarte asks a box to leave two static
+/// boxes on opposite sides at once) counts them in `no_solution_steps`, and its status is the
+/// steps' `diverged`.
+#[test]
+fn steps_without_a_solution_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/wedged.toml");
+    let status = Command::new(EXE)
+        .args(["bench", "--no-progress", "--solvers", "apgd"])
+        .args(["--budgets", "loose", "--out"])
+        .arg(&out)
+        .arg("--lcps")
+        .arg(format!("scene:{scene}?steps=5"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].status.as_str(), "diverged", "{:?}", rows[0]);
+    assert_eq!(rows[0].no_solution_steps, Some(5));
+    assert_eq!(rows[0].nonconverged_steps, Some(5));
 }

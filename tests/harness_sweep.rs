@@ -274,6 +274,47 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
     }
 }
 
+/// A results file written without the last columns of the row (`certificate_bound`,
+/// `no_solution_steps`) resumes: its rows are kept, read with those columns empty, and the file
+/// is rewritten with the full header before new rows are appended.
+#[test]
+fn results_without_the_last_columns_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let results = out.join("results.csv");
+    let run = |solvers: &str| {
+        bench(&out, "spd:n=10:cond=1e2:seed=1", solvers, "1e-8:1000:1", 1)
+            .output()
+            .unwrap()
+    };
+    assert!(run("pgs").status.success());
+    let text = std::fs::read_to_string(&results).unwrap();
+    let header = text.lines().next().unwrap();
+    assert!(
+        header.ends_with(",certificate_bound,no_solution_steps"),
+        "{header}"
+    );
+    let older: String = text
+        .lines()
+        .map(|line| {
+            let cells: Vec<&str> = line.split(',').collect();
+            format!("{}\n", cells[..cells.len() - 2].join(","))
+        })
+        .collect();
+    std::fs::write(&results, older).unwrap();
+    let rows = read_results(&results).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].certificate_bound, None);
+    assert_eq!(rows[0].no_solution_steps, None);
+    let output = run("pgs,sor");
+    assert!(output.status.success());
+    assert!(stderr_of(&output).contains("ran 1, skipped 1"));
+    let rows = read_results(&results).unwrap();
+    assert_eq!(rows.len(), 2);
+    let text = std::fs::read_to_string(&results).unwrap();
+    assert_eq!(text.lines().next().unwrap(), header);
+}
+
 #[test]
 fn duplicate_rows_in_results_are_dropped_and_rerun_once() {
     let dir = tempfile::tempdir().unwrap();

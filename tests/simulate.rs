@@ -434,3 +434,58 @@ fn sequential_impulses_stall_instead_of_sweeping_to_the_cap() {
         assert!(iterations < 100_000, "step {step}: {iterations} sweeps");
     }
 }
+
+/// `wedged`: box A overlaps the static boxes B and C by 5 mm on each side, and Baumgarte
+/// correction asks it to leave both at 0.08 m/s at once, so every step's LCP has no solution
+/// (opposite normals cancel: a Farkas ray). An iterative solver's impulse meets a loose tolerance
+/// by squeezing A ever harder from both sides; `simulate` reports those steps `diverged`, and
+/// each step's recorded reason carries the certificate's bound on the size of any solution. A
+/// pivoting solver reports no step `converged` either.
+#[test]
+fn a_wedged_box_has_steps_without_a_solution() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("run.jsonl");
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/wedged.toml",
+        "--solver",
+        "apgd",
+        "--tol",
+        "1e-4",
+        "--steps",
+        "5",
+        "--json",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["statuses"], serde_json::json!({"diverged": 5}), "{v}");
+    let steps: Vec<serde_json::Value> = std::fs::read_to_string(&rec)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    for s in &steps {
+        let reason = s["status"]["reason"].as_str().unwrap();
+        let bound: f64 = reason
+            .split("every solution has ‖f‖∞ >= ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("no bound in {reason}"));
+        assert!(bound > 1e9, "{reason}");
+    }
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/wedged.toml",
+        "--solver",
+        "lemke",
+        "--steps",
+        "5",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["statuses"].get("converged").is_none(), "{v}");
+}

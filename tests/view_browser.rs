@@ -365,3 +365,39 @@ fn problem_page_shows_every_solver() {
     assert!(distinct(&shot.rgb) > 20, "the page is blank");
     assert!(saturated(&shot.rgb) > 300, "no coloured curves");
 }
+
+/// A scene and body named `<!--<script>` once left the HTML parser in its double-escaped script
+/// state: the page drew no canvas and no plots. Now it loads and draws like any other.
+#[test]
+fn hostile_names_leave_the_page_working() {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let name = "<!--<script>{{DATA}}";
+    let scene = std::fs::read_to_string("bench_scenes/box_on_ground.toml").unwrap();
+    let scene = format!(
+        "{}\n",
+        scene
+            .replacen("name = \"box_on_ground\"", &format!("name = {name:?}"), 1)
+            .replacen("name = \"box\"", &format!("name = \"{name} box\""), 1)
+    );
+    assert!(
+        scene.contains("{{DATA}} box"),
+        "the body is renamed:\n{scene}"
+    );
+    let path = dir.path().join("hostile.toml");
+    std::fs::write(&path, scene).unwrap();
+    let page = dir.path().join("hostile.html");
+    lcpbench(&[
+        "simulate",
+        path.to_str().unwrap(),
+        "--steps",
+        "20",
+        "--html",
+        page.to_str().unwrap(),
+    ]);
+    let state = page_state(&browser, &page, "#step=10");
+    assert_no_errors(&state);
+    assert_eq!(state.get("step"), "10");
+    let shot = screenshot(&browser, &page, "#step=10", dir.path(), "hostile.png");
+    assert!(distinct(&shot.view_region()) > 20, "the 3-D view is blank");
+}

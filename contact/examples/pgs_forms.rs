@@ -20,7 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut world = scene.world();
     world.run(steps);
     let mut pipeline = CollisionPipeline::new();
-    let contacts = pipeline.detect(&world.bodies, world.settings.prediction_distance);
+    let contacts = pipeline.detect(&world.bodies, world.settings.prediction_distance)?;
     let free = builder::free_velocities(&world.bodies, &world.settings.gravity, world.settings.dt);
     let t0 = Instant::now();
     let system = builder::build(

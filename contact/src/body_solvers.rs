@@ -44,8 +44,8 @@
 
 use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
 use lcpbench_solvers::{
-    decide, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals, Settings,
-    SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
+    decide, judge, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals,
+    Settings, SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
 };
 use nalgebra::{Matrix2, Vector2};
 use std::time::Instant;
@@ -189,7 +189,9 @@ pub trait BodySolver: dyn_clone::DynClone {
         self.kind().name()
     }
 
-    /// Solve and decide the status from the shared residual of `measure` ([`body_status`]).
+    /// Solve and decide the status from the shared residual of `measure` ([`body_status`]),
+    /// then, for a converged result, by the matrix solvers' data-resolution test
+    /// ([`judge`]).
     fn solve(
         &mut self,
         system: &ContactSystem,
@@ -207,11 +209,19 @@ pub trait BodySolver: dyn_clone::DynClone {
             }
             Measure::Skip | Measure::Invalid(_) => (Vec::new(), None),
         };
-        let invalid = match measure {
-            Measure::Invalid(e) => Some(e),
-            _ => None,
+        let (invalid, problem) = match measure {
+            Measure::Invalid(e) => (Some(e), None),
+            Measure::Lcp(p) => (None, Some(p)),
+            Measure::Skip => (None, None),
         };
         let status = body_status(self.name(), &out, residuals.as_ref(), invalid, settings);
+        // A converged result faces the data-resolution test of the matrix solvers too.
+        let (status, certificate) = match (status, problem, residuals.as_ref()) {
+            (Status::Converged, Some(p), Some(r)) => {
+                judge(p, &out.f, &w, r, Outcome::Stopped, settings.tolerance)
+            }
+            (status, ..) => (status, None),
+        };
         BodySolveResult {
             result: SolveResult {
                 f: out.f,
@@ -222,6 +232,7 @@ pub trait BodySolver: dyn_clone::DynClone {
                 residuals: residuals.unwrap_or(Residuals::INFINITE),
                 history: Vec::new(),
                 active_sets: Vec::new(),
+                certificate,
             },
             warm: out.warm,
         }

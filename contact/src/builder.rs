@@ -401,6 +401,12 @@ impl WarmStartCache {
 /// a sparse one and the pivoting solvers need the dense form anyway.
 pub const DENSE_ROWS: usize = 24;
 
+/// Most stored entries of one step's assembled Delassus matrix `A` (about 16 bytes each in
+/// compressed rows: 800 MB). Every pair of rows on one body couples, so the entries grow with
+/// the square of a body's rows: a mesh whose flat bottom touches the ground at 10,201 points
+/// asks for 30,603² ≈ 9.4e8 of them, while a pile of 10,000 spheres needs a few million.
+pub const MAX_DELASSUS_ENTRIES: usize = 50_000_000;
+
 /// An independent group of contacts: no dynamic body is shared with another island, so its
 /// rows of `A` couple to no other island's rows ([`ContactSystem::islands`]).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -500,6 +506,55 @@ impl ContactSystem {
     /// `hi = ∞`, so this is the test for a standard LCP; the bounds are not inspected.
     pub fn is_standard(&self) -> bool {
         self.friction.is_empty()
+    }
+
+    /// An upper bound on the stored entries of `A` as [`ContactSystem::delassus_sparse`]
+    /// assembles it (`Σ` over rows of the rows sharing each of its bodies, plus the pyramid
+    /// coupling), counted in one pass over the rows before anything is allocated.
+    pub fn delassus_entries(&self) -> u128 {
+        let mut rows_on = vec![0u128; self.inv_mass.len()];
+        for row in &self.rows {
+            for blk in &row.blocks {
+                rows_on[blk.body] += 1;
+            }
+        }
+        let coupling = self
+            .info
+            .iter()
+            .filter(|c| c.slack_row.is_some())
+            .map(|c| 2 * c.friction_rows.len() as u128 + 1)
+            .sum::<u128>();
+        rows_on.iter().map(|&r| r * r).sum::<u128>() + coupling + self.n() as u128
+    }
+
+    /// `Err` with the reason when assembling `A` would store more than
+    /// [`MAX_DELASSUS_ENTRIES`] entries, naming the body with the most rows (`bodies` are the
+    /// bodies the system was built from).
+    pub fn check_delassus_size(&self, bodies: &[RigidBody]) -> Result<(), String> {
+        let entries = self.delassus_entries();
+        if entries <= MAX_DELASSUS_ENTRIES as u128 {
+            return Ok(());
+        }
+        let mut rows_on = vec![0usize; self.inv_mass.len()];
+        for row in &self.rows {
+            for blk in &row.blocks {
+                rows_on[blk.body] += 1;
+            }
+        }
+        let (body, most) = rows_on
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, &r)| r)
+            .map_or((0, 0), |(b, &r)| (b, r));
+        let name = bodies.get(body).map_or("?", |b| b.name.as_str());
+        Err(format!(
+            "the step's Delassus matrix would store {entries} entries ({} rows, {most} of them on \
+             body \"{name}\"), beyond the limit of {MAX_DELASSUS_ENTRIES}: every pair of rows on \
+             one body couples, so a body touching at thousands of points (a finely meshed flat \
+             face on the ground) needs fewer contacts (a coarser mesh, a convex hull) or fewer \
+             rows per contact (friction_model = \"none\")",
+            self.n()
+        ))
     }
 
     /// The dense Jacobian, `rows × 6·bodies`, columns `[v_k; ω_k]` per body `k`.

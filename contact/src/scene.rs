@@ -14,6 +14,7 @@ use crate::builder::{BuilderParams, FrictionModel, Material, PositionCorrection}
 use crate::collision::toi::ToiMethod;
 use crate::shape::Shape;
 use crate::step::{ContactSolver, Event, SimSettings, World};
+use lcpbench_solvers::metrics::MIN_TOLERANCE;
 use nalgebra::{Point3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -44,6 +45,48 @@ pub const MAX_COORDINATE: f64 = 1e9;
 
 /// Smallest and largest body mass, kg (from `mass`, or from `density` and the volume).
 pub const MASS_RANGE: (f64, f64) = (1e-9, 1e15);
+
+/// Smallest and largest size of a body, m: every half extent of its bounding box (a sphere's
+/// radius, a box's half extents, ...). Beyond them volumes and inertias leave `f64`'s range or
+/// drown in round-off, and a "mass 0 kg" would be all a message could say.
+pub const SIZE_RANGE: (f64, f64) = (1e-6, 1e6);
+
+/// Largest `prediction_distance` and `slop`, m: contacts closer than the prediction distance
+/// enter the problem, so a larger one pairs every body with every body near it.
+pub const MAX_CONTACT_DISTANCE: f64 = 1.0;
+
+/// Largest Coulomb coefficient of a material (real ones are below a few).
+pub const MAX_MU: f64 = 100.0;
+
+/// Largest `penalty_omega_h`: a spring integrated over a step of `h` is stable only for
+/// `ω h < 2`.
+pub const MAX_PENALTY_OMEGA_H: f64 = 2.0;
+
+/// Largest `penalty_damping_ratio` and `penalty_stiffness` (N/m): beyond them the penalty force
+/// of a millimetre's overlap leaves `f64`'s useful range.
+pub const MAX_PENALTY_DAMPING_RATIO: f64 = 100.0;
+
+/// See [`MAX_PENALTY_DAMPING_RATIO`].
+pub const MAX_PENALTY_STIFFNESS: f64 = 1e20;
+
+/// Largest scene file read, bytes (10,000 bodies written out one by one take a few megabytes).
+pub const MAX_SCENE_FILE_BYTES: u64 = 16_000_000;
+
+/// How deep, as a fraction of its bounding radius ([`Shape::bounding_radius`]: the farthest
+/// point of its surface from its centre of mass), a body may start inside another (the smaller
+/// radius of the two counts). Deeper, the contact normal no longer tells which way out is (a
+/// box 1,000 m below the ground "converges" while its energy goes from −1e7 to 2e11 J, two
+/// coincident spheres fly apart).
+pub const MAX_INITIAL_OVERLAP: f64 = 1.0;
+
+/// Options of [`Scene::load_with`] and [`Scene::parse_with`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Accept mesh files outside the scene's directory tree (absolute paths, `..`, symbolic
+    /// links leading out) \[`false`\]: a scene from someone else should not read the rest of
+    /// the disk.
+    pub allow_outside_paths: bool,
+}
 
 /// A number as a person would write it: plain for ordinary magnitudes, in exponent form for
 /// tiny and huge ones (`1e-300`, not three hundred zeros).
@@ -374,18 +417,38 @@ fn table_context(text: &str, offset: usize) -> String {
 }
 
 impl Scene {
-    /// Load a scene file.
+    /// Load a scene file (mesh files inside its directory tree only).
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
-            path: path.to_owned(),
-            error,
-        })?;
-        Self::parse(&text, path)
+        Self::load_with(path, &LoadOptions::default())
     }
 
-    /// Parse scene text; `path` names the file in errors and anchors mesh paths.
+    /// Load a scene file with `options`. The file must be a regular file of at most
+    /// [`MAX_SCENE_FILE_BYTES`].
+    pub fn load_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let io = |error| SceneError::Io {
+            path: path.to_owned(),
+            error,
+        };
+        let bytes =
+            lcpbench_solvers::io::input::read_input_file(path, MAX_SCENE_FILE_BYTES).map_err(io)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            io(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("not UTF-8 text: {e}"),
+            ))
+        })?;
+        Self::parse_with(&text, path, options)
+    }
+
+    /// Parse scene text; `path` names the file in errors and anchors mesh paths (mesh files
+    /// inside its directory tree only).
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
+        Self::parse_with(text, path, &LoadOptions::default())
+    }
+
+    /// Parse scene text with `options`; `path` names the file in errors and anchors mesh paths.
+    pub fn parse_with(text: &str, path: &Path, options: &LoadOptions) -> Result<Self, SceneError> {
         let file: SceneFile = toml::from_str(text).map_err(|e| {
             let offset = e.span().map_or(0, |s| s.start);
             let (line, column) = line_column(text, offset);
@@ -413,9 +476,12 @@ impl Scene {
             convert_settings(&file.settings).map_err(|(f, m)| invalid(f, m))?;
         let materials = convert_materials(&file.materials).map_err(|(f, m)| invalid(f, m))?;
         let total = count_bodies(&file.bodies).map_err(|(f, m)| invalid(f, m))?;
-        let dir = path.parent().unwrap_or(Path::new("."));
-        let (bodies, groups) =
-            convert_bodies(&file.bodies, &materials, dir, total).map_err(|(f, m)| invalid(f, m))?;
+        let dir = Some(path.parent().unwrap_or(Path::new(".")))
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let files = MeshFiles { dir, options };
+        let (bodies, groups) = convert_bodies(&file.bodies, &materials, &files, total)
+            .map_err(|(f, m)| invalid(f, m))?;
         let events =
             convert_events(&file.events, &bodies, &groups).map_err(|(f, m)| invalid(f, m))?;
 
@@ -425,6 +491,8 @@ impl Scene {
                 "the scene has no bodies (add at least one [[bodies]] table)".into(),
             ));
         }
+        check_initial_overlap(&bodies, &groups, &file.bodies, settings.prediction_distance)
+            .map_err(|(f, m)| invalid(f, m))?;
         let name = file.name.unwrap_or_else(|| {
             path.file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
@@ -506,8 +574,11 @@ fn convert_materials(files: &[MaterialFile]) -> Result<Vec<Material>, FieldError
     let mut materials = Vec::new();
     for (i, m) in files.iter().enumerate() {
         let field = |f: &str| format!("materials[{i}] (\"{}\").{f}", m.name);
-        if !(m.mu.is_finite() && m.mu >= 0.0) {
-            return Err((field("mu"), format!("must be >= 0, got {}", m.mu)));
+        if !(m.mu.is_finite() && (0.0..=MAX_MU).contains(&m.mu)) {
+            return Err((
+                field("mu"),
+                format!("must be between 0 and {MAX_MU}, got {}", readable(m.mu)),
+            ));
         }
         if !(0.0..=1.0).contains(&m.restitution) {
             return Err((
@@ -564,7 +635,7 @@ fn count_bodies(files: &[BodyFile]) -> Result<usize, FieldError> {
 fn convert_bodies(
     files: &[BodyFile],
     materials: &[Material],
-    dir: &Path,
+    meshes: &MeshFiles,
     total: usize,
 ) -> Result<(Vec<RigidBody>, Vec<String>), FieldError> {
     let mut bodies = Vec::with_capacity(total);
@@ -578,7 +649,7 @@ fn convert_bodies(
                 format!("bodies[{i}] (\"{}\").{f}", b.name)
             }
         };
-        let made = convert_body(b, materials, dir).map_err(|(f, m)| (at(&f), m))?;
+        let made = convert_body(b, materials, meshes).map_err(|(f, m)| (at(&f), m))?;
         for body in made {
             if !names.insert(body.name.clone()) {
                 return Err((
@@ -593,7 +664,8 @@ fn convert_bodies(
     Ok((bodies, groups))
 }
 
-/// The `[[events]]` tables; each must remove a body (or repeated entry) that exists.
+/// The `[[events]]` tables; each fires at a step a run can reach (below [`MAX_STEPS`]) and
+/// removes a body (or repeated entry) that exists and that no earlier event has removed.
 fn convert_events(
     files: &[EventFile],
     bodies: &[RigidBody],
@@ -601,6 +673,15 @@ fn convert_events(
 ) -> Result<Vec<Event>, FieldError> {
     let mut events = Vec::new();
     for (i, e) in files.iter().enumerate() {
+        if e.at_step >= MAX_STEPS {
+            return Err((
+                format!("events[{i}].at_step"),
+                format!(
+                    "must be below {MAX_STEPS} (the most steps a run takes), got {}",
+                    e.at_step
+                ),
+            ));
+        }
         if !bodies
             .iter()
             .zip(groups)
@@ -616,7 +697,46 @@ fn convert_events(
             remove: e.remove.clone(),
         });
     }
+    check_removed_once(&events, bodies, groups)?;
     Ok(events)
+}
+
+/// Every event removes at least one body still there when it fires (events fire in step
+/// order; at one step, in file order): removing a body twice is a mistake in the file.
+fn check_removed_once(
+    events: &[Event],
+    bodies: &[RigidBody],
+    groups: &[String],
+) -> Result<(), FieldError> {
+    let mut order: Vec<usize> = (0..events.len()).collect();
+    order.sort_by_key(|&i| events[i].at_step);
+    // For each body, the event that removed it.
+    let mut removed_by: Vec<Option<usize>> = vec![None; bodies.len()];
+    for i in order {
+        let e = &events[i];
+        let targets: Vec<usize> = (0..bodies.len())
+            .filter(|&k| bodies[k].name == e.remove || groups[k] == e.remove)
+            .collect();
+        if let Some(earlier) = targets
+            .iter()
+            .map(|&k| removed_by[k])
+            .collect::<Option<Vec<_>>>()
+            .and_then(|by| by.first().copied())
+        {
+            return Err((
+                format!("events[{i}].remove"),
+                format!(
+                    "\"{}\" is already removed at step {} by events[{earlier}]; a body is \
+                     removed once",
+                    e.remove, events[earlier].at_step
+                ),
+            ));
+        }
+        for k in targets {
+            removed_by[k].get_or_insert(i);
+        }
+    }
+    Ok(())
 }
 
 /// `settings.{field}` must be a positive finite number.
@@ -641,6 +761,21 @@ fn non_negative(field: &str, v: f64) -> Result<f64, FieldError> {
             format!("must be >= 0, got {v}"),
         ))
     }
+}
+
+/// `settings.{field}` must be a distance from 0 to [`MAX_CONTACT_DISTANCE`].
+fn contact_distance(field: &str, v: f64) -> Result<f64, FieldError> {
+    let v = non_negative(field, v)?;
+    if v > MAX_CONTACT_DISTANCE {
+        return Err((
+            format!("settings.{field}"),
+            format!(
+                "must be at most {MAX_CONTACT_DISTANCE} m, got {} m",
+                readable(v)
+            ),
+        ));
+    }
+    Ok(v)
 }
 
 /// `dt`, `steps` and `gravity` within their limits; returns `dt`.
@@ -694,8 +829,18 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
     let position_correction = PositionCorrection::from_name(&s.position_correction)
         .map_err(|m| err("position_correction", m))?;
     let penalty = Penalty {
-        omega_h: positive("penalty_omega_h", s.penalty_omega_h)?,
-        damping_ratio: non_negative("penalty_damping_ratio", s.penalty_damping_ratio)?,
+        omega_h: at_most(
+            "penalty_omega_h",
+            positive("penalty_omega_h", s.penalty_omega_h)?,
+            MAX_PENALTY_OMEGA_H,
+            "",
+        )?,
+        damping_ratio: at_most(
+            "penalty_damping_ratio",
+            s.penalty_damping_ratio,
+            MAX_PENALTY_DAMPING_RATIO,
+            "",
+        )?,
         stiffness: s.penalty_stiffness,
     };
     let solver = match &s.solver {
@@ -719,7 +864,12 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
         ));
     }
     if let Some(k) = s.penalty_stiffness {
-        positive("penalty_stiffness", k)?;
+        at_most(
+            "penalty_stiffness",
+            positive("penalty_stiffness", k)?,
+            MAX_PENALTY_STIFFNESS,
+            " N/m",
+        )?;
     }
     let ccd = ToiMethod::from_ccd_name(&s.ccd).map_err(|m| err("ccd", m))?;
     if s.max_iterations == 0 {
@@ -734,13 +884,18 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
         max_iterations: s.max_iterations,
         warm_start: s.warm_start,
         islands: s.islands,
-        prediction_distance: non_negative("prediction_distance", s.prediction_distance)?,
+        prediction_distance: contact_distance("prediction_distance", s.prediction_distance)?,
         builder: BuilderParams {
             friction_model,
-            restitution_threshold: non_negative("restitution_threshold", s.restitution_threshold)?,
+            restitution_threshold: at_most(
+                "restitution_threshold",
+                s.restitution_threshold,
+                MAX_SPEED,
+                " m/s",
+            )?,
             position_correction,
             baumgarte,
-            slop: non_negative("slop", s.slop)?,
+            slop: contact_distance("slop", s.slop)?,
         },
         ccd,
         keep_problem: false,
@@ -753,13 +908,41 @@ fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty), FieldErr
 }
 
 /// A tolerance on the relative residual: a number in `(0, 1)` (a relative residual of 1 is met
-/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing).
+/// by a zero impulse, so a tolerance of 1 or more would claim convergence for nothing), and at
+/// least [`MIN_TOLERANCE`] (below it the relative residual of a correctly rounded solution is
+/// round-off, so the tolerance would be met only by chance).
 pub fn tolerance(tol: f64) -> Result<f64, String> {
-    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
-        Ok(tol)
+    if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+        Err(format!(
+            "must be a number in (0, 1) on the relative residual, got {}",
+            readable(tol)
+        ))
+    } else if tol < MIN_TOLERANCE {
+        Err(format!(
+            "{} is below {MIN_TOLERANCE:e}: the relative residual of a correctly rounded \
+             solution is about 4 (nnz + 1) ε per row, so a smaller tolerance would be met only by \
+             chance",
+            readable(tol)
+        ))
     } else {
-        Err(format!("must be a number in (0, 1), got {}", readable(tol)))
+        Ok(tol)
     }
+}
+
+/// `settings.{field}`, a number in `[0, max]`.
+fn at_most(field: &str, v: f64, max: f64, unit: &str) -> Result<f64, FieldError> {
+    let v = non_negative(field, v)?;
+    if v > max {
+        return Err((
+            format!("settings.{field}"),
+            format!(
+                "must be at most {}{unit}, got {}",
+                readable(max),
+                readable(v)
+            ),
+        ));
+    }
+    Ok(v)
 }
 
 /// Euclidean length of `v`, or its largest component when the length overflows (so a message
@@ -777,7 +960,77 @@ fn vec3(v: [f64; 3]) -> Vector3<f64> {
     Vector3::new(v[0], v[1], v[2])
 }
 
-fn convert_shape(s: &ShapeFile, dir: &Path) -> Result<Shape, FieldError> {
+/// Where a scene's mesh files may come from.
+struct MeshFiles<'a> {
+    /// The scene file's directory.
+    dir: &'a Path,
+    options: &'a LoadOptions,
+}
+
+impl MeshFiles<'_> {
+    /// The path of the mesh file `file`: relative to the scene file and, unless
+    /// [`LoadOptions::allow_outside_paths`], inside the scene's directory tree once symbolic
+    /// links are followed.
+    fn resolve(&self, file: &str) -> Result<PathBuf, String> {
+        let path = self.dir.join(file);
+        if self.options.allow_outside_paths {
+            return Ok(path);
+        }
+        let outside = |what: String| {
+            format!(
+                "mesh file \"{file}\" {what}; mesh files are given relative to the scene file \
+                 and must lie in its directory tree (lcpbench simulate --allow-outside-paths \
+                 reads others)"
+            )
+        };
+        if Path::new(file).is_absolute() {
+            return Err(outside("is an absolute path".into()));
+        }
+        let cannot = |e: std::io::Error| format!("cannot read mesh file {}: {e}", path.display());
+        let root = self.dir.canonicalize().map_err(cannot)?;
+        let real = path.canonicalize().map_err(cannot)?;
+        if !real.starts_with(&root) {
+            return Err(outside(format!(
+                "leads to {}, outside {}",
+                real.display(),
+                root.display()
+            )));
+        }
+        Ok(path)
+    }
+}
+
+/// Every half extent of a bounded shape's box within [`SIZE_RANGE`].
+fn check_size(shape: &Shape) -> Result<(), String> {
+    if matches!(shape, Shape::Plane { .. }) {
+        return Ok(());
+    }
+    let h = shape.local_aabb().half_extents();
+    let (lo, hi) = (h.min(), h.max());
+    if (SIZE_RANGE.0..=SIZE_RANGE.1).contains(&lo) && (SIZE_RANGE.0..=SIZE_RANGE.1).contains(&hi) {
+        return Ok(());
+    }
+    let got = if hi > SIZE_RANGE.1 || !hi.is_finite() {
+        hi
+    } else {
+        lo
+    };
+    Err(format!(
+        "{}: its half extents must be between {:e} and {:e} m, got {} m",
+        shape.kind(),
+        SIZE_RANGE.0,
+        SIZE_RANGE.1,
+        readable(got)
+    ))
+}
+
+fn convert_shape(s: &ShapeFile, meshes: &MeshFiles) -> Result<Shape, FieldError> {
+    let shape = build_shape(s, meshes)?;
+    check_size(&shape).map_err(|m| ("shape".to_owned(), m))?;
+    Ok(shape)
+}
+
+fn build_shape(s: &ShapeFile, meshes: &MeshFiles) -> Result<Shape, FieldError> {
     let e = |e: crate::shape::ShapeError| ("shape".to_owned(), e.to_string());
     match s {
         ShapeFile::Sphere { radius } => Shape::sphere(*radius).map_err(e),
@@ -792,18 +1045,26 @@ fn convert_shape(s: &ShapeFile, dir: &Path) -> Result<Shape, FieldError> {
         }
         ShapeFile::Particle { radius } => Shape::particle(radius.unwrap_or(0.01)).map_err(e),
         ShapeFile::Plane { normal } => Shape::plane(vec3(*normal)).map_err(e),
-        ShapeFile::Mesh { file } => Shape::from_obj(dir.join(file)).map_err(e),
+        ShapeFile::Mesh { file } => {
+            let path = meshes
+                .resolve(file)
+                .map_err(|m| ("shape.file".to_owned(), m))?;
+            Shape::from_obj(path).map_err(e)
+        }
     }
 }
 
 fn convert_body(
     b: &BodyFile,
     materials: &[Material],
-    dir: &Path,
+    meshes: &MeshFiles,
 ) -> Result<Vec<RigidBody>, FieldError> {
-    let shape = convert_shape(&b.shape, dir)?;
+    let shape = convert_shape(&b.shape, meshes)?;
     check_motion(b)?;
     let mass = body_mass(b)?;
+    if !b.is_static {
+        check_mass_range(&shape, mass)?;
+    }
     let orientation = body_orientation(b)?;
     let material = body_material(b, materials)?;
     expand_repeats(b, &shape, mass, orientation, material)
@@ -878,6 +1139,77 @@ fn body_mass(b: &BodyFile) -> Result<MassSpec, FieldError> {
         (None, Some(m)) => MassSpec::Mass(m),
         (None, None) => MassSpec::Density(1000.0),
     })
+}
+
+/// The mass a dynamic body gets from `density` and its shape's volume within [`MASS_RANGE`]
+/// (a given `mass` is checked by [`body_mass`]), before the body is built.
+fn check_mass_range(shape: &Shape, mass: MassSpec) -> Result<(), FieldError> {
+    let MassSpec::Density(density) = mass else {
+        return Ok(());
+    };
+    let m = shape
+        .mass_properties(density)
+        .map_err(|e| ("shape".to_owned(), e.to_string()))?
+        .mass;
+    if (MASS_RANGE.0..=MASS_RANGE.1).contains(&m) {
+        return Ok(());
+    }
+    Err((
+        "density".to_owned(),
+        format!(
+            "gives a mass of {} kg, outside {} to {} kg",
+            readable(m),
+            readable(MASS_RANGE.0),
+            readable(MASS_RANGE.1)
+        ),
+    ))
+}
+
+/// No body starts deeper inside another than [`MAX_INITIAL_OVERLAP`] times the smaller
+/// bounding radius of the two. Checked with the stepper's own collision detection, within its limits
+/// (`prediction` widens the broad phase as the first step's will).
+fn check_initial_overlap(
+    bodies: &[RigidBody],
+    groups: &[String],
+    files: &[BodyFile],
+    prediction: f64,
+) -> Result<(), FieldError> {
+    let field = |k: usize| {
+        let entry = files.iter().position(|f| f.name == groups[k]).unwrap_or(0);
+        format!("bodies[{entry}] (\"{}\").position", bodies[k].name)
+    };
+    let mut pipeline = crate::CollisionPipeline::new();
+    let contacts = pipeline.detect(bodies, prediction).map_err(|e| {
+        (
+            "bodies".to_owned(),
+            format!("at the start, {e} (see docs/scenes.md#limits)"),
+        )
+    })?;
+    for c in contacts.iter().filter(|c| c.dist < 0.0) {
+        let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
+        let (ra, rb) = (a.shape.bounding_radius(), b.shape.bounding_radius());
+        let (inner, other) = if ra <= rb {
+            (c.body_a, c.body_b)
+        } else {
+            (c.body_b, c.body_a)
+        };
+        let radius = ra.min(rb);
+        let depth = -c.dist;
+        if depth > MAX_INITIAL_OVERLAP * radius {
+            return Err((
+                field(inner),
+                format!(
+                    "starts {} m deep in \"{}\", more than its own size (bounding radius) \
+                     of {} m, the limit of an initial overlap: a body that deep has no way \
+                     out the contact can tell",
+                    readable(depth),
+                    bodies[other].name,
+                    readable(radius)
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `orientation` (a quaternion) or `axis_angle`; identity when neither is given.
@@ -959,6 +1291,17 @@ fn expand_repeats(
                     j as f64 * spacing[1],
                     k as f64 * spacing[2],
                 );
+                let position = vec3(b.position) + offset;
+                if !position.iter().all(|x| x.abs() <= MAX_COORDINATE) {
+                    return Err(err(
+                        "repeat.spacing",
+                        format!(
+                            "copy {index} lands at {}, beyond the coordinate limit of {} m",
+                            readable(position.amax()),
+                            readable(MAX_COORDINATE)
+                        ),
+                    ));
+                }
                 let name = if repeated {
                     format!("{}_{index}", b.name)
                 } else {
@@ -969,7 +1312,7 @@ fn expand_repeats(
                     name,
                     shape.clone(),
                     mass,
-                    Point3::from(vec3(b.position) + offset),
+                    Point3::from(position),
                     orientation,
                     vec3(b.velocity),
                     vec3(b.angular_velocity),
@@ -977,17 +1320,6 @@ fn expand_repeats(
                     b.is_static,
                 )
                 .map_err(|e| err("", e.to_string()))?;
-                if !b.is_static && !(MASS_RANGE.0..=MASS_RANGE.1).contains(&body.mass) {
-                    return Err(err(
-                        "density",
-                        format!(
-                            "gives a mass of {} kg, outside {} to {} kg",
-                            readable(body.mass),
-                            readable(MASS_RANGE.0),
-                            readable(MASS_RANGE.1)
-                        ),
-                    ));
-                }
                 out.push(body);
             }
         }

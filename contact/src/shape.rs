@@ -463,6 +463,13 @@ impl Shape {
     }
 }
 
+/// Largest Wavefront OBJ file read, bytes (a mesh of [`MAX_MESH_TRIANGLES`] triangles takes a
+/// few megabytes). Devices, pipes and directories are refused whatever their size.
+pub const MAX_MESH_FILE_BYTES: u64 = 32_000_000;
+
+/// Most triangles of one mesh: each can meet each triangle of another mesh in the narrow phase.
+pub const MAX_MESH_TRIANGLES: usize = 200_000;
+
 /// Vertex positions and triangles (indices into the positions) of a mesh.
 type MeshBuffers = (Vec<Point3<f64>>, Vec<[u32; 3]>);
 
@@ -479,7 +486,8 @@ fn read_obj(path: &Path) -> Result<MeshBuffers, ShapeError> {
     };
     // Read the file here so an I/O failure keeps the operating system's reason, and parse from
     // memory so a parse error can be placed on its line.
-    let bytes = std::fs::read(path).map_err(|e| file_err(e.to_string()))?;
+    let bytes = lcpbench_solvers::io::input::read_input_file(path, MAX_MESH_FILE_BYTES)
+        .map_err(|e| file_err(e.to_string()))?;
     let mut cursor = std::io::Cursor::new(&bytes[..]);
     // Materials are not used: every `mtllib` is answered with "not loaded".
     let parsed = tobj::load_obj_buf(&mut cursor, &options, |_| {
@@ -516,6 +524,12 @@ fn read_obj(path: &Path) -> Result<MeshBuffers, ShapeError> {
             file_err(e.to_string())
         }
     })?;
+    let triangles: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    if triangles > MAX_MESH_TRIANGLES {
+        return Err(file_err(format!(
+            "{triangles} triangles, beyond the limit of {MAX_MESH_TRIANGLES}"
+        )));
+    }
     let mut vertices = Vec::new();
     let mut indices = Vec::new();
     for model in &models {

@@ -51,6 +51,7 @@ use crate::builder::PositionCorrection;
 use crate::builder::{
     self, BodyVelocity, BuilderParams, ContactSystem, Material, Partition, WarmStartCache,
 };
+use crate::collision::broad_phase::TooManyPairs;
 use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
 use crate::collision::CollisionPipeline;
 use crate::integrate;
@@ -285,7 +286,9 @@ pub struct SimSettings {
     /// Solver tolerance on the relative natural-map residual \[`1e-6`\] (for body-level
     /// solvers also their own stopping scale).
     pub tolerance: f64,
-    /// Solver iteration / pivot / sweep cap \[`1000`\].
+    /// Solver iteration / pivot / sweep cap of a step's solve \[`1000`\]. Islands solved
+    /// apart ([`SimSettings::islands`]) run in parallel and each gets the whole cap; a solver
+    /// that splits one problem itself shares it ([`Settings::max_iterations`]).
     pub max_iterations: usize,
     /// Warm-start iterative solvers from the previous step's impulses \[`true`\].
     pub warm_start: bool,
@@ -697,7 +700,7 @@ fn status_rank(status: &Status) -> u8 {
         Status::Converged => 0,
         Status::Stalled { .. } => 1,
         Status::IterationLimit | Status::TimeLimit => 2,
-        Status::NoSolution { .. } | Status::NumericalFailure { .. } => 3,
+        Status::NoSolution { .. } | Status::Diverged { .. } | Status::NumericalFailure { .. } => 3,
         Status::Unsupported { .. } => 4,
     }
 }
@@ -819,14 +822,24 @@ impl World {
     }
 
     /// One time step: detect, build, solve, apply and integrate, measure.
+    ///
+    /// A step past one of the stated limits (candidate pairs, contacts, entries of `A`: see
+    /// [`broad_phase::MAX_PAIRS`](crate::collision::broad_phase::MAX_PAIRS),
+    /// [`narrow_phase::MAX_CONTACTS`](crate::collision::narrow_phase::MAX_CONTACTS),
+    /// [`builder::MAX_DELASSUS_ENTRIES`]) is not solved: it applies no contact impulse and
+    /// reports `Unsupported` with the limit as the reason.
     pub fn step(&mut self) -> StepReport {
         let mut clock = PhaseClock::start();
         let mut phases = PhaseTimes::default();
         self.apply_events();
         let (h, gravity) = (self.settings.dt, self.settings.gravity);
-        let contacts = self
+        let (contacts, detection_refused) = match self
             .pipeline
-            .detect(&self.bodies, self.settings.prediction_distance);
+            .detect(&self.bodies, self.settings.prediction_distance)
+        {
+            Ok(contacts) => (contacts, None),
+            Err(e) => (Vec::new(), Some(format!("collision detection: {e}"))),
+        };
         phases.collision = clock.lap();
         let timings = self.pipeline.timings();
         (phases.broad_phase, phases.narrow_phase) = (timings.broad_phase, timings.narrow_phase);
@@ -842,7 +855,14 @@ impl World {
         phases.assembly = clock.lap();
         let partition = system.islands();
         phases.islands = clock.lap();
-        let solved = self.solve(&system, &partition);
+        let refused = detection_refused.or_else(|| self.size_refusal(&system));
+        let mut solved = match &refused {
+            Some(reason) => {
+                self.warm.clear();
+                Solved::unsupported(system.n(), reason.clone())
+            }
+            None => self.solve(&system, &partition),
+        };
         let solve_wall = clock.lap();
         // The solve phase's shares of assembly and measurement go to those phases.
         let assembly = solved.assembly_s.min(solve_wall);
@@ -850,8 +870,20 @@ impl World {
         phases.assembly += assembly;
         phases.residual += measure;
         phases.solve = solve_wall - assembly - measure;
-        let pseudo = self.split_impulse_velocities(&system);
-        let toi = self.integrate(&system, &solved.f, pseudo.as_deref());
+        let pseudo = if refused.is_none() {
+            self.split_impulse_velocities(&system)
+        } else {
+            None
+        };
+        let toi = match self.integrate(&system, &solved.f, pseudo.as_deref()) {
+            Ok(toi) => toi,
+            Err(e) => {
+                solved.status = Status::Unsupported {
+                    reason: format!("continuous collision detection: {e}"),
+                };
+                None
+            }
+        };
         self.step_index += 1;
         self.time += h;
         phases.integration = clock.lap();
@@ -886,6 +918,20 @@ impl World {
         // Body indices changed: cached manifolds and contact keys no longer match.
         self.pipeline.clear();
         self.warm.clear();
+    }
+
+    /// Why the step's contact problem is too large to assemble, when it is: the matrix and cone
+    /// solvers, the shared residual, a kept problem and split impulses all assemble (part of)
+    /// `A`; a body-level solver without them works on the bodies alone.
+    fn size_refusal(&self, system: &ContactSystem) -> Option<String> {
+        let assembles = !matches!(self.settings.solver, ContactSolver::Body(_))
+            || self.settings.residuals
+            || self.settings.keep_problem
+            || self.settings.builder.position_correction == PositionCorrection::Split;
+        if !assembles {
+            return None;
+        }
+        system.check_delassus_size(&self.bodies).err()
     }
 
     /// The deadline of a solve starting now: the step's time budget from now, or the run's
@@ -1056,13 +1102,14 @@ impl World {
     }
 
     /// Apply the impulses and move the bodies; returns the time of impact the motion was cut to
-    /// when continuous collision detection found one.
+    /// when continuous collision detection found one. When its broad phase is past its limit,
+    /// the bodies move the whole step and the error says so.
     fn integrate(
         &mut self,
         system: &ContactSystem,
         f: &[f64],
         pseudo: Option<&[BodyVelocity]>,
-    ) -> Option<f64> {
+    ) -> Result<Option<f64>, TooManyPairs> {
         let (h, gravity) = (self.settings.dt, self.settings.gravity);
         let dp = system.momentum_change(f);
         if let Some(method) = self.settings.ccd {
@@ -1070,11 +1117,11 @@ impl World {
                 integrate::apply_momentum(body, h, &gravity, dl_lin, dl_ang);
             }
             let impact = first_impact(&self.bodies, h, method, &ToiSettings::default());
-            let h_pose = impact.map_or(h, |i| i.toi.time);
+            let h_pose = impact.map_or(h, |i| i.map_or(h, |i| i.toi.time));
             for (k, body) in self.bodies.iter_mut().enumerate() {
                 integrate::advance_pose(body, h_pose, pseudo.map(|p| &p[k]));
             }
-            return impact.map(|i| i.toi.time);
+            return impact.map(|i| i.map(|i| i.toi.time));
         }
         for (k, body) in self.bodies.iter_mut().enumerate() {
             let (dl_lin, dl_ang) = &dp[k];
@@ -1093,7 +1140,7 @@ impl World {
                 integrate::rk4_free_flight(body, h, &gravity);
             }
         }
-        None
+        Ok(None)
     }
 
     /// Per contact: impulses, post-step relative velocity and normal-row complementarity.

@@ -225,14 +225,14 @@ fn sap_pair_count_grows_with_overlaps_on_sparse_grid() {
         }
     }
     assert_eq!(bodies.len(), 1000);
-    let pairs = candidate_pairs(&bodies);
+    let pairs = candidate_pairs(&bodies).unwrap();
     println!(
         "1000 spheres: {} candidate pairs, {} touching (n² / 2 = 499500)",
         pairs.len(),
         touching
     );
     assert_eq!(pairs.len(), touching);
-    let contacts = CollisionPipeline::new().detect(&bodies, 0.0);
+    let contacts = CollisionPipeline::new().detect(&bodies, 0.0).unwrap();
     assert_eq!(contacts.len(), touching);
 }
 
@@ -264,7 +264,7 @@ fn sap_agrees_with_brute_force_on_random_scenes() {
         let sap = sweep_and_prune(&aabbs, skip);
         let brute = brute_force_pairs(&aabbs, skip);
         assert_eq!(sap, brute, "scene {scene}");
-        assert_eq!(candidate_pairs_with_margin(&bodies, 0.0), brute);
+        assert_eq!(candidate_pairs_with_margin(&bodies, 0.0).unwrap(), brute);
     }
 }
 
@@ -276,11 +276,11 @@ fn planes_pair_with_dynamic_bodies_reaching_them() {
         body(Shape::sphere(0.5).unwrap(), [5.0, 0.0, 3.0], false),
         body(Shape::sphere(0.5).unwrap(), [9.0, 0.0, 0.2], true),
     ];
-    assert_eq!(candidate_pairs(&bodies), vec![(0, 1)]);
+    assert_eq!(candidate_pairs(&bodies).unwrap(), vec![(0, 1)]);
 }
 
 fn count(bodies: &[RigidBody]) -> usize {
-    CollisionPipeline::new().detect(bodies, 1e-3).len()
+    CollisionPipeline::new().detect(bodies, 1e-3).unwrap().len()
 }
 
 #[test]
@@ -293,7 +293,7 @@ fn box_on_plane_gives_four_contacts() {
             false,
         ),
     ];
-    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
     assert_eq!(contacts.len(), 4, "{contacts:#?}");
     for c in &contacts {
         assert!((c.dist + 1e-4).abs() < 1e-9);
@@ -330,7 +330,7 @@ fn sphere_on_plane_gives_one_contact() {
         ground(),
         body(Shape::sphere(0.5).unwrap(), [1.0, 2.0, 0.4999], false),
     ];
-    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
     assert_eq!(contacts.len(), 1);
     let c = contacts[0];
     assert!((c.dist + 1e-4).abs() < 1e-12);
@@ -345,7 +345,7 @@ fn mesh_on_plane_gives_several_contacts() {
     };
     let z = com_offset.z - 1e-4;
     let bodies = vec![ground(), body(shape.clone(), [0.0, 0.0, z], false)];
-    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3);
+    let contacts = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
     println!("L block on plane: {} contacts", contacts.len());
     // One per vertex of the L-shaped bottom face.
     assert_eq!(contacts.len(), 6, "{contacts:#?}");
@@ -366,10 +366,10 @@ fn resting_contacts_persist_with_prediction_and_keep_keys() {
         ),
     ];
     let mut pipeline = CollisionPipeline::new();
-    let first = pipeline.detect(&bodies, 1e-2);
+    let first = pipeline.detect(&bodies, 1e-2).unwrap();
     // Lift the box slightly: still within the prediction distance.
     bodies[1].position.z += 5e-3;
-    let second = pipeline.detect(&bodies, 1e-2);
+    let second = pipeline.detect(&bodies, 1e-2).unwrap();
     assert_eq!(first.len(), 4);
     assert_eq!(second.len(), 4);
     let mut k1: Vec<u64> = first.iter().map(|c| c.key).collect();
@@ -456,7 +456,7 @@ mod more_detection {
             body(Shape::sphere(1.0).unwrap(), [0.0; 3], false),
             body(Shape::sphere(1.0).unwrap(), [1.9, 0.0, 0.0], false),
         ];
-        let c = CollisionPipeline::new().detect(&bodies, 0.0);
+        let c = CollisionPipeline::new().detect(&bodies, 0.0).unwrap();
         assert_eq!(c.len(), 1);
         assert!((c[0].normal - Vector3::x()).norm() < 1e-12);
         assert!((c[0].dist + 0.1).abs() < 1e-12);
@@ -471,7 +471,7 @@ mod more_detection {
             ground(),
             rotated(Shape::capsule(0.5, 0.2).unwrap(), [0.0, 0.0, 0.1999], lying),
         ];
-        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
         assert_eq!(c.len(), 2, "{c:#?}");
         let mut xs: Vec<f64> = c.iter().map(|c| c.point.x).collect();
         xs.sort_by(f64::total_cmp);
@@ -512,7 +512,7 @@ mod more_detection {
         ];
         // A line contact: parry reports both segment ends (y = ±0.4) and may add an interior
         // point of the same line.
-        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
         assert!(c.len() >= 2, "{c:#?}");
         let ys: Vec<f64> = c.iter().map(|c| c.point.y).collect();
         assert!(ys.iter().any(|y| (y - 0.4).abs() < 1e-9));
@@ -531,14 +531,14 @@ mod more_detection {
             body(torus.clone(), [0.0; 3], true),
             body(Shape::sphere(0.25).unwrap(), [0.0; 3], false),
         ];
-        assert_eq!(candidate_pairs(&bodies), vec![(0, 1)]);
+        assert_eq!(candidate_pairs(&bodies).unwrap(), vec![(0, 1)]);
         assert_eq!(count(&bodies), 0);
         // Moved sideways into the ring it touches.
         let bodies = vec![
             body(torus.clone(), [0.0; 3], true),
             body(Shape::sphere(0.25).unwrap(), [0.1, 0.0, 0.0], false),
         ];
-        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
         assert!(!c.is_empty());
         // Normals from the ring towards the ball, i.e. towards the torus axis.
         assert!(
@@ -569,7 +569,7 @@ mod more_detection {
             body(block.clone(), [0.0; 3], true),
             rotated(block.clone(), [0.1, 0.15, 0.5 - 1e-4], quarter),
         ];
-        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
         println!("L block on L block: {} contacts", c.len());
         assert!(c.len() >= 3);
         assert!(
@@ -585,7 +585,7 @@ mod more_detection {
             body(block.clone(), [0.0; 3], true),
             body(block.clone(), [0.0, 0.0, 0.5 - 1e-4], false),
         ];
-        let c = CollisionPipeline::new().detect(&bodies, 1e-3);
+        let c = CollisionPipeline::new().detect(&bodies, 1e-3).unwrap();
         let deepest = c.iter().map(|c| c.dist).fold(0.0, f64::min);
         println!("flush L stack: {} contacts, deepest {deepest:.2e}", c.len());
         assert!(deepest > -1e-3, "{c:#?}");
@@ -610,6 +610,7 @@ mod more_detection {
         let mut pipeline = CollisionPipeline::new();
         let mut first: Vec<u64> = pipeline
             .detect(&bodies, 1e-2)
+            .unwrap()
             .iter()
             .map(|c| c.key)
             .collect();
@@ -617,6 +618,7 @@ mod more_detection {
         bodies[1].position.z += 1e-3;
         let mut second: Vec<u64> = pipeline
             .detect(&bodies, 1e-2)
+            .unwrap()
             .iter()
             .map(|c| c.key)
             .collect();
@@ -658,7 +660,9 @@ mod first_impact_in_scene {
             ..Default::default()
         };
         for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
-            let hit = first_impact(&bodies, dt, method, &settings).expect("impact");
+            let hit = first_impact(&bodies, dt, method, &settings)
+                .unwrap()
+                .expect("impact");
             assert_eq!((hit.body_a, hit.body_b), (wall, bullet), "{method:?}");
             let err = t_exact - hit.toi.time;
             println!("first_impact {method:?}: early by {err:.2e} s");
@@ -666,7 +670,9 @@ mod first_impact_in_scene {
         }
         // Without the bullet's speed nothing happens within the step.
         bodies[bullet].linear_momentum = Vector3::zeros();
-        assert!(first_impact(&bodies, dt, ToiMethod::default(), &settings).is_none());
+        assert!(first_impact(&bodies, dt, ToiMethod::default(), &settings)
+            .unwrap()
+            .is_none());
     }
 
     #[test]
@@ -683,7 +689,9 @@ mod first_impact_in_scene {
         let settings = ToiSettings::default();
         let t_exact = 0.3 / 50.0; // spin about z keeps the bottom face horizontal
         for method in [ToiMethod::Bisection, ToiMethod::ConservativeAdvancement] {
-            let hit = first_impact(&bodies, 0.01, method, &settings).expect("impact");
+            let hit = first_impact(&bodies, 0.01, method, &settings)
+                .unwrap()
+                .expect("impact");
             let err = t_exact - hit.toi.time;
             println!(
                 "fall {method:?}: early by {err:.2e} s, {} queries",
@@ -746,7 +754,7 @@ mod properties {
                 body(Shape::sphere(r1).unwrap(), [0.0; 3], false),
                 body(Shape::sphere(r2).unwrap(), c2.into(), false),
             ];
-            let contacts = CollisionPipeline::new().detect(&bodies, 0.1);
+            let contacts = CollisionPipeline::new().detect(&bodies, 0.1).unwrap();
             prop_assert_eq!(contacts.len(), 1);
             let c = contacts[0];
             prop_assert!((c.dist - gap).abs() < 1e-12);

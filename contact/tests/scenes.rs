@@ -213,7 +213,7 @@ fn rows_of(friction: &str) -> (usize, Vec<RowKind>, bool) {
     let s = parse(&text).unwrap();
     let w = s.world();
     let mut pipeline = lcpbench_contact::CollisionPipeline::new();
-    let contacts = pipeline.detect(&w.bodies, 0.01);
+    let contacts = pipeline.detect(&w.bodies, 0.01).unwrap();
     let free = builder::free_velocities(&w.bodies, &w.settings.gravity, w.settings.dt);
     let sys = builder::build(
         &w.bodies,
@@ -270,7 +270,9 @@ fn delassus_equals_j_minv_jt_and_the_matrix_free_operator() {
     let mut w = s.world();
     w.run(60);
     let mut pipeline = lcpbench_contact::CollisionPipeline::new();
-    let contacts = pipeline.detect(&w.bodies, w.settings.prediction_distance);
+    let contacts = pipeline
+        .detect(&w.bodies, w.settings.prediction_distance)
+        .unwrap();
     assert!(contacts.len() > 50, "{} contacts", contacts.len());
     let free = builder::free_velocities(&w.bodies, &w.settings.gravity, w.settings.dt);
     let sys = builder::build(

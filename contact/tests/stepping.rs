@@ -233,8 +233,9 @@ fn islands_of_two_towers_solve_to_the_impulses_of_the_whole() {
 
 /// Statuses, sweeps and impulses of the body-level solvers behind [`BodySolver`], pinned to the
 /// values the stepper produced before they shared the status rule of the matrix solvers. The
-/// residuals' last digits follow the shared residual's summation order (four interleaved partial
-/// sums per dense row since the tiny-problem work); the impulses are unchanged by that.
+/// residuals' digits follow the shared residual's arithmetic (four interleaved partial sums per
+/// dense row; a row's step inside its bounds taken as `|w_i| / d_i`, not as the difference of two
+/// nearly equal impulses); the impulses do not depend on it.
 #[test]
 fn body_level_statuses_iterations_and_impulses_are_pinned() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench_scenes");
@@ -254,9 +255,9 @@ fn body_level_statuses_iterations_and_impulses_are_pinned() {
             "box_on_ground.toml",
             "si",
             [
-                ("converged", 24, 98.09999988819362, 1.2043669883267477e-9),
-                ("converged", 1, 98.0999999480567, 1.119802604399236e-9),
-                ("converged", 1, 98.10000002855068, 6.719281132700461e-10),
+                ("converged", 24, 98.09999988819362, 1.204366981893673e-9),
+                ("converged", 1, 98.0999999480567, 1.119802603820214e-9),
+                ("converged", 1, 98.10000002855068, 6.71928104693454e-10),
             ],
         ),
         (

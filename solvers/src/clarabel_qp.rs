@@ -65,7 +65,8 @@
 //!   direction of unbounded descent) is therefore a proof that the LCP has *no* solution and is
 //!   reported as `NoSolution`; a primal infeasibility certificate (the relaxation has no feasible
 //!   point, which the constructions above rule out except through rounding) is reported the same
-//!   way. With friction rows a certificate concerns the relaxation, as the reason says. Clarabel's
+//!   way. With friction rows a certificate concerns the relaxation, which may have none where the
+//!   boxed LCP has a solution: it is reported as `Stalled`, with the reason. Clarabel's
 //!   own iteration and time limits map to `IterationLimit` and `TimeLimit`; its numerical error and
 //!   insufficient progress to `NumericalFailure`; a panic inside Clarabel is caught and reported as
 //!   `NumericalFailure`.
@@ -520,10 +521,17 @@ impl Solver for ClarabelQp {
             Ok(r) => r,
             Err(reason) => return monitor.finish(fallback, 0, Outcome::NumericalFailure(reason)),
         };
+        let infeasible = matches!(
+            status,
+            SolverStatus::DualInfeasible
+                | SolverStatus::AlmostDualInfeasible
+                | SolverStatus::PrimalInfeasible
+                | SolverStatus::AlmostPrimalInfeasible
+        );
         let (mut f, outcome) = interpret(problem, &qp, status, &h, fallback);
         if f.iter().all(|v| v.is_finite()) {
             project_onto_bounds(problem, &mut f);
-            if !matches!(outcome, Outcome::NoSolution(_)) {
+            if !infeasible {
                 self.polish_if_better(problem, &qp, &mut f);
             }
         }
@@ -575,23 +583,35 @@ fn interpret(
     h: &[f64],
     fallback: Vec<f64>,
 ) -> (Vec<f64>, Outcome) {
-    let friction_note = if problem.friction().is_empty() {
-        ""
-    } else {
-        " (of the friction relaxation, not a proof for the boxed LCP)"
-    };
+    // With friction rows a certificate concerns the convex relaxation, not the boxed LCP: it
+    // proves nothing about the problem, so the solve has stalled.
+    let relaxed = !problem.friction().is_empty();
     match status {
         SolverStatus::Solved | SolverStatus::AlmostSolved => (qp.unscale(h), Outcome::Stopped),
+        SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible if relaxed => (
+            fallback,
+            Outcome::Stalled(format!(
+                "Clarabel: {status:?}, the QP of the friction relaxation is unbounded below; not \
+                 a proof for the boxed LCP"
+            )),
+        ),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible if relaxed => (
+            fallback,
+            Outcome::Stalled(format!(
+                "Clarabel: {status:?}, the friction relaxation admits no feasible point; not a \
+                 proof for the boxed LCP"
+            )),
+        ),
         SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => (
             fallback,
             Outcome::NoSolution(format!(
-                "Clarabel: {status:?}, the QP is unbounded below{friction_note}; for PSD A the LCP has no solution"
+                "Clarabel: {status:?}, the QP is unbounded below; for PSD A the LCP has no solution"
             )),
         ),
         SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => (
             fallback,
             Outcome::NoSolution(format!(
-                "Clarabel: {status:?}, the bounds admit no feasible point{friction_note}"
+                "Clarabel: {status:?}, the bounds admit no feasible point"
             )),
         ),
         SolverStatus::MaxIterations => (qp.unscale(h), Outcome::IterationLimit),

@@ -51,9 +51,10 @@
 //! Coulomb friction: formulations and numerical comparisons*, Advanced Topics in Nonsmooth
 //! Dynamics, Springer 2018 (FC3D, FCLIB, the error measure).
 
+use crate::certificate::Certificate;
 use crate::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
-use crate::solver::{Measured, Monitor, Settings, SolveResult};
+use crate::solver::{Measured, Monitor, Settings, SolveResult, Status};
 use faer::sparse::SparseRowMat;
 use faer::Mat;
 use thiserror::Error;
@@ -446,6 +447,9 @@ impl Measured for ConeProblem {
     }
     fn measure(&self, r: &[f64], u: &mut [f64]) -> Residuals {
         cone_residuals_and_velocity(self, r, u)
+    }
+    fn cancellation(&self, _r: &[f64], _u: &[f64]) -> Option<(Status, Option<Certificate>)> {
+        None
     }
 }
 

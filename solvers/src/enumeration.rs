@@ -25,10 +25,12 @@
 //!   standard LCP: about 30 ms for an exhaustive search at `n = 15`. [`Settings::max_iterations`]
 //!   counts bases (the default `10 000` is exhaustive up to `n = 13`; raise it for `n = 14, 15`).
 //! * **Outcomes**: a candidate whose local relative residual is below `tolerance / 100` ends the
-//!   search. After an exhaustive search that found none, `NoSolution` when every basis was
-//!   non-singular (that is a proof, up to rounding: a solution would have been one of the
-//!   candidates); otherwise `Stalled`, since a solution may live on a singular basis. The best
-//!   candidate is returned either way and the shared residual decides.
+//!   search. After an exhaustive search that found none, `Stalled` when the best candidate is
+//!   within round-off of a solution (local residual below `1e-10` of the scale, whatever the
+//!   tolerance), else `NoSolution` when every basis was non-singular (that is a proof, up to
+//!   rounding: a solution would have been one of the candidates); otherwise `Stalled`, since a
+//!   solution may live on a singular basis. The best candidate is returned either way and the
+//!   shared residual decides.
 //! * **Warm start**: used only to order the search.
 //!
 //! The same kernel solves NSGS's per-contact blocks ([`crate::Nsgs`]).
@@ -450,9 +452,19 @@ impl Enumeration {
             }
         });
         let f = if result.found { ws.best } else { f0 };
+        // A claim of no solution must not follow from the tolerance: a best candidate within
+        // round-off of a solution (1e-10 of the scale; the acceptance at the default 1e-8)
+        // counts as one whatever the tolerance asked for.
+        let claim = accept.max(1e-10 * scale);
         let outcome = match stop {
             Some(o) => o,
             None if result.residual <= accept => Outcome::Stopped,
+            None if result.residual <= claim => Outcome::Stalled(format!(
+                "the best of {} complementary bases solves the problem to a local residual of \
+                 {:.3e} of the scale, within round-off but short of the tolerance",
+                result.tried,
+                result.residual / scale
+            )),
             None if result.singular == 0 => Outcome::NoSolution(format!(
                 "all {} complementary bases enumerated, every one non-singular, and none \
                  satisfies the complementarity conditions",
@@ -505,6 +517,25 @@ mod tests {
                 for (x, y) in r.f.iter().zip(g.solution.as_ref().unwrap()) {
                     assert!((x - y).abs() < 1e-8, "{family:?}");
                 }
+            }
+        }
+    }
+
+    /// A tolerance below round-off is not met, but it does not turn a solvable problem into a
+    /// claim that there is no solution: an SPD problem always has one.
+    #[test]
+    fn a_tolerance_below_round_off_claims_nothing() {
+        let settings = Settings {
+            tolerance: 1e-300,
+            ..Settings::default()
+        };
+        // Seeds whose solution leaves a round-off residual (others meet even 1e-300 exactly).
+        for seed in [3, 4, 9] {
+            let g = generate(Family::Spd { cond: 1e2 }, 5, seed);
+            let r = Enumeration.solve(&g.problem, &settings);
+            assert_ne!(r.status.name(), "no_solution", "seed {seed}: {}", r.status);
+            for (x, y) in r.f.iter().zip(g.solution.as_ref().unwrap()) {
+                assert!((x - y).abs() < 1e-12, "seed {seed}: {:?}", r.f);
             }
         }
     }

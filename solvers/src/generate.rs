@@ -19,13 +19,19 @@ pub struct Generated {
     pub solution: Option<Vec<f64>>,
 }
 
+/// Largest condition number of a generated SPD matrix. Forming `Q Λ Qᵀ` in `f64` perturbs every
+/// eigenvalue by about `n ε` of the largest (`ε = 2.2e-16`); beyond `1e12` that is a sizeable
+/// part of the smallest eigenvalue, so the matrix would not have the condition number asked for
+/// (and beyond `1/ε` it need not even be positive definite).
+pub const MAX_CONDITION: f64 = 1e12;
+
 /// The instance families `lcpbench gen` knows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Family {
     /// Symmetric positive definite with condition number `cond` (eigenvalues log-spaced in
     /// `[1/cond, 1]`).
     Spd {
-        /// Condition number, `>= 1`.
+        /// Condition number, from 1 to [`MAX_CONDITION`].
         cond: f64,
     },
     /// Symmetric positive semidefinite of rank `rank < n`: `A = XᵀX / rank`, `X` Gaussian

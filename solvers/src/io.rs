@@ -1,9 +1,10 @@
 //! Problem files: lcpbench's JSON form (dense or sparse `A`), Siconos numerics LCP `.dat` files
 //! ([`siconos`]) and FCLIB HDF5 frictional-contact files ([`fclib`]).
 //!
-//! [`read_problem`] picks the reader by extension (`.json`; `.dat`; `.hdf5`, `.h5`) and, for
-//! `.dat` and unknown extensions, by content: a file that opens with `{` is JSON, one that opens
-//! with the HDF5 signature is FCLIB, anything else is read as a Siconos file.
+//! [`read_problem`] reads a file that opens with the HDF5 signature as FCLIB whatever its name,
+//! and picks the reader of any other by extension (`.json`; `.dat`; `.hdf5`, `.h5`) and, for
+//! `.dat` and unknown extensions, by content: a file that opens with `{` is JSON, anything else
+//! is read as a Siconos file.
 //!
 //! # JSON
 //!
@@ -42,6 +43,7 @@
 //! fewer than the `2 nnz + n + 1` numbers of the compressed-row form, compressed rows otherwise.
 
 pub mod fclib;
+pub mod input;
 pub mod siconos;
 
 use crate::problem::{sparse_from_triplets, FrictionRow, Problem, ProblemError, Row};
@@ -135,9 +137,13 @@ pub enum ProblemFormat {
 const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
 
 impl ProblemFormat {
-    /// The format of `path`: by extension for `.json`, `.hdf5`, `.h5`; by the first bytes
-    /// (`head`) otherwise.
+    /// The format of `path`: FCLIB when the first bytes (`head`) are the HDF5 signature,
+    /// whatever the name; else by extension for `.json`, `.hdf5`, `.h5`; by the first bytes
+    /// otherwise.
     pub fn detect(path: &Path, head: &[u8]) -> Self {
+        if head.starts_with(HDF5_SIGNATURE) {
+            return Self::Fclib;
+        }
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
@@ -435,6 +441,10 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<Problem, ProblemFileErro
     })
 }
 
+/// Largest problem file read, bytes: a dense `n = 10,000` problem as `lcpbench gen` writes it
+/// is about 2.5 GB of JSON. Devices, pipes and directories are refused whatever their size.
+pub const MAX_PROBLEM_FILE_BYTES: u64 = 4_000_000_000;
+
 /// Read a problem file of any supported format (see the module doc for how the format is
 /// chosen).
 pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
@@ -442,7 +452,7 @@ pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
         path: path.to_owned(),
         source,
     };
-    let bytes = std::fs::read(path).map_err(io_err)?;
+    let bytes = input::read_input_file(path, MAX_PROBLEM_FILE_BYTES).map_err(io_err)?;
     let format = ProblemFormat::detect(path, &bytes[..bytes.len().min(64)]);
     match format {
         ProblemFormat::Fclib => fclib::parse_fclib(bytes, path),
@@ -748,6 +758,8 @@ mod tests {
         assert_eq!(d("a.dat", b"  \n{\"A\""), Json);
         assert_eq!(d("a.dat", b"2\n0\n2\n2\n"), Siconos);
         assert_eq!(d("a", HDF5_SIGNATURE), Fclib);
+        // The signature wins over the name: an HDF5 file called `.json` is read as FCLIB.
+        assert_eq!(d("a.json", HDF5_SIGNATURE), Fclib);
         assert_eq!(d("a.txt", b"2 0 2 2"), Siconos);
     }
 }

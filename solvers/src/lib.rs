@@ -34,6 +34,7 @@
 
 mod alart_curnier;
 mod apgd;
+pub mod certificate;
 mod clarabel_qp;
 mod clarabel_socp;
 pub mod cone;
@@ -58,6 +59,7 @@ mod sparse_lu;
 mod test_util;
 
 pub use apgd::Apgd;
+pub use certificate::Certificate;
 pub use clarabel_qp::ClarabelQp;
 pub use clarabel_socp::ClarabelSocp;
 pub use cone::{
@@ -85,8 +87,8 @@ pub use nsgs_cone::NsgsCone;
 pub use pgs::{ProjectedSor, SweepForm};
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::{
-    decide, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver, Stagnation,
-    Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,
+    decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver,
+    Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,
 };
 
 /// The solvers lcpbench ships, by name.

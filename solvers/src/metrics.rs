@@ -18,29 +18,69 @@
 //!   (`b_i / d_i` and each `A_ij f_j / d_i`, the row's own `f_i` included), the componentwise
 //!   backward-error scale of Oettli and Prager. So:
 //!   - no other row can hide a row's error: a weak row (tiny `A_ii`), a huge finite bound or a
-//!     huge `b_k` elsewhere changes only that row's own scale (an earlier definition divided
-//!     every row by one global `max(‖D⁻¹b‖∞, largest bound)` and was fooled by exactly these);
+//!     huge `b_k` elsewhere changes only that row's own scale (one global scale such as
+//!     `max(‖D⁻¹b‖∞, largest bound)` is fooled by exactly these);
 //!   - bounds do not enter `s_i`, so a huge finite bound cannot hide the error of its own row
 //!     either (an active bound enters through `|A_ii f_i| / d_i = |f_i|`);
 //!   - it is invariant under every positive diagonal scaling of rows and of columns
 //!     (`A → R A C`, `b → R b`, `f → C⁻¹ f`: row `i`'s numerator and `s_i` both scale by
 //!     `1 / c_i`), so under symmetric scaling over any number of decades, under `(A, b) → (σA, σb)`
 //!     and under `b → σb` for the standard LCP;
-//!   - a blown-up impulse cannot pass: a row's numerator is a step of the natural map, and a
-//!     diverging or wrong `f` makes that step as large as the terms it is measured against. When
-//!     `r_rel <= tol`, each row's natural-map step is at most `tol` times the magnitude of the
-//!     data that row's velocity is made of, the level of a relative perturbation `tol` of that
-//!     row of `A` and of `b_i` (the row's rounding error in computing `w_i` is about
-//!     `nnz_i · ε` in these units, so tolerances down to about `1e-13` are reachable);
+//!   - when `r_rel <= tol`, each row's natural-map step is at most `tol` times the magnitude of
+//!     the data that row's velocity is made of, the level of a relative perturbation `tol` of
+//!     that row of `A` and of `b_i` (the row's rounding error in computing `w_i` is about
+//!     `nnz_i · ε` in these units, so tolerances down to about `1e-13` are reachable; the command
+//!     line refuses tolerances below [`MIN_TOLERANCE`]);
 //!   - a row whose data all vanish at `f` (`b_i = 0` and every `A_ij f_j = 0`) has `s_i = 0`
-//!     and must be solved exactly (`f_i` inside its bounds), which every solver here does.
+//!     and must be solved exactly (`f_i` inside its bounds), which every solver here does;
+//!   - what it cannot see: `s_i` grows with `f`. On a problem without a solution, an impulse
+//!     growing along a direction that `A` cancels keeps every step bounded while the scales
+//!     grow, so `r_rel` falls like `1/‖f‖` and passes any tolerance. `A = [[1, −1], [−1, 1]]`,
+//!     `b = (−1, −1)` has none (`z = (1, 1) >= 0`, `A z = 0`, `zᵀ b < 0`: Farkas), yet
+//!     `f = t z` leaves `w = b` and `r_rel = 1 / (2t + 1)`. The data-resolution test below
+//!     catches it.
+//!
+//!   The step is computed without forming `f_i − w_i / d_i` as a value: that point is only
+//!   compared with the bounds; inside them the step is `|w_i| / d_i`, at a bound `|f_i − bound|`.
+//!   So a huge `f_i` cannot absorb `w_i`, and a tiny, huge or subnormal `d_i` cannot make the step
+//!   or its ratio to `s_i` round to 0 (`step / s_i` is formed as `|w_i| / t_i` or
+//!   `|f_i − bound| · d_i / t_i`, through logarithms when the product leaves the normal range).
+//!   A row whose term magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` overflows, or whose ratio is NaN,
+//!   counts as `∞`: never as 0.
+//! * **data resolution**, the second half of `converged`. With `e_i = d_i · step_i` (velocity
+//!   units), `t_i = d_i s_i`, `u_i = 4 (nnz_i + 1) ε` and the row's *data scale*
+//!   `D_i = √d_i · max_j |b_j| / √d_j` over the row's island ([`data_scale`]: the largest data
+//!   velocity of the island, in the row's units), a row is resolved when
+//!
+//!   ```text
+//!   max(e_i, u_i t_i) <= RESOLUTION · D_i,      RESOLUTION = 0.05
+//!   ```
+//!
+//!   (a row without data, `D_i = 0`, when `e_i <= u_i t_i`): its velocity error is at most 5 %
+//!   of the largest velocity the problem's data ask for, and so is the round-off of its terms.
+//!   A result with `r_rel <= tol` and an unresolved row ([`unresolved_row`]) met the tolerance
+//!   only because the row's terms are far larger than the data and cancel: a diverging impulse
+//!   (the example: `e = 1 = D`), or one so large (terms beyond `RESOLUTION / u_i ≈ 1e13` times
+//!   the data) that the data are lost in rounding. `D_i` follows every symmetric positive
+//!   diagonal scaling (`A → S A S`, `b → S b`: units, equilibration) as `w_i` does, so the test
+//!   is invariant under it; independent row and column scalings, which the residual above
+//!   survives, change it (it compares rows through the diagonal). A row whose own data are 0
+//!   or round-off (a resting contact's friction rows, the inner contacts of a stack) takes its
+//!   island's. What it cannot tell apart: a problem with a solution whose rows cancel by
+//!   `κ = t_i / D_i` (a mass ratio `κ`; about four times the height of a stack), solved to a
+//!   tolerance with `tol · κ > RESOLUTION`, may leave steps that reach the data scale too, and
+//!   is reported the same way (its velocities are not known to 5 % of the data; a tighter
+//!   tolerance resolves it); and an impulse diverging on a problem infeasible by less than
+//!   `RESOLUTION` of the island's largest data, or in an island with one much larger datum
+//!   (it raises every `D_i`), passes.
 //! * **complementarity gap** `Σ_i (f_i − lo_i)⁺ w_i⁺ + (hi_i − f_i)⁺ w_i⁻` over finite bounds
 //!   (`fᵀw` for the standard LCP). A wrong-signed `w_i` at an infinite bound is not a gap but a
 //!   dual violation, which the natural-map residual measures.
 //! * **bound violation** `max_i max(lo_i − f_i, f_i − hi_i, 0)`.
 //!
 //! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse, and
-//! any non-finite entry in `f` makes every measure `+∞`.
+//! any non-finite entry in `f` makes every measure `+∞`; the data scales cost a few more passes,
+//! taken only for a result that meets its tolerance.
 //!
 //! Reference: W. Oettli, W. Prager, *Compatibility of approximate solution of linear equations
 //! with given error bounds for coefficients and right-hand sides*, Numer. Math. 6 (1964).
@@ -78,29 +118,60 @@ impl Residuals {
     };
 }
 
+/// Row `i`'s natural-map step in velocity units, `d_i · |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|`,
+/// and the same step divided by `t_i`, computed without forming `f_i − w_i / d_i` as a value: the
+/// point `f_i − w_i / d_i` is only compared with the bounds. A row inside its bounds has step
+/// `|w_i|` (no division by `d_i`, no cancellation of `w_i` against a large `f_i`); a row clamped
+/// at a bound has step `|f_i − bound| · d_i`. So a tiny, huge or subnormal `d_i` or a huge `f_i`
+/// cannot round the step to 0, and the ratio `step / t_i` is formed without overflow or
+/// underflow to 0 ([`ratio`]).
 #[inline]
-fn mid(lo: f64, hi: f64, x: f64) -> f64 {
-    x.max(lo).min(hi)
+fn row_step(f_i: f64, lo: f64, hi: f64, w_i: f64, d: f64, t: f64) -> (f64, f64) {
+    let x = f_i - w_i / d;
+    let gap = if x < lo {
+        Some(f_i - lo)
+    } else if x > hi {
+        Some(f_i - hi)
+    } else {
+        None
+    };
+    match gap {
+        Some(g) => (g.abs() * d, ratio(g.abs(), d, t)),
+        None => (w_i.abs(), ratio(w_i.abs(), 1.0, t)),
+    }
+}
+
+/// `a · b / c` for `a, b >= 0` and `c >= 0`, with `0/0 = 0` and `x/0 = ∞` for `x > 0`, and
+/// without overflow or underflow of the intermediate product: when `a · b` leaves the normal
+/// range, the product is formed in logarithms.
+#[inline]
+fn ratio(a: f64, b: f64, c: f64) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    if c.is_nan() || c <= 0.0 {
+        return f64::INFINITY;
+    }
+    let p = a * b;
+    if p.is_normal() {
+        p / c
+    } else {
+        (a.ln() + b.ln() - c.ln()).exp()
+    }
 }
 
 /// Row `i`'s relative natural-map error `|f_i − mid(lo_i, hi_i, f_i − w_i/d_i)| / s_i` given
 /// `w_i` and the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of the terms that make it up (see the
 /// module doc; [`crate::Row::dot_and_magnitude`] gives both). Sweeping solvers use it for their
-/// own stopping rules, so that they stop where the shared residual agrees.
+/// own stopping rules, so that they stop where the shared residual agrees. A non-finite `t_i`
+/// (terms beyond the range of `f64`) gives `∞`: such a row cannot be measured.
 #[inline]
 pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i: f64) -> f64 {
     let d = problem.diagonal_scale_of(i);
     let (lo, hi) = problem.bounds_at(i, f);
-    let r = (f[i] - mid(lo, hi, f[i] - w_i / d)).abs();
-    relative(r, t_i / d)
-}
-
-#[inline]
-fn relative(r: f64, s: f64) -> f64 {
-    if r == 0.0 {
-        0.0
-    } else if s > 0.0 {
-        r / s
+    let rel = row_step(f[i], lo, hi, w_i, d, t_i).1;
+    if t_i.is_finite() && !rel.is_nan() {
+        rel
     } else {
         f64::INFINITY
     }
@@ -128,11 +199,17 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
         let d = problem.diagonal_scale_of(i);
         let (lo, hi) = problem.bounds_at(i, f);
         let fi = f[i];
-        r.natural_map = r.natural_map.max((fi - mid(lo, hi, fi - wi)).abs());
-        let step = (fi - mid(lo, hi, fi - wi / d)).abs();
-        r.natural_map_rel = r
-            .natural_map_rel
-            .max(relative(step, (b[i].abs() + magnitude) / d));
+        let t = b[i].abs() + magnitude;
+        let absolute = row_step(fi, lo, hi, wi, 1.0, 1.0).0;
+        let rel = row_step(fi, lo, hi, wi, d, t).1;
+        // A row whose terms overflow cannot be measured; a NaN never passes as 0.
+        let rel = if t.is_finite() && !rel.is_nan() {
+            rel
+        } else {
+            f64::INFINITY
+        };
+        r.natural_map = r.natural_map.max(absolute);
+        r.natural_map_rel = r.natural_map_rel.max(rel);
         if lo.is_finite() {
             r.complementarity_gap += (fi - lo).max(0.0) * wi.max(0.0);
         }
@@ -145,6 +222,121 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
         return Residuals::INFINITE;
     }
     r
+}
+
+/// The smallest tolerance the command line, bench budgets and scene files accept. Rounding in
+/// `w_i` leaves a correctly rounded solution a relative residual of up to about
+/// `4 (nnz_i + 1) ε` in row `i` (`4e-15` for a row of a few entries, `1e-13` at a hundred), so
+/// a smaller tolerance is met only by chance, and its failure says nothing about the problem.
+pub const MIN_TOLERANCE: f64 = 1e-14;
+
+/// The largest natural-map step a converged result may leave in a row, as a share of the row's
+/// [data scale](data_scale) (the data-resolution test of the module doc).
+pub const RESOLUTION: f64 = 0.05;
+
+/// The row that a result resolves worst against the problem's data: its natural-map step
+/// `e_i = d_i · |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)|` (velocity units), the row's
+/// [data scale](data_scale) `D_i`, the magnitude `t_i = |b_i| + Σ_j |A_ij f_j|` of its terms and
+/// their round-off `u_i t_i`, `u_i = 4 (nnz_i + 1) ε`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Unresolved {
+    /// Row index.
+    pub row: usize,
+    /// `e_i`.
+    pub step: f64,
+    /// `D_i`.
+    pub data_scale: f64,
+    /// `t_i`.
+    pub magnitude: f64,
+    /// `u_i t_i`.
+    pub round_off: f64,
+}
+
+impl Unresolved {
+    /// `max(e_i, u_i t_i) / D_i`: how much of the data scale the step, or the round-off of the
+    /// row's terms, reaches. A row without data (`D_i = 0`) gives `∞` when its step exceeds
+    /// round-off and `0` otherwise.
+    pub fn ratio(&self) -> f64 {
+        if self.data_scale > 0.0 {
+            self.step.max(self.round_off) / self.data_scale
+        } else if self.step > self.round_off {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The relative round-off `4 (nnz + 1) ε` of a velocity summed from `nnz` products and `b_i`.
+fn round_off(nnz: usize) -> f64 {
+    4.0 * (nnz as f64 + 1.0) * f64::EPSILON
+}
+
+/// Each row's data scale `D_i`, in the row's velocity units: the largest data velocity of the
+/// row's island ([`Problem::islands`]), carried into the row's units through the diagonal,
+///
+/// ```text
+/// D_i = √d_i · max_{j in i's island} |b_j| / √d_j.
+/// ```
+///
+/// `|b_j| / √d_j` is row `j`'s data in the units of the symmetrically equilibrated problem
+/// `S A S` (`s_j = 1/√d_j`), where every row of a contact problem measures a velocity alike, so
+/// `D_i` follows every symmetric positive diagonal scaling (`A → S A S`, `b → S b`) as `w_i`
+/// does. A row whose own data are 0 or round-off (a resting contact's friction rows, the inner
+/// contacts of a stack, which fall with the boxes they join) gets its island's: a legitimate
+/// impulse carries the data of its whole load path (the bottom contact of a 40-box tower holds
+/// the weight of all the boxes above, from the one datum at the ground), so a scale that
+/// decays with the distance from the data would call it unresolved. `O(nnz)`.
+pub fn data_scale(problem: &Problem) -> Vec<f64> {
+    let n = problem.n();
+    let b = problem.b();
+    let root: Vec<f64> = problem.diagonal_scale().iter().map(|d| d.sqrt()).collect();
+    let mut scale = vec![0.0; n];
+    for island in problem.islands() {
+        let largest = island
+            .iter()
+            .fold(0.0f64, |m, &j| m.max(ratio(b[j].abs(), 1.0, root[j])));
+        for &i in &island {
+            scale[i] = ratio(root[i], largest, 1.0);
+        }
+    }
+    scale
+}
+
+/// The row with the largest [`Unresolved::ratio`] at `f` (with `w = A f + b` given), when that
+/// ratio exceeds [`RESOLUTION`]: a row whose natural-map step is a sizeable share of the
+/// velocities the problem's data produce, so that its relative residual is small only because
+/// its terms are much larger than its data and cancel, or whose terms are so large that their
+/// round-off alone is (the data are lost in it). `None` when every row is resolved (or the
+/// lengths do not match).
+pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresolved> {
+    let n = problem.n();
+    if f.len() != n || w.len() != n {
+        return None;
+    }
+    let b = problem.b();
+    let scales = data_scale(problem);
+    let mut worst: Option<(f64, Unresolved)> = None;
+    for i in 0..n {
+        let row = problem.row(i);
+        let (_, magnitude) = row.dot_and_magnitude(f);
+        let t = b[i].abs() + magnitude;
+        let (lo, hi) = problem.bounds_at(i, f);
+        let step = row_step(f[i], lo, hi, w[i], problem.diagonal_scale_of(i), t).0;
+        let u = Unresolved {
+            row: i,
+            step,
+            data_scale: scales[i],
+            magnitude: t,
+            round_off: round_off(row.len()) * t,
+        };
+        let r = u.ratio();
+        let r = if r.is_nan() { f64::INFINITY } else { r };
+        if r > RESOLUTION && worst.as_ref().is_none_or(|(m, _)| r > *m) {
+            worst = Some((r, u));
+        }
+    }
+    worst.map(|(_, u)| u)
 }
 
 /// A global impulse scale `max(‖D⁻¹ b‖∞, largest finite fixed bound)` (1 when zero). It no
@@ -290,5 +482,131 @@ mod tests {
         .unwrap();
         let f = [0.2, 0.1, 0.7];
         assert_eq!(residuals(&dense, &f), residuals(&sparse, &f));
+    }
+
+    fn diagonal(d: f64, b: &[f64]) -> Problem {
+        let n = b.len();
+        Problem::lcp(
+            Mat::from_fn(n, n, |i, j| if i == j { d } else { 0.0 }),
+            b.to_vec(),
+        )
+        .unwrap()
+    }
+
+    /// A row scale that overflows, underflows or is subnormal cannot round a row's residual to
+    /// 0: at `f = 0` with `b < 0` every row is 100 % wrong, whatever `A_ii`.
+    #[test]
+    fn extreme_row_scales_cannot_zero_the_residual() {
+        for (d, b) in [
+            (1e-300, -1e10),
+            (5e-324, -1.0),
+            (1e300, -1e-300),
+            (1.0, -1.0),
+        ] {
+            let p = diagonal(d, &[b, b]);
+            assert_eq!(residuals(&p, &[0.0, 0.0]).natural_map_rel, 1.0, "d = {d:e}");
+        }
+        // A finite impulse far short of the (unrepresentable) solution 1/5e-324.
+        let p = diagonal(5e-324, &[-1.0, -1.0]);
+        let r = residuals(&p, &[1e300, 1e300]).natural_map_rel;
+        assert!(r > 0.9, "{r}");
+    }
+
+    /// A huge impulse cannot absorb the velocity in `f − (f − w)`: with `A = 0`, `b = −1` no `f`
+    /// solves the problem, and `f = 9e15` is as wrong as `f = 0`.
+    #[test]
+    fn a_huge_impulse_does_not_absorb_its_velocity() {
+        let p = diagonal(0.0, &[-1.0, -2.0]);
+        for f in [0.0, 9e15, 1e300] {
+            let r = residuals(&p, &[f, f]);
+            assert_eq!(r.natural_map_rel, 1.0, "f = {f:e}");
+            assert_eq!(r.natural_map, 2.0, "f = {f:e}");
+        }
+    }
+
+    /// Terms whose magnitudes overflow leave a row unmeasurable: `∞`, never 0 or NaN.
+    #[test]
+    fn overflowing_magnitudes_are_infinitely_wrong() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let r = residuals(&p, &[1.7e308, 1.7e308]);
+        assert_eq!(r.natural_map_rel, f64::INFINITY);
+        assert_eq!(
+            relative_row_error(&p, 0, &[1.7e308, 1.7e308], -1.0, f64::INFINITY),
+            f64::INFINITY
+        );
+    }
+
+    /// The data-resolution test: an impulse growing along the null direction of the 2×2 problem
+    /// without a solution meets any tolerance but leaves its rows unresolved; the solution of a
+    /// solvable problem, a resting contact's friction row with `b = 0`, and a row solved to
+    /// round-off are resolved.
+    #[test]
+    fn a_diverging_impulse_is_unresolved() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        for t in [1e4, 1e8, 1e12] {
+            let f = [t, t];
+            let w = p.velocity(&f);
+            assert!(residuals(&p, &f).natural_map_rel < 1.0 / t);
+            let u = unresolved_row(&p, &f, &w).expect("unresolved");
+            assert_eq!((u.step, u.data_scale), (1.0, 1.0));
+        }
+        // Solvable: A = [[2, 1], [1, 2]], b = (−1, −1), f = (1/3, 1/3).
+        let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let f = [1.0 / 3.0, 1.0 / 3.0];
+        assert!(unresolved_row(&p, &f, &p.velocity(&f)).is_none());
+        // A friction row with b = 0 whose velocity is 1e-9 of its terms: its neighbours' data
+        // give it a scale, and the step is far inside it.
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, 0.5], [0.5, 1.0]][i][j]);
+        let p = Problem::boxed(
+            a,
+            vec![-1.0, 0.0],
+            vec![0.0, 0.0],
+            vec![f64::INFINITY, 0.0],
+            vec![crate::FrictionRow {
+                row: 1,
+                normal: 0,
+                mu: 1.0,
+            }],
+        )
+        .unwrap();
+        let f = [4.0 / 3.0, -2.0 / 3.0 + 1e-9];
+        let w = p.velocity(&f);
+        assert!(w[1].abs() > 1e-10);
+        assert!(unresolved_row(&p, &f, &w).is_none());
+        assert_eq!(data_scale(&p), vec![1.0, 1.0]);
+    }
+
+    /// Data scales follow every symmetric positive diagonal scaling as velocities do, so the
+    /// test's verdict is invariant: `D → S D` under `A → S A S`, `b → S b`, over 24 decades; and
+    /// every row of an island gets the island's data, however far from it.
+    #[test]
+    fn data_scales_follow_symmetric_scaling() {
+        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, -1.0], [0.5, -1.0, 2.0]];
+        let b = [-1.0, 0.0, -2.0];
+        let p = Problem::lcp(Mat::from_fn(3, 3, |i, j| a[i][j]), b.to_vec()).unwrap();
+        let s = [1e12, 1e-12, 3.0];
+        let q = Problem::lcp(
+            Mat::from_fn(3, 3, |i, j| s[i] * a[i][j] * s[j]),
+            (0..3).map(|i| s[i] * b[i]).collect(),
+        )
+        .unwrap();
+        let (dp, dq) = (data_scale(&p), data_scale(&q));
+        for i in 0..3 {
+            assert!(
+                (dq[i] / s[i] - dp[i]).abs() <= 1e-12 * dp[i],
+                "{dp:?} {dq:?}"
+            );
+        }
+        // A chain 0 – 1 – 2 – 3 with data only at its end: every row gets it.
+        let chain = Mat::from_fn(4, 4, |i, j| match i.abs_diff(j) {
+            0 => 2.0,
+            1 => -1.0,
+            _ => 0.0,
+        });
+        let p = Problem::lcp(chain, vec![-1.0, 0.0, 0.0, 0.0]).unwrap();
+        assert_eq!(data_scale(&p), vec![1.0; 4]);
     }
 }

@@ -1,7 +1,8 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::metrics::{residuals_and_velocity, Residuals};
+use crate::certificate::{certificate_from, Certificate};
+use crate::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -15,7 +16,9 @@ pub struct Settings {
     pub tolerance: f64,
     /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
     /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
-    /// Default `10_000`.
+    /// It is a total for one solve: a solver that splits the problem into independent islands
+    /// gives each island what the islands before it left, and ends `iteration_limit` when
+    /// nothing is left. Default `10_000`.
     pub max_iterations: usize,
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
@@ -44,7 +47,10 @@ impl Default for Settings {
 }
 
 /// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
-/// `Converged` if and only if `natural_map_rel <= tolerance`.
+/// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
+/// the problem's data ([`crate::metrics::unresolved_row`]); a result that meets the tolerance
+/// only through cancellation is `Diverged`, or `NoSolution` when a Farkas certificate read off it
+/// proves there is no solution.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum Status {
@@ -62,6 +68,15 @@ pub enum Status {
     /// The solver proved there is no solution (Lemke's ray termination, an infeasibility
     /// certificate).
     NoSolution {
+        /// Why.
+        reason: String,
+    },
+    /// The relative residual met the tolerance only through cancellation: a row's natural-map
+    /// step is a sizeable share of the velocities the problem's data produce, and the row's
+    /// terms exceed them by so much that the step is small beside the terms. What an impulse
+    /// growing along a direction that `A` cancels looks like (a problem without a solution, or
+    /// with none of moderate size); no proof of either.
+    Diverged {
         /// Why.
         reason: String,
     },
@@ -86,6 +101,7 @@ impl Status {
             Status::TimeLimit => "time_limit",
             Status::Stalled { .. } => "stalled",
             Status::NoSolution { .. } => "no_solution",
+            Status::Diverged { .. } => "diverged",
             Status::Unsupported { .. } => "unsupported",
             Status::NumericalFailure { .. } => "numerical_failure",
         }
@@ -96,6 +112,7 @@ impl Status {
         match self {
             Status::Stalled { reason }
             | Status::NoSolution { reason }
+            | Status::Diverged { reason }
             | Status::Unsupported { reason }
             | Status::NumericalFailure { reason } => Some(reason),
             _ => None,
@@ -149,6 +166,10 @@ pub struct SolveResult {
     /// count and the rows in the active set (Lemke's basic `f` variables, Dantzig's clamped
     /// set). Empty otherwise.
     pub active_sets: Vec<(usize, Vec<usize>)>,
+    /// For a `Diverged` or `NoSolution` status decided from the returned impulse: the Farkas
+    /// certificate read off it ([`crate::certificate`]), when it bounds the size of every
+    /// solution. `None` otherwise.
+    pub certificate: Option<Certificate>,
 }
 
 /// A contact solver: takes a problem, returns an impulse and an honest status.
@@ -182,6 +203,8 @@ pub enum Outcome {
     TimeLimit,
     /// Proof of no solution.
     NoSolution(String),
+    /// A part of the problem (an island) ended `Diverged`, for this reason.
+    Diverged(String),
     /// Problem class not handled.
     Unsupported(String),
     /// Breakdown.
@@ -199,6 +222,7 @@ impl Outcome {
             Status::IterationLimit => Outcome::IterationLimit,
             Status::TimeLimit => Outcome::TimeLimit,
             Status::NoSolution { reason } => Outcome::NoSolution(reason),
+            Status::Diverged { reason } => Outcome::Diverged(reason),
             Status::Unsupported { reason } => Outcome::Unsupported(reason),
             Status::NumericalFailure { reason } => Outcome::NumericalFailure(reason),
         }
@@ -261,6 +285,10 @@ pub(crate) trait Measured {
     fn velocity_at(&self, x: &[f64]) -> Vec<f64>;
     /// The shared residuals of `x`, writing the velocity into `v` in the same pass.
     fn measure(&self, x: &[f64], v: &mut [f64]) -> Residuals;
+    /// For a finite `x` whose relative residual meets the tolerance: the status that says it
+    /// does so only through cancellation, with the certificate read off `x`, if any (`None`:
+    /// `x` is resolved, the status stays `Converged`).
+    fn cancellation(&self, x: &[f64], v: &[f64]) -> Option<(Status, Option<Certificate>)>;
 }
 
 impl Measured for Problem {
@@ -274,6 +302,86 @@ impl Measured for Problem {
     }
     fn measure(&self, f: &[f64], w: &mut [f64]) -> Residuals {
         residuals_and_velocity(self, f, w)
+    }
+    fn cancellation(&self, f: &[f64], w: &[f64]) -> Option<(Status, Option<Certificate>)> {
+        lcp_cancellation(self, f, w)
+    }
+}
+
+/// The data-resolution test of a finite LCP impulse `f` (with `w = A f + b`) that meets the
+/// tolerance ([`crate::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
+/// `NoSolution` when the Farkas certificate read off `f` ([`certificate_from`]) proves there is
+/// no solution, and `Diverged` else, with the certificate when it bounds the size of every
+/// solution.
+fn lcp_cancellation(
+    problem: &Problem,
+    f: &[f64],
+    w: &[f64],
+) -> Option<(Status, Option<Certificate>)> {
+    let u = unresolved_row(problem, f, w)?;
+    let i = u.row;
+    let certificate = certificate_from(problem, f);
+    let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let found = if u.step >= u.round_off {
+        format!(
+            "row {i}: natural-map step {:.3e}, {:.2} of the velocity {:.3e} the data put into \
+             the row (resolved: at most {RESOLUTION}) but {:.1e} of the magnitude {:.3e} of its \
+             terms; the residual meets the tolerance only because those terms cancel",
+            u.step,
+            u.step / u.data_scale,
+            u.data_scale,
+            u.step / u.magnitude,
+            u.magnitude
+        )
+    } else {
+        format!(
+            "row {i}: the round-off {:.3e} of its terms (magnitude {:.3e}) is {:.2} of the \
+             velocity {:.3e} the data put into the row (resolved: at most {RESOLUTION}); the \
+             data are lost in the rounding of terms that cancel",
+            u.round_off,
+            u.magnitude,
+            u.round_off / u.data_scale,
+            u.data_scale
+        )
+    };
+    let status = match &certificate {
+        Some(c) if c.proves_no_solution => Status::NoSolution {
+            reason: format!(
+                "{found}; the Farkas certificate read off the impulse (bᵀy = {:.3e} < 0, \
+                 Aᵀy <= 0 where f is unbounded, checked exactly) proves there is no solution",
+                c.b_dot_y
+            ),
+        },
+        Some(c) => Status::Diverged {
+            reason: format!(
+                "{found}; a Farkas certificate read off the impulse shows every solution has \
+                 ‖f‖∞ >= {:.3e} (this impulse: {largest:.3e})",
+                c.min_solution_norm
+            ),
+        },
+        None => Status::Diverged {
+            reason: format!("{found} (‖f‖∞ = {largest:.3e})"),
+        },
+    };
+    Some((status, certificate))
+}
+
+/// The status of a finite LCP impulse `f` with velocity `w = A f + b` and shared residuals
+/// `residuals`, given the solver's own `outcome`: [`decide`] on the relative residual, then,
+/// when that says `Converged`, the data-resolution test with its certificate. The rule every
+/// matrix solver's [`Monitor`] applies, for solvers outside this crate (the body-level solvers
+/// of `lcpbench-contact`).
+pub fn judge(
+    problem: &Problem,
+    f: &[f64],
+    w: &[f64],
+    residuals: &Residuals,
+    outcome: Outcome,
+    tol: f64,
+) -> (Status, Option<Certificate>) {
+    match decide(outcome, residuals.natural_map_rel, tol) {
+        Status::Converged => lcp_cancellation(problem, f, w).unwrap_or((Status::Converged, None)),
+        status => (status, None),
     }
 }
 
@@ -368,6 +476,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
         let tol = self.settings.tolerance;
         let n = problem.rows();
         let (noun, symbol) = P::UNKNOWN;
+        let mut certificate = None;
         let (f, w, res, status) = if let Outcome::Unsupported(reason) = outcome {
             let f = vec![0.0; n];
             let mut w = vec![0.0; n];
@@ -407,7 +516,16 @@ impl<'a, P: Measured> Monitor<'a, P> {
                     ),
                 }
             } else {
-                decide(outcome, res.natural_map_rel, tol)
+                match decide(outcome, res.natural_map_rel, tol) {
+                    Status::Converged => match problem.cancellation(&f, &w) {
+                        Some((status, c)) => {
+                            certificate = c;
+                            status
+                        }
+                        None => Status::Converged,
+                    },
+                    status => status,
+                }
             };
             (f, w, res, status)
         };
@@ -420,6 +538,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
             residuals: res,
             history: self.history,
             active_sets: self.active_sets,
+            certificate,
         }
     }
 }
@@ -509,6 +628,8 @@ pub fn non_finite_reason(x: &[f64], noun: &str, symbol: &str) -> Option<String> 
 /// The status of a finite result from its relative residual `rel` and the solver's own outcome:
 /// `Converged` if and only if `rel <= tol` (shared by the LCP and the cone monitors, and by the
 /// body-level solvers of `lcpbench-contact`). A `rel` of NaN (nothing measured) never converges.
+/// A `Converged` here is provisional: the monitors and [`judge`] then apply the data-resolution
+/// test.
 pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
     if rel <= tol {
         return Status::Converged;
@@ -523,6 +644,7 @@ pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
         Outcome::IterationLimit => Status::IterationLimit,
         Outcome::TimeLimit => Status::TimeLimit,
         Outcome::NoSolution(reason) => Status::NoSolution { reason },
+        Outcome::Diverged(reason) => Status::Diverged { reason },
         Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
         Outcome::Unsupported(reason) => Status::Unsupported { reason },
     }
@@ -550,8 +672,8 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
 
 /// Solve `problem` island by island with a solver that needs a dense `A` of at most `limit`
 /// rows: each independent sub-problem ([`Problem::islands`]) is densified and solved on its own
-/// (the warm start, tolerance and remaining time budget passed on; `max_iterations` applies per
-/// island), and the impulses are assembled. An island above `limit` rows makes the whole solve
+/// (the warm start, tolerance, remaining time budget and remaining iterations passed on:
+/// [`Settings::max_iterations`] is a total for the whole solve), and the impulses are assembled. An island above `limit` rows makes the whole solve
 /// `Unsupported` with the reason, never an out-of-memory abort. The status of the whole is then
 /// decided by the shared residual as always. Problems of at most `limit` rows stored dense are
 /// solved directly.
@@ -633,24 +755,22 @@ fn solve_islands_with(
             }
             sub_settings.time_budget = Some(left);
         }
+        // The islands not reached keep a zero impulse.
+        sub_settings.max_iterations = settings.max_iterations.saturating_sub(iterations);
+        if sub_settings.max_iterations == 0 {
+            if island_rank(&outcome) < island_rank(&Outcome::IterationLimit) {
+                outcome = Outcome::IterationLimit;
+            }
+            break;
+        }
         let r = solve_one(&sub, &sub_settings);
         iterations += r.iterations;
         for (k, &i) in rows.iter().enumerate() {
             f[i] = r.f[k];
         }
         let island_outcome = Outcome::of(r.status);
-        if island_outcome != Outcome::Stopped {
-            let o = island_outcome;
-            // The most telling outcome wins: unsupported and failures over limits.
-            let rank = |o: &Outcome| match o {
-                Outcome::Stopped => 0,
-                Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
-                Outcome::NoSolution(_) | Outcome::NumericalFailure(_) => 2,
-                Outcome::Unsupported(_) => 3,
-            };
-            if rank(&o) > rank(&outcome) {
-                outcome = o;
-            }
+        if island_rank(&island_outcome) > island_rank(&outcome) {
+            outcome = island_outcome;
         }
         if matches!(outcome, Outcome::Unsupported(_)) {
             break;
@@ -658,6 +778,17 @@ fn solve_islands_with(
     }
     monitor.record(iterations, &f);
     monitor.finish(f, iterations, outcome)
+}
+
+/// How telling an island's outcome is for the whole solve: unsupported and failures over limits
+/// and stalls, those over a stop.
+fn island_rank(o: &Outcome) -> u8 {
+    match o {
+        Outcome::Stopped => 0,
+        Outcome::IterationLimit | Outcome::TimeLimit | Outcome::Stalled(_) => 1,
+        Outcome::NoSolution(_) | Outcome::Diverged(_) | Outcome::NumericalFailure(_) => 2,
+        Outcome::Unsupported(_) => 3,
+    }
 }
 
 #[cfg(test)]
@@ -705,6 +836,110 @@ mod tests {
         let r = monitor.finish(bad.clone(), 1, Outcome::Stopped);
         assert_eq!(r.residuals, residuals(&p, &bad));
         assert_ne!(r.status, Status::Converged);
+    }
+
+    /// `max_iterations` is a total for the solve: each island gets what the islands before it
+    /// left, and the islands past the cap are not solved (a 20,000-row problem of one-row
+    /// islands once ran `n` times the cap).
+    #[test]
+    fn islands_share_the_iteration_cap() {
+        let n = 60;
+        let a = Mat::from_fn(n, n, |i, j| {
+            if i == j {
+                4.0
+            } else if i / 20 == j / 20 && i.abs_diff(j) == 1 {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
+        let settings = Settings {
+            max_iterations: 25,
+            ..Settings::default()
+        };
+        let mut given = Vec::new();
+        let r = solve_by_islands(&p, &settings, 1000, |island, s| {
+            given.push(s.max_iterations);
+            // Every island spends 15 iterations, or the cap it is given.
+            let spent = s.max_iterations.min(15);
+            let outcome = if spent < 15 {
+                Outcome::IterationLimit
+            } else {
+                Outcome::Stopped
+            };
+            let mut r = Monitor::new(island, s).finish(vec![0.0; island.n()], spent, outcome);
+            r.iterations = spent;
+            r
+        });
+        assert_eq!(given, vec![25, 10], "the third island gets nothing");
+        assert_eq!(r.iterations, 25);
+        assert_ne!(r.status, Status::Converged);
+    }
+
+    /// An impulse that meets the tolerance by growing along the null direction of a problem
+    /// without a solution is not `converged`. On `A = [[1, −1], [−1, 1]]`, `b = (−1, −1)` the
+    /// Farkas certificate read off it (`y ∝ (1, 1)`) is exact: `no_solution`. On the
+    /// floating-point `infeasible` family no certificate is exact, and the status is
+    /// `diverged`, with a proven lower bound on the size of any solution.
+    #[test]
+    fn a_diverging_impulse_is_never_converged() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let settings = Settings::default();
+        for f in [vec![5.2e7, 5.2e7], vec![5.2e8, 5.2e8 + 1.0]] {
+            let r = Monitor::new(&p, &settings).finish(f, 1, Outcome::Stopped);
+            assert!(r.residuals.natural_map_rel <= settings.tolerance);
+            assert_eq!(r.status.name(), "no_solution", "{}", r.status);
+            assert!(r.certificate.as_ref().unwrap().proves_no_solution);
+        }
+        let g = crate::generate::generate(crate::generate::Family::Infeasible, 6, 1);
+        let loose = Settings {
+            tolerance: 1e-4,
+            ..Settings::default()
+        };
+        let r = crate::Apgd.solve(&g.problem, &loose);
+        assert!(r.residuals.natural_map_rel <= loose.tolerance);
+        assert_eq!(r.status.name(), "diverged", "{}", r.status);
+        let c = r.certificate.unwrap();
+        let largest = r.f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            !c.proves_no_solution && c.min_solution_norm > largest,
+            "{c:?}"
+        );
+        // The same through the rule the body-level solvers use.
+        let (status, c) = judge(
+            &g.problem,
+            &r.f,
+            &r.w,
+            &r.residuals,
+            Outcome::Stopped,
+            loose.tolerance,
+        );
+        assert_eq!(status.name(), "diverged");
+        assert!(c.is_some());
+        // A solution of a solvable problem stays converged, without a certificate.
+        let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
+        let q = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        let r = Monitor::new(&q, &settings).finish(vec![1.0 / 3.0; 2], 1, Outcome::Stopped);
+        assert_eq!((r.status, r.certificate), (Status::Converged, None));
+    }
+
+    /// `A = [[1, −1], [−1, 1 + 2⁻⁵²]]` is regular, and with `b = (−1, −1)` its solution is
+    /// about `1.8e16`: the terms of each row exceed the data by so much that their round-off
+    /// alone is far above the data, so no answer can be resolved, even one a pivoting solver
+    /// finds to round-off.
+    #[test]
+    fn a_solution_lost_in_rounding_is_not_converged() {
+        let e = f64::EPSILON;
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, -1.0], [-1.0, 1.0 + e]][i][j]);
+        let p = Problem::lcp(a, vec![-1.0, -1.0]).unwrap();
+        // The solution f_1 = 2 / ε, f_0 = f_1 + 1, rounded.
+        let f = vec![2.0 / e + 1.0, 2.0 / e];
+        let r = Monitor::new(&p, &Settings::default()).finish(f, 1, Outcome::Stopped);
+        assert!(r.residuals.natural_map_rel <= 1e-15, "{:?}", r.residuals);
+        assert_eq!(r.status.name(), "diverged", "{}", r.status);
+        assert!(r.status.reason().unwrap().contains("round-off"));
     }
 
     /// An island's own diagnosis of a stall reaches the whole problem's status, so a user sees

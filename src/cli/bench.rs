@@ -1,14 +1,14 @@
 //! `lcpbench bench`, `lcpbench report` and the hidden `lcpbench bench-one` that runs one
 //! isolated run in a child process.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget::Fault;
 use lcpbench::harness::isolate::write_protocol;
 use lcpbench::harness::merge::{self, MergedManifest};
 use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
-use lcpbench::harness::sweep::{lock_dir, run_sweep_locked};
+use lcpbench::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
 use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
@@ -47,7 +47,7 @@ pub struct BenchArgs {
     /// Output directory (results.csv, histories.csv). An existing results.csv is resumed.
     #[arg(long, default_value = "bench-out")]
     pub out: PathBuf,
-    /// Worker threads (each drives one child process).
+    /// Worker threads (each drives one child process): 1 to 4 per core of the machine.
     #[arg(long, default_value_t = 2)]
     pub jobs: usize,
     /// Do not draw a progress bar.
@@ -81,7 +81,7 @@ pub struct ReportArgs {
     /// directory rebuilds the same tables.
     #[arg(long)]
     pub no_run: bool,
-    /// Worker threads.
+    /// Worker threads (each drives one child process): 1 to 4 per core of the machine.
     #[arg(long, default_value_t = 2)]
     pub jobs: usize,
     /// Do not draw a progress bar.
@@ -138,6 +138,7 @@ fn parse_budgets(list: &[String]) -> Result<Vec<NamedBudget>> {
 
 /// Run `lcpbench bench`.
 pub fn run_bench(args: BenchArgs) -> Result<()> {
+    check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let solvers = parse_solvers(&args.solvers)?;
     let budgets = parse_budgets(&args.budgets)?;
     let mut cases: Vec<Case> = Vec::new();
@@ -283,6 +284,7 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
 
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
+    check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let scenes = report::scenes_matching(&args.scenes)?;
     let merged = check_report_dir(&args)?;
     let lcp_dir = args.out.join("lcps");
@@ -290,9 +292,7 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
         // Tables from existing data: the LCPs exported by the run that produced it.
         report::recorded_exports(&args.out)?
     } else {
-        if lcp_dir.exists() {
-            std::fs::remove_dir_all(&lcp_dir)?;
-        }
+        remove_exported_lcps(&lcp_dir)?;
         // Sorted by path, the order `--no-run` lists them in.
         let mut exported = lcpbench::harness::export::export_suite_lcps(
             &suite::suite_scenes(args.quick, &scenes),
@@ -395,6 +395,28 @@ fn check_report_dir(args: &ReportArgs) -> Result<Option<MergedManifest>> {
         }
     }
     Ok(merged)
+}
+
+/// Remove the problems an earlier report exported into `dir` (`SCENE_stepK.json`), and
+/// nothing else there: the directory may hold files lcpbench did not write.
+fn remove_exported_lcps(dir: &std::path::Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let exported = name
+            .strip_suffix(".json")
+            .and_then(|stem| stem.rsplit_once("_step"))
+            .is_some_and(|(_, k)| !k.is_empty() && k.bytes().all(|c| c.is_ascii_digit()));
+        let regular = entry.file_type().is_ok_and(|t| t.is_file());
+        if exported && regular {
+            std::fs::remove_file(entry.path())
+                .with_context(|| format!("removing {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Run `lcpbench bench-one` (the child side of the isolation).

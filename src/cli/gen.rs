@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lcpbench_solvers::generate::{generate, Family};
+use lcpbench_solvers::generate::{generate, Family, MAX_CONDITION};
 use lcpbench_solvers::write_problem;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -34,7 +34,7 @@ pub struct GenArgs {
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Condition number for `spd`.
+    /// Condition number for `spd`, 1 to 1e12.
     #[arg(long, default_value_t = 1e3)]
     pub cond: f64,
     /// Rank for `psd` (default n/2).
@@ -57,8 +57,12 @@ pub fn run(args: GenArgs) -> Result<()> {
     if args.n == 0 {
         bail!("--n must be at least 1");
     }
-    if !(args.cond.is_finite() && args.cond >= 1.0) {
-        bail!("--cond must be a finite number >= 1, got {}", args.cond);
+    if !(args.cond.is_finite() && (1.0..=MAX_CONDITION).contains(&args.cond)) {
+        bail!(
+            "--cond must be between 1 and {MAX_CONDITION:e} (beyond it round-off in forming the \
+             matrix changes its smallest eigenvalues), got {}",
+            lcpbench_contact::scene::readable(args.cond)
+        );
     }
     if let Some(r) = args.rank {
         if r == 0 || r > args.n {

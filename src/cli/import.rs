@@ -2,10 +2,13 @@
 //! `.hdf5`) and write lcpbench's JSON form, or, for an output named `*.hdf5`, a local FCLIB file
 //! (box-friction problems with one normal and one or two friction rows per contact).
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench_solvers::{read_problem, write_problem};
-use std::path::PathBuf;
+use lcpbench::harness::budget;
+use lcpbench_solvers::{read_problem, write_problem, Problem};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::Duration;
 
 /// Arguments of `lcpbench import`.
 #[derive(Args)]
@@ -16,6 +19,10 @@ pub struct ImportArgs {
     /// ends in `.hdf5` or `.h5`.
     #[arg(long, short)]
     pub output: PathBuf,
+    /// Wall-time budget of reading the input, seconds: past it import stops with an error and
+    /// writes nothing (none by default).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
 }
 
 /// Run `lcpbench import`.
@@ -26,7 +33,11 @@ pub fn run(args: ImportArgs) -> Result<()> {
             args.output.display()
         );
     }
-    let problem = read_problem(&args.input)?;
+    let budget = match args.time_budget {
+        Some(t) => Some(budget::time_budget(t).map_err(|m| anyhow!("--time-budget: {m}"))?),
+        None => None,
+    };
+    let problem = read_within(&args.input, budget)?;
     let ext = args
         .output
         .extension()
@@ -48,6 +59,34 @@ pub fn run(args: ImportArgs) -> Result<()> {
         problem.friction().len()
     );
     Ok(())
+}
+
+/// Read the problem file `path`, on a worker thread when there is a `budget`: past it the
+/// command ends with an error (the process exits, and the unfinished read with it).
+fn read_within(path: &Path, budget: Option<Duration>) -> Result<Problem> {
+    let Some(budget) = budget else {
+        return Ok(read_problem(path)?);
+    };
+    let (tx, rx) = mpsc::channel();
+    let input = path.to_owned();
+    std::thread::Builder::new()
+        .name("import-read".into())
+        .spawn(move || {
+            let _ = tx.send(read_problem(&input));
+        })
+        .context("starting the reader thread")?;
+    match rx.recv_timeout(budget) {
+        Ok(read) => Ok(read?),
+        Err(mpsc::RecvTimeoutError::Timeout) => bail!(
+            "{}: reading it took longer than the time budget of {} s (--time-budget); nothing \
+             was written",
+            path.display(),
+            budget.as_secs_f64()
+        ),
+        Err(mpsc::RecvTimeoutError::Disconnected) => {
+            bail!("{}: the reader stopped without a result", path.display())
+        }
+    }
 }
 
 fn write_fclib(problem: &lcpbench_solvers::Problem, args: &ImportArgs) -> Result<()> {

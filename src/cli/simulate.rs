@@ -5,7 +5,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lcpbench::harness::export::{step_problem, StepProblem};
 use lcpbench::harness::SolverSpec;
-use lcpbench_contact::scene::{check_solver, Scene, MAX_STEPS};
+use lcpbench_contact::scene::{check_solver, LoadOptions, Scene, MAX_STEPS};
 use lcpbench_contact::step::{ContactSolver, PhaseTimes, StepReport, World};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{
@@ -38,7 +38,9 @@ pub struct SimulateArgs {
     /// Solver tolerance (overrides the scene's).
     #[arg(long)]
     pub tol: Option<f64>,
-    /// Solver iteration / pivot / sweep cap per step (overrides the scene's).
+    /// Solver iteration / pivot / sweep cap of each step's solve (overrides the scene's). With
+    /// `islands = true` the islands of a step are solved in parallel, each up to this cap;
+    /// `--time-budget` bounds the step as a whole.
     #[arg(long)]
     pub max_iter: Option<usize>,
     /// Wall-time budget of each step's solve, seconds: a step whose solve runs out of it ends
@@ -59,12 +61,17 @@ pub struct SimulateArgs {
     /// Write the run as an interactive replay page (self-contained HTML; see `lcpbench view`).
     #[arg(long)]
     pub html: Option<PathBuf>,
-    /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D.
+    /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D; a
+    /// page that cannot fit (or a bound below what its scripts take) is an error.
     #[arg(long, default_value_t = lcpbench::view::DEFAULT_MAX_BYTES)]
     pub max_bytes: usize,
     /// Print the run's figures as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
+    /// leading out), which are refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
 }
 
 /// Arguments of `lcpbench export`.
@@ -98,6 +105,10 @@ pub struct ExportArgs {
     /// projected as the stepper passes them), which `lcpbench solve --warm` starts from.
     #[arg(long, short)]
     pub output: PathBuf,
+    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
+    /// leading out), which are refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
 }
 
 /// Refuse a step count beyond [`MAX_STEPS`] (or zero, for `--steps`).
@@ -133,8 +144,9 @@ fn load_world(
     path: &Path,
     solver: Option<&str>,
     friction_model: Option<&str>,
+    options: &LoadOptions,
 ) -> Result<(Scene, World)> {
-    let mut scene = Scene::load(path)?;
+    let mut scene = Scene::load_with(path, options)?;
     if let Some(model) = friction_model {
         let directions = match scene.settings.builder.friction_model {
             FrictionModel::Pyramid { directions } => directions,
@@ -386,15 +398,16 @@ impl SimTotals {
     }
 }
 
-/// Refuse a step the solver declined (`unsupported`), naming the step and a way out.
+/// Stop at a step that was not solved (`unsupported`: the solver declined it, or it is past
+/// one of the stepper's limits), naming the step, the reason and a way out.
 fn check_supported(args: &SimulateArgs, report: &StepReport) -> Result<()> {
     if let lcpbench_solvers::Status::Unsupported { reason } = &report.status {
         bail!(
-            "{}: solver {} cannot solve step {} ({} rows): {reason}{}",
+            "{}: step {} ({} rows) was not solved with {}: {reason}{}",
             args.scene.display(),
-            report.solver,
             report.step,
             report.rows,
+            report.solver,
             if reason.contains("friction row") {
                 " (try friction_model = \"pyramid\" or \"none\")"
             } else {
@@ -411,10 +424,21 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         &args.scene,
         args.solver.as_deref(),
         args.friction_model.as_deref(),
+        &LoadOptions {
+            allow_outside_paths: args.allow_outside_paths,
+        },
     )?;
     let steps = args.steps.unwrap_or(scene.settings.steps);
     check_steps("--steps", steps)?;
     apply_overrides(&args, &mut world)?;
+    let min = lcpbench::view::min_page_bytes(true);
+    if args.html.is_some() && args.max_bytes < min {
+        bail!(
+            "--max-bytes must be at least {min} (the page's scripts, styles and smallest data), \
+             got {}",
+            args.max_bytes
+        );
+    }
     let mut recorder = Recorder::new(&args)?;
     recorder.push(lcpbench::view::header(&scene.name, &world).to_string())?;
     let mut totals = SimTotals::new(&world);
@@ -584,6 +608,9 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
         &args.scene,
         args.solver.as_deref(),
         args.friction_model.as_deref(),
+        &LoadOptions {
+            allow_outside_paths: args.allow_outside_paths,
+        },
     )?;
     check_steps("--step", args.step)?;
     apply_solver_overrides(args.tol, args.max_iter, args.time_budget, &mut world)?;
@@ -600,6 +627,11 @@ pub fn run_export(args: ExportArgs) -> Result<()> {
             "step {} of {} has no contacts, so there is no LCP to export",
             args.step,
             args.scene.display()
+        ),
+        StepProblem::Refused(reason) => bail!(
+            "{}: step {} has no problem to export: {reason}",
+            args.scene.display(),
+            args.step
         ),
     };
     match &warm_start {

@@ -3,9 +3,11 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget::{self, catalogue, SolverSpec};
+use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
-    cone_residuals, is_cone_file, parse_cone_problem, read_problem, ConeProblem, ConeSolverKind,
-    Problem, ProblemFileError, ProblemFormat, Settings, SolveResult, Solver, SolverKind, Status,
+    cone_residuals, is_cone_file, parse_cone_problem, read_problem, Certificate, ConeProblem,
+    ConeSolverKind, Problem, ProblemFileError, ProblemFormat, Settings, SolveResult, Solver,
+    SolverKind, Status,
 };
 use serde_json::json;
 use std::path::PathBuf;
@@ -24,7 +26,8 @@ pub struct SolveArgs {
     /// Tolerance on the relative natural-map residual.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
-    /// Iteration / pivot cap.
+    /// Iteration / pivot cap of the whole solve: a solver that splits the problem into
+    /// independent islands gives each what the islands before it left.
     #[arg(long, default_value_t = 10_000)]
     pub max_iter: usize,
     /// SOR relaxation factor (only with `--solver sor`).
@@ -111,9 +114,11 @@ pub fn run(args: SolveArgs) -> Result<()> {
         SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
         SolverName::Cone(_) => None,
     };
-    let bytes = std::fs::read(&args.problem).map_err(|source| ProblemFileError::Io {
-        path: args.problem.clone(),
-        source,
+    let bytes = read_input_file(&args.problem, MAX_PROBLEM_FILE_BYTES).map_err(|source| {
+        ProblemFileError::Io {
+            path: args.problem.clone(),
+            source,
+        }
     })?;
     let head = &bytes[..bytes.len().min(64)];
     let json = matches!(
@@ -229,6 +234,7 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                 time: std::time::Duration::ZERO,
                 history: Vec::new(),
                 active_sets: Vec::new(),
+                certificate: None,
             };
             (kind.name(), r)
         }
@@ -259,6 +265,7 @@ fn print_result(
             "f": r.f,
             "w": r.w,
             "history": if args.history { Some(&r.history) } else { None },
+            "certificate": r.certificate.as_ref().map(certificate_json),
         });
         println!(
             "{}",
@@ -286,6 +293,12 @@ fn print_result(
     let shown: Vec<String> = r.f.iter().take(8).map(|v| format!("{v:.6e}")).collect();
     let more = if r.f.len() > 8 { ", …" } else { "" };
     println!("f           [{}{more}]", shown.join(", "));
+    if let Some(c) = &r.certificate {
+        println!("certificate {}", describe_certificate(c));
+        let shown: Vec<String> = c.y.iter().take(8).map(|v| format!("{v:.6e}")).collect();
+        let more = if c.y.len() > 8 { ", …" } else { "" };
+        println!("y           [{}{more}]", shown.join(", "));
+    }
     if args.history {
         for h in &r.history {
             println!(
@@ -295,6 +308,34 @@ fn print_result(
         }
     }
     Ok(())
+}
+
+/// The certificate as JSON: its multipliers and checked quantities (`min_solution_norm` is
+/// `null` when it proves there is no solution).
+fn certificate_json(c: &Certificate) -> serde_json::Value {
+    json!({
+        "proves_no_solution": c.proves_no_solution,
+        "min_solution_norm": c.min_solution_norm.is_finite().then_some(c.min_solution_norm),
+        "b_dot_y": c.b_dot_y,
+        "bounded_part": c.bounded_part,
+        "slope": c.slope,
+        "slope_rel": c.slope_rel,
+        "y": c.y,
+    })
+}
+
+/// One line on what a certificate proves.
+fn describe_certificate(c: &Certificate) -> String {
+    let what = if c.proves_no_solution {
+        "so there is no solution".to_owned()
+    } else {
+        format!("so every solution has ‖f‖∞ >= {:.3e}", c.min_solution_norm)
+    };
+    format!(
+        "Farkas multipliers y read off f: bᵀy = {:.3e}, bound part U = {:.3e}, slope S = {:.3e} \
+         (relative {:.1e}), {what}",
+        c.b_dot_y, c.bounded_part, c.slope, c.slope_rel
+    )
 }
 
 /// Run `lcpbench solvers`: every solver with its level (matrix, body, cone), whether `+warm`

@@ -3,10 +3,13 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use lcpbench::harness::budget;
 use lcpbench::harness::Case;
+use lcpbench::view::recording::MAX_RECORDING_BYTES;
 use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
+use lcpbench_solvers::io::{input::check_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{read_problem, Settings};
-use std::io::BufRead;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `lcpbench view`.
@@ -19,39 +22,65 @@ pub struct ViewArgs {
     /// Output HTML file.
     #[arg(long, short)]
     pub output: PathBuf,
-    /// Size bound of a replay page in bytes: longer runs draw every k-th step in 3-D.
+    /// Size bound of the page in bytes: longer runs draw every k-th step in 3-D; a page that
+    /// cannot fit (or a bound below what its scripts take) is an error.
     #[arg(long, default_value_t = DEFAULT_MAX_BYTES)]
     pub max_bytes: usize,
     /// Solver tolerance for a problem page.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
-    /// Iteration / pivot cap for a problem page.
+    /// Iteration / pivot cap of each solver on a problem page.
     #[arg(long, default_value_t = 10_000)]
     pub max_iter: usize,
+    /// Wall-time budget of a problem page's solves, seconds, shared by the solvers: each gets
+    /// an equal share of what the ones before it left.
+    #[arg(long, default_value_t = 60.0)]
+    pub time_budget: f64,
 }
 
 /// What an input file holds: a recording starts with its header line, a problem file is one
-/// JSON object with `A`.
+/// JSON object with `A`. Only the start of a regular file is read.
 fn is_recording(path: &Path) -> Result<bool> {
+    check_input_file(path, MAX_RECORDING_BYTES.max(MAX_PROBLEM_FILE_BYTES))
+        .with_context(|| format!("cannot read {}", path.display()))?;
     let file =
         std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let mut first = String::new();
-    std::io::BufReader::new(file)
-        .read_line(&mut first)
+    let mut start = Vec::new();
+    file.take(4096)
+        .read_to_end(&mut start)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    Ok(first.trim_start().starts_with("{\"recording\""))
+    Ok(String::from_utf8_lossy(&start)
+        .trim_start()
+        .starts_with("{\"recording\""))
 }
 
 /// Run `lcpbench view`.
 pub fn run(args: ViewArgs) -> Result<()> {
-    if !(args.tol.is_finite() && args.tol > 0.0) {
-        bail!("--tol must be a positive number, got {}", args.tol);
-    }
+    budget::tolerance(args.tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
     if args.max_iter == 0 {
         bail!("--max-iter must be at least 1");
     }
+    let time_budget =
+        budget::time_budget(args.time_budget).map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?;
     let first = Path::new(&args.inputs[0]);
-    let html = if first.exists() && is_recording(first)? {
+    let recording = first.exists() && is_recording(first)?;
+    let min = view::min_page_bytes(recording);
+    if args.max_bytes < min {
+        bail!(
+            "--max-bytes must be at least {min} (the page's scripts, styles and smallest data), \
+             got {}",
+            args.max_bytes
+        );
+    }
+    let jsonl = first.extension().is_some_and(|e| e == "jsonl");
+    if first.exists() && jsonl && !recording {
+        bail!(
+            "{}: not a recording: it does not start with the header line {{\"recording\": …}} \
+             that `lcpbench simulate --record` writes",
+            first.display()
+        );
+    }
+    let html = if recording {
         let recordings = args
             .inputs
             .iter()
@@ -82,9 +111,13 @@ pub fn run(args: ViewArgs) -> Result<()> {
         let settings = Settings {
             tolerance: args.tol,
             max_iterations: args.max_iter,
+            time_budget: Some(time_budget),
             ..Settings::default()
         };
-        view::problem_page(&view::problem_data(&problem, &name, &settings))
+        view::problem_page(
+            &view::problem_data(&problem, &name, &settings),
+            args.max_bytes,
+        )?
     };
     write_page(&args.output, &html)
 }

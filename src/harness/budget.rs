@@ -38,12 +38,21 @@ pub enum SpecError {
 /// derived kill time cannot be represented as a [`Duration`], are refused up front.
 pub const MAX_TIME_BUDGET_S: f64 = 1e9;
 
-/// Check a time budget in seconds: finite, positive, at most [`MAX_TIME_BUDGET_S`], and
-/// representable as a [`Duration`]. The error says what is wrong.
+/// Smallest time budget accepted, seconds: a microsecond, about the cost of reading the clock a
+/// few times. A budget below it would end every solve before its first iteration.
+pub const MIN_TIME_BUDGET_S: f64 = 1e-6;
+
+/// Check a time budget in seconds: finite, at least [`MIN_TIME_BUDGET_S`], at most
+/// [`MAX_TIME_BUDGET_S`], and representable as a [`Duration`]. The error says what is wrong.
 pub fn time_budget(seconds: f64) -> Result<Duration, String> {
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err(format!(
             "time budget must be a positive number of seconds, got {seconds}"
+        ));
+    }
+    if seconds < MIN_TIME_BUDGET_S {
+        return Err(format!(
+            "time budget {seconds:e} s is below the minimum of {MIN_TIME_BUDGET_S:e} s"
         ));
     }
     if seconds > MAX_TIME_BUDGET_S {
@@ -55,18 +64,12 @@ pub fn time_budget(seconds: f64) -> Result<Duration, String> {
         .map_err(|e| format!("time budget {seconds:e} s cannot be represented: {e}"))
 }
 
-/// Check a tolerance on the relative residual: a number in `(0, 1)`. A relative residual of
-/// 1 or more is met by `f = 0` on most problems, so such a tolerance would claim convergence
-/// for nothing.
+/// Check a tolerance on the relative residual: a number in `(0, 1)`, and at least
+/// [`MIN_TOLERANCE`](lcpbench_solvers::metrics::MIN_TOLERANCE). A relative residual of 1 or
+/// more is met by `f = 0` on most problems, so such a tolerance would claim convergence for
+/// nothing; one below round-off would be met only by chance.
 pub fn tolerance(tol: f64) -> Result<f64, String> {
-    if tol.is_finite() && tol > 0.0 && tol < 1.0 {
-        Ok(tol)
-    } else {
-        Err(format!(
-            "tolerance must be a number in (0, 1) on the relative residual, got {}",
-            lcpbench_contact::scene::readable(tol)
-        ))
-    }
+    lcpbench_contact::scene::tolerance(tol).map_err(|m| format!("tolerance {m}"))
 }
 
 /// Tolerance, iteration cap and time budget of one run.

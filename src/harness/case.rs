@@ -21,7 +21,7 @@
 //! | `scene:PATH?steps=N&friction=MODEL`   | both                                                   |
 
 use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::generate::{self, generate, Family, Generated};
+use lcpbench_solvers::generate::{self, generate, Family, Generated, MAX_CONDITION};
 use lcpbench_solvers::{read_problem, Problem};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -319,8 +319,11 @@ fn generated_family(
     Ok(match kind {
         "spd" => {
             let cond = cond.unwrap_or(1e3);
-            if !(cond.is_finite() && cond >= 1.0) {
-                return Err(format!("cond = {cond} must be finite and >= 1"));
+            if !(cond.is_finite() && (1.0..=MAX_CONDITION).contains(&cond)) {
+                return Err(format!(
+                    "cond = {} must be between 1 and {MAX_CONDITION:e}",
+                    lcpbench_contact::scene::readable(cond)
+                ));
             }
             GenFamily::Spd { cond }
         }

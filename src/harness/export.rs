@@ -22,6 +22,9 @@ pub enum StepProblem {
     Cone(ConeProblem),
     /// The step had no contacts.
     NoContacts,
+    /// The step was not solved, for the reason given: past one of the stepper's limits (see
+    /// [`World::step`]), or a solver that declined it.
+    Refused(String),
 }
 
 /// The problem of step `step` (0-based) of `world`, and that step's contact count: the steps
@@ -46,7 +49,10 @@ pub fn step_problem(
             problem: lcp.with_name(name),
             warm_start: report.warm_start,
         },
-        (None, None) => StepProblem::NoContacts,
+        (None, None) => match report.status {
+            lcpbench_solvers::Status::Unsupported { reason } => StepProblem::Refused(reason),
+            _ => StepProblem::NoContacts,
+        },
     };
     (problem, report.contacts)
 }

@@ -5,7 +5,8 @@
 //! It is made of small accumulators, one per concern, so a new metric is one local change:
 //!
 //! * [`StepTotals`]: solver time, iterations, contacts, rows, residuals, penetration,
-//!   friction-cone violation, non-converged and fallback steps, the first non-converged status;
+//!   friction-cone violation, non-converged, fallback and no-solution steps, the first
+//!   non-converged status;
 //! * [`Stability`]: energy and momentum drift, largest speed, non-finite steps, lift-off at
 //!   sliding contacts, and the blow-up test;
 //! * [`Rest`]: creep speed, kinetic energy at rest and the support error of resting scenes;
@@ -181,6 +182,7 @@ pub struct StepTotals {
     solved: usize,
     unsupported: usize,
     fallbacks: usize,
+    no_solution: usize,
     worst_status: Option<Status>,
     time_limits: usize,
     solve_wall_max: f64,
@@ -227,10 +229,17 @@ impl StepTotals {
             report.status,
             Status::Unsupported { .. }
                 | Status::NoSolution { .. }
+                | Status::Diverged { .. }
                 | Status::NumericalFailure { .. }
         ) {
             // The solve gave up: the step applied no impulse or an unverified one.
             self.fallbacks += 1;
+        }
+        if matches!(
+            report.status,
+            Status::NoSolution { .. } | Status::Diverged { .. }
+        ) {
+            self.no_solution += 1;
         }
     }
 
@@ -248,6 +257,7 @@ impl StepTotals {
         self.residuals.finish(r);
         r.nonconverged_steps = Some(self.nonconverged);
         r.fallback_steps = Some(self.fallbacks);
+        r.no_solution_steps = Some(self.no_solution);
         r.penetration_max = Some(self.pen_max);
         r.penetration_mean = Some(self.pen_sum / n);
         r.cone_violation = Some(self.cone);

@@ -4,7 +4,8 @@
 //! Flow: [`case`] (what to solve) × [`budget`] (solver specification and budget) → [`sweep`]
 //! (queue, workers, resume) → [`isolate`] (child process, timeout) → [`run`] (in the child:
 //! solve an LCP, or step a scene via [`scene`], whose rows [`metrics`] fills) → [`record`] (the
-//! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step.
+//! CSV row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step;
+//! [`outdir`] keeps the rules of the output directory (lock, tables, what is never overwritten).
 //! [`machine`] names the machine a run ran on (`isolate` records it in every row). For sweeps
 //! on several machines, [`shard`] splits a sweep into deterministic parts balanced by expected
 //! cost and [`merge`] joins the parts' directories into the rows of the whole sweep.
@@ -20,6 +21,7 @@ pub mod isolate;
 pub mod machine;
 pub mod merge;
 pub mod metrics;
+pub mod outdir;
 pub mod record;
 pub mod run;
 pub mod scene;

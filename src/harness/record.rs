@@ -98,9 +98,9 @@ pub struct RunRecord {
     pub nonconverged_steps: Option<usize>,
     /// Scene: steps with a non-finite impulse or state.
     pub nan_steps: Option<usize>,
-    /// Scene: steps whose solve gave up (`unsupported`, `no_solution` or `numerical_failure`):
-    /// the step applied no impulse when the solver declined or returned a non-finite one, and
-    /// otherwise the solver's last, unverified impulse.
+    /// Scene: steps whose solve gave up (`unsupported`, `no_solution`, `diverged` or
+    /// `numerical_failure`): the step applied no impulse when the solver declined or returned a
+    /// non-finite one, and otherwise the solver's last, unverified impulse.
     pub fallback_steps: Option<usize>,
     /// Scene: the state blew up: a non-finite body state or total energy, or a body speed above
     /// `50 + 10 v₀` m/s (`v₀` the largest initial speed); see [`crate::harness::metrics`].
@@ -166,6 +166,14 @@ pub struct RunRecord {
     /// Scene: mean wall time per step of integration (split impulses, time of impact, warm-start
     /// cache), seconds.
     pub phase_integration_s: Option<f64>,
+    /// LCP case: when the status is `diverged` or `no_solution` and a Farkas certificate read
+    /// off the returned impulse was checked ([`lcpbench_solvers::certificate`]): the lower bound
+    /// it proves on `‖f‖∞` of every solution, `inf` when it proves there is none.
+    pub certificate_bound: Option<f64>,
+    /// Scene: steps whose solve ended `no_solution` or `diverged` (the step's problem has no
+    /// solution, or the impulse met the tolerance only by growing along a direction `A`
+    /// cancels). Absent in rows written before the column existed.
+    pub no_solution_steps: Option<usize>,
     /// Host name of the machine the run ran on (see [`Machine`]); empty in rows written before
     /// sweeps recorded it.
     pub host: Option<String>,
@@ -224,8 +232,8 @@ impl RunRecord {
 /// The outcome of one run, as written in the `status` column: the kinds of the solver
 /// [`Status`] (without their reasons, which go to the `reason` column) and the harness's own
 /// outcomes. The text forms are the CSV's: `converged`, `iteration_limit`, `time_limit`,
-/// `stalled`, `no_solution`, `unsupported`, `numerical_failure`, `blow_up`, `panic`, `crash`,
-/// `timeout`, `error`.
+/// `stalled`, `no_solution`, `diverged`, `unsupported`, `numerical_failure`, `blow_up`, `panic`,
+/// `crash`, `timeout`, `error`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum RunStatus {
     /// The shared residual met the tolerance (every step, for a scene).
@@ -238,6 +246,9 @@ pub enum RunStatus {
     Stalled,
     /// The solver showed the problem has no solution.
     NoSolution,
+    /// The residual met the tolerance only through cancellation: the impulse grew along a
+    /// direction `A` cancels.
+    Diverged,
     /// The solver does not take this problem (or this scene's friction model).
     Unsupported,
     /// The solver failed numerically.
@@ -258,12 +269,13 @@ pub enum RunStatus {
 
 impl RunStatus {
     /// Every status, in the order above.
-    pub const ALL: [RunStatus; 12] = [
+    pub const ALL: [RunStatus; 13] = [
         RunStatus::Converged,
         RunStatus::IterationLimit,
         RunStatus::TimeLimit,
         RunStatus::Stalled,
         RunStatus::NoSolution,
+        RunStatus::Diverged,
         RunStatus::Unsupported,
         RunStatus::NumericalFailure,
         RunStatus::BlowUp,
@@ -281,6 +293,7 @@ impl RunStatus {
             RunStatus::TimeLimit => "time_limit",
             RunStatus::Stalled => "stalled",
             RunStatus::NoSolution => "no_solution",
+            RunStatus::Diverged => "diverged",
             RunStatus::Unsupported => "unsupported",
             RunStatus::NumericalFailure => "numerical_failure",
             RunStatus::BlowUp => "blow_up",
@@ -313,6 +326,7 @@ impl From<&Status> for RunStatus {
             Status::TimeLimit => RunStatus::TimeLimit,
             Status::Stalled { .. } => RunStatus::Stalled,
             Status::NoSolution { .. } => RunStatus::NoSolution,
+            Status::Diverged { .. } => RunStatus::Diverged,
             Status::Unsupported { .. } => RunStatus::Unsupported,
             Status::NumericalFailure { .. } => RunStatus::NumericalFailure,
         }

@@ -117,6 +117,7 @@ pub fn fill_from_result(record: &mut RunRecord, result: &SolveResult) {
     record.complementarity_gap = Some(result.residuals.complementarity_gap);
     record.bound_violation = Some(result.residuals.bound_violation);
     record.set_tta(time_to_accuracy(result));
+    record.certificate_bound = result.certificate.as_ref().map(|c| c.min_solution_norm);
 }
 
 /// Solver time until the relative residual first reached each of [`TTA_LEVELS`]: the first
@@ -201,6 +202,22 @@ mod tests {
         assert!(r.tta_1e4.unwrap() <= r.tta_1e8.unwrap());
         assert!(r.solution_error.unwrap() < 1e-6);
         assert!(!out.history.is_empty());
+    }
+
+    /// On a problem without a solution an iterative solver's impulse meets a loose tolerance by
+    /// diverging: the row says `diverged` and records the bound its certificate proves.
+    #[test]
+    fn a_diverging_run_records_its_certificate_bound() {
+        let case: Case = "infeasible:n=6:seed=1".parse().unwrap();
+        let budget: NamedBudget = "1e-4:10000:5".parse().unwrap();
+        let out = run_in_process(&case, &"apgd".parse().unwrap(), &budget);
+        let r = &out.record;
+        assert_eq!(r.status, RunStatus::Diverged, "{}", r.reason);
+        assert!(!r.converged && r.residual_rel.unwrap() <= 1e-4);
+        assert!(r.certificate_bound.unwrap() > 1e3, "{r:?}");
+        let solvable: Case = "spd:n=12:cond=1e2:seed=1".parse().unwrap();
+        let out = run_in_process(&solvable, &"apgd".parse().unwrap(), &budget);
+        assert_eq!(out.record.certificate_bound, None);
     }
 
     #[test]

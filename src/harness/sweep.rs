@@ -5,13 +5,18 @@
 //!
 //! * `results.csv`: one [`RunRecord`] per (case, solver, budget), appended as runs finish.
 //!   On a restart with the same directory, rows already present are kept and their runs
-//!   skipped (resume). A row that does not parse completely (a torn last line from an
-//!   interrupted write: no final newline, a missing column, a cut number) is dropped and its run
-//!   done again; so are the rows of a run that appears more than once.
+//!   skipped (resume). A last row that an interrupted write tore (no final newline, a missing
+//!   column, a cut number) is dropped and its run done again; so are the rows of a run that
+//!   appears more than once.
 //! * `histories.csv`: [`HistoryRow`]s of LCP runs (when histories are kept), written before the
 //!   run's result row so a row in `results.csv` implies its history is complete.
 //! * `.lcpbench.lock`: a sweep holds an exclusive lock on this file (with its process id
 //!   inside) for as long as it runs; a second sweep on the same directory refuses to start.
+//!
+//! A `results.csv` or `histories.csv` that this version of lcpbench did not write (another
+//! program's file, or another version's table), a symbolic link in their place or a row damaged
+//! before the last is refused before anything in the directory changes, and the file is left as
+//! it is ([`crate::harness::outdir`]).
 //! * `.lcpbench-runner-PID`: the private copy of the executable that the children of sweep
 //!   `PID` run. It is removed when the sweep ends; copies left by a killed sweep are removed by
 //!   the next sweep on the directory.
@@ -19,12 +24,15 @@
 use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::isolate::run_isolated;
+use crate::harness::outdir::{
+    append_table, check_own_table, columns_of, create_new, read_table, rewrite_table, TableOrigin,
+};
+pub use crate::harness::outdir::{lock_dir, DirLock, LOCK_FILE};
 use crate::harness::record::{HistoryRow, RunKey, RunOutput, RunRecord};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::collections::{HashMap, HashSet, VecDeque};
-use std::fs::{File, OpenOptions, TryLockError};
-use std::io::{Read, Write};
+use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Arc, Mutex};
 
@@ -120,110 +128,63 @@ pub struct SweepSummary {
     pub failed: usize,
 }
 
-/// Name of the lock file a sweep holds in its output directory.
-pub const LOCK_FILE: &str = ".lcpbench.lock";
+/// Most worker threads per core of the machine: each drives one child process at a time, and
+/// more children than this only contend for the cores (and for memory).
+pub const JOBS_PER_CORE: usize = 4;
+
+/// Check a worker count against this machine: from 1 to [`JOBS_PER_CORE`] times the cores
+/// (`std::thread::available_parallelism`).
+pub fn check_jobs(jobs: usize) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = JOBS_PER_CORE * cores;
+    if (1..=max).contains(&jobs) {
+        Ok(jobs)
+    } else {
+        Err(format!(
+            "must be between 1 and {max} ({JOBS_PER_CORE} per core, and this machine has \
+             {cores}), got {jobs}"
+        ))
+    }
+}
 
 /// Prefix of the private copies of the executable that a sweep's children run.
 pub const RUNNER_PREFIX: &str = ".lcpbench-runner-";
 
-/// An exclusive lock on a sweep's output directory, held until dropped.
-#[derive(Debug)]
-pub struct DirLock {
-    dir: PathBuf,
-    _file: File,
+/// Read the rows of a results file. A last row that an interrupted sweep tore is left out (its
+/// run never finished); any other row that does not parse is an error naming its line.
+pub fn read_results(path: &Path) -> Result<Vec<RunRecord>> {
+    Ok(read_table(path)?.rows)
 }
 
-impl DirLock {
-    /// The locked directory.
-    pub fn dir(&self) -> &Path {
-        &self.dir
-    }
+/// Read a histories file, as [`read_results`] reads a results file.
+pub fn read_histories(path: &Path) -> Result<Vec<HistoryRow>> {
+    Ok(read_table(path)?.rows)
 }
 
-/// Lock `dir` (created if missing) for one sweep. Fails at once, naming the directory and the
-/// process that holds it, when another sweep has it.
-pub fn lock_dir(dir: &Path) -> Result<DirLock> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let path = dir.join(LOCK_FILE);
-    let mut file = OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&path)
-        .with_context(|| format!("opening the lock file {}", path.display()))?;
-    match file.try_lock() {
-        Ok(()) => {}
-        Err(TryLockError::WouldBlock) => {
-            let mut holder = String::new();
-            let _ = file.read_to_string(&mut holder);
-            let holder = holder.trim();
-            let by = if holder.is_empty() {
-                String::new()
-            } else {
-                format!(" (process {holder})")
-            };
-            bail!(
-                "output directory {} is in use by another lcpbench sweep{by}; wait for it to \
-                 finish or choose another output directory",
-                dir.display()
-            );
-        }
-        Err(TryLockError::Error(e)) => {
-            return Err(e).with_context(|| format!("locking {}", path.display()));
-        }
-    }
-    // Best effort: the process id helps whoever meets the lock.
-    let _ = file.set_len(0);
-    let _ = write!(file, "{}", std::process::id());
-    let _ = file.flush();
-    Ok(DirLock {
-        dir: dir.to_owned(),
-        _file: file,
+/// The columns of `results.csv` in this version.
+pub fn result_columns() -> Vec<String> {
+    columns_of(&RunRecord::default())
+}
+
+/// The columns of `histories.csv` in this version.
+pub fn history_columns() -> Vec<String> {
+    columns_of(&HistoryRow {
+        case: String::new(),
+        solver: String::new(),
+        budget: String::new(),
+        iteration: 0,
+        time_s: 0.0,
+        residual: 0.0,
     })
 }
 
-/// Rows of a CSV file that parse completely, and how many did not.
-///
-/// Only newline-terminated lines count as written: a last line without its newline is torn (a
-/// number cut short still parses as a number, so the newline is the only proof the row is
-/// whole). Every row must have exactly the header's columns, and every cell must parse.
-fn read_strict<T: serde::de::DeserializeOwned>(path: &Path) -> Result<(Vec<T>, usize)> {
-    let mut bytes = Vec::new();
-    File::open(path)
-        .and_then(|mut f| f.read_to_end(&mut bytes))
-        .with_context(|| format!("reading {}", path.display()))?;
-    let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
-    let mut dropped = usize::from(bytes[complete..].iter().any(|c| !c.is_ascii_whitespace()));
-    let mut reader = csv::ReaderBuilder::new()
-        .flexible(false)
-        .from_reader(&bytes[..complete]);
-    let mut rows = Vec::new();
-    for row in reader.deserialize() {
-        match row {
-            Ok(r) => rows.push(r),
-            Err(_) => dropped += 1,
-        }
-    }
-    Ok((rows, dropped))
-}
-
-/// Read the rows of a results file. Rows that do not parse completely (a torn last line, a
-/// wrong column count, a cell that is not a value of its column) are dropped.
-pub fn read_results(path: &Path) -> Result<Vec<RunRecord>> {
-    Ok(read_strict(path)?.0)
-}
-
-/// Read a histories file (rows that do not parse completely are dropped).
-pub fn read_histories(path: &Path) -> Result<Vec<HistoryRow>> {
-    Ok(read_strict(path)?.0)
-}
-
-/// The rows of `results.csv` a resume keeps, with the count of rows dropped: torn or
-/// unparsable rows, and every row of a run that appears more than once (such a run is done
-/// again, so its history cannot be mixed up with another copy's).
+/// The rows of `results.csv` a resume keeps, with the count of rows dropped: a torn last row,
+/// and every row of a run that appears more than once (such a run is done again, so its history
+/// cannot be mixed up with another copy's).
 fn resumable_rows(path: &Path) -> Result<(Vec<RunRecord>, usize)> {
-    let (rows, mut dropped) = read_strict::<RunRecord>(path)?;
+    let table = read_table::<RunRecord>(path)?;
+    let mut dropped = usize::from(table.torn_at.is_some());
+    let rows = table.rows;
     let mut count: HashMap<RunKey, usize> = HashMap::new();
     for r in &rows {
         *count.entry(r.key()).or_default() += 1;
@@ -252,33 +213,6 @@ fn remove_stale_runners(dir: &Path) -> usize {
         .count()
 }
 
-/// Rewrite `path` with exactly `rows` (header included), through a temporary file.
-fn rewrite<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
-    let tmp = path.with_extension("csv.tmp");
-    {
-        let mut w = csv::Writer::from_path(&tmp)?;
-        for r in rows {
-            w.serialize(r)?;
-        }
-        w.flush()?;
-    }
-    std::fs::rename(&tmp, path)?;
-    Ok(())
-}
-
-/// Open `path` for appending; the returned writer writes a header only if the file is new.
-fn appender(path: &Path) -> Result<csv::Writer<File>> {
-    let exists = path.exists() && std::fs::metadata(path)?.len() > 0;
-    let file = OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .with_context(|| format!("opening {}", path.display()))?;
-    Ok(csv::WriterBuilder::new()
-        .has_headers(!exists)
-        .from_writer(file))
-}
-
 /// Run the jobs, skipping those already in `results.csv`, and append a row per finished run.
 /// Holds the lock on the output directory for the whole sweep (see [`lock_dir`]).
 pub fn run_sweep(config: &SweepConfig, jobs: Vec<Job>) -> Result<SweepSummary> {
@@ -299,6 +233,7 @@ pub fn run_sweep_locked(
             config.out_dir.display()
         );
     }
+    check_jobs(config.jobs).map_err(|m| anyhow::anyhow!("worker count {m}"))?;
     let mut summary = SweepSummary {
         stale_runners: remove_stale_runners(&config.out_dir),
         ..SweepSummary::default()
@@ -310,15 +245,15 @@ pub fn run_sweep_locked(
     }
     let total = todo.len();
     let mut writers = Writers {
-        results: appender(&config.results_path())?,
-        histories: appender(&config.histories_path())?,
+        results: append_table(&config.results_path())?,
+        histories: append_table(&config.histories_path())?,
     };
     let bar = progress_bar(config.progress, total);
     // Children run a private copy of the executable: a build in a shared target directory must
     // not swap the binary under a running sweep.
     let runner = private_copy(&config.exe, &config.out_dir);
     let exe_for_children = runner.clone().unwrap_or_else(|| config.exe.clone());
-    let (rx, workers) = spawn_workers(exe_for_children, todo, config.jobs);
+    let (rx, workers, spawned) = spawn_workers(exe_for_children, todo, config.jobs);
     let written = write_outputs(config, rx, &mut writers, &bar, &mut summary);
     let panicked = workers
         .into_iter()
@@ -330,6 +265,7 @@ pub fn run_sweep_locked(
     }
     bar.finish_and_clear();
     written?;
+    spawned?;
     if panicked > 0 {
         bail!(
             "{panicked} worker thread(s) of the sweep panicked; {} of {total} runs were written \
@@ -343,23 +279,32 @@ pub fn run_sweep_locked(
 
 /// Resume: keep the rows of `results.csv` that parse completely (and their histories), drop
 /// the rest, and return the keys of the runs already done.
+/// Both tables are checked to be this version's own (or absent) before either is touched.
 fn resume(config: &SweepConfig, summary: &mut SweepSummary) -> Result<HashSet<RunKey>> {
     let results_path = config.results_path();
     let histories_path = config.histories_path();
+    let results = check_own_table(&results_path, &result_columns(), "resume or rewrite it")?;
+    let histories = check_own_table(&histories_path, &history_columns(), "rewrite it")?;
     let mut done: HashSet<RunKey> = HashSet::new();
-    if results_path.exists() {
+    if results != TableOrigin::Absent {
+        // Read both before either is rewritten: damage in either leaves both as they are.
         let (rows, dropped) = resumable_rows(&results_path)?;
+        let hist = match histories {
+            TableOrigin::Absent => None,
+            _ => Some(read_table::<HistoryRow>(&histories_path)?.rows),
+        };
         summary.dropped_rows = dropped;
-        rewrite(&results_path, &rows)?;
         done.extend(rows.iter().map(RunRecord::key));
-        if histories_path.exists() {
-            let hist: Vec<HistoryRow> = read_histories(&histories_path)?
+        rewrite_table(&results_path, &rows)?;
+        if let Some(hist) = hist {
+            let hist: Vec<HistoryRow> = hist
                 .into_iter()
                 .filter(|h| done.contains(&h.key()))
                 .collect();
-            rewrite(&histories_path, &hist)?;
+            rewrite_table(&histories_path, &hist)?;
         }
-    } else if histories_path.exists() {
+    } else if histories == TableOrigin::Current {
+        // Histories of runs no results row records (their sweep wrote none).
         std::fs::remove_file(&histories_path)?;
     }
     Ok(done)
@@ -398,30 +343,46 @@ fn progress_bar(visible: bool, len: usize) -> ProgressBar {
     bar
 }
 
+/// Worker threads of a sweep.
+type Workers = Vec<std::thread::JoinHandle<()>>;
+
 /// Start `jobs` worker threads, each taking runs off the queue and running them in isolated
-/// children of `exe`; the outputs arrive on the returned channel.
+/// children of `exe`; the outputs arrive on the returned channel. When the system refuses a
+/// thread, the workers already started do the runs and the error is returned beside them.
 fn spawn_workers(
     exe: PathBuf,
     todo: VecDeque<Job>,
     jobs: usize,
-) -> (mpsc::Receiver<RunOutput>, Vec<std::thread::JoinHandle<()>>) {
+) -> (mpsc::Receiver<RunOutput>, Workers, Result<()>) {
     let queue = Arc::new(Mutex::new(todo));
     let (tx, rx) = mpsc::channel::<RunOutput>();
     let mut workers = Vec::new();
-    for _ in 0..jobs.max(1) {
+    for k in 0..jobs.max(1) {
         let queue = Arc::clone(&queue);
         let tx = tx.clone();
         let exe = exe.clone();
-        workers.push(std::thread::spawn(move || loop {
-            let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
-            let Some(job) = job else { break };
-            let output = run_isolated(&exe, &job.case, &job.solver, &job.budget);
-            if tx.send(output).is_err() {
-                break;
+        let spawned = std::thread::Builder::new()
+            .name(format!("sweep-worker-{k}"))
+            .spawn(move || loop {
+                let job = queue.lock().map(|mut q| q.pop_front()).unwrap_or(None);
+                let Some(job) = job else { break };
+                let output = run_isolated(&exe, &job.case, &job.solver, &job.budget);
+                if tx.send(output).is_err() {
+                    break;
+                }
+            });
+        match spawned {
+            Ok(worker) => workers.push(worker),
+            Err(e) => {
+                let error = anyhow::anyhow!(
+                    "could start only {k} of {jobs} worker threads: {e}; the runs went to those"
+                );
+                // The senders left are the running workers': the channel ends with them.
+                return (rx, workers, Err(error));
             }
-        }));
+        }
     }
-    (rx, workers)
+    (rx, workers, Ok(()))
 }
 
 /// The appenders of `results.csv` and `histories.csv`.
@@ -469,10 +430,21 @@ fn write_outputs(
     Ok(())
 }
 
-/// Copy `exe` into `dir` under a name private to this process; `None` when copying fails (the
-/// sweep then runs `exe` itself).
+/// Copy `exe` into `dir` under a name private to this process, as a new file (never through a
+/// link left there); `None` when copying fails (the sweep then runs `exe` itself).
 fn private_copy(exe: &Path, dir: &Path) -> Option<PathBuf> {
     let dest = dir.join(format!("{RUNNER_PREFIX}{}", std::process::id()));
-    std::fs::copy(exe, &dest).ok()?;
-    Some(dest)
+    // A copy of an earlier process with this id; removing a link removes only the link.
+    let _ = std::fs::remove_file(&dest);
+    let mut out = create_new(&dest).ok()?;
+    let copied = File::open(exe).and_then(|mut src| std::io::copy(&mut src, &mut out));
+    let permissions = std::fs::metadata(exe).map(|m| m.permissions());
+    drop(out);
+    match (copied, permissions) {
+        (Ok(_), Ok(p)) if std::fs::set_permissions(&dest, p.clone()).is_ok() => Some(dest),
+        _ => {
+            let _ = std::fs::remove_file(&dest);
+            None
+        }
+    }
 }

@@ -63,7 +63,8 @@ mod table;
 pub use machine::Header;
 pub use sections::write_report;
 
-use crate::harness::sweep::{lock_dir, run_sweep_locked};
+use crate::harness::outdir::{check_own_table, table_origin, TableOrigin};
+use crate::harness::sweep::{history_columns, lock_dir, result_columns, run_sweep_locked};
 use crate::harness::{SweepConfig, SweepSummary};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
@@ -105,10 +106,20 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     // Locked before anything in it is removed, and until the sweep ends.
     let lock = lock_dir(&data)?;
     if !options.resume {
-        for f in ["results.csv", "histories.csv"] {
-            let p = data.join(f);
-            if p.exists() {
-                std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+        // A fresh report replaces the tables of an earlier one (of any lcpbench version), and
+        // nothing else: both are checked before either is removed.
+        let tables = [
+            (data.join("results.csv"), result_columns()),
+            (data.join("histories.csv"), history_columns()),
+        ];
+        for (p, columns) in &tables {
+            if let TableOrigin::Foreign { .. } = table_origin(p, columns)? {
+                check_own_table(p, columns, "replace it with a fresh report's")?;
+            }
+        }
+        for (p, columns) in &tables {
+            if table_origin(p, columns)? != TableOrigin::Absent {
+                std::fs::remove_file(p).with_context(|| format!("removing {}", p.display()))?;
             }
         }
     }

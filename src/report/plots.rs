@@ -266,6 +266,18 @@ fn staircase(pts: &[(f64, f64)], x_end: f64) -> Vec<(f64, f64)> {
     stair
 }
 
+/// Distinct colours of the parts of [`stacked_bars`], in order.
+const PHASE_COLOURS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
 /// Horizontal stacked bars: one bar per category (top to bottom in the given order), made of
 /// one segment per part, the parts in order from the left, each part a colour with a legend
 /// entry. `parts[k].1[i]` is part `k`'s length in category `i` (non-finite or negative values
@@ -303,7 +315,9 @@ pub fn stacked_bars(
         .collect();
     let x_max = totals.iter().copied().fold(0.0_f64, f64::max).max(1e-12) * 1.05;
     let n = categories.len().max(1) as f64;
-    let height = (140 + 46 * categories.len()).min(2000) as u32;
+    // Room below the bars for the legend, one line per part.
+    let legend_rows = parts.len() as f64 * 0.45 + 0.3;
+    let height = (140.0 + 46.0 * (n + legend_rows)).min(2400.0) as u32;
     let root = SVGBackend::new(svg_path, (820, height)).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
     let mut chart = ChartBuilder::on(&root)
@@ -311,7 +325,7 @@ pub fn stacked_bars(
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(20)
-        .build_cartesian_2d(0.0..x_max, 0.0..n)
+        .build_cartesian_2d(0.0..x_max, -legend_rows..n)
         .map_err(draw_err)?;
     chart
         .configure_mesh()
@@ -333,8 +347,8 @@ pub fn stacked_bars(
             )
         }))
         .map_err(draw_err)?;
-    for (name, values) in parts {
-        let color = color_for(name);
+    for (k, (name, values)) in parts.iter().enumerate() {
+        let color = PHASE_COLOURS[k % PHASE_COLOURS.len()];
         let mut rects = Vec::new();
         for i in 0..categories.len() {
             let start: f64 = parts

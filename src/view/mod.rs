@@ -47,10 +47,40 @@ pub enum ViewError {
     /// A comparison takes one or two recordings.
     #[error("a replay page shows one recording or two side by side, not {0}")]
     TooManyRecordings(usize),
+    /// The size bound of a page is below what its scripts and styles take.
+    #[error(
+        "a page size bound (--max-bytes) of {max} bytes is below the {min} bytes a page's \
+         scripts, styles and smallest data take"
+    )]
+    BoundTooSmall {
+        /// The bound asked for.
+        max: usize,
+        /// The smallest bound accepted.
+        min: usize,
+    },
+    /// The page does not fit its size bound even with the fewest frames.
+    #[error(
+        "the page needs {needed} bytes even with the fewest 3-D frames, above its size bound \
+         (--max-bytes) of {max} bytes"
+    )]
+    PageTooLarge {
+        /// Bytes of the smallest page.
+        needed: usize,
+        /// The bound.
+        max: usize,
+    },
 }
 
 /// Default byte budget of a replay page (frames are decimated to fit).
 pub const DEFAULT_MAX_BYTES: usize = 6_000_000;
+
+/// Bytes of a page's data the size bound must leave room for beyond the scripts and styles.
+const MIN_DATA_BYTES: usize = 20_000;
+
+/// The smallest size bound of a replay page (`replay`) or a solve page.
+pub fn min_page_bytes(replay: bool) -> usize {
+    fixed_bytes(replay) + MIN_DATA_BYTES
+}
 
 const THREE: &str = include_str!("assets/vendor/three.min.js");
 const UPLOT: &str = include_str!("assets/vendor/uPlot.iife.min.js");
@@ -78,11 +108,19 @@ fn fixed_bytes(replay: bool) -> usize {
         }
 }
 
-/// The replay page of one recording, or of two side by side. The page stays under about
-/// `max_bytes` by decimating the 3-D frames.
+/// The replay page of one recording, or of two side by side. The page stays within
+/// `max_bytes` by decimating the 3-D frames (the per-step plots keep every step); a bound
+/// below [`min_page_bytes`], or one the page cannot meet with its fewest frames, is an error.
 pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String, ViewError> {
     if recordings.is_empty() || recordings.len() > 2 {
         return Err(ViewError::TooManyRecordings(recordings.len()));
+    }
+    let min = min_page_bytes(true);
+    if max_bytes < min {
+        return Err(ViewError::BoundTooSmall {
+            max: max_bytes,
+            min,
+        });
     }
     if let [a, b] = recordings {
         if a.header.scene != b.header.scene {
@@ -92,8 +130,27 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
             ));
         }
     }
-    // A little room for the page's own text around the data.
-    let budget = max_bytes.saturating_sub(fixed_bytes(true) + 4_000) / recordings.len();
+    // A little room for the page's own text around the data; when the page still comes out
+    // above the bound, the frames get that much less room, down to the first and last.
+    let mut room = max_bytes.saturating_sub(fixed_bytes(true) + 4_000);
+    loop {
+        let html = replay_page_with(recordings, max_bytes, room / recordings.len());
+        if html.len() <= max_bytes {
+            return Ok(html);
+        }
+        let fewest = room == 0;
+        room = room.saturating_sub(html.len() - max_bytes + 1_000);
+        if fewest {
+            return Err(ViewError::PageTooLarge {
+                needed: html.len(),
+                max: max_bytes,
+            });
+        }
+    }
+}
+
+/// The replay page with `budget` bytes of JSON for each run's data.
+fn replay_page_with(recordings: &[Recording], max_bytes: usize, budget: usize) -> String {
     let runs: Vec<Value> = recordings
         .iter()
         .map(|r| {
@@ -107,7 +164,7 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
             } else {
                 r.header.solver.clone()
             };
-            recording::run_data(r, &label, budget.max(10_000))
+            recording::run_data(r, &label, budget)
         })
         .collect();
     let title = match recordings {
@@ -116,7 +173,7 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
             "{} · {} vs {}",
             a.header.scene, a.header.solver, b.header.solver
         ),
-        _ => unreachable!("checked above"),
+        _ => String::new(),
     };
     let data = serde_json::json!({
         "kind": "replay",
@@ -124,21 +181,71 @@ pub fn replay_page(recordings: &[Recording], max_bytes: usize) -> Result<String,
         "max_bytes": max_bytes,
         "runs": runs,
     });
-    Ok(page(&title, &data, true))
+    page(&title, &data, true)
 }
 
-/// The solve page of a problem's data ([`problem_data`]).
-pub fn problem_page(data: &Value) -> String {
+/// The solve page of a problem's data ([`problem_data`]), within `max_bytes` (the default is
+/// [`DEFAULT_MAX_BYTES`]).
+pub fn problem_page(data: &Value, max_bytes: usize) -> Result<String, ViewError> {
+    let min = min_page_bytes(false);
+    if max_bytes < min {
+        return Err(ViewError::BoundTooSmall {
+            max: max_bytes,
+            min,
+        });
+    }
     let name = data
         .get("name")
         .and_then(Value::as_str)
         .unwrap_or("problem");
-    page(&format!("{name} · every solver"), data, false)
+    let html = page(&format!("{name} · every solver"), data, false);
+    if html.len() > max_bytes {
+        return Err(ViewError::PageTooLarge {
+            needed: html.len(),
+            max: max_bytes,
+        });
+    }
+    Ok(html)
+}
+
+/// JSON text that can sit inside a `<script>` element without changing how the page parses:
+/// `<`, `>` and `&` (which JSON has only inside strings) are written as `\u003c`, `\u003e`,
+/// `\u0026`, so no name can open a comment (`<!--`), a script (`<script`) or end one
+/// (`</script`), and `JSON.parse` reads the same strings back.
+pub fn script_json(data: &Value) -> String {
+    data.to_string()
+        .replace('<', "\\u003c")
+        .replace('>', "\\u003e")
+        .replace('&', "\\u0026")
+}
+
+/// `template` with each `{{KEY}}` of `values` replaced in one pass: text put in by one
+/// replacement (a title holding `{{DATA}}`) is never replaced again.
+fn fill(template: &str, values: &[(&str, &str)]) -> String {
+    let mut out =
+        String::with_capacity(template.len() + values.iter().map(|v| v.1.len()).sum::<usize>());
+    let mut rest = template;
+    while let Some(i) = rest.find("{{") {
+        out.push_str(&rest[..i]);
+        let at = &rest[i..];
+        match values.iter().find(|(key, _)| at.starts_with(key)) {
+            Some((key, value)) => {
+                out.push_str(value);
+                rest = &at[key.len()..];
+            }
+            None => {
+                out.push_str("{{");
+                rest = &at[2..];
+            }
+        }
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Assemble a page: template, styles, vendored scripts, data and the page's own script.
 fn page(title: &str, data: &Value, replay: bool) -> String {
-    let json = data.to_string().replace("</", "<\\/");
+    let json = script_json(data);
     let licences = format!(
         "uPlot (https://github.com/leeoniya/uPlot)\n\n{LICENSE_UPLOT}{}",
         if replay {
@@ -152,19 +259,21 @@ fn page(title: &str, data: &Value, replay: bool) -> String {
     } else {
         UPLOT.to_string()
     };
-    TEMPLATE
-        .replace("{{TITLE}}", &html_escape(title))
-        .replace("{{CSS}}", &format!("{UPLOT_CSS}\n{CSS}"))
-        .replace("{{LICENSES}}", &html_escape(&licences))
-        .replace(
-            "{{APP}}",
-            &format!(
-                "{COMMON_JS}\n{}",
-                if replay { REPLAY_JS } else { PROBLEM_JS }
-            ),
-        )
-        .replace("{{VENDOR}}", &vendor)
-        .replace("{{DATA}}", &json)
+    let app = format!(
+        "{COMMON_JS}\n{}",
+        if replay { REPLAY_JS } else { PROBLEM_JS }
+    );
+    fill(
+        TEMPLATE,
+        &[
+            ("{{TITLE}}", &html_escape(title)),
+            ("{{CSS}}", &format!("{UPLOT_CSS}\n{CSS}")),
+            ("{{LICENSES}}", &html_escape(&licences)),
+            ("{{APP}}", &app),
+            ("{{VENDOR}}", &vendor),
+            ("{{DATA}}", &json),
+        ],
+    )
 }
 
 fn html_escape(s: &str) -> String {

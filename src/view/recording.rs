@@ -18,6 +18,12 @@ use std::path::{Path, PathBuf};
 /// last kept).
 pub const MAX_HISTORY_POINTS: usize = 200;
 
+/// The recording format this version writes and reads (the header's `version`).
+pub const RECORDING_VERSION: u64 = 1;
+
+/// Largest recording file read, bytes: a recording is read whole before its page is made.
+pub const MAX_RECORDING_BYTES: u64 = 2_000_000_000;
+
 /// The header line of a recording for `world` (call before the first step).
 pub fn header(scene: &str, world: &World) -> Value {
     let bodies: Vec<Value> = world
@@ -32,7 +38,7 @@ pub fn header(scene: &str, world: &World) -> Value {
         })
         .collect();
     json!({ "recording": {
-        "version": 1,
+        "version": RECORDING_VERSION,
         "scene": scene,
         "solver": world.settings.solver.name(),
         "dt": world.settings.dt,
@@ -112,6 +118,9 @@ pub struct BodyInfo {
 /// The header of a recording.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Header {
+    /// Format version ([`RECORDING_VERSION`]).
+    #[serde(default)]
+    pub version: Option<u64>,
     /// Scene name.
     pub scene: String,
     /// Solver name.
@@ -212,13 +221,16 @@ pub struct Recording {
 }
 
 impl Recording {
-    /// Read a recording file.
+    /// Read a recording file (a regular file of at most [`MAX_RECORDING_BYTES`]).
     pub fn read(path: &Path) -> Result<Self, ViewError> {
+        lcpbench_solvers::io::input::check_input_file(path, MAX_RECORDING_BYTES)
+            .map_err(|e| ViewError::Io(path.into(), e))?;
         let file = std::fs::File::open(path).map_err(|e| ViewError::Io(path.into(), e))?;
         Self::from_lines(path, std::io::BufReader::new(file).lines())
     }
 
-    /// Parse recording lines (the first must be the header).
+    /// Parse recording lines (the first must be the header), each checked against the header
+    /// ([`check_header`], [`check_step`]).
     pub fn from_lines(
         path: &Path,
         lines: impl Iterator<Item = std::io::Result<String>>,
@@ -228,8 +240,9 @@ impl Recording {
             line,
             message,
         };
-        let mut header = None;
-        let mut steps = Vec::new();
+        let mut header: Option<Header> = None;
+        let mut names: HashMap<String, usize> = HashMap::new();
+        let mut steps: Vec<StepLine> = Vec::new();
         for (k, line) in lines.enumerate() {
             let line = line.map_err(|e| ViewError::Io(path.into(), e))?;
             if line.trim().is_empty() {
@@ -246,10 +259,21 @@ impl Recording {
                             .into(),
                     )
                 })?;
-                header = Some(serde_json::from_value(h).map_err(|e| bad(1, e.to_string()))?);
+                let h: Header = serde_json::from_value(h).map_err(|e| bad(k + 1, e.to_string()))?;
+                check_header(&h).map_err(|m| bad(k + 1, m))?;
+                names = h
+                    .bodies
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| (b.name.clone(), i))
+                    .collect();
+                header = Some(h);
                 continue;
             }
-            steps.push(serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?);
+            let step: StepLine =
+                serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?;
+            check_step(&step, steps.last(), &names).map_err(|m| bad(k + 1, m))?;
+            steps.push(step);
         }
         let header = header.ok_or_else(|| bad(0, "the file is empty".into()))?;
         Ok(Self {
@@ -258,6 +282,173 @@ impl Recording {
             steps,
         })
     }
+}
+
+/// A header this version can draw: its [`RECORDING_VERSION`], at most
+/// [`MAX_BODIES`](lcpbench_contact::scene::MAX_BODIES) bodies with distinct names, a time step
+/// and tolerance within the scene limits, and shapes with positive finite sizes (meshes with
+/// whole triangles indexing their own vertices).
+pub fn check_header(h: &Header) -> Result<(), String> {
+    use lcpbench_contact::scene::{readable, DT_RANGE, MAX_BODIES};
+    match h.version {
+        Some(RECORDING_VERSION) => {}
+        Some(v) => {
+            return Err(format!(
+                "recording version {v} is unknown (this lcpbench reads version \
+                 {RECORDING_VERSION})"
+            ))
+        }
+        None => {
+            return Err(format!(
+                "the header has no `version` (this lcpbench reads version {RECORDING_VERSION})"
+            ))
+        }
+    }
+    if h.bodies.len() > MAX_BODIES {
+        return Err(format!(
+            "bodies: {} bodies, beyond the limit of {MAX_BODIES} (the scene limit)",
+            h.bodies.len()
+        ));
+    }
+    if !(DT_RANGE.0..=DT_RANGE.1).contains(&h.dt) {
+        return Err(format!(
+            "dt: must be between {} and {} s, got {}",
+            readable(DT_RANGE.0),
+            DT_RANGE.1,
+            readable(h.dt)
+        ));
+    }
+    if !(h.tolerance > 0.0 && h.tolerance < 1.0) {
+        return Err(format!(
+            "tolerance: must be in (0, 1), got {}",
+            readable(h.tolerance)
+        ));
+    }
+    let mut seen = std::collections::HashSet::new();
+    for (i, b) in h.bodies.iter().enumerate() {
+        if !seen.insert(b.name.as_str()) {
+            return Err(format!(
+                "bodies[{i}]: the name \"{}\" is used twice",
+                b.name
+            ));
+        }
+        check_shape(&b.shape).map_err(|m| format!("bodies[{i}] (\"{}\").shape: {m}", b.name))?;
+    }
+    Ok(())
+}
+
+/// A shape as [`header`] writes it.
+fn check_shape(shape: &Value) -> Result<(), String> {
+    let numbers = |key: &str| -> Result<Vec<f64>, String> {
+        shape
+            .get(key)
+            .and_then(Value::as_array)
+            .ok_or_else(|| format!("`{key}` must be an array of numbers"))?
+            .iter()
+            .map(|v| {
+                v.as_f64()
+                    .ok_or_else(|| format!("`{key}` must hold numbers"))
+            })
+            .collect()
+    };
+    let positive = |key: &str, values: &[f64]| {
+        if values.iter().all(|v| v.is_finite() && *v > 0.0) {
+            Ok(())
+        } else {
+            Err(format!(
+                "`{key}` must be positive and finite, got {values:?}"
+            ))
+        }
+    };
+    let number = |key: &str| -> Result<Vec<f64>, String> {
+        shape
+            .get(key)
+            .and_then(Value::as_f64)
+            .map(|v| vec![v])
+            .ok_or_else(|| format!("`{key}` must be a number"))
+    };
+    match shape.get("type").and_then(Value::as_str) {
+        Some("sphere") => positive("radius", &number("radius")?),
+        Some("capsule") => {
+            positive("radius", &number("radius")?)?;
+            positive("half_height", &number("half_height")?)
+        }
+        Some("box") => {
+            let h = numbers("half_extents")?;
+            if h.len() != 3 {
+                return Err("`half_extents` must have 3 numbers".into());
+            }
+            positive("half_extents", &h)
+        }
+        Some("plane") => {
+            let n = numbers("normal")?;
+            if n.len() != 3 || !n.iter().all(|v| v.is_finite()) || n.iter().all(|v| *v == 0.0) {
+                return Err(format!(
+                    "`normal` must be 3 finite numbers, not all 0, got {n:?}"
+                ));
+            }
+            Ok(())
+        }
+        Some("mesh") => {
+            let v = numbers("vertices")?;
+            let i = numbers("indices")?;
+            let n = v.len() / 3;
+            if v.len() % 3 != 0 || i.len() % 3 != 0 {
+                return Err("`vertices` and `indices` must come in threes".into());
+            }
+            if let Some(bad) = i
+                .iter()
+                .find(|&&k| !(k >= 0.0 && k.fract() == 0.0 && k < n as f64))
+            {
+                return Err(format!("index {bad} is not one of the {n} vertices"));
+            }
+            Ok(())
+        }
+        Some(other) => Err(format!(
+            "unknown shape type \"{other}\" (known: sphere, box, capsule, plane, mesh)"
+        )),
+        None => Err("no shape `type`".into()),
+    }
+}
+
+/// A step line that fits its header and follows `previous`: steps increase, and every body and
+/// contact names a body of the header.
+pub fn check_step(
+    step: &StepLine,
+    previous: Option<&StepLine>,
+    names: &HashMap<String, usize>,
+) -> Result<(), String> {
+    if let Some(p) = previous.filter(|p| step.step <= p.step) {
+        return Err(format!(
+            "step {} comes after step {}: steps must increase",
+            step.step, p.step
+        ));
+    }
+    if step.bodies.len() > names.len() {
+        return Err(format!(
+            "{} body states, but the header has {} bodies",
+            step.bodies.len(),
+            names.len()
+        ));
+    }
+    if let Some(b) = step.bodies.iter().find(|b| !names.contains_key(&b.name)) {
+        return Err(format!(
+            "step {}: body \"{}\" is not in the header",
+            step.step, b.name
+        ));
+    }
+    if let Some(name) = step
+        .contact_records
+        .iter()
+        .flat_map(|c| &c.bodies)
+        .find(|n| !names.contains_key(*n))
+    {
+        return Err(format!(
+            "step {}: a contact names body \"{name}\", which is not in the header",
+            step.step
+        ));
+    }
+    Ok(())
 }
 
 /// How a contact is drawn.

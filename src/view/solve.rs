@@ -7,7 +7,9 @@ use serde_json::{json, Value};
 
 /// Page data for `problem`: the rows (`b`, bounds, friction rows) and, per solver (every
 /// [`SolverKind`]), the status, iterations, time, relative residual, thinned history, `f` and
-/// `w`. Each solver runs with `settings` and its history recorded.
+/// `w`. Each solver runs with `settings` and its history recorded; a `time_budget` in
+/// `settings` is shared by the solvers, each getting an equal share of what the ones before it
+/// left.
 pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value {
     let settings = Settings {
         record_history: true,
@@ -15,9 +17,21 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
     };
     let finite =
         |v: &[f64]| -> Vec<Option<f64>> { v.iter().map(|&x| x.is_finite().then_some(x)).collect() };
-    let solvers: Vec<Value> = SolverKind::ALL
+    let start = std::time::Instant::now();
+    let kinds = SolverKind::ALL;
+    let solvers: Vec<Value> = kinds
         .into_iter()
-        .map(|kind| {
+        .enumerate()
+        .map(|(k, kind)| {
+            let share = settings.time_budget.map(|total| {
+                let left = total.saturating_sub(start.elapsed());
+                // At least a microsecond, the smallest budget a solve takes.
+                (left / (kinds.len() - k) as u32).max(std::time::Duration::from_micros(1))
+            });
+            let settings = Settings {
+                time_budget: share,
+                ..settings.clone()
+            };
             let r = kind.create().solve(problem, &settings);
             let history: Vec<Value> = r
                 .history

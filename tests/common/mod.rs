@@ -146,3 +146,210 @@ pub fn p_matrix_problem(n: usize, seed: u64) -> Problem {
     let (_, b) = plant(&a, &mut rng);
     Problem::lcp(a, b).unwrap()
 }
+
+/// The shapes of problem built around a null direction of `A` ([`around_null`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NullKind {
+    /// Standard LCP.
+    Standard,
+    /// Boxed LCP: the null direction on rows `[lo, ∞)`, the other rows with two finite bounds,
+    /// `[0, ∞)`, `(−∞, hi]` or free.
+    Boxed,
+    /// Contacts of a normal row and two friction rows; the null direction on normal rows.
+    Friction,
+}
+
+/// A problem whose `A` (symmetric PSD, rank `n − deficit`) has the null direction `z >= 0`
+/// (`A z = 0` up to rounding), with `z` on rows where it is a recession direction of the bounds
+/// (normal rows for [`NullKind::Friction`]).
+#[derive(Debug, Clone)]
+pub struct AroundNull {
+    pub problem: Problem,
+    pub z: Vec<f64>,
+    /// The planted solution, for the feasible construction.
+    pub solution: Option<Vec<f64>>,
+}
+
+/// [`AroundNull`] of `n` rows and rank deficit `deficit`: `A = B Bᵀ / r` with `B = P C`, `C`
+/// Gaussian `n × r` (`r = n − deficit`) and `P` the projector orthogonal to `z`. A solution
+/// `(f*, w*)` is planted (strictly complementary, `w* > 0` on one row of `z`'s support) and
+/// `b = w* − A f*`, so `zᵀ b = zᵀ w* > 0`. Without `feasible`, `b` is then moved along `z` to
+/// `zᵀ b = −strength · Σ z_i`: by Farkas' lemma no `f` in the bounds has `w_i >= 0` on `z`'s
+/// rows, so there is no solution.
+pub fn around_null(
+    kind: NullKind,
+    n: usize,
+    deficit: usize,
+    feasible: bool,
+    strength: f64,
+    seed: u64,
+) -> AroundNull {
+    use lcpbench_solvers::generate::gaussian;
+    use rand::Rng;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let carriers: Vec<usize> = match kind {
+        NullKind::Friction => (0..n).step_by(3).collect(),
+        _ => (0..n).collect(),
+    };
+    let mut z = vec![0.0; n];
+    let mut support: Vec<usize> = carriers
+        .iter()
+        .copied()
+        .filter(|_| rng.random_bool(0.6))
+        .collect();
+    if support.len() < 2.min(carriers.len()) {
+        support = carriers[..2.min(carriers.len())].to_vec();
+    }
+    for &i in &support {
+        z[i] = rng.random_range(0.5..1.5);
+    }
+    let r = n - deficit.clamp(1, n - 1);
+    let zz: f64 = z.iter().map(|v| v * v).sum();
+    let mut bm = Mat::from_fn(n, r, |_, _| gaussian(&mut rng));
+    for j in 0..r {
+        let d: f64 = (0..n).map(|i| z[i] * bm[(i, j)]).sum::<f64>() / zz;
+        for i in 0..n {
+            bm[(i, j)] -= d * z[i];
+        }
+    }
+    let a = Mat::from_fn(n, n, |i, j| {
+        (0..r).map(|m| bm[(i, m)] * bm[(j, m)]).sum::<f64>() / r as f64
+    });
+    let a = Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+    let (mut lo, mut hi) = (vec![0.0; n], vec![f64::INFINITY; n]);
+    let mut friction = Vec::new();
+    let (mut f, mut w) = (vec![0.0; n], vec![0.0; n]);
+    match kind {
+        NullKind::Standard => {
+            for i in 0..n {
+                if rng.random_bool(0.5) {
+                    f[i] = rng.random_range(0.5..1.5);
+                } else {
+                    w[i] = rng.random_range(0.5..1.5);
+                }
+            }
+        }
+        NullKind::Boxed => {
+            for i in 0..n {
+                match if z[i] > 0.0 {
+                    0
+                } else {
+                    rng.random_range(0..4)
+                } {
+                    0 => lo[i] = -rng.random_range(0.0..1.0),
+                    1 => {
+                        lo[i] = -rng.random_range(0.1..1.0);
+                        hi[i] = rng.random_range(0.1..1.0);
+                    }
+                    2 => {
+                        lo[i] = f64::NEG_INFINITY;
+                        hi[i] = rng.random_range(-1.0..1.0);
+                    }
+                    _ => lo[i] = f64::NEG_INFINITY,
+                }
+                let state = rng.random_range(0..3);
+                if state == 0 && lo[i].is_finite() {
+                    f[i] = lo[i];
+                    w[i] = rng.random_range(0.5..1.5);
+                } else if state == 1 && hi[i].is_finite() {
+                    f[i] = hi[i];
+                    w[i] = -rng.random_range(0.5..1.5);
+                } else {
+                    let l = if lo[i].is_finite() {
+                        lo[i]
+                    } else {
+                        hi[i].min(0.0) - 2.0
+                    };
+                    let h = if hi[i].is_finite() {
+                        hi[i]
+                    } else {
+                        l.max(0.0) + 2.0
+                    };
+                    f[i] = l + (h - l) * rng.random_range(0.1..0.9);
+                }
+            }
+        }
+        NullKind::Friction => {
+            for &k in &carriers {
+                let mu = rng.random_range(0.2..1.0);
+                let touching = rng.random_bool(0.7);
+                if touching {
+                    f[k] = rng.random_range(0.5..1.5);
+                } else {
+                    w[k] = rng.random_range(0.5..1.5);
+                }
+                for t in (k + 1..k + 3).filter(|&t| t < n) {
+                    friction.push(FrictionRow {
+                        row: t,
+                        normal: k,
+                        mu,
+                    });
+                    lo[t] = f64::NEG_INFINITY;
+                    if !touching {
+                        w[t] = gaussian(&mut rng);
+                        continue;
+                    }
+                    match rng.random_range(0..3) {
+                        0 => f[t] = mu * f[k] * rng.random_range(-0.9..0.9),
+                        1 => {
+                            f[t] = mu * f[k];
+                            w[t] = -rng.random_range(0.5..1.5);
+                        }
+                        _ => {
+                            f[t] = -mu * f[k];
+                            w[t] = rng.random_range(0.5..1.5);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // One row of z's support separates (f = its lower bound, w > 0), so zᵀ w* > 0.
+    let first = support[0];
+    if kind == NullKind::Friction {
+        for t in (first + 1..first + 3).filter(|&t| t < n) {
+            if f[t] != 0.0 {
+                f[t] = 0.0;
+                w[t] = gaussian(&mut rng);
+            }
+        }
+    }
+    f[first] = lo[first];
+    w[first] = rng.random_range(0.5..1.5);
+    let mut b: Vec<f64> = (0..n)
+        .map(|i| w[i] - (0..n).map(|j| a[(i, j)] * f[j]).sum::<f64>())
+        .collect();
+    if !feasible {
+        let zb: f64 = z.iter().zip(&b).map(|(x, y)| x * y).sum();
+        let gamma = (zb + strength * z.iter().sum::<f64>()) / zz;
+        for i in 0..n {
+            b[i] -= gamma * z[i];
+        }
+    }
+    let problem = Problem::boxed(a, b, lo, hi, friction).unwrap();
+    AroundNull {
+        problem,
+        z,
+        solution: feasible.then_some(f),
+    }
+}
+
+/// [`around_null`] problems of every kind with `n` in `2..=max_n` (half of them at most 12 rows),
+/// rank deficits from 1 to `n / 2` and, without a solution, strengths in `[0.25, 1]`.
+pub fn around_null_strategy(max_n: usize, feasible: bool) -> impl Strategy<Value = AroundNull> {
+    let kinds = prop_oneof![
+        Just(NullKind::Standard),
+        Just(NullKind::Boxed),
+        Just(NullKind::Friction)
+    ];
+    let sizes = prop_oneof![2..=12usize.min(max_n), 2..=max_n];
+    (kinds, sizes, any::<u64>(), 0.25..1.0f64).prop_flat_map(move |(kind, n, seed, strength)| {
+        let n = if kind == NullKind::Friction {
+            n.max(3)
+        } else {
+            n
+        };
+        (1..=(n / 2).max(1))
+            .prop_map(move |deficit| around_null(kind, n, deficit, feasible, strength, seed))
+    })
+}

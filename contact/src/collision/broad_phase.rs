@@ -12,11 +12,31 @@
 //! Planes are unbounded and are kept out of the sweep: a plane is paired with every dynamic
 //! body whose bounding box reaches below it (within the margin). Pairs of two static bodies
 //! are never reported.
+//!
+//! The pairs a scene gives are bounded by [`MAX_PAIRS`]: bodies piled on one spot pair with
+//! each other (9,999 coincident spheres make 50 million pairs), and the sweep stops with
+//! [`TooManyPairs`] as soon as it has found more, before the list outgrows memory.
 
 use crate::body::RigidBody;
 use crate::shape::Shape;
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
+
+/// Most candidate pairs one broad-phase pass reports (each becomes a narrow-phase query with a
+/// cached manifold, a few hundred bytes). A scene of 10,000 resting spheres or boxes has a few
+/// tens of thousands.
+pub const MAX_PAIRS: usize = 500_000;
+
+/// More body pairs overlap than the broad phase takes ([`MAX_PAIRS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "more than {limit} pairs of bodies have overlapping bounding boxes (the broad phase's limit): \
+     bodies are piled on top of each other, or the prediction distance spans many of them"
+)]
+pub struct TooManyPairs {
+    /// The limit that was exceeded.
+    pub limit: usize,
+}
 
 /// World-space bounding box of a body, grown by `margin` on every side.
 pub fn world_aabb(body: &RigidBody, margin: f64) -> Aabb {
@@ -28,14 +48,26 @@ pub fn world_aabb(body: &RigidBody, margin: f64) -> Aabb {
 }
 
 /// Candidate pairs `(i, j)`, `i < j`, sorted, whose boxes (grown by `margin`) overlap on all
-/// three axes; `skip(i, j)` removes pairs before the overlap test. Sweep and prune.
+/// three axes; `skip(i, j)` removes pairs before the overlap test. Sweep and prune, without a
+/// bound on the pairs (see [`sweep_and_prune_at_most`]).
 pub fn sweep_and_prune(
     aabbs: &[Aabb],
-    mut skip: impl FnMut(usize, usize) -> bool,
+    skip: impl FnMut(usize, usize) -> bool,
 ) -> Vec<(usize, usize)> {
+    // No list can hold `usize::MAX` pairs, so this bound is never reached.
+    sweep_and_prune_at_most(aabbs, skip, usize::MAX).unwrap_or_default()
+}
+
+/// [`sweep_and_prune`] that stops with [`TooManyPairs`] once it has found more than
+/// `max_pairs` pairs.
+pub fn sweep_and_prune_at_most(
+    aabbs: &[Aabb],
+    mut skip: impl FnMut(usize, usize) -> bool,
+    max_pairs: usize,
+) -> Result<Vec<(usize, usize)>, TooManyPairs> {
     let n = aabbs.len();
     if n < 2 {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let axis = sweep_axis(aabbs);
     let (o1, o2) = ((axis + 1) % 3, (axis + 2) % 3);
@@ -56,13 +88,16 @@ pub fn sweep_and_prune(
             {
                 let pair = (i.min(j), i.max(j));
                 if !skip(pair.0, pair.1) {
+                    if pairs.len() == max_pairs {
+                        return Err(TooManyPairs { limit: max_pairs });
+                    }
                     pairs.push(pair);
                 }
             }
         }
     }
     pairs.sort_unstable();
-    pairs
+    Ok(pairs)
 }
 
 /// All pairs `(i, j)`, `i < j`, whose boxes overlap, by testing every pair (`O(n²)`; the
@@ -98,26 +133,34 @@ fn sweep_axis(aabbs: &[Aabb]) -> usize {
 
 /// Candidate body pairs `(i, j)`, `i < j`, sorted: bounded bodies whose bounding boxes grown by
 /// `margin` overlap (sweep and prune), plus every plane paired with each dynamic body whose
-/// box reaches within `margin` of it. Static–static pairs are skipped.
-pub fn candidate_pairs_with_margin(bodies: &[RigidBody], margin: f64) -> Vec<(usize, usize)> {
+/// box reaches within `margin` of it. Static–static pairs are skipped. More than [`MAX_PAIRS`]
+/// pairs are refused.
+pub fn candidate_pairs_with_margin(
+    bodies: &[RigidBody],
+    margin: f64,
+) -> Result<Vec<(usize, usize)>, TooManyPairs> {
     candidate_pairs_with_boxes(bodies, |b| world_aabb(b, 0.5 * margin), 0.5 * margin)
 }
 
 /// Candidate pairs as [`candidate_pairs_with_margin`], with the bounding box of each bounded
 /// (non-plane) body given by `aabb` (for instance a box swept over a step); a plane is paired
-/// with a dynamic body whose box reaches within `plane_margin` of it.
+/// with a dynamic body whose box reaches within `plane_margin` of it. More than [`MAX_PAIRS`]
+/// pairs are refused.
 pub fn candidate_pairs_with_boxes(
     bodies: &[RigidBody],
     aabb: impl Fn(&RigidBody) -> Aabb,
     plane_margin: f64,
-) -> Vec<(usize, usize)> {
+) -> Result<Vec<(usize, usize)>, TooManyPairs> {
     let bounded: Vec<usize> = (0..bodies.len())
         .filter(|&i| !matches!(bodies[i].shape, Shape::Plane { .. }))
         .collect();
     let aabbs: Vec<Aabb> = bounded.iter().map(|&i| aabb(&bodies[i])).collect();
-    let mut pairs: Vec<(usize, usize)> = sweep_and_prune(&aabbs, |a, b| {
-        bodies[bounded[a]].is_static && bodies[bounded[b]].is_static
-    })
+    let too_many = TooManyPairs { limit: MAX_PAIRS };
+    let mut pairs: Vec<(usize, usize)> = sweep_and_prune_at_most(
+        &aabbs,
+        |a, b| bodies[bounded[a]].is_static && bodies[bounded[b]].is_static,
+        MAX_PAIRS,
+    )?
     .into_iter()
     .map(|(a, b)| {
         let (i, j) = (bounded[a], bounded[b]);
@@ -145,13 +188,16 @@ pub fn candidate_pairs_with_boxes(
                 }
             }));
             if n.dot(&corner.coords) - offset <= plane_margin {
+                if pairs.len() >= MAX_PAIRS {
+                    return Err(too_many);
+                }
                 pairs.push((p.min(i), p.max(i)));
             }
         }
     }
     pairs.sort_unstable();
     pairs.dedup();
-    pairs
+    Ok(pairs)
 }
 
 #[cfg(test)]
@@ -178,6 +224,19 @@ mod tests {
         ];
         assert_eq!(sweep_and_prune(&boxes, |_, _| false), vec![(0, 1)]);
         assert!(sweep_and_prune(&boxes, |_, _| true).is_empty());
+    }
+
+    #[test]
+    fn the_sweep_stops_past_its_pair_limit() {
+        let boxes: Vec<Aabb> = (0..50).map(|_| aabb([0.0; 3], 1.0)).collect();
+        assert_eq!(
+            sweep_and_prune_at_most(&boxes, |_, _| false, 100),
+            Err(TooManyPairs { limit: 100 })
+        );
+        assert_eq!(
+            sweep_and_prune_at_most(&boxes, |_, _| false, 50 * 49 / 2).map(|p| p.len()),
+            Ok(50 * 49 / 2)
+        );
     }
 
     #[test]

@@ -19,7 +19,7 @@
 //!     body(Shape::cuboid(Vector3::new(0.5, 0.5, 0.5))?, 0.5, false)?,
 //! ];
 //! let mut pipeline = CollisionPipeline::new();
-//! let contacts = pipeline.detect(&bodies, 1e-3);
+//! let contacts = pipeline.detect(&bodies, 1e-3).expect("two bodies are within the limits");
 //! assert_eq!(contacts.len(), 4); // the four bottom corners
 //! assert!(contacts.iter().all(|c| c.normal == Vector3::z() && c.dist.abs() < 1e-12));
 //! # Ok::<(), lcpbench_contact::ShapeError>(())
@@ -35,8 +35,21 @@ pub mod narrow_phase;
 pub mod toi;
 
 use crate::body::RigidBody;
+use broad_phase::TooManyPairs;
 use nalgebra::{Point3, Vector3};
-use narrow_phase::NarrowPhase;
+use narrow_phase::{NarrowPhase, TooManyContacts};
+
+/// A detection pass past one of its limits ([`broad_phase::MAX_PAIRS`],
+/// [`narrow_phase::MAX_CONTACTS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum DetectionError {
+    /// Too many candidate pairs.
+    #[error(transparent)]
+    Pairs(#[from] TooManyPairs),
+    /// Too many contact points.
+    #[error(transparent)]
+    Contacts(#[from] TooManyContacts),
+}
 
 /// One contact point between two bodies, as the narrow phase reports it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,8 +69,9 @@ pub struct Contact {
 }
 
 /// Candidate body pairs `(i, j)` with `i < j`, sorted, from the broad phase with no margin
-/// (touching or overlapping bounding boxes; planes against every dynamic body reaching them).
-pub fn candidate_pairs(bodies: &[RigidBody]) -> Vec<(usize, usize)> {
+/// (touching or overlapping bounding boxes; planes against every dynamic body reaching them),
+/// at most [`broad_phase::MAX_PAIRS`].
+pub fn candidate_pairs(bodies: &[RigidBody]) -> Result<Vec<(usize, usize)>, TooManyPairs> {
     broad_phase::candidate_pairs_with_margin(bodies, 0.0)
 }
 
@@ -89,13 +103,27 @@ impl CollisionPipeline {
     /// Contacts between all bodies whose surfaces are closer than `prediction` (a distance,
     /// `>= 0`; contacts with `0 < dist <= prediction` are speculative and keep resting contacts
     /// alive across steps). For each pair, `body_a < body_b` and the normal points from `a` to
-    /// `b`. Contacts come out grouped by pair, pairs in increasing order.
-    pub fn detect(&mut self, bodies: &[RigidBody], prediction: f64) -> Vec<Contact> {
+    /// `b`. Contacts come out grouped by pair, pairs in increasing order. A pass past the
+    /// limits of either phase is refused with [`DetectionError`].
+    pub fn detect(
+        &mut self,
+        bodies: &[RigidBody],
+        prediction: f64,
+    ) -> Result<Vec<Contact>, DetectionError> {
         let prediction = prediction.max(0.0);
         let start = std::time::Instant::now();
         let pairs = broad_phase::candidate_pairs_with_margin(bodies, prediction);
         let broad = start.elapsed();
-        let contacts = self.narrow.contacts(bodies, &pairs, prediction);
+        let contacts = match pairs {
+            Ok(pairs) => self
+                .narrow
+                .contacts(bodies, &pairs, prediction)
+                .map_err(DetectionError::from),
+            Err(e) => {
+                self.narrow.clear();
+                Err(e.into())
+            }
+        };
         self.timings = CollisionTimings {
             broad_phase: broad.as_secs_f64(),
             narrow_phase: (start.elapsed() - broad).as_secs_f64(),

@@ -28,6 +28,9 @@
 //! is at least the distance to its nearest point. Shallow spurious contacts with sideways
 //! normals can remain in the flush case: model such stacks with convex hulls, or offset them.
 //! Mesh against primitives, hulls and planes is not affected.
+//!
+//! One pass reports at most [`MAX_CONTACTS`] contacts; past that it stops with
+//! [`TooManyContacts`] rather than build a contact problem that cannot be solved in memory.
 
 use super::Contact;
 use crate::body::RigidBody;
@@ -39,6 +42,21 @@ use parry3d_f64::query::{
 };
 use parry3d_f64::shape::{SharedShape, TriMesh};
 use std::collections::HashMap;
+
+/// Most contacts one narrow-phase pass reports. Each becomes up to `2 + pyramid directions`
+/// rows of the step's problem; a scene of 10,000 resting boxes has about 40,000.
+pub const MAX_CONTACTS: usize = 500_000;
+
+/// The candidate pairs touch at more points than the narrow phase takes ([`MAX_CONTACTS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "more than {limit} contact points (the narrow phase's limit): the bodies overlap or touch \
+     along too many triangles or too many neighbours"
+)]
+pub struct TooManyContacts {
+    /// The limit that was exceeded.
+    pub limit: usize,
+}
 
 /// Manifolds and generator workspace of one body pair, kept between calls.
 #[derive(Default)]
@@ -93,13 +111,14 @@ impl NarrowPhase {
     }
 
     /// Contacts of the given candidate `pairs` with gap below `prediction`. Cache entries of
-    /// pairs not in `pairs` are dropped.
+    /// pairs not in `pairs` are dropped. More than [`MAX_CONTACTS`] contacts are refused (and
+    /// the cache is emptied).
     pub fn contacts(
         &mut self,
         bodies: &[RigidBody],
         pairs: &[(usize, usize)],
         prediction: f64,
-    ) -> Vec<Contact> {
+    ) -> Result<Vec<Contact>, TooManyContacts> {
         let dispatcher = DefaultQueryDispatcher;
         let mut shapes: Vec<Option<SharedShape>> = vec![None; bodies.len()];
         let mut out = Vec::new();
@@ -154,10 +173,16 @@ impl NarrowPhase {
                 );
             }
             merge_duplicates(&mut out, first, self.merge_distance);
+            if out.len() > MAX_CONTACTS {
+                self.pairs.clear();
+                return Err(TooManyContacts {
+                    limit: MAX_CONTACTS,
+                });
+            }
             kept.insert((a, b), cache);
         }
         self.pairs = kept;
-        out
+        Ok(out)
     }
 }
 

@@ -26,7 +26,7 @@
 //! other shape does not fit inside the mesh between two samples; conservative advancement has
 //! no such assumption.
 
-use super::broad_phase::candidate_pairs_with_boxes;
+use super::broad_phase::{candidate_pairs_with_boxes, TooManyPairs};
 use crate::body::RigidBody;
 use crate::shape::Shape;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -308,14 +308,15 @@ pub fn swept_aabb(body: &RigidBody, dt: f64) -> Aabb {
 /// The earliest impact during a step of length `dt` among body pairs whose surfaces are more
 /// than `settings.tolerance` apart at its start, each body moving with its current velocities.
 /// `None` if no such pair touches during the step. Candidate pairs come from the broad phase on
-/// [`swept_aabb`] boxes, so a body is only tested against bodies near its path.
+/// [`swept_aabb`] boxes, so a body is only tested against bodies near its path; more than
+/// [`MAX_PAIRS`](super::broad_phase::MAX_PAIRS) of them are refused.
 pub fn first_impact(
     bodies: &[RigidBody],
     dt: f64,
     method: ToiMethod,
     settings: &ToiSettings,
-) -> Option<PairImpact> {
-    let pairs = candidate_pairs_with_boxes(bodies, |b| swept_aabb(b, dt), 0.0);
+) -> Result<Option<PairImpact>, TooManyPairs> {
+    let pairs = candidate_pairs_with_boxes(bodies, |b| swept_aabb(b, dt), 0.0)?;
     let mut best: Option<PairImpact> = None;
     for (a, b) in pairs {
         let (ma, mb) = (Motion::of_body(&bodies[a]), Motion::of_body(&bodies[b]));
@@ -338,7 +339,7 @@ pub fn first_impact(
             }
         }
     }
-    best
+    Ok(best)
 }
 
 #[cfg(test)]

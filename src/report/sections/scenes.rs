@@ -6,7 +6,8 @@
 //! * **One section per scene**: solver × budget, the time per step and the converged steps
 //!   (all in `tables/scenes_by_budget.csv`), then, under budget `default`, status, steps,
 //!   contacts, time and iterations per step, the largest residual and penetration, energy
-//!   drift, failures, lift-off and the analytic error (all rows also in `tables/scenes.csv`).
+//!   drift, failures (non-converged, no-solution and NaN steps, blow-up), lift-off and the
+//!   analytic error (all rows also in `tables/scenes.csv`).
 //! * **Fastest solver per scene** among the runs whose every step converged, at budgets
 //!   `loose` and `default`.
 //! * A speed–accuracy figure per scene: time per step against the median residual per step
@@ -62,7 +63,8 @@ impl Section for Scenes {
              of the solvers that cannot keep up would take longer than the rest of the report. \
              Time/step is solver time; residual is the largest shared relative residual over the \
              steps; penetration the largest depth; drift the relative change of total energy; \
-             failures count non-converged steps / NaN steps / blow-up; lift-off is the largest \
+             failures count non-converged steps / of them, steps without a solution \
+             (`no_solution` or `diverged`) / NaN steps / blow-up; lift-off is the largest \
              separating normal speed at a sliding contact after a solve (what a convex \
              relaxation of friction causes; Baumgarte correction of a penetrating contact shows \
              up here too).\n",
@@ -371,8 +373,11 @@ pub(super) fn glance_cell(r: &RunRecord) -> String {
 
 fn scene_cells(r: &RunRecord) -> Vec<String> {
     let failures = format!(
-        "{} / {} / {}",
+        "{} / {} / {} / {}",
         r.nonconverged_steps.unwrap_or(0),
+        r.no_solution_steps
+            .map(|n| n.to_string())
+            .unwrap_or("–".into()),
         r.nan_steps.unwrap_or(0),
         if r.blow_up == Some(true) { "yes" } else { "no" }
     );
