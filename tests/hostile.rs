@@ -164,7 +164,7 @@ fn budgets_and_condition_numbers_beyond_their_limits_are_refused() {
         &["simulate", &scene, "--tol", "1e-300"],
     ] {
         let o = lcpbench(args);
-        assert_refused(&o, &["--tol", "1e-300 is below 1e-15"]);
+        assert_refused(&o, &["--tol", "1e-300 is below 1e-14"]);
     }
     let out = dir.path().join("b");
     let o = lcpbench(&[

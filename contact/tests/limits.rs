@@ -253,7 +253,7 @@ fn scene_nonsense_is_refused_with_the_field_and_the_limit() {
     for (setting, wanted) in [
         (
             "tolerance = 1e-300",
-            "settings.tolerance: 1e-300 is below 1e-15",
+            "settings.tolerance: 1e-300 is below 1e-14",
         ),
         ("restitution_threshold = 1e300", "at most 10000 m/s"),
         ("slop = 1e300", "settings.slop: must be at most 1 m"),
