@@ -274,8 +274,8 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
     }
 }
 
-/// A results file written without the last columns of the row (`certificate_bound`,
-/// `no_solution_steps`) is an older lcpbench's: its rows still read, with those columns empty,
+/// A results file written without the last columns of the row (`host`, `cpu_model`, `cores`)
+/// is an older lcpbench's: its rows still read, with those columns empty,
 /// but a sweep does not append rows of this version to it: it refuses, naming the file, and
 /// leaves it byte for byte as it was.
 #[test]
@@ -292,21 +292,21 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
     let text = std::fs::read_to_string(&results).unwrap();
     let header = text.lines().next().unwrap();
     assert!(
-        header.ends_with(",certificate_bound,no_solution_steps"),
+        header.ends_with(",no_solution_steps,host,cpu_model,cores"),
         "{header}"
     );
     let older: String = text
         .lines()
         .map(|line| {
             let cells: Vec<&str> = line.split(',').collect();
-            format!("{}\n", cells[..cells.len() - 2].join(","))
+            format!("{}\n", cells[..cells.len() - 3].join(","))
         })
         .collect();
     std::fs::write(&results, &older).unwrap();
     let rows = read_results(&results).unwrap();
     assert_eq!(rows.len(), 1);
-    assert_eq!(rows[0].certificate_bound, None);
-    assert_eq!(rows[0].no_solution_steps, None);
+    assert_eq!(rows[0].host, None);
+    assert_eq!(rows[0].cores, None);
     let output = run("pgs,sor");
     assert!(!output.status.success());
     assert!(
