@@ -70,9 +70,10 @@ pub struct ReportArgs {
     /// about half an hour).
     #[arg(long)]
     pub quick: bool,
-    /// Scene files of the suite (glob).
-    #[arg(long, default_value = "bench_scenes/*.toml")]
-    pub scenes: String,
+    /// Scene files of the suite (glob) [default: bench_scenes/*.toml, which must match]; a
+    /// pattern given here may match nothing, for a report on generated LCPs alone.
+    #[arg(long)]
+    pub scenes: Option<String>,
     /// Keep the rows of an interrupted earlier run instead of starting fresh.
     #[arg(long)]
     pub resume: bool,
@@ -282,10 +283,29 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
     eprintln!("{line}");
 }
 
+/// The report's scene files when `--scenes` is not given (relative to the working directory).
+const DEFAULT_SCENES: &str = "bench_scenes/*.toml";
+
 /// Run `lcpbench report`.
 pub fn run_report(args: ReportArgs) -> Result<()> {
     check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
-    let scenes = report::scenes_matching(&args.scenes)?;
+    let pattern = args.scenes.as_deref().unwrap_or(DEFAULT_SCENES);
+    let scenes = report::scenes_matching(pattern)?;
+    if scenes.is_empty() {
+        if args.scenes.is_none() {
+            bail!(
+                "no scene file matches `{DEFAULT_SCENES}` from {}: the report's suite is made of \
+                 the scenes and of the FCLIB problems in `fclib/` beside them; run lcpbench from \
+                 its checkout, or pass --scenes 'DIR/bench_scenes/*.toml'",
+                std::env::current_dir()
+                    .map(|d| d.display().to_string())
+                    .unwrap_or_else(|_| "this directory".into())
+            );
+        }
+        eprintln!(
+            "--scenes `{pattern}` matches no scene file: the report covers generated LCPs only"
+        );
+    }
     let merged = check_report_dir(&args)?;
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {
