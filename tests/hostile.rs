@@ -395,6 +395,47 @@ fn a_sweep_never_overwrites_a_table_it_did_not_write() {
     );
 }
 
+/// A report writes `README.md`, `tables/`, `plots/` and `replays/` in its output directory: it
+/// refuses a directory whose README is not a report's, or whose `plots/` holds files when the
+/// directory has no report of lcpbench's, and changes nothing there.
+#[test]
+fn a_report_never_overwrites_a_readme_or_figures_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "report",
+            "--quick",
+            "--no-progress",
+            "--out",
+            out.to_str().unwrap(),
+            "--scenes",
+            "no/such/*.toml",
+        ];
+        args.extend_from_slice(extra);
+        lcpbench(&args)
+    };
+    let project = dir.path().join("project");
+    let readme = "# My project\n\nNotes that took a week.\n";
+    write(&project, "README.md", readme);
+    for extra in [&[][..], &["--no-run"][..]] {
+        let o = report(&project, extra);
+        assert_refused(&o, &["README.md", "is not a report lcpbench wrote"]);
+        assert_eq!(
+            std::fs::read_to_string(project.join("README.md")).unwrap(),
+            readme
+        );
+    }
+    let figures = dir.path().join("figures");
+    write(&figures, "plots/profile_1e-4.svg", "<svg>mine</svg>");
+    let o = report(&figures, &[]);
+    assert_refused(&o, &["plots", "holds no lcpbench report"]);
+    assert_eq!(
+        std::fs::read_to_string(figures.join("plots/profile_1e-4.svg")).unwrap(),
+        "<svg>mine</svg>"
+    );
+    assert!(!figures.join("data").exists());
+}
+
 /// An unterminated quote in the middle of `results.csv` once dropped every row after it (144
 /// of 4,057); resuming and `report --no-run` now refuse with its line and change nothing.
 #[test]

@@ -306,6 +306,7 @@ pub fn run_report(args: ReportArgs) -> Result<()> {
             "--scenes `{pattern}` matches no scene file: the report covers generated LCPs only"
         );
     }
+    report::check_output_dir(&args.out)?;
     let merged = check_report_dir(&args)?;
     let lcp_dir = args.out.join("lcps");
     let exported = if args.no_run {

@@ -66,7 +66,8 @@ pub use sections::write_report;
 use crate::harness::outdir::{check_own_table, table_origin, TableOrigin};
 use crate::harness::sweep::{history_columns, lock_dir, result_columns, run_sweep_locked};
 use crate::harness::{SweepConfig, SweepSummary};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -167,6 +168,69 @@ fn append_replays(out_dir: &Path, scenes: &[PathBuf], readme: &Path) -> Result<(
         ));
     }
     std::fs::write(readme, md).with_context(|| format!("writing {}", readme.display()))
+}
+
+/// First line of every README a report writes: how a later report knows the file is its own.
+pub const README_TITLE: &str = "# lcpbench report";
+
+/// The directories under a report's output directory whose files a report rewrites.
+const REPORT_SUBDIRS: [&str; 3] = ["tables", "plots", "replays"];
+
+/// Refuse to write a report into `out_dir` when that would overwrite files lcpbench did not
+/// write: a `README.md` whose first line is not [`README_TITLE`], or files in `tables/`,
+/// `plots/` or `replays/` of a directory that holds no report of lcpbench's (no README of its
+/// own and no `data/results.csv` with lcpbench's header). Tables in `data/` are checked where
+/// they are read ([`crate::harness::outdir`]); other files in the directory are never touched.
+pub fn check_output_dir(out_dir: &Path) -> Result<()> {
+    let readme = out_dir.join("README.md");
+    let ours = match std::fs::symlink_metadata(&readme) {
+        Err(_) => false,
+        Ok(meta) if !meta.is_file() => bail!(
+            "{} is not a regular file; a report writes its README there: choose another output \
+             directory",
+            readme.display()
+        ),
+        Ok(_) => {
+            let mut head = String::new();
+            std::fs::File::open(&readme)
+                .and_then(|f| f.take(256).read_to_string(&mut head))
+                .with_context(|| format!("reading {}", readme.display()))?;
+            if head.lines().next().map(str::trim_end) != Some(README_TITLE) {
+                bail!(
+                    "{} is not a report lcpbench wrote (its first line is not `{README_TITLE}`); \
+                     lcpbench never overwrites a file it did not write: choose another output \
+                     directory, or move the file away",
+                    readme.display()
+                );
+            }
+            true
+        }
+    };
+    if ours {
+        return Ok(());
+    }
+    let results = out_dir.join("data").join("results.csv");
+    let has_our_data = matches!(
+        table_origin(&results, &result_columns()),
+        Ok(TableOrigin::Current | TableOrigin::Older { .. })
+    );
+    if has_our_data {
+        return Ok(());
+    }
+    for sub in REPORT_SUBDIRS {
+        let dir = out_dir.join(sub);
+        let occupied = std::fs::read_dir(&dir).is_ok_and(|mut entries| entries.next().is_some());
+        if occupied {
+            bail!(
+                "{} holds files and {} holds no lcpbench report (no README.md of its own, no \
+                 data/results.csv of its own); a report rewrites the files there, and lcpbench \
+                 never overwrites a file it did not write: choose another output directory",
+                dir.display(),
+                out_dir.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Files matching a glob pattern, sorted.

@@ -18,7 +18,7 @@ impl Section for Overview {
     }
 
     fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
-        let _ = writeln!(md, "# lcpbench report\n");
+        let _ = writeln!(md, "{}\n", crate::report::README_TITLE);
         let _ = writeln!(
             md,
             "Regenerate with `cargo run --release -- report` (about twenty minutes on two cores; \
