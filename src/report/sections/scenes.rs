@@ -20,6 +20,7 @@ use crate::report::status;
 use crate::report::suite;
 use crate::report::table::{fmt_sci, fmt_time, slug, Table};
 use anyhow::Result;
+use lcpbench_contact::scene::Scene;
 use std::fmt::Write as _;
 
 pub(super) struct Scenes;
@@ -78,6 +79,7 @@ impl Section for Scenes {
                 .join(", ")
         );
         at_a_glance(ctx, md)?;
+        without_solution(ctx, md)?;
         let mut by_budget = Table::new("scenes_by_budget", &BY_BUDGET_COLUMNS);
         let mut all = Table::new("scenes", &COLUMNS);
         let mut fastest = Table::new(
@@ -135,6 +137,84 @@ fn at_a_glance(ctx: &ReportContext, md: &mut String) -> Result<()> {
          (steps done / steps planned: three consecutive steps over the per-step budget, or the \
          run limit); `blow-up`, `timeout`, `crash` and `panic` as recorded.\n\n{}",
         ctx.table(&glance)?
+    );
+    Ok(())
+}
+
+/// The scenes with steps that have no solution: for each, how many of its runs met such steps
+/// (`no_solution` or `diverged`), the most in one run, which solvers, its position correction
+/// and its description, which say why.
+fn without_solution(ctx: &ReportContext, md: &mut String) -> Result<()> {
+    let mut table = Table::new(
+        "scenes_without_solution",
+        &[
+            "scene",
+            "runs with such steps / runs",
+            "most such steps (of steps)",
+            "solvers",
+            "position correction",
+            "description",
+        ],
+    );
+    for case in &ctx.suite.scene_cases {
+        let Case::Scene { path, .. } = case else {
+            continue;
+        };
+        let runs: Vec<&RunRecord> = ctx
+            .rows
+            .iter()
+            .filter(|r| r.case == case.to_string())
+            .collect();
+        let with: Vec<&&RunRecord> = runs
+            .iter()
+            .filter(|r| r.no_solution_steps.unwrap_or(0) > 0)
+            .collect();
+        let Some(most) = with.iter().max_by_key(|r| r.no_solution_steps.unwrap_or(0)) else {
+            continue;
+        };
+        let mut solvers: Vec<&str> = with.iter().map(|r| r.solver_base.as_str()).collect();
+        solvers.sort_unstable();
+        solvers.dedup();
+        let (correction, description) = match Scene::load(path) {
+            Ok(scene) => (
+                format!("{:?}", scene.settings.builder.position_correction).to_lowercase(),
+                scene
+                    .description
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" "),
+            ),
+            Err(_) => ("–".into(), "–".into()),
+        };
+        table.rows.push(vec![
+            case.short_name(),
+            format!("{} / {}", with.len(), runs.len()),
+            format!(
+                "{} ({})",
+                most.no_solution_steps.unwrap_or(0),
+                most.steps.unwrap_or(0)
+            ),
+            solvers.join(", "),
+            correction,
+            description,
+        ]);
+    }
+    let _ = writeln!(
+        md,
+        "### Steps without a solution\n\nA step's LCP can have no solution: position correction \
+         (Baumgarte's bias, a restitution or a removal event) can ask a body to leave two \
+         contacts in opposite directions at once, and no impulse does that. Such a step ends \
+         `no_solution` when a Farkas certificate read off the solver's impulse proves it, and \
+         `diverged` when the residual met the tolerance only through an impulse growing along a \
+         direction the Delassus matrix cancels; either way it is counted as a step without a \
+         solution, not as converged. {}\n\n{}",
+        if table.rows.is_empty() {
+            "No scene of this report met such a step."
+        } else {
+            "The scenes where some run met such steps, with their position correction and \
+             description:"
+        },
+        ctx.table(&table)?
     );
     Ok(())
 }
