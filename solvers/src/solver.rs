@@ -838,13 +838,10 @@ mod tests {
         assert_ne!(r.status, Status::Converged);
     }
 
-    /// `max_iterations` is a total for the solve: each island gets what the islands before it
-    /// left, and the islands past the cap are not solved (a 20,000-row problem of one-row
-    /// islands once ran `n` times the cap).
-    #[test]
-    fn islands_share_the_iteration_cap() {
-        let n = 60;
-        let a = Mat::from_fn(n, n, |i, j| {
+    /// An `n × n` SPD matrix of independent tridiagonal blocks of 20 rows (4 on the diagonal,
+    /// 1 beside it): `n / 20` islands.
+    fn tridiagonal_blocks_of_20(n: usize) -> Mat<f64> {
+        Mat::from_fn(n, n, |i, j| {
             if i == j {
                 4.0
             } else if i / 20 == j / 20 && i.abs_diff(j) == 1 {
@@ -852,7 +849,16 @@ mod tests {
             } else {
                 0.0
             }
-        });
+        })
+    }
+
+    /// `max_iterations` is a total for the solve: each island gets what the islands before it
+    /// left, and the islands past the cap are not solved (a 20,000-row problem of one-row
+    /// islands once ran `n` times the cap).
+    #[test]
+    fn islands_share_the_iteration_cap() {
+        let n = 60;
+        let a = tridiagonal_blocks_of_20(n);
         let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
         let settings = Settings {
             max_iterations: 25,
@@ -948,15 +954,7 @@ mod tests {
     fn an_island_stall_keeps_its_reason() {
         // Two independent 20-row SPD blocks (above the size solved in one piece).
         let n = 40;
-        let a = Mat::from_fn(n, n, |i, j| {
-            if i == j {
-                4.0
-            } else if i / 20 == j / 20 && i.abs_diff(j) == 1 {
-                1.0
-            } else {
-                0.0
-            }
-        });
+        let a = tridiagonal_blocks_of_20(n);
         let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
         let settings = Settings::default();
         let mut islands = 0;

@@ -24,6 +24,21 @@ pub struct Header {
 }
 
 impl Header {
+    /// A fixed header for tests of the report's sections: a 2-core machine `cpu`, commit
+    /// `abc`, run by `command` with `workers` worker processes.
+    #[cfg(test)]
+    pub(crate) fn for_tests(command: &str, workers: usize) -> Self {
+        Self {
+            cpu: "cpu".into(),
+            cores: 2,
+            os: "os".into(),
+            commit: "abc".into(),
+            date: "today".into(),
+            command: command.into(),
+            workers,
+        }
+    }
+
     /// Collect the header for the current machine and working directory, for a sweep run by
     /// `workers` worker processes.
     pub fn collect(command: &str, workers: usize, out_dir: &std::path::Path) -> Self {

@@ -232,15 +232,7 @@ mod tests {
             matrix_cases: vec![spd],
             ..Suite::default()
         };
-        let header = Header {
-            cpu: "cpu".into(),
-            cores: 2,
-            os: "os".into(),
-            commit: "abc".into(),
-            date: "today".into(),
-            command: "lcpbench report --no-run".into(),
-            workers: 2,
-        };
+        let header = Header::for_tests("lcpbench report --no-run", 2);
         let readme = crate::report::write_report(dir.path(), &suite, &header, 0.0).unwrap();
         let md = std::fs::read_to_string(readme).unwrap();
         assert!(

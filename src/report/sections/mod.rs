@@ -155,15 +155,7 @@ mod tests {
             matrix_cases: vec![spd, infeasible],
             ..Suite::default()
         };
-        let header = Header {
-            cpu: "cpu".into(),
-            cores: 2,
-            os: "os".into(),
-            commit: "abc".into(),
-            date: "today".into(),
-            command: "lcpbench report".into(),
-            workers: 3,
-        };
+        let header = Header::for_tests("lcpbench report", 3);
         let readme = write_report(dir.path(), &suite, &header, 12.0).unwrap();
         let md = std::fs::read_to_string(readme).unwrap();
         let headings: Vec<&str> = md.lines().filter(|l| l.starts_with('#')).collect();
@@ -279,15 +271,7 @@ mod tests {
             large_scene_cases: vec![tower],
             ..Suite::default()
         };
-        let header = Header {
-            cpu: "cpu".into(),
-            cores: 2,
-            os: "os".into(),
-            commit: "abc".into(),
-            date: "today".into(),
-            command: "lcpbench report".into(),
-            workers: 2,
-        };
+        let header = Header::for_tests("lcpbench report", 2);
         let readme = write_report(dir.path(), &suite, &header, 1.0).unwrap();
         let md = std::fs::read_to_string(readme).unwrap();
         for heading in [
