@@ -78,7 +78,9 @@
 //!   dual violation, which the natural-map residual measures.
 //! * **bound violation** `max_i max(lo_i − f_i, f_i − hi_i, 0)`.
 //!
-//! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse, and
+//! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse (for
+//! an `A` held as its factors `J`, `M⁻¹` and not assembled, one pass over the same entries
+//! formed from the factors, row by row, with no storage: [`crate::delassus`]), and
 //! any non-finite entry in `f` makes every measure `+∞`; the data scales cost a few more passes,
 //! taken only for a result that meets its tolerance.
 //!
@@ -177,6 +179,24 @@ pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i:
     }
 }
 
+/// `(A_i · f, Σ_j |A_ij f_j|)`: from the stored row, or from the factors of an `A` that is
+/// held factored and not assembled (the same entries, summed in the same order).
+#[inline]
+fn row_terms(
+    problem: &Problem,
+    factors: Option<&crate::DelassusFactors>,
+    i: usize,
+    f: &[f64],
+) -> (f64, f64) {
+    match factors {
+        Some(factors) => {
+            let (s, m, _) = factors.row_dot_and_magnitude(i, f);
+            (s, m)
+        }
+        None => problem.row(i).dot_and_magnitude(f),
+    }
+}
+
 /// Residuals of `f`, computing `w = A f + b` internally.
 pub fn residuals(problem: &Problem, f: &[f64]) -> Residuals {
     let mut w = vec![0.0; problem.n()];
@@ -192,8 +212,9 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
     }
     let b = problem.b();
     let mut r = Residuals::ZERO;
+    let factors = problem.unassembled_factors();
     for i in 0..n {
-        let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+        let (af, magnitude) = row_terms(problem, factors, i, f);
         let wi = af + b[i];
         w[i] = wi;
         let d = problem.diagonal_scale_of(i);
@@ -317,9 +338,18 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
     let b = problem.b();
     let scales = data_scale(problem);
     let mut worst: Option<(f64, Unresolved)> = None;
+    let factors = problem.unassembled_factors();
     for i in 0..n {
-        let row = problem.row(i);
-        let (_, magnitude) = row.dot_and_magnitude(f);
+        let (magnitude, len) = match factors {
+            Some(factors) => {
+                let (_, m, len) = factors.row_dot_and_magnitude(i, f);
+                (m, len)
+            }
+            None => {
+                let row = problem.row(i);
+                (row.dot_and_magnitude(f).1, row.len())
+            }
+        };
         let t = b[i].abs() + magnitude;
         let (lo, hi) = problem.bounds_at(i, f);
         let step = row_step(f[i], lo, hi, w[i], problem.diagonal_scale_of(i), t).0;
@@ -328,7 +358,7 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
             step,
             data_scale: scales[i],
             magnitude: t,
-            round_off: round_off(row.len()) * t,
+            round_off: round_off(len) * t,
         };
         let r = u.ratio();
         let r = if r.is_nan() { f64::INFINITY } else { r };

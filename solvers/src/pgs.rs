@@ -37,8 +37,9 @@
 //! Reference: K. Erleben, *Numerical methods for linear complementarity problems in physics-based
 //! animation*, SIGGRAPH course notes 2013, §4; Cottle–Pang–Stone 1992, §5.2.
 
+use crate::delassus::DelassusFactors;
 use crate::metrics::{relative_row_error, residuals};
-use crate::problem::{DelassusFactors, Problem};
+use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
     FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_MEASURE_EVERY,
@@ -149,6 +150,10 @@ impl Solver for ProjectedSor {
         } else {
             "sor"
         }
+    }
+
+    fn works_on_factors(&self) -> bool {
+        self.sweep != SweepForm::Assembled
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
