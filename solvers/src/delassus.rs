@@ -262,9 +262,28 @@ impl DelassusFactors {
         }
     }
 
-    /// Stored entries of the assembled `A` ([`DelassusFactors::assemble`]).
+    /// Stored entries of the assembled `A` ([`DelassusFactors::assemble`]), counted without
+    /// visiting them when no row has more than two bodies: every row on body `k` meets the
+    /// `rows(k)` rows there, `Σ_k rows(k)²`, less one for each pair of rows that share both of
+    /// their two bodies (met twice), `Σ_pairs rows(pair)²`. `O(nnz(J) + n log n)`.
     pub fn nnz(&self) -> usize {
-        (0..self.rows()).map(|i| self.row_len(i)).sum()
+        let mut pairs = Vec::with_capacity(self.rows());
+        for i in 0..self.rows() {
+            match self.row_blocks(i) {
+                [_, _, _, ..] => return (0..self.rows()).map(|i| self.row_len(i)).sum(),
+                [b1, b2] => pairs.push((b1.body, b2.body)),
+                _ => {}
+            }
+        }
+        pairs.sort_unstable();
+        let met: usize = (0..self.inverse_mass.len())
+            .map(|k| (self.body_ptr[k + 1] - self.body_ptr[k]).pow(2))
+            .sum();
+        let twice: usize = pairs
+            .chunk_by(|a, b| a == b)
+            .map(|run| run.len().pow(2))
+            .sum();
+        met - twice
     }
 
     /// `A` in compressed sparse rows: every entry [`DelassusFactors::for_each_entry`] visits.
@@ -324,4 +343,104 @@ fn row_blocks(jacobian: &SparseRowMat<usize, f64>) -> (Vec<usize>, Vec<Block>) {
         ptr.push(blocks.len());
     }
     (ptr, blocks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::Triplet;
+    use faer::Mat;
+
+    /// Rows on one, two and three bodies (and one on none), with two rows sharing both bodies
+    /// of a pair, and full symmetric inverse-mass blocks.
+    fn factors() -> DelassusFactors {
+        let touches: [&[usize]; 6] = [&[0], &[0, 1], &[0, 1], &[1, 2, 3], &[], &[3]];
+        let mut triplets = Vec::new();
+        for (i, bodies) in touches.iter().enumerate() {
+            for &b in bodies.iter() {
+                for c in 0..6 {
+                    let v = ((i * 5 + b * 3 + c * 7) % 9) as f64 - 4.0;
+                    triplets.push(Triplet::new(i, 6 * b + c, v));
+                }
+            }
+        }
+        let jac = SparseRowMat::try_new_from_triplets(6, 24, &triplets).unwrap();
+        let blocks = (0..4)
+            .map(|b| {
+                let mut m = [[0.0; 6]; 6];
+                for (r, row) in m.iter_mut().enumerate() {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        *v = if r == c {
+                            2.0 + b as f64
+                        } else {
+                            0.1 * (r + c) as f64 / 6.0
+                        };
+                    }
+                }
+                m
+            })
+            .collect();
+        DelassusFactors::new(jac, blocks).unwrap()
+    }
+
+    #[test]
+    fn rows_of_a_match_the_product_of_the_factors() {
+        let fac = factors();
+        let j = fac.jacobian().to_dense();
+        let mut minv = Mat::<f64>::zeros(24, 24);
+        for (b, m) in fac.inverse_mass().iter().enumerate() {
+            for r in 0..6 {
+                for c in 0..6 {
+                    minv[(6 * b + r, 6 * b + c)] = m[r][c];
+                }
+            }
+        }
+        let a = &j * &minv * j.transpose();
+        let assembled = fac.assemble();
+        assert_eq!(assembled.val().len(), fac.nnz());
+        let dense = assembled.to_dense();
+        let f = [0.5, -1.0, 2.0, 0.25, 3.0, -0.75];
+        let product = fac.apply(&f);
+        for i in 0..6 {
+            let mut seen = Vec::new();
+            fac.for_each_entry(i, |c, v| seen.push((c, v)));
+            assert_eq!(seen.len(), fac.row_len(i), "row {i}");
+            assert!(seen.windows(2).all(|w| w[0].0 < w[1].0), "columns increase");
+            for c in 0..6 {
+                assert!((dense[(i, c)] - a[(i, c)]).abs() <= 1e-12 * (1.0 + a[(i, c)].abs()));
+            }
+            let (s, m, len) = fac.row_dot_and_magnitude(i, &f);
+            assert_eq!(len, seen.len());
+            let by_row: f64 = (0..6).map(|c| a[(i, c)] * f[c]).sum();
+            assert!((s - by_row).abs() <= 1e-11 * (1.0 + m));
+            assert!((product[i] - by_row).abs() <= 1e-11 * (1.0 + m));
+            if !seen.is_empty() {
+                assert_eq!(fac.diagonal(i).to_bits(), dense[(i, i)].to_bits());
+            }
+        }
+        // Row 4 touches no body; rows 1 and 2 share both bodies, so row 1 meets rows 0..=3.
+        assert_eq!(fac.row_len(4), 0);
+        assert_eq!(fac.row_len(1), 4);
+    }
+
+    #[test]
+    fn counting_by_body_pairs_matches_visiting_every_row() {
+        // Without the three-body row, the count takes the pair formula.
+        let touches: [&[usize]; 5] = [&[0, 1], &[0, 1], &[1, 2], &[2], &[0, 2]];
+        let mut triplets = Vec::new();
+        for (i, bodies) in touches.iter().enumerate() {
+            for &b in bodies.iter() {
+                triplets.push(Triplet::new(i, 6 * b + i % 6, 1.0 + i as f64));
+            }
+        }
+        let jac = SparseRowMat::try_new_from_triplets(5, 18, &triplets).unwrap();
+        let mut eye = [[0.0; 6]; 6];
+        for (k, row) in eye.iter_mut().enumerate() {
+            row[k] = 1.0;
+        }
+        let fac = DelassusFactors::new(jac, vec![eye; 3]).unwrap();
+        let visited: usize = (0..5).map(|i| fac.row_len(i)).sum();
+        assert_eq!(fac.nnz(), visited);
+        assert_eq!(fac.assemble().val().len(), visited);
+    }
 }
