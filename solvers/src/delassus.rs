@@ -22,11 +22,13 @@
 use crate::problem::ProblemError;
 use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
 
-/// One body's part of a Jacobian row: the body and its six entries `[linear; angular]`.
+/// One body's part of a Jacobian row: the body, its six entries `[linear; angular]` and the
+/// body's velocity change `M⁻¹ J_row,bodyᵀ` per unit impulse.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Block {
-    body: usize,
-    j: [f64; 6],
+pub(crate) struct Block {
+    pub(crate) body: usize,
+    pub(crate) j: [f64; 6],
+    pub(crate) resp: [f64; 6],
 }
 
 /// The factored form `A = J M⁻¹ Jᵀ` of a contact problem: a sparse Jacobian `J` (one row per
@@ -65,7 +67,7 @@ impl DelassusFactors {
                 found: jacobian.ncols(),
             });
         }
-        let (block_ptr, blocks) = row_blocks(&jacobian);
+        let (block_ptr, mut blocks) = row_blocks(&jacobian);
         let bodies = inverse_mass.len();
         let mut body_ptr = vec![0usize; bodies + 1];
         for blk in &blocks {
@@ -77,13 +79,12 @@ impl DelassusFactors {
         let mut next = body_ptr.clone();
         let mut touching = vec![(0, [0.0; 6]); blocks.len()];
         for i in 0..jacobian.nrows() {
-            for blk in &blocks[block_ptr[i]..block_ptr[i + 1]] {
+            for blk in &mut blocks[block_ptr[i]..block_ptr[i + 1]] {
                 let m = &inverse_mass[blk.body];
-                let mut resp = [0.0; 6];
                 for (r, mrow) in m.iter().enumerate() {
-                    resp[r] = mrow.iter().zip(&blk.j).map(|(a, b)| a * b).sum();
+                    blk.resp[r] = mrow.iter().zip(&blk.j).map(|(a, b)| a * b).sum();
                 }
-                touching[next[blk.body]] = (i, resp);
+                touching[next[blk.body]] = (i, blk.resp);
                 next[blk.body] += 1;
             }
         }
@@ -156,16 +157,13 @@ impl DelassusFactors {
     pub fn diagonal(&self, i: usize) -> f64 {
         let mut a = 0.0;
         for blk in self.row_blocks(i) {
-            let list = self.touching_of(blk.body);
-            if let Ok(k) = list.binary_search_by_key(&i, |e| e.0) {
-                a += dot6(&blk.j, &list[k].1);
-            }
+            a += dot6(&blk.j, &blk.resp);
         }
         a
     }
 
     /// Row `i`'s blocks, bodies increasing.
-    fn row_blocks(&self, i: usize) -> &[Block] {
+    pub(crate) fn row_blocks(&self, i: usize) -> &[Block] {
         &self.blocks[self.block_ptr[i]..self.block_ptr[i + 1]]
     }
 
@@ -338,7 +336,11 @@ fn row_blocks(jacobian: &SparseRowMat<usize, f64>) -> (Vec<usize>, Vec<Block>) {
                 j[jidx[k] % 6] += jval[k];
                 k += 1;
             }
-            blocks.push(Block { body, j });
+            blocks.push(Block {
+                body,
+                j,
+                resp: [0.0; 6],
+            });
         }
         ptr.push(blocks.len());
     }
