@@ -87,6 +87,7 @@
 //! Reference: W. Oettli, W. Prager, *Compatibility of approximate solution of linear equations
 //! with given error bounds for coefficients and right-hand sides*, Numer. Math. 6 (1964).
 
+use crate::delassus::DelassusFactors;
 use crate::problem::Problem;
 use serde::Serialize;
 
@@ -184,7 +185,7 @@ pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i:
 #[inline]
 fn row_terms(
     problem: &Problem,
-    factors: Option<&crate::DelassusFactors>,
+    factors: Option<&DelassusFactors>,
     i: usize,
     f: &[f64],
 ) -> (f64, f64) {
@@ -195,6 +196,34 @@ fn row_terms(
         }
         None => problem.row(i).dot_and_magnitude(f),
     }
+}
+
+/// Rows from which [`residuals_and_velocity`] forms the terms of a factored `A` on several
+/// threads.
+const PARALLEL_TERMS_ROWS: usize = 20_000;
+
+/// `A_i · f` into `af` and `Σ_j |A_ij f_j|` (returned) of every row of a factored `A`, the rows
+/// in contiguous chunks, one per available thread (at most eight).
+fn parallel_row_terms(factors: &DelassusFactors, f: &[f64], af: &mut [f64]) -> Vec<f64> {
+    let n = af.len();
+    let mut magnitude = vec![0.0; n];
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get().min(8));
+    let chunk = n.div_ceil(threads).max(1);
+    std::thread::scope(|scope| {
+        for (k, (a, m)) in af
+            .chunks_mut(chunk)
+            .zip(magnitude.chunks_mut(chunk))
+            .enumerate()
+        {
+            scope.spawn(move || {
+                for (r, (ai, mi)) in a.iter_mut().zip(m.iter_mut()).enumerate() {
+                    let (s, t, _) = factors.row_dot_and_magnitude(k * chunk + r, f);
+                    (*ai, *mi) = (s, t);
+                }
+            });
+        }
+    });
+    magnitude
 }
 
 /// Residuals of `f`, computing `w = A f + b` internally.
@@ -213,8 +242,16 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
     let b = problem.b();
     let mut r = Residuals::ZERO;
     let factors = problem.unassembled_factors();
+    // A large factored A: every row's terms first, the rows split among threads (each row's
+    // sums are formed as in the serial pass, so the numbers are the same).
+    let magnitudes = factors
+        .filter(|_| n >= PARALLEL_TERMS_ROWS)
+        .map(|factors| parallel_row_terms(factors, f, w));
     for i in 0..n {
-        let (af, magnitude) = row_terms(problem, factors, i, f);
+        let (af, magnitude) = match &magnitudes {
+            Some(m) => (w[i], m[i]),
+            None => row_terms(problem, factors, i, f),
+        };
         let wi = af + b[i];
         w[i] = wi;
         let d = problem.diagonal_scale_of(i);
