@@ -937,9 +937,10 @@ impl World {
         self.warm.clear();
     }
 
-    /// Why the step's contact problem is too large to assemble, when it is: the matrix and cone
-    /// solvers, the shared residual, a kept problem and split impulses all assemble (part of)
-    /// `A`; a body-level solver without them works on the bodies alone.
+    /// Why the step's contact problem is too large, when it is: the matrix and cone solvers, a
+    /// kept problem and split impulses assemble (part of) `A`, and the shared residual, where
+    /// `A` is held as its factors, visits each of its entries (time, not memory); a body-level
+    /// solver without them works on the bodies alone.
     fn size_refusal(&self, system: &ContactSystem) -> Option<String> {
         let assembles = !matches!(self.settings.solver, ContactSolver::Body(_))
             || self.settings.residuals
