@@ -331,9 +331,10 @@ fn row_blocks(jacobian: &SparseRowMat<usize, f64>) -> (Vec<usize>, Vec<Block>) {
         let mut k = jptr[i];
         while k < jptr[i + 1] {
             let body = jidx[k] / 6;
+            let first = 6 * body;
             let mut j = [0.0; 6];
-            while k < jptr[i + 1] && jidx[k] / 6 == body {
-                j[jidx[k] % 6] += jval[k];
+            while k < jptr[i + 1] && jidx[k] < first + 6 {
+                j[jidx[k] - first] += jval[k];
                 k += 1;
             }
             blocks.push(Block {
