@@ -152,3 +152,44 @@ fn projected_gauss_seidel_returns_the_same_impulse_on_both_forms() {
         }
     }
 }
+
+#[test]
+fn a_non_finite_factor_is_an_input_error_naming_it() {
+    use faer::sparse::{SparseRowMat, Triplet};
+    use lcpbench_solvers::{DelassusFactors, ProblemError};
+    let mut eye = [[0.0; 6]; 6];
+    for (k, row) in eye.iter_mut().enumerate() {
+        row[k] = 1.0;
+    }
+    let factored = |jv: f64, m: [[f64; 6]; 6]| {
+        let t = [Triplet::new(0, 0, jv), Triplet::new(1, 2, 1.0)];
+        let j = SparseRowMat::try_new_from_triplets(2, 6, &t).unwrap();
+        let factors = DelassusFactors::new(j, vec![m]).unwrap();
+        Problem::boxed_factored(
+            factors,
+            vec![-1.0; 2],
+            vec![0.0; 2],
+            vec![f64::INFINITY; 2],
+            vec![],
+        )
+    };
+    assert!(factored(1.0, eye).is_ok());
+    match factored(f64::NAN, eye) {
+        Err(ProblemError::NonFinite { what, .. }) => assert_eq!(what, "J[0][0]"),
+        other => panic!("{other:?}"),
+    }
+    let mut bad = eye;
+    bad[2][2] = f64::INFINITY;
+    match factored(1.0, bad) {
+        Err(ProblemError::NonFinite { what, value }) => {
+            assert_eq!(what, "the inverse-mass block of body 0");
+            assert_eq!(value, f64::INFINITY);
+        }
+        other => panic!("{other:?}"),
+    }
+    // Finite factors whose product overflows.
+    match factored(1e200, eye) {
+        Err(ProblemError::NonFinite { what, .. }) => assert_eq!(what, "A[0][0]"),
+        other => panic!("{other:?}"),
+    }
+}

@@ -349,8 +349,8 @@ impl Problem {
     /// number the problem gives equals, bit for bit, that of the problem with the assembled `A`.
     /// The largest entry is taken as the largest diagonal entry, which bounds every entry of a
     /// positive semidefinite matrix (`|A_ij| <= √(A_ii A_jj)`). Errors as
-    /// [`Problem::boxed_sparse`]; a non-finite entry of `J` or `M⁻¹` is reported as the first
-    /// diagonal entry of `A` it makes non-finite.
+    /// [`Problem::boxed_sparse`]; a non-finite entry of `J` or `M⁻¹`, or a diagonal entry of `A`
+    /// that overflows, is [`ProblemError::NonFinite`] naming it.
     pub fn boxed_factored(
         factors: DelassusFactors,
         b: Vec<f64>,
@@ -358,26 +358,29 @@ impl Problem {
         hi: Vec<f64>,
         friction: Vec<FrictionRow>,
     ) -> Result<Self, ProblemError> {
+        let jacobian = factors.jacobian();
+        if let Some(k) = jacobian.val().iter().position(|v| !v.is_finite()) {
+            let ptr = jacobian.symbolic().row_ptr();
+            let i = ptr.partition_point(|&p| p <= k) - 1;
+            return Err(ProblemError::NonFinite {
+                what: format!("J[{i}][{}]", jacobian.symbolic().col_idx()[k]),
+                value: jacobian.val()[k],
+            });
+        }
+        for (body, block) in factors.inverse_mass().iter().enumerate() {
+            if let Some(&v) = block.iter().flatten().find(|v| !v.is_finite()) {
+                return Err(ProblemError::NonFinite {
+                    what: format!("the inverse-mass block of body {body}"),
+                    value: v,
+                });
+            }
+        }
         let n = factors.rows();
         let diag: Vec<f64> = (0..n).map(|i| factors.diagonal(i)).collect();
         if let Some(i) = diag.iter().position(|v| !v.is_finite()) {
             return Err(ProblemError::NonFinite {
                 what: format!("A[{i}][{i}]"),
                 value: diag[i],
-            });
-        }
-        let finite = |v: &f64| v.is_finite();
-        if !factors.jacobian().val().iter().all(finite)
-            || !factors
-                .inverse_mass()
-                .iter()
-                .flatten()
-                .flatten()
-                .all(finite)
-        {
-            return Err(ProblemError::NonFinite {
-                what: "an entry of J or M⁻¹".into(),
-                value: f64::NAN,
             });
         }
         let max_abs = diag.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
@@ -705,7 +708,8 @@ impl Problem {
         })
     }
 
-    /// Largest absolute entry of `A`.
+    /// Largest absolute entry of `A` (of a factored `A`, its largest diagonal entry, which
+    /// bounds the others: [`Problem::boxed_factored`]).
     pub fn max_abs_entry(&self) -> f64 {
         self.max_abs
     }
