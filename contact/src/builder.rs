@@ -443,6 +443,19 @@ impl Partition {
     }
 }
 
+/// How a [`Problem`] built from a [`ContactSystem`] holds its `A = J M⁻¹ Jᵀ`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DelassusForm {
+    /// Assembled: dense for at most [`DENSE_ROWS`] rows, else compressed sparse rows, with the
+    /// factors attached unless pyramid slack rows couple outside `J M⁻¹ Jᵀ`.
+    Assembled,
+    /// Held as its factors `J`, `M⁻¹` ([`Problem::boxed_factored`]), for solvers that sweep on
+    /// them ([`lcpbench_solvers::Solver::works_on_factors`]); `A` is assembled only if a row of
+    /// it is asked for. Problems of at most [`DENSE_ROWS`] rows and those with pyramid slack
+    /// rows are assembled as with [`DelassusForm::Assembled`].
+    Factored,
+}
+
 /// A set of rows and bodies with their local numbering, for assembling a sub-problem.
 struct Subset<'a> {
     rows: &'a [usize],
@@ -670,6 +683,11 @@ impl ContactSystem {
     /// `J`, `M⁻¹` attached for matrix-free solvers unless pyramid slack rows are present (their
     /// coupling entries are not of the form `J M⁻¹ Jᵀ`).
     pub fn problem(&self) -> Result<Problem, ProblemError> {
+        self.problem_in(DelassusForm::Assembled)
+    }
+
+    /// [`ContactSystem::problem`] with `A` held in `form`.
+    pub fn problem_in(&self, form: DelassusForm) -> Result<Problem, ProblemError> {
         let (rows, bodies) = self.identity();
         let all = Subset {
             rows: &rows,
@@ -677,11 +695,21 @@ impl ContactSystem {
             local_row: &rows,
             local_body: &bodies,
         };
-        self.subset_problem(&all, self.friction.clone(), self.b())
+        self.subset_problem(&all, self.friction.clone(), self.b(), form)
     }
 
     /// The LCP of island `k` of `partition` (rows and bodies renumbered in the island's order).
     pub fn island_problem(&self, partition: &Partition, k: usize) -> Result<Problem, ProblemError> {
+        self.island_problem_in(partition, k, DelassusForm::Assembled)
+    }
+
+    /// [`ContactSystem::island_problem`] with `A` held in `form`.
+    pub fn island_problem_in(
+        &self,
+        partition: &Partition,
+        k: usize,
+        form: DelassusForm,
+    ) -> Result<Problem, ProblemError> {
         let island = &partition.islands[k];
         let subset = Subset {
             rows: &island.rows,
@@ -707,7 +735,7 @@ impl ContactSystem {
             .iter()
             .map(|&i| self.free_rate[i] + self.bias[i])
             .collect();
-        self.subset_problem(&subset, friction, b)
+        self.subset_problem(&subset, friction, b, form)
     }
 
     /// The step's contact problem as the exact Coulomb cone: `W = A`, `q = b` and `mu` of each
@@ -788,19 +816,24 @@ impl ContactSystem {
         subset: &Subset,
         friction: Vec<FrictionRow>,
         b: Vec<f64>,
+        form: DelassusForm,
     ) -> Result<Problem, ProblemError> {
-        let a = self.assemble_delassus(subset);
         let lo = subset.rows.iter().map(|&i| self.lo[i]).collect();
         let hi = subset.rows.iter().map(|&i| self.hi[i]).collect();
-        let problem = if subset.rows.len() <= DENSE_ROWS {
-            Problem::boxed(a.to_dense(), b, lo, hi, friction)?
-        } else {
-            Problem::boxed_sparse(a, b, lo, hi, friction)?
-        };
         let pyramid = subset
             .rows
             .iter()
             .any(|&i| matches!(self.rows[i].kind, RowKind::Slack { .. }));
+        let small = subset.rows.len() <= DENSE_ROWS;
+        if form == DelassusForm::Factored && !pyramid && !small {
+            return Problem::boxed_factored(self.factors(subset)?, b, lo, hi, friction);
+        }
+        let a = self.assemble_delassus(subset);
+        let problem = if small {
+            Problem::boxed(a.to_dense(), b, lo, hi, friction)?
+        } else {
+            Problem::boxed_sparse(a, b, lo, hi, friction)?
+        };
         if pyramid {
             Ok(problem)
         } else {
@@ -1016,7 +1049,7 @@ impl ContactSystem {
             local_row: &local_row,
             local_body: &bodies,
         };
-        self.subset_problem(&subset, Vec::new(), b)
+        self.subset_problem(&subset, Vec::new(), b, DelassusForm::Assembled)
             .ok()
             .map(|p| (p, normals))
     }

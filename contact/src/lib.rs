@@ -27,7 +27,8 @@ pub use shape::{MassProperties, Shape, ShapeError};
 
 pub use body_solvers::{BodySolver, BodySolverKind, MicroImpulses, Penalty, SequentialImpulses};
 pub use builder::{
-    BuilderParams, ContactSystem, DelassusOperator, FrictionModel, Material, PositionCorrection,
+    BuilderParams, ContactSystem, DelassusForm, DelassusOperator, FrictionModel, Material,
+    PositionCorrection,
 };
 pub use scene::{Scene, SceneError, SceneMetrics};
 pub use step::{ContactSolver, SimSettings, StepReport, World};

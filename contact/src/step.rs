@@ -49,7 +49,8 @@ use crate::body_solvers::{BodySolver, BodySolverKind, Measure};
 use crate::builder::FrictionModel;
 use crate::builder::PositionCorrection;
 use crate::builder::{
-    self, BodyVelocity, BuilderParams, ContactSystem, Material, Partition, WarmStartCache,
+    self, BodyVelocity, BuilderParams, ContactSystem, DelassusForm, Material, Partition,
+    WarmStartCache,
 };
 use crate::collision::broad_phase::TooManyPairs;
 use crate::collision::toi::{first_impact, ToiMethod, ToiSettings};
@@ -185,6 +186,16 @@ impl ContactSolver {
             .join(", ")
     }
 
+    /// The form of `A` this solver's problems take: factored for a matrix solver that sweeps on
+    /// the factors ([`Solver::works_on_factors`]), so that `A` is not assembled for it;
+    /// assembled otherwise.
+    fn delassus_form(&self) -> DelassusForm {
+        match self {
+            ContactSolver::Matrix(s) if s.works_on_factors() => DelassusForm::Factored,
+            _ => DelassusForm::Assembled,
+        }
+    }
+
     /// Solve one island's problem with this (matrix or cone) solver.
     fn solve_island(
         &mut self,
@@ -205,8 +216,9 @@ impl ContactSolver {
     fn solve_whole(&mut self, system: &ContactSystem, settings: &Settings) -> Solved {
         let n = system.n();
         let t0 = Instant::now();
+        let form = self.delassus_form();
         let (result, problem, cone_problem, assembly_s) = match self {
-            ContactSolver::Matrix(s) => match system.problem() {
+            ContactSolver::Matrix(s) => match system.problem_in(form) {
                 Ok(p) => {
                     let assembly_s = t0.elapsed().as_secs_f64();
                     (s.solve(&p, settings), Some(p), None, assembly_s)
@@ -250,12 +262,14 @@ enum IslandProblem {
 }
 
 impl IslandProblem {
-    /// The problem of island `k` of `partition`: the cone problem when `cone`, else the LCP.
+    /// The problem of island `k` of `partition`: the cone problem when `cone`, else the LCP
+    /// with `A` in `form`.
     fn of(
         system: &ContactSystem,
         partition: &Partition,
         k: usize,
         cone: bool,
+        form: DelassusForm,
     ) -> Result<Self, String> {
         if cone {
             system
@@ -264,7 +278,7 @@ impl IslandProblem {
                 .map_err(|e| e.to_string())
         } else {
             system
-                .island_problem(partition, k)
+                .island_problem_in(partition, k, form)
                 .map(IslandProblem::Lcp)
                 .map_err(|e| e.to_string())
         }
@@ -303,7 +317,9 @@ pub struct SimSettings {
     pub ccd: Option<ToiMethod>,
     /// Keep each step's [`Problem`] in its report (for export) \[`false`\].
     pub keep_problem: bool,
-    /// Measure the shared residual for body-level solvers too (assembles `A`) \[`true`\].
+    /// Measure the shared residual for body-level solvers too (on the step's LCP with `A` held
+    /// as its factors, [`DelassusForm::Factored`]: one pass over the entries of `A`, formed
+    /// row by row and not stored) \[`true`\].
     pub residuals: bool,
     /// Ask matrix solvers for their convergence history (residual per iteration or pivot) and
     /// keep it in each [`StepReport`] \[`false`\]. The measuring time is excluded from the
@@ -600,9 +616,10 @@ fn solve_islands(
     let n = system.n();
     let t0 = Instant::now();
     let cone = solver.is_cone();
+    let form = solver.delassus_form();
     let problems: Vec<Result<IslandProblem, String>> = (0..partition.len())
         .into_par_iter()
-        .map(|k| IslandProblem::of(system, partition, k, cone))
+        .map(|k| IslandProblem::of(system, partition, k, cone, form))
         .collect();
     let assembly_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -920,9 +937,10 @@ impl World {
         self.warm.clear();
     }
 
-    /// Why the step's contact problem is too large to assemble, when it is: the matrix and cone
-    /// solvers, the shared residual, a kept problem and split impulses all assemble (part of)
-    /// `A`; a body-level solver without them works on the bodies alone.
+    /// Why the step's contact problem is too large, when it is: the matrix and cone solvers, a
+    /// kept problem and split impulses assemble (part of) `A`, and the shared residual, where
+    /// `A` is held as its factors, visits each of its entries (time, not memory); a body-level
+    /// solver without them works on the bodies alone.
     fn size_refusal(&self, system: &ContactSystem) -> Option<String> {
         let assembles = !matches!(self.settings.solver, ContactSolver::Body(_))
             || self.settings.residuals
@@ -1035,7 +1053,8 @@ impl World {
     }
 
     /// The body-level path: the solver works on `system`, and the status is decided from the
-    /// shared residual of the step's assembled LCP when residuals (or the problem) are wanted.
+    /// shared residual of the step's LCP (`A` held as its factors) when residuals (or the
+    /// problem) are wanted.
     fn solve_on_bodies(
         &mut self,
         system: &ContactSystem,
@@ -1043,15 +1062,18 @@ impl World {
         deadline: Option<Instant>,
     ) -> Solved {
         let t0 = Instant::now();
-        let assembled = (self.settings.residuals || self.settings.keep_problem)
-            .then(|| system.problem().map_err(|e| e.to_string()));
+        let measured = (self.settings.residuals || self.settings.keep_problem).then(|| {
+            system
+                .problem_in(DelassusForm::Factored)
+                .map_err(|e| e.to_string())
+        });
         let assembly_s = t0.elapsed().as_secs_f64();
         let settings = Settings {
             warm_start,
             ..self.solver_settings(deadline)
         };
         let call = Instant::now();
-        let measure = match &assembled {
+        let measure = match &measured {
             Some(Ok(p)) => Measure::Lcp(p),
             Some(Err(e)) => Measure::Invalid(e),
             None => Measure::Skip,
@@ -1062,7 +1084,7 @@ impl World {
         };
         let call_s = call.elapsed().as_secs_f64();
         self.warm.store(system, &out.warm);
-        let problem = assembled.and_then(Result::ok);
+        let problem = measured.and_then(Result::ok);
         let r = out.result;
         let own_s = r.time.as_secs_f64();
         Solved {
@@ -1071,7 +1093,7 @@ impl World {
             iterations: r.iterations,
             time_s: own_s,
             wall_s: 0.0,
-            // The assembled `A` serves only the measurement.
+            // The measured problem serves only the measurement.
             assembly_s: 0.0,
             measure_s: assembly_s + (call_s - own_s).max(0.0),
             residuals: problem.is_some().then_some(r.residuals),

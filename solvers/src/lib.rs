@@ -40,6 +40,7 @@ mod clarabel_socp;
 pub mod cone;
 mod cone_io;
 mod dantzig;
+pub mod delassus;
 mod enumeration;
 pub mod generate;
 pub mod io;

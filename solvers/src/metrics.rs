@@ -78,13 +78,16 @@
 //!   dual violation, which the natural-map residual measures.
 //! * **bound violation** `max_i max(lo_i − f_i, f_i − hi_i, 0)`.
 //!
-//! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse, and
+//! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse (for
+//! an `A` held as its factors `J`, `M⁻¹` and not assembled, one pass over the same entries
+//! formed from the factors, row by row, with no storage: [`crate::delassus`]), and
 //! any non-finite entry in `f` makes every measure `+∞`; the data scales cost a few more passes,
 //! taken only for a result that meets its tolerance.
 //!
 //! Reference: W. Oettli, W. Prager, *Compatibility of approximate solution of linear equations
 //! with given error bounds for coefficients and right-hand sides*, Numer. Math. 6 (1964).
 
+use crate::delassus::DelassusFactors;
 use crate::problem::Problem;
 use serde::Serialize;
 
@@ -177,6 +180,52 @@ pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i:
     }
 }
 
+/// `(A_i · f, Σ_j |A_ij f_j|)`: from the stored row, or from the factors of an `A` that is
+/// held factored and not assembled (the same entries, summed in the same order).
+#[inline]
+fn row_terms(
+    problem: &Problem,
+    factors: Option<&DelassusFactors>,
+    i: usize,
+    f: &[f64],
+) -> (f64, f64) {
+    match factors {
+        Some(factors) => {
+            let (s, m, _) = factors.row_dot_and_magnitude(i, f);
+            (s, m)
+        }
+        None => problem.row(i).dot_and_magnitude(f),
+    }
+}
+
+/// Rows from which [`residuals_and_velocity`] forms the terms of a factored `A` on several
+/// threads.
+const PARALLEL_TERMS_ROWS: usize = 20_000;
+
+/// `A_i · f` into `af` and `Σ_j |A_ij f_j|` (returned) of every row of a factored `A`, the rows
+/// in contiguous chunks, one per available thread (at most eight).
+fn parallel_row_terms(factors: &DelassusFactors, f: &[f64], af: &mut [f64]) -> Vec<f64> {
+    let n = af.len();
+    let mut magnitude = vec![0.0; n];
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get().min(8));
+    let chunk = n.div_ceil(threads).max(1);
+    std::thread::scope(|scope| {
+        for (k, (a, m)) in af
+            .chunks_mut(chunk)
+            .zip(magnitude.chunks_mut(chunk))
+            .enumerate()
+        {
+            scope.spawn(move || {
+                for (r, (ai, mi)) in a.iter_mut().zip(m.iter_mut()).enumerate() {
+                    let (s, t, _) = factors.row_dot_and_magnitude(k * chunk + r, f);
+                    (*ai, *mi) = (s, t);
+                }
+            });
+        }
+    });
+    magnitude
+}
+
 /// Residuals of `f`, computing `w = A f + b` internally.
 pub fn residuals(problem: &Problem, f: &[f64]) -> Residuals {
     let mut w = vec![0.0; problem.n()];
@@ -192,8 +241,17 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
     }
     let b = problem.b();
     let mut r = Residuals::ZERO;
+    let factors = problem.unassembled_factors();
+    // A large factored A: every row's terms first, the rows split among threads (each row's
+    // sums are formed as in the serial pass, so the numbers are the same).
+    let magnitudes = factors
+        .filter(|_| n >= PARALLEL_TERMS_ROWS)
+        .map(|factors| parallel_row_terms(factors, f, w));
     for i in 0..n {
-        let (af, magnitude) = problem.row(i).dot_and_magnitude(f);
+        let (af, magnitude) = match &magnitudes {
+            Some(m) => (w[i], m[i]),
+            None => row_terms(problem, factors, i, f),
+        };
         let wi = af + b[i];
         w[i] = wi;
         let d = problem.diagonal_scale_of(i);
@@ -317,9 +375,18 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
     let b = problem.b();
     let scales = data_scale(problem);
     let mut worst: Option<(f64, Unresolved)> = None;
+    let factors = problem.unassembled_factors();
     for i in 0..n {
-        let row = problem.row(i);
-        let (_, magnitude) = row.dot_and_magnitude(f);
+        let (magnitude, len) = match factors {
+            Some(factors) => {
+                let (_, m, len) = factors.row_dot_and_magnitude(i, f);
+                (m, len)
+            }
+            None => {
+                let row = problem.row(i);
+                (row.dot_and_magnitude(f).1, row.len())
+            }
+        };
         let t = b[i].abs() + magnitude;
         let (lo, hi) = problem.bounds_at(i, f);
         let step = row_step(f[i], lo, hi, w[i], problem.diagonal_scale_of(i), t).0;
@@ -328,7 +395,7 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
             step,
             data_scale: scales[i],
             magnitude: t,
-            round_off: round_off(row.len()) * t,
+            round_off: round_off(len) * t,
         };
         let r = u.ratio();
         let r = if r.is_nan() { f64::INFINITY } else { r };

@@ -37,8 +37,9 @@
 //! Reference: K. Erleben, *Numerical methods for linear complementarity problems in physics-based
 //! animation*, SIGGRAPH course notes 2013, §4; Cottle–Pang–Stone 1992, §5.2.
 
+use crate::delassus::DelassusFactors;
 use crate::metrics::{relative_row_error, residuals};
-use crate::problem::{DelassusFactors, Problem};
+use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
     FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_MEASURE_EVERY,
@@ -96,52 +97,6 @@ impl ProjectedSor {
     }
 }
 
-/// `M⁻¹ J_iᵀ` of every row in compressed rows over the body-velocity columns, so that
-/// `u += M⁻¹ J_iᵀ Δf` is one pass over row `i`'s entries.
-struct Responses {
-    ptr: Vec<usize>,
-    col: Vec<usize>,
-    val: Vec<f64>,
-}
-
-impl Responses {
-    fn new(factors: &DelassusFactors) -> Self {
-        let j = factors.jacobian();
-        let sym = j.symbolic();
-        let (jptr, jidx, jval) = (sym.row_ptr(), sym.col_idx(), j.val());
-        let minv = factors.inverse_mass();
-        let n = factors.rows();
-        let mut r = Responses {
-            ptr: Vec::with_capacity(n + 1),
-            col: Vec::with_capacity(jidx.len()),
-            val: Vec::with_capacity(jidx.len()),
-        };
-        r.ptr.push(0);
-        for i in 0..n {
-            let mut k = jptr[i];
-            while k < jptr[i + 1] {
-                // One body's entries of row i: gather its 6-vector, multiply by its block.
-                let body = jidx[k] / 6;
-                let mut jb = [0.0; 6];
-                while k < jptr[i + 1] && jidx[k] / 6 == body {
-                    jb[jidx[k] % 6] += jval[k];
-                    k += 1;
-                }
-                let m = &minv[body];
-                for (row, mrow) in m.iter().enumerate() {
-                    let v: f64 = mrow.iter().zip(&jb).map(|(a, b)| a * b).sum();
-                    if v != 0.0 {
-                        r.col.push(6 * body + row);
-                        r.val.push(v);
-                    }
-                }
-            }
-            r.ptr.push(r.col.len());
-        }
-        r
-    }
-}
-
 impl Solver for ProjectedSor {
     fn name(&self) -> &'static str {
         if self.omega == 1.0 {
@@ -149,6 +104,10 @@ impl Solver for ProjectedSor {
         } else {
             "sor"
         }
+    }
+
+    fn works_on_factors(&self) -> bool {
+        self.sweep != SweepForm::Assembled
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
@@ -168,7 +127,7 @@ impl Solver for ProjectedSor {
         let mut matrix_free = match (self.sweep, problem.factors()) {
             (SweepForm::Auto | SweepForm::MatrixFree, Some(factors)) => {
                 let u = factors.body_velocity(&f);
-                Some((factors, Responses::new(factors), u))
+                Some((factors, u))
             }
             _ => None,
         };
@@ -189,8 +148,8 @@ impl Solver for ProjectedSor {
                 break Outcome::TimeLimit;
             }
             let (worst, moved) = match &mut matrix_free {
-                Some((factors, responses, u)) => {
-                    sweep_matrix_free(problem, factors, responses, u, &mut f, &skip, &d, omega)
+                Some((factors, u)) => {
+                    sweep_matrix_free(problem, factors, u, &mut f, &skip, &d, omega)
                 }
                 None => sweep_assembled(problem, &mut f, &skip, &d, omega),
             };
@@ -270,11 +229,12 @@ pub(crate) fn sweep_assembled(
 }
 
 /// One matrix-free sweep: `w_i = J_i u + b_i`, `u += M⁻¹ J_iᵀ Δf_i` (see the module doc).
-#[allow(clippy::too_many_arguments)]
+/// Each row is read as its (at most a few) body blocks, each with its six entries of `J` and of
+/// `M⁻¹ J_iᵀ` side by side, so a sweep streams one compact record per row and body; `J_i u` is
+/// summed in the column order of `J`'s compressed rows.
 fn sweep_matrix_free(
     problem: &Problem,
     factors: &DelassusFactors,
-    responses: &Responses,
     u: &mut [f64],
     f: &mut [f64],
     skip: &[bool],
@@ -282,20 +242,19 @@ fn sweep_matrix_free(
     omega: f64,
 ) -> (f64, bool) {
     let b = problem.b();
-    let j = factors.jacobian();
-    let sym = j.symbolic();
-    let (jptr, jidx, jval) = (sym.row_ptr(), sym.col_idx(), j.val());
     let mut worst: f64 = 0.0;
     let mut moved = false;
     for i in 0..f.len() {
         if skip[i] {
             continue;
         }
-        let range = jptr[i]..jptr[i + 1];
-        let af: f64 = jidx[range.clone()]
+        let blocks = factors.row_blocks(i);
+        let af: f64 = blocks
             .iter()
-            .zip(&jval[range])
-            .map(|(&c, v)| v * u[c])
+            .flat_map(|blk| {
+                let ub = &u[6 * blk.body..6 * blk.body + 6];
+                blk.j.iter().zip(ub).map(|(v, x)| v * x)
+            })
             .sum();
         let wi = af + b[i];
         let (lo, hi) = problem.bounds_at(i, f);
@@ -306,8 +265,11 @@ fn sweep_matrix_free(
             let own = problem.diagonal(i) * f[i];
             let magnitude = own.abs() + (af - own).abs() + b[i].abs();
             worst = worst.max(relative_row_error(problem, i, f, wi, magnitude));
-            for k in responses.ptr[i]..responses.ptr[i + 1] {
-                u[responses.col[k]] += responses.val[k] * delta;
+            for blk in blocks {
+                let ub = &mut u[6 * blk.body..6 * blk.body + 6];
+                for (x, r) in ub.iter_mut().zip(&blk.resp) {
+                    *x += r * delta;
+                }
             }
         }
         f[i] = new;

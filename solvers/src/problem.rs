@@ -12,9 +12,10 @@
 //! normal row `k` and a coefficient `mu`; its bounds are `[-mu f_k, mu f_k]`, evaluated at the
 //! current `f` (ODE's and Bullet's `findex`). Its stored `lo`/`hi` are ignored.
 
+pub use crate::delassus::DelassusFactors;
 use faer::sparse::{SparseColMat, SparseRowMat, Triplet};
 use faer::Mat;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use thiserror::Error;
 
 /// A friction row: row `row` is bounded by `±mu · f[normal]`.
@@ -144,10 +145,21 @@ pub enum ProblemError {
 
 /// How `A` is stored. Dense storage keeps a row-major copy for row dot products; sparse storage
 /// is faer's compressed sparse row form (column indices sorted within each row, no duplicates).
+/// Factored storage keeps `A = J M⁻¹ Jᵀ` as its factors: the shared residual and products with
+/// `A` go through them, and the compressed rows are assembled from them on the first call that
+/// needs a row of `A` (and kept).
 #[derive(Debug, Clone)]
 enum Storage {
-    Dense { a: Mat<f64>, rows: Vec<f64> },
+    Dense {
+        a: Mat<f64>,
+        rows: Vec<f64>,
+    },
     Sparse(SparseRowMat<usize, f64>),
+    Factored {
+        factors: Arc<DelassusFactors>,
+        assembled: OnceLock<SparseRowMat<usize, f64>>,
+        nnz: OnceLock<usize>,
+    },
 }
 
 /// One row of `A`: a dense slice, or the column indices and values of its nonzeros.
@@ -328,6 +340,95 @@ impl Problem {
         Self::assemble(Storage::Sparse(a), diag, max_abs, b, lo, hi, friction)
     }
 
+    /// A boxed LCP whose `A = J M⁻¹ Jᵀ` is held as its factors (the inverse-mass blocks
+    /// symmetric positive semidefinite, as inverse masses are), not assembled: products with
+    /// `A`, its diagonal and the shared residual are computed from `J` and `M⁻¹`
+    /// ([`crate::delassus`]), and the compressed rows of `A` are assembled from the same entries
+    /// on the first call that needs a row ([`Problem::row`], [`Problem::to_sparse`], …), so a
+    /// solver that sweeps on the factors ([`crate::ProjectedSor`]) never pays for them. Every
+    /// number the problem gives equals, bit for bit, that of the problem with the assembled `A`.
+    /// The largest entry is taken as the largest diagonal entry, which bounds every entry of a
+    /// positive semidefinite matrix (`|A_ij| <= √(A_ii A_jj)`). Errors as
+    /// [`Problem::boxed_sparse`]; a non-finite entry of `J` or `M⁻¹`, or a diagonal entry of `A`
+    /// that overflows, is [`ProblemError::NonFinite`] naming it.
+    pub fn boxed_factored(
+        factors: DelassusFactors,
+        b: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+        friction: Vec<FrictionRow>,
+    ) -> Result<Self, ProblemError> {
+        let jacobian = factors.jacobian();
+        if let Some(k) = jacobian.val().iter().position(|v| !v.is_finite()) {
+            let ptr = jacobian.symbolic().row_ptr();
+            let i = ptr.partition_point(|&p| p <= k) - 1;
+            return Err(ProblemError::NonFinite {
+                what: format!("J[{i}][{}]", jacobian.symbolic().col_idx()[k]),
+                value: jacobian.val()[k],
+            });
+        }
+        for (body, block) in factors.inverse_mass().iter().enumerate() {
+            if let Some(&v) = block.iter().flatten().find(|v| !v.is_finite()) {
+                return Err(ProblemError::NonFinite {
+                    what: format!("the inverse-mass block of body {body}"),
+                    value: v,
+                });
+            }
+        }
+        let n = factors.rows();
+        let diag: Vec<f64> = (0..n).map(|i| factors.diagonal(i)).collect();
+        if let Some(i) = diag.iter().position(|v| !v.is_finite()) {
+            return Err(ProblemError::NonFinite {
+                what: format!("A[{i}][{i}]"),
+                value: diag[i],
+            });
+        }
+        let max_abs = diag.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        let factors = Arc::new(factors);
+        let storage = Storage::Factored {
+            factors: Arc::clone(&factors),
+            assembled: OnceLock::new(),
+            nnz: OnceLock::new(),
+        };
+        let mut p = Self::assemble(storage, diag, max_abs, b, lo, hi, friction)?;
+        p.factors = Some(factors);
+        Ok(p)
+    }
+
+    /// The compressed rows of a sparse or factored `A` (assembled from the factors on first
+    /// use), `None` for a dense one.
+    fn sparse_rows(&self) -> Option<&SparseRowMat<usize, f64>> {
+        match &self.storage {
+            Storage::Dense { .. } => None,
+            Storage::Sparse(a) => Some(a),
+            Storage::Factored {
+                factors, assembled, ..
+            } => Some(assembled.get_or_init(|| factors.assemble())),
+        }
+    }
+
+    /// The factors of a factored `A` whose rows have not been assembled: the form in which
+    /// products and residuals go through `J` and `M⁻¹`.
+    pub(crate) fn unassembled_factors(&self) -> Option<&DelassusFactors> {
+        match &self.storage {
+            Storage::Factored {
+                factors, assembled, ..
+            } if assembled.get().is_none() => Some(factors),
+            _ => None,
+        }
+    }
+
+    /// True when `A` is held as its factors ([`Problem::boxed_factored`]).
+    pub fn is_factored(&self) -> bool {
+        matches!(self.storage, Storage::Factored { .. })
+    }
+
+    /// True when the rows of `A` are stored: always for a dense or sparse `A`, for a factored
+    /// one once a call has needed them.
+    pub fn is_assembled(&self) -> bool {
+        self.unassembled_factors().is_none()
+    }
+
     /// Validation shared by the dense and sparse constructors (`A` itself is already checked).
     fn assemble(
         storage: Storage,
@@ -392,8 +493,12 @@ impl Problem {
     }
 
     /// Attach the factors `A = J M⁻¹ Jᵀ` for solvers that work matrix-free. They must describe
-    /// the same `A` (the builder guarantees it; the dimensions are checked here).
+    /// the same `A` (the builder guarantees it; the dimensions are checked here). A factored
+    /// problem ([`Problem::boxed_factored`]) has them already and is returned unchanged.
     pub fn with_factors(mut self, factors: DelassusFactors) -> Result<Self, ProblemError> {
+        if self.is_factored() {
+            return Ok(self);
+        }
         if factors.rows() != self.n() {
             return Err(ProblemError::DimensionMismatch {
                 what: "the Jacobian's rows",
@@ -421,9 +526,9 @@ impl Problem {
         self.b.len()
     }
 
-    /// True when `A` is stored sparse.
+    /// True when `A` is stored sparse or held as its factors (not dense).
     pub fn is_sparse(&self) -> bool {
-        matches!(self.storage, Storage::Sparse(_))
+        !matches!(self.storage, Storage::Dense { .. })
     }
 
     /// Stored entries of `A` (`n²` when dense).
@@ -431,18 +536,30 @@ impl Problem {
         match &self.storage {
             Storage::Dense { rows, .. } => rows.len(),
             Storage::Sparse(a) => a.val().len(),
+            Storage::Factored {
+                factors,
+                assembled,
+                nnz,
+            } => *nnz.get_or_init(|| match assembled.get() {
+                Some(a) => a.val().len(),
+                None => factors.nnz(),
+            }),
         }
     }
 
-    /// Row `i` of `A`.
+    /// Row `i` of `A` (a factored `A` is assembled on the first call).
     #[inline]
     pub fn row(&self, i: usize) -> Row<'_> {
-        match &self.storage {
-            Storage::Dense { rows, .. } => {
+        match (&self.storage, self.sparse_rows()) {
+            (Storage::Dense { rows, .. }, _) => {
                 let n = self.n();
                 Row::Dense(&rows[i * n..(i + 1) * n])
             }
-            Storage::Sparse(a) => {
+            (_, None) => Row::Sparse {
+                cols: &[],
+                values: &[],
+            },
+            (_, Some(a)) => {
                 let sym = a.symbolic();
                 let range = sym.row_ptr()[i]..sym.row_ptr()[i + 1];
                 Row::Sparse {
@@ -453,8 +570,18 @@ impl Problem {
         }
     }
 
-    /// `A_ij` (a binary search in the row when sparse).
+    /// `A_ij` (a binary search in the row when sparse; from the factors, without assembling,
+    /// when factored and not yet assembled).
     pub fn entry(&self, i: usize, j: usize) -> f64 {
+        if let Some(factors) = self.unassembled_factors() {
+            let mut a = 0.0;
+            factors.for_each_entry(i, |c, v| {
+                if c == j {
+                    a = v;
+                }
+            });
+            return a;
+        }
         match self.row(i) {
             Row::Dense(row) => row[j],
             Row::Sparse { cols, values } => cols.binary_search(&j).map_or(0.0, |k| values[k]),
@@ -471,16 +598,17 @@ impl Problem {
     pub fn dense(&self) -> Option<&Mat<f64>> {
         match &self.storage {
             Storage::Dense { a, .. } => Some(a),
-            Storage::Sparse(_) => None,
+            Storage::Sparse(_) | Storage::Factored { .. } => None,
         }
     }
 
     /// `A` as a dense matrix (a copy; sparse storage is expanded). Check the size first with
     /// [`Problem::dense_within`] where `n` may be large.
     pub fn to_dense(&self) -> Mat<f64> {
-        match &self.storage {
-            Storage::Dense { a, .. } => a.clone(),
-            Storage::Sparse(a) => a.to_dense(),
+        match (&self.storage, self.sparse_rows()) {
+            (Storage::Dense { a, .. }, _) => a.clone(),
+            (_, Some(a)) => a.to_dense(),
+            (_, None) => Mat::zeros(self.n(), self.n()),
         }
     }
 
@@ -495,7 +623,7 @@ impl Problem {
         }
         Ok(match &self.storage {
             Storage::Dense { a, .. } => std::borrow::Cow::Borrowed(a),
-            Storage::Sparse(a) => std::borrow::Cow::Owned(a.to_dense()),
+            _ => std::borrow::Cow::Owned(self.to_dense()),
         })
     }
 
@@ -517,9 +645,9 @@ impl Problem {
     /// `A` in compressed sparse rows: the stored matrix when sparse, the nonzeros (and the
     /// diagonal) of the dense one otherwise.
     pub fn to_sparse(&self) -> SparseRowMat<usize, f64> {
-        match &self.storage {
-            Storage::Sparse(a) => a.clone(),
-            Storage::Dense { .. } => {
+        match self.sparse_rows() {
+            Some(a) => a.clone(),
+            None => {
                 let n = self.n();
                 let mut triplets = Vec::new();
                 for i in 0..n {
@@ -580,7 +708,8 @@ impl Problem {
         })
     }
 
-    /// Largest absolute entry of `A`.
+    /// Largest absolute entry of `A` (of a factored `A`, its largest diagonal entry, which
+    /// bounds the others: [`Problem::boxed_factored`]).
     pub fn max_abs_entry(&self) -> f64 {
         self.max_abs
     }
@@ -605,8 +734,15 @@ impl Problem {
         w
     }
 
-    /// `w = A f + b` into a caller's buffer (no allocation).
+    /// `w = A f + b` into a caller's buffer (no allocation; a factored `A` that is not
+    /// assembled is applied row by row from its factors, with the same sums).
     pub fn velocity_into(&self, f: &[f64], w: &mut [f64]) {
+        if let Some(factors) = self.unassembled_factors() {
+            for (i, wi) in w.iter_mut().enumerate() {
+                *wi = factors.row_dot_and_magnitude(i, f).0 + self.b[i];
+            }
+            return;
+        }
         for (i, wi) in w.iter_mut().enumerate() {
             *wi = self.row(i).dot(f) + self.b[i];
         }
@@ -627,7 +763,14 @@ impl Problem {
         if d > 0.0 {
             return d;
         }
-        let row_max = self.row(i).iter().fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+        let row_max = match self.unassembled_factors() {
+            Some(factors) => {
+                let mut m = 0.0f64;
+                factors.for_each_entry(i, |_, v| m = m.max(v.abs()));
+                m
+            }
+            None => self.row(i).iter().fold(0.0f64, |m, (_, v)| m.max(v.abs())),
+        };
         if row_max > 0.0 {
             row_max
         } else {
@@ -825,7 +968,7 @@ impl Problem {
                 let a = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
                 Self::boxed(a, b, lo, hi, friction)
             }
-            Storage::Sparse(_) => {
+            Storage::Sparse(_) | Storage::Factored { .. } => {
                 let mut triplets = Vec::with_capacity(self.nnz());
                 for (k, &p) in perm.iter().enumerate() {
                     for (j, v) in self.row(p).iter() {
@@ -866,8 +1009,8 @@ impl Problem {
                 let a = Mat::from_fn(n, n, |i, j| s[i] * a[(i, j)] * s[j]);
                 Self::boxed(a, b, lo, hi, friction)
             }
-            Storage::Sparse(a) => {
-                let mut a = a.clone();
+            Storage::Sparse(_) | Storage::Factored { .. } => {
+                let mut a = self.to_sparse();
                 let ptr: Vec<usize> = a.symbolic().row_ptr().to_vec();
                 let idx: Vec<usize> = a.symbolic().col_idx().to_vec();
                 let val = a.val_mut();
@@ -955,90 +1098,6 @@ pub fn sparse_from_triplets(
         col: n,
         n,
     })
-}
-
-/// The factored form `A = J M⁻¹ Jᵀ` of a contact problem: a sparse Jacobian `J` (one row per
-/// constraint row, six columns per body: linear then angular velocity) and a symmetric 6×6
-/// inverse-mass block per body (zero for static bodies). Solvers that need only products with
-/// `A`, or one row of `A` at a time, can use it without assembling `A`.
-#[derive(Debug, Clone)]
-pub struct DelassusFactors {
-    jacobian: SparseRowMat<usize, f64>,
-    inverse_mass: Vec<[[f64; 6]; 6]>,
-}
-
-impl DelassusFactors {
-    /// `J` (`rows × 6·bodies`) and the per-body inverse-mass blocks.
-    pub fn new(
-        jacobian: SparseRowMat<usize, f64>,
-        inverse_mass: Vec<[[f64; 6]; 6]>,
-    ) -> Result<Self, ProblemError> {
-        if jacobian.ncols() != 6 * inverse_mass.len() {
-            return Err(ProblemError::DimensionMismatch {
-                what: "the Jacobian's columns (6 per body)",
-                expected: 6 * inverse_mass.len(),
-                found: jacobian.ncols(),
-            });
-        }
-        Ok(Self {
-            jacobian,
-            inverse_mass,
-        })
-    }
-
-    /// Constraint rows.
-    pub fn rows(&self) -> usize {
-        self.jacobian.nrows()
-    }
-
-    /// The sparse Jacobian `J`.
-    pub fn jacobian(&self) -> &SparseRowMat<usize, f64> {
-        &self.jacobian
-    }
-
-    /// The inverse-mass block of each body.
-    pub fn inverse_mass(&self) -> &[[[f64; 6]; 6]] {
-        &self.inverse_mass
-    }
-
-    /// Body velocities `u = M⁻¹ Jᵀ f` (six per body).
-    pub fn body_velocity(&self, f: &[f64]) -> Vec<f64> {
-        let mut p = vec![0.0; self.jacobian.ncols()];
-        let sym = self.jacobian.symbolic();
-        let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), self.jacobian.val());
-        for (i, &fi) in f.iter().enumerate() {
-            if fi != 0.0 {
-                for k in ptr[i]..ptr[i + 1] {
-                    p[idx[k]] += val[k] * fi;
-                }
-            }
-        }
-        let mut u = vec![0.0; p.len()];
-        for (body, m) in self.inverse_mass.iter().enumerate() {
-            let (pb, ub) = (&p[6 * body..6 * body + 6], &mut u[6 * body..6 * body + 6]);
-            for r in 0..6 {
-                ub[r] = (0..6).map(|c| m[r][c] * pb[c]).sum();
-            }
-        }
-        u
-    }
-
-    /// `J_i · u`.
-    pub fn row_dot(&self, i: usize, u: &[f64]) -> f64 {
-        let sym = self.jacobian.symbolic();
-        let range = sym.row_ptr()[i]..sym.row_ptr()[i + 1];
-        sym.col_idx()[range.clone()]
-            .iter()
-            .zip(&self.jacobian.val()[range])
-            .map(|(&c, v)| v * u[c])
-            .sum()
-    }
-
-    /// `A f = J (M⁻¹ (Jᵀ f))` in `O(nnz(J))`.
-    pub fn apply(&self, f: &[f64]) -> Vec<f64> {
-        let u = self.body_velocity(f);
-        (0..self.rows()).map(|i| self.row_dot(i, &u)).collect()
-    }
 }
 
 /// Dot product of two equally long slices.

@@ -184,6 +184,13 @@ pub trait Solver: dyn_clone::DynClone {
     fn name(&self) -> &'static str;
     /// Solve. Never panics on a valid [`Problem`]; every outcome is a [`Status`].
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult;
+    /// True when the solver works on the factors `J`, `M⁻¹` of a factored problem
+    /// ([`Problem::boxed_factored`]) without reading the rows of `A`, so that a caller holding
+    /// the factors need not assemble `A` for it \[`false`: the solver reads rows of `A`, which a
+    /// factored problem then assembles on first use\].
+    fn works_on_factors(&self) -> bool {
+        false
+    }
 }
 
 dyn_clone::clone_trait_object!(Solver);

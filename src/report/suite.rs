@@ -65,13 +65,16 @@ pub const LARGE_SCENE_STEPS: usize = 20;
 
 /// The large scenes that run a different number of steps: the sphere piles fall for their
 /// first 17 steps (no contacts), so 50 steps are 33 with contacts (40 for the 1,000-sphere pile,
-/// whose steps cost most); the 1,016-box pyramid costs a third of a second per step outside the
-/// solver, so 10.
-pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 4] = [
+/// whose steps cost most); the 1,016-box pyramid, 10; the 5,525-box pyramid (80,900 contacts)
+/// and the 5,291-sphere packing (touching from the first step, 29,760 contacts), whose steps
+/// take half a second and a fifth of one at 20 warm PGS sweeps, 5.
+pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 6] = [
     ("sphere_pile_100", 50),
     ("sphere_pile_200", 50),
     ("sphere_pile_1000", 40),
     ("pyramid_3d_1015", 10),
+    ("pyramid_3d_5525", 5),
+    ("sphere_pile_5291", 5),
 ];
 
 /// True when the scene has more than [`LARGE_SCENE_BODIES`] dynamic bodies (false when it does
