@@ -77,6 +77,23 @@ pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 6] = [
     ("sphere_pile_5291", 5),
 ];
 
+/// Scenes with more dynamic bodies than this are *huge*: they run only
+/// [`HUGE_SCENE_SOLVERS`].
+pub const HUGE_SCENE_BODIES: usize = 2_000;
+
+/// The solvers of the huge scenes, cold and warm-started: those that work on the factors of
+/// the Delassus matrix (PGS, SOR) and the body-level solvers, as engines step such scenes. The
+/// others read rows of the assembled `A` (44 million entries on the 5,525-box pyramid) and
+/// would spend their runs forming and factoring it.
+pub const HUGE_SCENE_SOLVERS: [&str; 5] = ["pgs", "sor", "si", "body-micro", "penalty"];
+
+/// True when the scene has more than [`HUGE_SCENE_BODIES`] dynamic bodies.
+pub fn is_huge_scene(path: &std::path::Path) -> bool {
+    lcpbench_contact::scene::Scene::load(path)
+        .map(|s| s.bodies.iter().filter(|b| !b.is_static).count() > HUGE_SCENE_BODIES)
+        .unwrap_or(false)
+}
+
 /// True when the scene has more than [`LARGE_SCENE_BODIES`] dynamic bodies (false when it does
 /// not load; its runs then record the error).
 pub fn is_large_scene(path: &std::path::Path) -> bool {
@@ -477,8 +494,21 @@ fn scene_jobs(suite: &mut Suite, _large_scenes: &[Case]) {
     let scene_budgets: Vec<NamedBudget> = SCENE_BUDGETS.iter().map(|b| budget(b)).collect();
     let mut solvers = scene_solvers();
     solvers.extend(warm_scene_solvers());
-    let all = suite.scene_cases.clone();
-    push(suite, &all, &solvers, &scene_budgets);
+    let (huge, rest): (Vec<Case>, Vec<Case>) =
+        suite
+            .scene_cases
+            .clone()
+            .into_iter()
+            .partition(|c| match c {
+                Case::Scene { path, .. } => is_huge_scene(path),
+                _ => false,
+            });
+    push(suite, &rest, &solvers, &scene_budgets);
+    let engine: Vec<SolverSpec> = solvers
+        .into_iter()
+        .filter(|s| HUGE_SCENE_SOLVERS.contains(&s.base_name().as_str()))
+        .collect();
+    push(suite, &huge, &engine, &scene_budgets);
 }
 
 /// Each friction-model case with the solvers [`FRICTION_MODELS`] gives its model.
@@ -570,6 +600,41 @@ mod tests {
         assert!(
             default_suite(true, &[], &[]).jobs.len() < default_suite(false, &[], &[]).jobs.len()
         );
+    }
+
+    /// A huge scene runs the solvers of [`HUGE_SCENE_SOLVERS`], cold and warm, under every
+    /// scene budget; a large one below the threshold runs every scene solver.
+    #[test]
+    fn huge_scenes_run_the_solvers_that_need_no_assembled_matrix() {
+        let huge = PathBuf::from("bench_scenes/pyramid_3d_5525.toml");
+        let large = PathBuf::from("bench_scenes/pyramid_3d_1015.toml");
+        assert!(is_huge_scene(&huge) && !is_huge_scene(&large));
+        let s = default_suite(false, &[huge.clone(), large.clone()], &[]);
+        let specs_on = |path: &PathBuf| {
+            let mut v: Vec<String> = s
+                .jobs
+                .iter()
+                .filter(
+                    |j| matches!(&j.case, Case::Scene { path: p, friction: None, .. } if p == path),
+                )
+                .map(|j| j.solver.to_string())
+                .collect();
+            v.sort();
+            v.dedup();
+            v
+        };
+        let on_huge = specs_on(&huge);
+        assert!(on_huge
+            .iter()
+            .all(|spec| { HUGE_SCENE_SOLVERS.contains(&spec.trim_end_matches("+warm")) }));
+        for wanted in ["pgs", "pgs+warm", "sor+warm", "si", "si+warm"] {
+            assert!(
+                on_huge.iter().any(|s| s == wanted),
+                "{wanted} in {on_huge:?}"
+            );
+        }
+        let on_large = specs_on(&large);
+        assert!(on_large.len() > on_huge.len() && on_large.iter().any(|s| s == "lemke"));
     }
 
     #[test]

@@ -60,8 +60,11 @@ impl Section for Scenes {
              run stops early only at twice its steps times those seconds, or after three \
              consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
              steps; the large ones (more than {} dynamic bodies) {} steps, except {} (see the \
-             large-scene section). Budget `tight` is not run on scenes: at 10 s per step the runs \
-             of the solvers that cannot keep up would take longer than the rest of the report. \
+             large-scene section). Scenes with more than {} dynamic bodies run only {} (cold \
+             and warm): the other solvers read rows of the assembled Delassus matrix, tens of \
+             millions of entries there. Budget `tight` is not run on scenes: at 10 s per step \
+             the runs of the solvers that cannot keep up would take longer than the rest of the \
+             report. \
              Time/step is solver time; residual is the largest shared relative residual over the \
              steps; penetration the largest depth; drift the relative change of total energy; \
              failures count non-converged steps / of them, steps without a solution \
@@ -76,7 +79,9 @@ impl Section for Scenes {
                 .iter()
                 .map(|(name, steps)| format!("{name} ({steps})"))
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
+            suite::HUGE_SCENE_BODIES,
+            suite::HUGE_SCENE_SOLVERS.join(", ")
         );
         at_a_glance(ctx, md)?;
         without_solution(ctx, md)?;
