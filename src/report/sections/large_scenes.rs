@@ -109,6 +109,7 @@ fn best_cell(ctx: &ReportContext, case: &Case, budget: &str) -> String {
     let most = runs
         .iter()
         .filter_map(|r| Some((*r, converged_steps(r)?, r.time_per_step_s?)))
+        .filter(|&(_, converged, _)| converged > 0)
         .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)));
     match most {
         Some((r, _, t)) => format!(
@@ -117,7 +118,8 @@ fn best_cell(ctx: &ReportContext, case: &Case, budget: &str) -> String {
             fmt_time(Some(t)),
             fraction(r)
         ),
-        None => "–".into(),
+        None if runs.is_empty() => "–".into(),
+        None => "no step converged".into(),
     }
 }
 
