@@ -67,7 +67,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "reports")]
     pub out: PathBuf,
     /// Run a much smaller suite with every section (under a minute on two cores, instead of
-    /// about half an hour).
+    /// about 35 minutes).
     #[arg(long)]
     pub quick: bool,
     /// Scene files of the suite (glob) [default: bench_scenes/*.toml, which must match]; a

@@ -21,7 +21,7 @@ impl Section for Overview {
         let _ = writeln!(md, "{}\n", crate::report::README_TITLE);
         let _ = writeln!(
             md,
-            "Regenerate with `cargo run --release -- report` (about twenty minutes on two cores; \
+            "Regenerate with `cargo run --release -- report` (about 35 minutes on two cores; \
              `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
         );
         md.push_str(&ctx.table(&header_table(ctx))?);
