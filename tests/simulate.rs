@@ -140,6 +140,36 @@ fn simulate_time_budget_is_per_step_and_phases_add_up() {
     assert!(parts <= collision * 1.0001 + 1e-9, "{parts} vs {collision}");
 }
 
+/// The body-level solvers keep to the per-step budget too: with a tolerance they cannot reach
+/// and an iteration cap they would take far longer to spend, every step ends `time_limit`.
+#[test]
+fn body_level_solvers_stop_at_the_step_budget() {
+    for solver in ["si", "body-micro"] {
+        let o = lcpbench(&[
+            "simulate",
+            "bench_scenes/pyramid_10.toml",
+            "--solver",
+            solver,
+            "--steps",
+            "2",
+            "--tol",
+            "1e-14",
+            "--max-iter",
+            "100000000",
+            "--time-budget",
+            "0.01",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(
+            v["statuses"]["time_limit"], 2,
+            "{solver}: {}",
+            v["statuses"]
+        );
+    }
+}
+
 #[test]
 fn export_writes_a_problem_that_solve_reads() {
     let dir = tempfile::tempdir().unwrap();

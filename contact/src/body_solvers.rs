@@ -33,7 +33,7 @@
 //! Each is a type implementing [`BodySolver`] ([`SequentialImpulses`], [`MicroImpulses`],
 //! [`Penalty`]). They take the shared [`Settings`] of `lcpbench-solvers` (`tolerance` is both
 //! their own stopping scale, a sweep's largest impulse change against `tolerance` times the
-//! impulse scale, and the shared residual's tolerance; `max_iterations` caps sweeps; the warm
+//! impulse scale, and the shared residual's tolerance; `max_iterations` caps sweeps; `time_budget` ends the sweeps `time_limit` when it is spent, checked after each sweep; the warm
 //! start is `Settings::warm_start`), and [`BodySolver::solve`] decides the status with the same
 //! rule as every matrix solver ([`lcpbench_solvers::decide`]) from the shared residual of the
 //! step's LCP, when that LCP is given to measure on. The bounce threshold is the builder's
@@ -149,6 +149,8 @@ pub struct BodySweep {
     /// Why the sweeps stopped short of that rule, when they made no progress
     /// ([`Stagnation`]).
     pub stalled: Option<String>,
+    /// True when the sweeps stopped at the end of `settings.time_budget`.
+    pub timed_out: bool,
 }
 
 /// What [`BodySolver::solve`] returns: the shared [`SolveResult`] and the warm-start part.
@@ -273,6 +275,7 @@ pub fn body_status(
         };
     }
     let outcome = match (out.stopped, residuals) {
+        (false, _) if out.timed_out => Outcome::TimeLimit,
         (false, _) if out.stalled.is_some() => {
             Outcome::Stalled(out.stalled.clone().unwrap_or_default())
         }
@@ -297,14 +300,7 @@ impl BodySolver for SequentialImpulses {
     }
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
         let warm = settings.warm_start.as_deref().unwrap_or(&[]);
-        let (f, warm, iterations, stopped, stalled) = sequential_impulses(system, warm, settings);
-        BodySweep {
-            f,
-            warm,
-            iterations,
-            stopped,
-            stalled,
-        }
+        sequential_impulses(system, warm, settings)
     }
 }
 
@@ -317,14 +313,7 @@ impl BodySolver for MicroImpulses {
         BodySolverKind::MicroImpulses
     }
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
-        let (f, warm, iterations, stopped, stalled) = micro_impulses(system, settings);
-        BodySweep {
-            f,
-            warm,
-            iterations,
-            stopped,
-            stalled,
-        }
+        micro_impulses(system, settings)
     }
 }
 
@@ -361,6 +350,7 @@ impl BodySolver for Penalty {
             iterations: 1,
             stopped: true,
             stalled: None,
+            timed_out: false,
         }
     }
 }
@@ -432,11 +422,8 @@ fn restitution_phase(
     settings.max_iterations
 }
 
-fn sequential_impulses(
-    system: &ContactSystem,
-    warm: &[f64],
-    settings: &Settings,
-) -> (Vec<f64>, Vec<f64>, usize, bool, Option<String>) {
+fn sequential_impulses(system: &ContactSystem, warm: &[f64], settings: &Settings) -> BodySweep {
+    let deadline = settings.time_budget.map(|b| Instant::now() + b);
     let n = system.n();
     let op = system.operator();
     let k = diagonals(&op, n);
@@ -469,6 +456,7 @@ fn sequential_impulses(
         .fold(0.0, f64::max);
     let mut stopped = false;
     let mut stalled = None;
+    let mut timed_out = false;
     let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
     let mut iterations = 0;
     while iterations < settings.max_iterations {
@@ -508,16 +496,24 @@ fn sequential_impulses(
             stalled = Some(stagnation.reason("relative impulse change of a sweep"));
             break;
         }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            timed_out = true;
+            break;
+        }
     }
     sweeps += iterations;
-    let f = f_rest.iter().zip(&lambda).map(|(a, b)| a + b).collect();
-    (f, lambda, sweeps, stopped, stalled)
+    BodySweep {
+        f: f_rest.iter().zip(&lambda).map(|(a, b)| a + b).collect(),
+        warm: lambda,
+        iterations: sweeps,
+        stopped,
+        stalled,
+        timed_out,
+    }
 }
 
-fn micro_impulses(
-    system: &ContactSystem,
-    settings: &Settings,
-) -> (Vec<f64>, Vec<f64>, usize, bool, Option<String>) {
+fn micro_impulses(system: &ContactSystem, settings: &Settings) -> BodySweep {
+    let deadline = settings.time_budget.map(|b| Instant::now() + b);
     let n = system.n();
     let op = system.operator();
     let k = diagonals(&op, n);
@@ -549,6 +545,7 @@ fn micro_impulses(
     let mut iterations = 0;
     let mut stopped = false;
     let mut stalled = None;
+    let mut timed_out = false;
     let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
     while iterations < settings.max_iterations {
         iterations += 1;
@@ -599,8 +596,19 @@ fn micro_impulses(
             stalled = Some(stagnation.reason("relative impulse of a sweep"));
             break;
         }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            timed_out = true;
+            break;
+        }
     }
-    (f.clone(), f, iterations, stopped, stalled)
+    BodySweep {
+        f: f.clone(),
+        warm: f,
+        iterations,
+        stopped,
+        stalled,
+        timed_out,
+    }
 }
 
 fn penalty(system: &ContactSystem, params: &Penalty) -> Vec<f64> {
