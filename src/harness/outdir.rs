@@ -54,10 +54,14 @@ pub fn columns_of<T: serde::Serialize>(sample: &T) -> Vec<String> {
         .into_inner()
         .map(|b| String::from_utf8_lossy(&b).into_owned())
         .unwrap_or_default();
-    let first = text.lines().next().unwrap_or_default();
+    header_cells(text.lines().next().unwrap_or_default())
+}
+
+/// The cells of a CSV header line (empty when it does not parse).
+fn header_cells(line: &str) -> Vec<String> {
     csv::ReaderBuilder::new()
         .has_headers(false)
-        .from_reader(first.as_bytes())
+        .from_reader(line.as_bytes())
         .records()
         .next()
         .and_then(Result::ok)
@@ -97,14 +101,7 @@ pub fn table_origin(path: &Path, columns: &[String]) -> Result<TableOrigin> {
     if first.trim().is_empty() && head.iter().all(u8::is_ascii_whitespace) {
         return Ok(TableOrigin::Absent);
     }
-    let found: Vec<String> = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .from_reader(first.as_bytes())
-        .records()
-        .next()
-        .and_then(Result::ok)
-        .map(|r| r.iter().map(str::to_owned).collect())
-        .unwrap_or_default();
+    let found = header_cells(&first);
     let common = found
         .iter()
         .zip(columns)
