@@ -164,8 +164,8 @@ fn refused_scene(text: &str, wanted: &[&str]) {
     }
 }
 
-/// Nonsense that used to be accepted is refused on load, naming the file, the field and the
-/// limit.
+/// Nonsense values (events that never fire, bodies removed twice, deep initial overlaps, huge
+/// distances and coefficients) are refused on load, naming the file, the field and the limit.
 #[test]
 fn scene_nonsense_is_refused_with_the_field_and_the_limit() {
     // An event at a step no run reaches never fires.

@@ -121,6 +121,7 @@ impl Machines {
 mod tests {
     use super::*;
     use crate::harness::machine::Machine;
+    use crate::report::write_results_for_tests;
 
     /// A row of `case` run on (host, CPU model), 4 cores.
     fn row(case: &str, machine: Option<(&str, &str)>) -> RunRecord {
@@ -222,12 +223,7 @@ mod tests {
             run("pgs", "default", 1e-3, "b"),
         ];
         let dir = tempfile::tempdir().unwrap();
-        std::fs::create_dir_all(dir.path().join("data")).unwrap();
-        let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();
-        for r in &rows {
-            w.serialize(r).unwrap();
-        }
-        w.flush().unwrap();
+        write_results_for_tests(dir.path(), &rows);
         let suite = Suite {
             matrix_cases: vec![spd],
             ..Suite::default()

@@ -233,6 +233,18 @@ pub fn check_output_dir(out_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Write `rows` as `out_dir/data/results.csv`, the table a report reads (for tests of the
+/// report's sections).
+#[cfg(test)]
+pub(crate) fn write_results_for_tests(out_dir: &Path, rows: &[crate::harness::RunRecord]) {
+    std::fs::create_dir_all(out_dir.join("data")).unwrap();
+    let mut w = csv::Writer::from_path(out_dir.join("data/results.csv")).unwrap();
+    for r in rows {
+        w.serialize(r).unwrap();
+    }
+    w.flush().unwrap();
+}
+
 /// Files matching a glob pattern, sorted.
 pub fn scenes_matching(pattern: &str) -> Result<Vec<PathBuf>> {
     let mut v: Vec<PathBuf> = glob::glob(pattern)

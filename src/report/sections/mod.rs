@@ -107,6 +107,7 @@ mod tests {
     use crate::harness::{Case, RunRecord};
     use crate::report::machine::Header;
     use crate::report::suite::Suite;
+    use crate::report::write_results_for_tests;
 
     #[test]
     fn section_titles_are_distinct() {
@@ -145,12 +146,7 @@ mod tests {
             record(&infeasible, "lemke", "no_solution", false),
             record(&infeasible, "pgs", "iteration_limit", false),
         ];
-        std::fs::create_dir_all(dir.path().join("data")).unwrap();
-        let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();
-        for r in &rows {
-            w.serialize(r).unwrap();
-        }
-        w.flush().unwrap();
+        write_results_for_tests(dir.path(), &rows);
         let suite = Suite {
             matrix_cases: vec![spd, infeasible],
             ..Suite::default()
@@ -260,12 +256,7 @@ mod tests {
             scene_record(&tower, "newton-fb", "default", 10, 1e-3),
             scene_record(&tower, "newton-fb", "loose", 7, 1e-3),
         ];
-        std::fs::create_dir_all(dir.path().join("data")).unwrap();
-        let mut w = csv::Writer::from_path(dir.path().join("data/results.csv")).unwrap();
-        for r in &rows {
-            w.serialize(r).unwrap();
-        }
-        w.flush().unwrap();
+        write_results_for_tests(dir.path(), &rows);
         let suite = Suite {
             scene_cases: vec![tower.clone()],
             large_scene_cases: vec![tower],
