@@ -69,15 +69,18 @@ fn read_within(path: &Path, budget: Option<Duration>) -> Result<Problem> {
     };
     let (tx, rx) = mpsc::channel();
     let input = path.to_owned();
+    let start = std::time::Instant::now();
     std::thread::Builder::new()
         .name("import-read".into())
         .spawn(move || {
             let _ = tx.send(read_problem(&input));
         })
         .context("starting the reader thread")?;
+    // A read that ends after the budget is refused like one still running: which of the two
+    // the waiting thread sees first depends on the scheduler.
     match rx.recv_timeout(budget) {
-        Ok(read) => Ok(read?),
-        Err(mpsc::RecvTimeoutError::Timeout) => bail!(
+        Ok(read) if start.elapsed() <= budget => Ok(read?),
+        Ok(_) | Err(mpsc::RecvTimeoutError::Timeout) => bail!(
             "{}: reading it took longer than the time budget of {} s (--time-budget); nothing \
              was written",
             path.display(),
