@@ -843,13 +843,11 @@ impl ContactSystem {
 
     /// `J` (sparse, local numbering) and the 6×6 inverse-mass blocks of the subset's bodies.
     fn factors(&self, subset: &Subset) -> Result<DelassusFactors, ProblemError> {
-        // Compressed rows directly: each row's (at most two) blocks in the order of their
-        // local bodies, six columns each.
+        // Each row's (at most two) blocks in the order of their local bodies.
         let m = subset.rows.len();
-        let mut row_ptr = Vec::with_capacity(m + 1);
-        let mut col_idx = Vec::with_capacity(12 * m);
-        let mut val = Vec::with_capacity(12 * m);
-        row_ptr.push(0);
+        let mut block_ptr = Vec::with_capacity(m + 1);
+        let mut row_blocks = Vec::with_capacity(2 * m);
+        block_ptr.push(0);
         for &i in subset.rows {
             let blocks = &self.rows[i].blocks;
             let mut order = [0, 1];
@@ -859,22 +857,20 @@ impl ContactSystem {
                 order = [1, 0];
             }
             for blk in order.iter().filter_map(|&k| blocks.get(k)) {
-                let col = 6 * subset.local_body[blk.body];
-                col_idx.extend(col..col + 6);
-                val.extend([
-                    blk.linear.x,
-                    blk.linear.y,
-                    blk.linear.z,
-                    blk.angular.x,
-                    blk.angular.y,
-                    blk.angular.z,
-                ]);
+                row_blocks.push((
+                    subset.local_body[blk.body],
+                    [
+                        blk.linear.x,
+                        blk.linear.y,
+                        blk.linear.z,
+                        blk.angular.x,
+                        blk.angular.y,
+                        blk.angular.z,
+                    ],
+                ));
             }
-            row_ptr.push(col_idx.len());
+            block_ptr.push(row_blocks.len());
         }
-        let ncols = 6 * subset.bodies.len();
-        let symbolic = SymbolicSparseRowMat::new_checked(m, ncols, row_ptr, None, col_idx);
-        let jacobian = SparseRowMat::new(symbolic, val);
         let blocks = subset
             .bodies
             .iter()
@@ -890,7 +886,7 @@ impl ContactSystem {
                 blk
             })
             .collect();
-        DelassusFactors::new(jacobian, blocks)
+        DelassusFactors::from_row_blocks(block_ptr, row_blocks, blocks)
     }
 
     /// `A` of the subset's rows in compressed sparse rows. Each row's nonzeros are the rows

@@ -80,7 +80,8 @@
 //!
 //! Every measure costs one pass over the stored entries of `A` (`O(nnz)`), dense or sparse (for
 //! an `A` held as its factors `J`, `M⁻¹` and not assembled, one pass over the same entries
-//! formed from the factors, row by row, with no storage: [`crate::delassus`]), and
+//! formed from the factors body by body, without storing them, the rows split among threads
+//! on large problems: [`DelassusFactors::row_terms`]), and
 //! any non-finite entry in `f` makes every measure `+∞`; the data scales cost a few more passes,
 //! taken only for a result that meets its tolerance.
 //!
@@ -180,50 +181,29 @@ pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i:
     }
 }
 
-/// `(A_i · f, Σ_j |A_ij f_j|)`: from the stored row, or from the factors of an `A` that is
-/// held factored and not assembled (the same entries, summed in the same order).
-#[inline]
-fn row_terms(
-    problem: &Problem,
-    factors: Option<&DelassusFactors>,
-    i: usize,
-    f: &[f64],
-) -> (f64, f64) {
-    match factors {
-        Some(factors) => {
-            let (s, m, _) = factors.row_dot_and_magnitude(i, f);
-            (s, m)
-        }
-        None => problem.row(i).dot_and_magnitude(f),
-    }
-}
-
-/// Rows from which [`residuals_and_velocity`] forms the terms of a factored `A` on several
-/// threads.
+/// Rows from which the terms of a factored `A` are formed on several threads.
 const PARALLEL_TERMS_ROWS: usize = 20_000;
 
-/// `A_i · f` into `af` and `Σ_j |A_ij f_j|` (returned) of every row of a factored `A`, the rows
-/// in contiguous chunks, one per available thread (at most eight).
-fn parallel_row_terms(factors: &DelassusFactors, f: &[f64], af: &mut [f64]) -> Vec<f64> {
+/// `A_i · f` into `af` and `Σ_j |A_ij f_j|` (returned) of every row of a factored `A`, with
+/// each row's number of entries when `with_len` ([`DelassusFactors::row_terms`]), on one
+/// thread per available core (at most eight) from [`PARALLEL_TERMS_ROWS`] rows.
+fn factored_row_terms(
+    factors: &DelassusFactors,
+    f: &[f64],
+    af: &mut [f64],
+    with_len: bool,
+) -> (Vec<f64>, Vec<usize>) {
     let n = af.len();
     let mut magnitude = vec![0.0; n];
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get().min(8));
-    let chunk = n.div_ceil(threads).max(1);
-    std::thread::scope(|scope| {
-        for (k, (a, m)) in af
-            .chunks_mut(chunk)
-            .zip(magnitude.chunks_mut(chunk))
-            .enumerate()
-        {
-            scope.spawn(move || {
-                for (r, (ai, mi)) in a.iter_mut().zip(m.iter_mut()).enumerate() {
-                    let (s, t, _) = factors.row_dot_and_magnitude(k * chunk + r, f);
-                    (*ai, *mi) = (s, t);
-                }
-            });
-        }
-    });
-    magnitude
+    let mut len = vec![0; if with_len { n } else { 0 }];
+    let threads = if n >= PARALLEL_TERMS_ROWS {
+        std::thread::available_parallelism().map_or(1, |t| t.get().min(8))
+    } else {
+        1
+    };
+    let len_out = with_len.then_some(len.as_mut_slice());
+    factors.row_terms(f, af, &mut magnitude, len_out, threads);
+    (magnitude, len)
 }
 
 /// Residuals of `f`, computing `w = A f + b` internally.
@@ -242,15 +222,12 @@ pub fn residuals_and_velocity(problem: &Problem, f: &[f64], w: &mut [f64]) -> Re
     let b = problem.b();
     let mut r = Residuals::ZERO;
     let factors = problem.unassembled_factors();
-    // A large factored A: every row's terms first, the rows split among threads (each row's
-    // sums are formed as in the serial pass, so the numbers are the same).
-    let magnitudes = factors
-        .filter(|_| n >= PARALLEL_TERMS_ROWS)
-        .map(|factors| parallel_row_terms(factors, f, w));
+    // A factored A: every row's terms first, in one pass over its factors.
+    let magnitudes = factors.map(|factors| factored_row_terms(factors, f, w, false).0);
     for i in 0..n {
         let (af, magnitude) = match &magnitudes {
             Some(m) => (w[i], m[i]),
-            None => row_terms(problem, factors, i, f),
+            None => problem.row(i).dot_and_magnitude(f),
         };
         let wi = af + b[i];
         w[i] = wi;
@@ -375,13 +352,13 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
     let b = problem.b();
     let scales = data_scale(problem);
     let mut worst: Option<(f64, Unresolved)> = None;
-    let factors = problem.unassembled_factors();
+    let factored = problem.unassembled_factors().map(|factors| {
+        let mut af = vec![0.0; n];
+        factored_row_terms(factors, f, &mut af, true)
+    });
     for i in 0..n {
-        let (magnitude, len) = match factors {
-            Some(factors) => {
-                let (_, m, len) = factors.row_dot_and_magnitude(i, f);
-                (m, len)
-            }
+        let (magnitude, len) = match &factored {
+            Some((magnitude, len)) => (magnitude[i], len[i]),
             None => {
                 let row = problem.row(i);
                 (row.dot_and_magnitude(f).1, row.len())

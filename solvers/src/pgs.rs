@@ -133,7 +133,7 @@ impl Solver for ProjectedSor {
         };
         let check_every = match &matrix_free {
             Some((factors, ..)) => {
-                let j = factors.jacobian().val().len().max(1);
+                let j = factors.jacobian_nnz().max(1);
                 (2 * problem.nnz()).div_ceil(j).max(1)
             }
             None => usize::MAX,

@@ -346,7 +346,9 @@ impl Problem {
     /// ([`crate::delassus`]), and the compressed rows of `A` are assembled from the same entries
     /// on the first call that needs a row ([`Problem::row`], [`Problem::to_sparse`], …), so a
     /// solver that sweeps on the factors ([`crate::ProjectedSor`]) never pays for them. Every
-    /// number the problem gives equals, bit for bit, that of the problem with the assembled `A`.
+    /// number the problem gives equals, bit for bit, that of the problem with the assembled `A`,
+    /// except the shared residual's row sums, which the factored form adds in its own order
+    /// ([`DelassusFactors::row_terms`]): equal to round-off.
     /// The largest entry is taken as the largest diagonal entry, which bounds every entry of a
     /// positive semidefinite matrix (`|A_ij| <= √(A_ii A_jj)`). Errors as
     /// [`Problem::boxed_sparse`]; a non-finite entry of `J` or `M⁻¹`, or a diagonal entry of `A`
@@ -358,14 +360,15 @@ impl Problem {
         hi: Vec<f64>,
         friction: Vec<FrictionRow>,
     ) -> Result<Self, ProblemError> {
-        let jacobian = factors.jacobian();
-        if let Some(k) = jacobian.val().iter().position(|v| !v.is_finite()) {
-            let ptr = jacobian.symbolic().row_ptr();
-            let i = ptr.partition_point(|&p| p <= k) - 1;
-            return Err(ProblemError::NonFinite {
-                what: format!("J[{i}][{}]", jacobian.symbolic().col_idx()[k]),
-                value: jacobian.val()[k],
-            });
+        for i in 0..factors.rows() {
+            for blk in factors.row_blocks(i) {
+                if let Some(c) = blk.j.iter().position(|v| !v.is_finite()) {
+                    return Err(ProblemError::NonFinite {
+                        what: format!("J[{i}][{}]", 6 * blk.body + c),
+                        value: blk.j[c],
+                    });
+                }
+            }
         }
         for (body, block) in factors.inverse_mass().iter().enumerate() {
             if let Some(&v) = block.iter().flatten().find(|v| !v.is_finite()) {
@@ -801,16 +804,13 @@ impl Problem {
         };
         if let Some(factors) = self.factors() {
             // The first row seen on each body; later rows on it join that row's group.
-            let sym = factors.jacobian().symbolic();
-            let (ptr, idx) = (sym.row_ptr(), sym.col_idx());
             let mut first = vec![usize::MAX; factors.inverse_mass().len()];
             for i in 0..n {
-                for &c in &idx[ptr[i]..ptr[i + 1]] {
-                    let body = c / 6;
-                    if first[body] == usize::MAX {
-                        first[body] = i;
-                    } else if first[body] != i {
-                        union(&mut parent, i, first[body]);
+                for blk in factors.row_blocks(i) {
+                    if first[blk.body] == usize::MAX {
+                        first[blk.body] = i;
+                    } else if first[blk.body] != i {
+                        union(&mut parent, i, first[blk.body]);
                     }
                 }
             }
