@@ -62,6 +62,7 @@ use lcpbench_solvers::{
 };
 use nalgebra::Vector3;
 use serde::Serialize;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The contact solver of a scene, as an owned, configured instance: a matrix solver of
@@ -375,7 +376,10 @@ pub struct Event {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ContactRecord {
     /// Names of the two bodies.
-    pub bodies: [String; 2],
+    pub bodies: [Arc<str>; 2],
+    /// Indices of the two bodies in [`World::bodies`] at the step's end.
+    #[serde(skip)]
+    pub body_indices: [usize; 2],
     /// World contact point.
     pub point: [f64; 3],
     /// Unit normal from the first body to the second.
@@ -1174,12 +1178,9 @@ impl World {
         // Velocity the solve produced: u = u* + M⁻¹ Jᵀ f, so w = J u + bias.
         let mut u = system.free_velocity.clone();
         op.add_response(f, &mut u);
-        let name = |i: usize| {
-            self.bodies
-                .get(i)
-                .map(|b| b.name.clone())
-                .unwrap_or_default()
-        };
+        // One shared name per body, not one copy per contact.
+        let names: Vec<Arc<str>> = self.bodies.iter().map(|b| Arc::from(b.name.as_str())).collect();
+        let name = |i: usize| names.get(i).cloned().unwrap_or_else(|| Arc::from(""));
         let velocity = |i: usize, p| {
             self.bodies
                 .get(i)
@@ -1199,6 +1200,7 @@ impl World {
                 let rel = velocity(ct.body_b, &ct.point) - velocity(ct.body_a, &ct.point);
                 ContactRecord {
                     bodies: [name(ct.body_a), name(ct.body_b)],
+                    body_indices: [ct.body_a, ct.body_b],
                     point: ct.point.coords.into(),
                     normal: ct.normal.into(),
                     dist: ct.dist,

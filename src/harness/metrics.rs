@@ -91,13 +91,13 @@ fn liftoff_speed(report: &StepReport, world: &World) -> f64 {
         }
         let n = Vector3::from(c.normal);
         let p = Point3::from(c.point);
-        let vel = |name: &str| {
+        let vel = |i: usize| {
             world
-                .body_index(name)
-                .map(|i| world.bodies[i].velocity_at(&p))
-                .unwrap_or_else(Vector3::zeros)
+                .bodies
+                .get(i)
+                .map_or_else(Vector3::zeros, |b| b.velocity_at(&p))
         };
-        let rel = vel(&c.bodies[1]) - vel(&c.bodies[0]);
+        let rel = vel(c.body_indices[1]) - vel(c.body_indices[0]);
         let vn = rel.dot(&n);
         let slip = (rel - vn * n).norm();
         if slip > 1e-3 {
@@ -422,16 +422,13 @@ fn support_force(world: &World, rep: &StepReport, up: Vector3<f64>) -> f64 {
     rep.contact_records
         .iter()
         .map(|c| {
-            let on_static = |name: &str| {
-                world
-                    .body_index(name)
-                    .is_some_and(|i| world.bodies[i].is_static)
-            };
+            let on_static = |i: usize| world.bodies.get(i).is_some_and(|b| b.is_static);
             // The impulse acts on the second body; flip it when the static body is second.
             let j = Vector3::from(c.impulse).dot(&up);
-            if on_static(&c.bodies[0]) && !on_static(&c.bodies[1]) {
+            let [a, b] = c.body_indices;
+            if on_static(a) && !on_static(b) {
                 j
-            } else if on_static(&c.bodies[1]) && !on_static(&c.bodies[0]) {
+            } else if on_static(b) && !on_static(a) {
                 -j
             } else {
                 0.0

@@ -119,72 +119,107 @@ impl NarrowPhase {
         pairs: &[(usize, usize)],
         prediction: f64,
     ) -> Result<Vec<Contact>, TooManyContacts> {
-        let dispatcher = DefaultQueryDispatcher;
-        let mut shapes: Vec<Option<SharedShape>> = vec![None; bodies.len()];
-        let mut out = Vec::new();
-        let mut kept = HashMap::with_capacity(pairs.len());
+        let mut used = vec![false; bodies.len()];
         for &(a, b) in pairs {
-            let mut cache = self.pairs.remove(&(a, b)).unwrap_or_default();
-            let sa = shapes[a]
-                .get_or_insert_with(|| bodies[a].shape.to_parry())
-                .clone();
-            let sb = shapes[b]
-                .get_or_insert_with(|| bodies[b].shape.to_parry())
-                .clone();
-            let (iso_a, iso_b) = (bodies[a].iso(), bodies[b].iso());
-            let pos12 = iso_a.inv_mul(&iso_b);
-            // Every pair of `Shape` kinds is supported except plane–plane, which the broad
-            // phase never emits (planes are static).
-            let supported = dispatcher.contact_manifolds(
-                &pos12,
-                &*sa,
-                &*sb,
-                prediction,
-                &mut cache.manifolds,
-                &mut cache.workspace,
-            );
-            debug_assert!(
-                supported.is_ok(),
-                "parry has no manifold generator for {} vs {}",
-                bodies[a].shape.kind(),
-                bodies[b].shape.kind()
-            );
-            let first = out.len();
-            let meshes = match (&bodies[a].shape, &bodies[b].shape) {
-                (Shape::TriMesh { mesh: ma, .. }, Shape::TriMesh { mesh: mb, .. }) => {
-                    Some(MeshPair {
-                        a: ma,
-                        b: mb,
-                        slack: self.mesh_depth_slack,
-                    })
-                }
-                _ => None,
-            };
-            for m in &cache.manifolds {
-                push_manifold(
-                    &mut out,
-                    a,
-                    b,
-                    &iso_a,
-                    &iso_b,
-                    m,
-                    prediction,
-                    meshes.as_ref(),
-                );
-            }
-            merge_duplicates(&mut out, first, self.merge_distance);
-            if out.len() > MAX_CONTACTS {
-                self.pairs.clear();
-                return Err(TooManyContacts {
-                    limit: MAX_CONTACTS,
-                });
-            }
-            kept.insert((a, b), cache);
+            (used[a], used[b]) = (true, true);
         }
-        self.pairs = kept;
+        let shapes: Vec<Option<SharedShape>> = bodies
+            .iter()
+            .zip(&used)
+            .map(|(body, &u)| u.then(|| body.shape.to_parry()))
+            .collect();
+        let mut caches: Vec<PairCache> = pairs
+            .iter()
+            .map(|pair| self.pairs.remove(pair).unwrap_or_default())
+            .collect();
+        // Pairs are independent: chunks of them run on rayon's threads, each chunk's contacts
+        // in pair order, and the chunks are joined in order, so the contacts are those of a
+        // serial pass in the same order.
+        let pair_contacts = |chunk: (&[(usize, usize)], &mut [PairCache])| -> Vec<Contact> {
+            let mut out = Vec::new();
+            for (&(a, b), cache) in chunk.0.iter().zip(chunk.1.iter_mut()) {
+                let shapes = (shapes[a].as_ref(), shapes[b].as_ref());
+                if let (Some(sa), Some(sb)) = shapes {
+                    self.pair_contacts(bodies, (a, b), (sa, sb), cache, prediction, &mut out);
+                }
+            }
+            out
+        };
+        let chunks: Vec<Vec<Contact>> = if pairs.len() >= PARALLEL_PAIRS {
+            use rayon::prelude::*;
+            pairs
+                .par_chunks(PAIR_CHUNK)
+                .zip(caches.par_chunks_mut(PAIR_CHUNK))
+                .map(pair_contacts)
+                .collect()
+        } else {
+            vec![pair_contacts((pairs, &mut caches))]
+        };
+        let total: usize = chunks.iter().map(Vec::len).sum();
+        if total > MAX_CONTACTS {
+            self.pairs.clear();
+            return Err(TooManyContacts {
+                limit: MAX_CONTACTS,
+            });
+        }
+        let mut out = Vec::with_capacity(total);
+        for chunk in chunks {
+            out.extend(chunk);
+        }
+        self.pairs = pairs.iter().copied().zip(caches).collect();
         Ok(out)
     }
+
+    /// The contacts of one pair, appended to `out`, its cached manifolds updated.
+    fn pair_contacts(
+        &self,
+        bodies: &[RigidBody],
+        (a, b): (usize, usize),
+        (sa, sb): (&SharedShape, &SharedShape),
+        cache: &mut PairCache,
+        prediction: f64,
+        out: &mut Vec<Contact>,
+    ) {
+        let dispatcher = DefaultQueryDispatcher;
+        let (iso_a, iso_b) = (bodies[a].iso(), bodies[b].iso());
+        let pos12 = iso_a.inv_mul(&iso_b);
+        // Every pair of `Shape` kinds is supported except plane–plane, which the broad phase
+        // never emits (planes are static).
+        let supported = dispatcher.contact_manifolds(
+            &pos12,
+            &**sa,
+            &**sb,
+            prediction,
+            &mut cache.manifolds,
+            &mut cache.workspace,
+        );
+        debug_assert!(
+            supported.is_ok(),
+            "parry has no manifold generator for {} vs {}",
+            bodies[a].shape.kind(),
+            bodies[b].shape.kind()
+        );
+        let first = out.len();
+        let meshes = match (&bodies[a].shape, &bodies[b].shape) {
+            (Shape::TriMesh { mesh: ma, .. }, Shape::TriMesh { mesh: mb, .. }) => Some(MeshPair {
+                a: ma,
+                b: mb,
+                slack: self.mesh_depth_slack,
+            }),
+            _ => None,
+        };
+        for m in &cache.manifolds {
+            push_manifold(out, a, b, &iso_a, &iso_b, m, prediction, meshes.as_ref());
+        }
+        merge_duplicates(out, first, self.merge_distance);
+    }
 }
+
+/// Candidate pairs from which the narrow phase runs on rayon's threads.
+const PARALLEL_PAIRS: usize = 256;
+
+/// Pairs per rayon task.
+const PAIR_CHUNK: usize = 128;
 
 /// Both shapes of a mesh–mesh pair, for the depth check.
 struct MeshPair<'a> {
