@@ -3,12 +3,12 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget::Fault;
 use lcpbench::harness::isolate::write_protocol;
 use lcpbench::harness::merge::{self, MergedManifest};
 use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
 use lcpbench::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
+use lcpbench::harness::Fault;
 use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;

@@ -9,9 +9,9 @@
 //! ([`crate::harness::run`], [`crate::harness::scene`]) and the isolation layer, so neither of
 //! those modules imports the other.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::machine::Machine;
+use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::{HistoryPoint, Status};
 use serde::{Deserialize, Serialize};
 use std::fmt;

@@ -2,10 +2,10 @@
 //! isolated child (`lcpbench bench-one`) executes; [`crate::harness::isolate`] runs it in a child
 //! process so a panic, an abort or a hang cannot take the sweep down.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::{Case, GenFamily, LoadedLcp};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
 use crate::harness::scene;
+use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::{
     ConeProblem, ConeSolver, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
 };

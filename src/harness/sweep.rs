@@ -21,7 +21,6 @@
 //!   `PID` run. It is removed when the sweep ends; copies left by a killed sweep are removed by
 //!   the next sweep on the directory.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::isolate::run_isolated;
 use crate::harness::outdir::{
@@ -29,6 +28,7 @@ use crate::harness::outdir::{
 };
 pub use crate::harness::outdir::{lock_dir, DirLock, LOCK_FILE};
 use crate::harness::record::{HistoryRow, RunKey, RunOutput, RunRecord};
+use crate::harness::{NamedBudget, SolverSpec};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::collections::{HashMap, HashSet, VecDeque};
