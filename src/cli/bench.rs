@@ -451,7 +451,7 @@ pub fn run_bench_one(args: BenchOneArgs) -> Result<()> {
     let solver: SolverSpec = args.solver.parse()?;
     let mut budget: NamedBudget = args.budget.parse()?;
     if let Some(name) = args.budget_name {
-        budget.name = name;
+        budget.name = name.parse()?;
     }
     let output = run_in_process(&case, &solver, &budget);
     let stdout = std::io::stdout();

@@ -1,14 +1,15 @@
-//! Budgets: the tolerance, iteration cap and time budget of a run, the presets, and a budget
-//! with the name it was given.
+//! Budgets: the tolerance, iteration cap and time budget of a run, the presets, and the name a
+//! budget carries in CSV rows ([`BudgetName`]: a preset, or a custom `TOL:ITER:SECONDS`).
 
+use crate::harness::text::serde_as_text;
 use lcpbench_solvers::Settings;
 use std::fmt;
 use std::time::Duration;
 use thiserror::Error;
 
-/// A malformed budget or solver specification.
+/// A malformed budget.
 #[derive(Debug, Error, Clone, PartialEq)]
-pub enum SpecError {
+pub enum BudgetError {
     /// A budget that is neither a preset nor `TOL:ITER:SECONDS`.
     #[error("budget `{0}`: expected a preset (loose, default, tight, realtime) or TOL:ITER:SECONDS such as 1e-6:500:2")]
     Budget(String),
@@ -16,14 +17,6 @@ pub enum SpecError {
     #[error("budget `{spec}`: {message}")]
     BudgetValue {
         /// The budget as given.
-        spec: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A solver specification that does not parse.
-    #[error("solver `{spec}`: {message}")]
-    Solver {
-        /// The specification as given.
         spec: String,
         /// What is wrong.
         message: String,
@@ -84,10 +77,10 @@ pub struct Budget {
 }
 
 impl Budget {
-    /// The named presets.
-    pub const PRESETS: [(&'static str, Budget); 4] = [
+    /// The presets with their names, in the order the report lists them.
+    pub const PRESETS: [(BudgetName, Budget); 4] = [
         (
-            "loose",
+            BudgetName::Loose,
             Budget {
                 tolerance: 1e-4,
                 max_iterations: 1_000,
@@ -95,7 +88,7 @@ impl Budget {
             },
         ),
         (
-            "default",
+            BudgetName::Default,
             Budget {
                 tolerance: 1e-8,
                 max_iterations: 10_000,
@@ -103,7 +96,7 @@ impl Budget {
             },
         ),
         (
-            "tight",
+            BudgetName::Tight,
             Budget {
                 tolerance: 1e-10,
                 max_iterations: 100_000,
@@ -111,7 +104,7 @@ impl Budget {
             },
         ),
         (
-            "realtime",
+            BudgetName::Realtime,
             Budget {
                 tolerance: 1e-6,
                 max_iterations: 20,
@@ -120,12 +113,36 @@ impl Budget {
         ),
     ];
 
-    /// The preset called `name`.
-    pub fn preset(name: &str) -> Option<Budget> {
+    /// The preset called `name` (`None` for a custom name).
+    pub fn preset(name: &BudgetName) -> Option<Budget> {
         Self::PRESETS
             .iter()
-            .find(|(n, _)| *n == name)
+            .find(|(n, _)| n == name)
             .map(|(_, b)| b.clone())
+    }
+
+    /// Read `TOL:ITER:SECONDS` (`SECONDS` may end in `s`) and check the values.
+    pub fn parse_custom(spec: &str) -> Result<Budget, BudgetError> {
+        let parts: Vec<&str> = spec.split(':').collect();
+        let bad = || BudgetError::Budget(spec.to_owned());
+        if parts.len() != 3 {
+            return Err(bad());
+        }
+        let tolerance: f64 = parts[0].parse().map_err(|_| bad())?;
+        let max_iterations: usize = parts[1].parse().map_err(|_| bad())?;
+        let time_s: f64 = parts[2].trim_end_matches('s').parse().map_err(|_| bad())?;
+        let budget = Budget {
+            tolerance,
+            max_iterations,
+            time_s,
+        };
+        budget
+            .validate()
+            .map_err(|message| BudgetError::BudgetValue {
+                spec: spec.to_owned(),
+                message,
+            })?;
+        Ok(budget)
     }
 
     /// Solver settings for this budget.
@@ -174,54 +191,90 @@ impl Budget {
     }
 }
 
-/// A budget with the name it was given on the command line (a preset name or the spec itself).
-#[derive(Debug, Clone, PartialEq)]
-pub struct NamedBudget {
-    /// The name written to CSV rows.
-    pub name: String,
-    /// The budget.
-    pub budget: Budget,
+/// The name of a budget, as written in the `budget` column: one of the presets, or a custom
+/// budget named by its `TOL:ITER:SECONDS` text. Parsed from a preset name or a valid custom
+/// text; anything else is a [`BudgetError`].
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BudgetName {
+    /// `loose`: tolerance 1e-4, 1,000 iterations, 1 s.
+    Loose,
+    /// `default`: tolerance 1e-8, 10,000 iterations, 1 s; also the value of a
+    /// [`RunRecord`](crate::harness::RunRecord) not yet filled.
+    #[default]
+    Default,
+    /// `tight`: tolerance 1e-10, 100,000 iterations, 10 s.
+    Tight,
+    /// `realtime`: tolerance 1e-6, 20 iterations, 1 s.
+    Realtime,
+    /// A custom budget, named by its `TOL:ITER:SECONDS` text as given.
+    Custom(String),
 }
 
-impl std::str::FromStr for NamedBudget {
-    type Err = SpecError;
+impl BudgetName {
+    /// The CSV text: the preset's name, or the custom budget's text.
+    pub fn as_str(&self) -> &str {
+        match self {
+            BudgetName::Loose => "loose",
+            BudgetName::Default => "default",
+            BudgetName::Tight => "tight",
+            BudgetName::Realtime => "realtime",
+            BudgetName::Custom(spec) => spec,
+        }
+    }
 
-    fn from_str(s: &str) -> Result<Self, SpecError> {
-        if let Some(budget) = Budget::preset(s) {
-            return Ok(Self {
-                name: s.to_owned(),
-                budget,
-            });
-        }
-        let parts: Vec<&str> = s.split(':').collect();
-        let bad = || SpecError::Budget(s.to_owned());
-        if parts.len() != 3 {
-            return Err(bad());
-        }
-        let tolerance: f64 = parts[0].parse().map_err(|_| bad())?;
-        let max_iterations: usize = parts[1].parse().map_err(|_| bad())?;
-        let time_s: f64 = parts[2].trim_end_matches('s').parse().map_err(|_| bad())?;
-        let budget = Budget {
-            tolerance,
-            max_iterations,
-            time_s,
+    /// The budget this name stands for, with its name.
+    pub fn named(&self) -> Result<NamedBudget, BudgetError> {
+        let budget = match Budget::preset(self) {
+            Some(budget) => budget,
+            None => Budget::parse_custom(self.as_str())?,
         };
-        budget
-            .validate()
-            .map_err(|message| SpecError::BudgetValue {
-                spec: s.to_owned(),
-                message,
-            })?;
-        Ok(Self {
-            name: s.to_owned(),
+        Ok(NamedBudget {
+            name: self.clone(),
             budget,
         })
     }
 }
 
+impl fmt::Display for BudgetName {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.pad(self.as_str())
+    }
+}
+
+impl std::str::FromStr for BudgetName {
+    type Err = BudgetError;
+
+    fn from_str(s: &str) -> Result<Self, BudgetError> {
+        if let Some((name, _)) = Budget::PRESETS.iter().find(|(n, _)| n.as_str() == s) {
+            return Ok(name.clone());
+        }
+        Budget::parse_custom(s)?;
+        Ok(BudgetName::Custom(s.to_owned()))
+    }
+}
+
+serde_as_text!(BudgetName);
+
+/// A budget with its name: a preset's, or for a custom budget its text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedBudget {
+    /// The name written to CSV rows.
+    pub name: BudgetName,
+    /// The budget.
+    pub budget: Budget,
+}
+
+impl std::str::FromStr for NamedBudget {
+    type Err = BudgetError;
+
+    fn from_str(s: &str) -> Result<Self, BudgetError> {
+        s.parse::<BudgetName>()?.named()
+    }
+}
+
 impl fmt::Display for NamedBudget {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-        out.write_str(&self.name)
+        fmt::Display::fmt(&self.name, out)
     }
 }
 
@@ -238,6 +291,18 @@ mod tests {
         assert_eq!(b.budget.time_s, 2.0);
         assert!("fast".parse::<NamedBudget>().is_err());
         assert!("1e-6:500".parse::<NamedBudget>().is_err());
+        assert_eq!(b.name, BudgetName::Custom("1e-6:500:2s".into()));
+    }
+
+    #[test]
+    fn budget_names_round_trip_through_their_csv_text() {
+        for (name, _) in Budget::PRESETS {
+            assert_eq!(name.as_str().parse::<BudgetName>(), Ok(name.clone()));
+        }
+        let custom: BudgetName = "1e-6:20:1".parse().unwrap();
+        assert_eq!(custom.to_string(), "1e-6:20:1");
+        assert_eq!(custom.named().unwrap().budget.max_iterations, 20);
+        assert!("tigth".parse::<BudgetName>().is_err());
     }
 
     #[test]
@@ -255,7 +320,7 @@ mod tests {
         ] {
             let err = spec.parse::<NamedBudget>().unwrap_err();
             assert!(
-                matches!(err, SpecError::BudgetValue { .. }),
+                matches!(err, BudgetError::BudgetValue { .. }),
                 "{spec}: {err}"
             );
         }

@@ -102,7 +102,7 @@ fn run_child(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -
         .arg("--budget")
         .arg(&budget_spec)
         .arg("--budget-name")
-        .arg(&budget.name)
+        .arg(budget.name.to_string())
         .env("RUST_BACKTRACE", "0")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

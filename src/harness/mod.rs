@@ -9,9 +9,10 @@
 //! the output directory (lock, tables, what is never overwritten). [`machine`] names the
 //! machine a run ran on (`isolate` records it in every row); [`fault`] injects a failure into
 //! the child in place of a solve; [`catalogue`] lists every solver with its level and problem
-//! classes. For sweeps on several machines, [`shard`] splits a sweep into deterministic parts
-//! balanced by expected cost and [`merge`] joins the parts' directories into the rows of the
-//! whole sweep.
+//! classes. The typed columns of a row (class, family, solver, budget) are written as their
+//! text and parsed back where the row is read (module `text`). For sweeps on several machines,
+//! [`shard`] splits a sweep into deterministic parts balanced by expected cost and [`merge`]
+//! joins the parts' directories into the rows of the whole sweep.
 //!
 //! Imports go one way: `solver_spec` knows `fault`; `record` knows `case`, `solver_spec`,
 //! `budget` and `machine`; `run`, `scene` and `isolate` know `record`; `sweep` knows
@@ -34,10 +35,11 @@ pub mod scene;
 pub mod shard;
 pub mod solver_spec;
 pub mod sweep;
+mod text;
 
-pub use budget::{Budget, NamedBudget};
-pub use case::{Case, ProblemClass};
+pub use budget::{Budget, BudgetError, BudgetName, NamedBudget};
+pub use case::{Case, CaseFamily, ProblemClass};
 pub use fault::Fault;
 pub use record::{HistoryRow, RunKey, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
-pub use solver_spec::SolverSpec;
+pub use solver_spec::{SolverSpec, SolverSpecError};
 pub use sweep::{cross_product, run_sweep, Job, SweepConfig, SweepSummary};

@@ -37,7 +37,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     };
     record.n = Some(lcp.problem.n());
     if let Case::File(_) = case {
-        record.class = Case::class_of_problem(&lcp.problem).name().to_owned();
+        record.class = Case::class_of_problem(&lcp.problem);
     }
     if let Some(solver) = spec.create_cone() {
         return run_cone_lcp(solver, &lcp, spec, budget, record);

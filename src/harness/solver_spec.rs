@@ -1,13 +1,24 @@
 //! Solver specifications: a solver kind with its options (SOR relaxation, warm or cold start),
 //! or an injected fault, as named on the command line and in the `solver` column.
 
-use crate::harness::budget::SpecError;
 use crate::harness::fault::Fault;
+use crate::harness::text::serde_as_text;
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::scene::Scene;
 use lcpbench_contact::ContactSolver;
 use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Solver, SolverKind};
 use std::fmt;
+use thiserror::Error;
+
+/// A solver specification that does not parse.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("solver `{spec}`: {message}")]
+pub struct SolverSpecError {
+    /// The specification as given.
+    pub spec: String,
+    /// What is wrong.
+    pub message: String,
+}
 
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
 /// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
@@ -49,9 +60,17 @@ pub enum SolverSpec {
     Fault(Fault),
 }
 
+/// Plain PGS, cold start: the value of a [`RunRecord`](crate::harness::RunRecord) not yet
+/// filled.
+impl Default for SolverSpec {
+    fn default() -> Self {
+        Self::plain(SolverKind::Pgs)
+    }
+}
+
 impl SolverSpec {
     /// Plain matrix solver with default parameters, cold start.
-    pub fn plain(kind: SolverKind) -> Self {
+    pub const fn plain(kind: SolverKind) -> Self {
         Self::Matrix {
             kind,
             omega: None,
@@ -86,21 +105,32 @@ impl SolverSpec {
     }
 
     /// Plain body-level solver, cold start.
-    pub fn body(kind: BodySolverKind) -> Self {
+    pub const fn body(kind: BodySolverKind) -> Self {
         Self::Body { kind, warm: false }
     }
 
     /// Plain cone solver, cold start.
-    pub fn cone(kind: ConeSolverKind) -> Self {
+    pub const fn cone(kind: ConeSolverKind) -> Self {
         Self::Cone { kind, warm: false }
     }
 
     /// The same solver, warm-started (no effect on a fault; not validated, see
     /// [`SolverSpec::is_iterative`]).
-    pub fn with_warm(mut self) -> Self {
+    pub const fn with_warm(mut self) -> Self {
         match &mut self {
             Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
                 *warm = true
+            }
+            Self::Fault(_) => {}
+        }
+        self
+    }
+
+    /// The same solver, cold start.
+    pub const fn cold(mut self) -> Self {
+        match &mut self {
+            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
+                *warm = false
             }
             Self::Fault(_) => {}
         }
@@ -119,6 +149,19 @@ impl SolverSpec {
     pub fn omega(&self) -> Option<f64> {
         match self {
             Self::Matrix { omega, .. } => *omega,
+            _ => None,
+        }
+    }
+
+    /// The kind of a plain matrix solver (default parameters, cold start); `None` for any other
+    /// specification.
+    pub fn plain_kind(&self) -> Option<SolverKind> {
+        match *self {
+            Self::Matrix {
+                kind,
+                omega: None,
+                warm: false,
+            } => Some(kind),
             _ => None,
         }
     }
@@ -201,10 +244,10 @@ impl fmt::Display for SolverSpec {
 }
 
 impl std::str::FromStr for SolverSpec {
-    type Err = SpecError;
+    type Err = SolverSpecError;
 
-    fn from_str(spec: &str) -> Result<Self, SpecError> {
-        let err = |message: String| SpecError::Solver {
+    fn from_str(spec: &str) -> Result<Self, SolverSpecError> {
+        let err = |message: String| SolverSpecError {
             spec: spec.to_owned(),
             message,
         };
@@ -252,6 +295,8 @@ impl std::str::FromStr for SolverSpec {
         Ok(if warm { out.with_warm() } else { out })
     }
 }
+
+serde_as_text!(SolverSpec);
 
 #[cfg(test)]
 mod tests {

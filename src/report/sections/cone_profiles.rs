@@ -4,11 +4,11 @@
 //! when the suite has no exported LCPs.
 
 use super::profiles::{performance_profile, profile_plot};
-use crate::harness::{Case, RunRecord};
+use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::suite::cone_solvers;
 use crate::report::table::{fmt_time, geo_mean, Table};
 use anyhow::Result;
-use lcpbench_solvers::ConeSolverKind;
 use std::fmt::Write as _;
 
 pub(super) struct ConeProfiles;
@@ -23,7 +23,7 @@ impl Section for ConeProfiles {
         if cases.is_empty() {
             return Ok(Vec::new());
         }
-        let solvers: Vec<&'static str> = ConeSolverKind::ALL.iter().map(|k| k.name()).collect();
+        let solvers = cone_solvers();
         let t = time_to_accuracy(ctx, &cases, &solvers);
         let _ = writeln!(
             md,
@@ -53,7 +53,7 @@ impl Section for ConeProfiles {
     }
 }
 
-fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[&str]) -> Table {
+fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[SolverSpec]) -> Table {
     let mut t = Table::new(
         "cone_time_to_accuracy",
         &[
@@ -65,12 +65,12 @@ fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[&str]) -> T
             "converged at 1e-10",
         ],
     );
-    for &s in solvers {
+    for s in solvers {
         let runs: Vec<&RunRecord> = cases
             .iter()
-            .filter_map(|c| ctx.get(c, s, "tight"))
+            .filter_map(|c| ctx.get(c, s, &BudgetName::Tight))
             .collect();
-        let mut row = vec![s.to_owned()];
+        let mut row = vec![s.to_string()];
         for level in [1e-4, 1e-8] {
             let times: Vec<f64> = runs.iter().filter_map(|r| r.tta(level)).collect();
             row.push(format!("{} of {}", times.len(), cases.len()));

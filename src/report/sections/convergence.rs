@@ -2,12 +2,11 @@
 //! every matrix solver against iterations and against solver time (budget `tight`, whose
 //! histories reach 1e-10): figures only.
 
-use crate::harness::{Case, HistoryRow};
+use crate::harness::{BudgetName, Case, HistoryRow};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::table::slug;
 use anyhow::Result;
-use lcpbench_solvers::SolverKind;
 use std::collections::BTreeMap;
 
 pub(super) struct Convergence;
@@ -62,10 +61,10 @@ fn histories<'a>(ctx: &ReportContext<'a>, case: &Case) -> BTreeMap<String, Vec<&
     for h in ctx
         .histories
         .iter()
-        .filter(|h| h.case == key && h.budget == "tight")
+        .filter(|h| h.case == key && h.budget == BudgetName::Tight)
     {
-        if SolverKind::from_name(&h.solver).is_some() {
-            by_solver.entry(h.solver.clone()).or_default().push(h);
+        if h.solver.plain_kind().is_some() {
+            by_solver.entry(h.solver.to_string()).or_default().push(h);
         }
     }
     by_solver

@@ -1,8 +1,9 @@
 //! The fastest matrix solver per feasible problem: the solver whose residual history (budget
 //! `tight`) first reached the relative residual 1e-4, and 1e-8, and when.
 
-use crate::harness::{Case, ProblemClass};
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, Case, ProblemClass};
+use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::suite::all_solvers;
 use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -43,15 +44,15 @@ impl Section for Fastest {
 
 fn row(ctx: &ReportContext, case: &Case) -> Vec<String> {
     let mut row = vec![format!("`{case}`")];
-    let n = solver_names()
+    let n = all_solvers()
         .iter()
-        .find_map(|s| ctx.get(case, s, "tight").and_then(|r| r.n));
+        .find_map(|s| ctx.get(case, s, &BudgetName::Tight).and_then(|r| r.n));
     row.push(n.map(|n| n.to_string()).unwrap_or_default());
     for level in [1e-4, 1e-8] {
-        let best = solver_names()
-            .into_iter()
-            .filter_map(|s| ctx.get(case, s, "tight"))
-            .filter_map(|r| r.tta(level).map(|t| (r.solver.clone(), t)))
+        let best = all_solvers()
+            .iter()
+            .filter_map(|s| ctx.get(case, s, &BudgetName::Tight))
+            .filter_map(|r| r.tta(level).map(|t| (r.solver.to_string(), t)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match best {
             Some((s, t)) => {

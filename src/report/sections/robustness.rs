@@ -3,9 +3,10 @@
 //! the runs that report infeasibility. Unsupported and crashed runs are counted in the cell.
 //! It shows no times, so it counts the rows of every machine.
 
-use crate::harness::{ProblemClass, RunRecord};
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, ProblemClass, RunRecord};
+use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::status;
+use crate::report::suite::all_solvers;
 use crate::report::table::{mark, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -25,14 +26,14 @@ impl Section for Robustness {
         let mut header = vec!["solver".to_owned()];
         header.extend(classes.iter().map(|c| c.name().to_owned()));
         let mut robust = Table::with_header("robustness", header);
-        for solver in solver_names() {
-            let mut row = vec![solver.to_owned()];
+        for solver in all_solvers() {
+            let mut row = vec![solver.to_string()];
             for class in &classes {
                 let runs: Vec<&RunRecord> = ctx
                     .lcp_cases
                     .iter()
-                    .filter_map(|c| ctx.get_any_machine(c, solver, "default"))
-                    .filter(|r| r.class == class.name())
+                    .filter_map(|c| ctx.get_any_machine(c, &solver, &BudgetName::Default))
+                    .filter(|r| r.class == *class)
                     .collect();
                 row.push(cell(*class, &runs));
             }

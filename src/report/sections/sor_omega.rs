@@ -2,6 +2,7 @@
 //! the relaxation factor `omega` on the suite's omega cases (`omega = 1` is PGS), as a table
 //! and a figure of the converged runs.
 
+use crate::harness::{BudgetName, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::table::Table;
@@ -38,7 +39,7 @@ impl Section for SorOmega {
         for &w in &suite.omegas {
             let mut row = vec![format!("{w}")];
             for (case, series) in suite.omega_cases.iter().zip(&mut series) {
-                let cell = match ctx.get(case, &format!("sor@{w}"), "default") {
+                let cell = match ctx.get(case, &SolverSpec::sor(w), &BudgetName::Default) {
                     Some(r) if r.converged => {
                         let it = r.iterations.unwrap_or(0);
                         series.points.push((w, it as f64));

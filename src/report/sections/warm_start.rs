@@ -1,7 +1,7 @@
 //! Warm start against cold start: iterations, solver time and status of every iterative matrix
 //! solver, cold and `+warm`, on the suite's warm cases (budget `default`).
 
-use crate::harness::{Case, RunRecord};
+use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
@@ -29,9 +29,10 @@ impl Section for WarmStart {
             ],
         );
         for case in &ctx.suite.warm_cases {
-            for kind in SolverKind::ALL.iter().filter(|k| k.is_iterative()) {
-                let cold = ctx.get(case, kind.name(), "default");
-                let hot = ctx.get(case, &format!("{}+warm", kind.name()), "default");
+            for kind in SolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
+                let spec = SolverSpec::plain(kind);
+                let cold = ctx.get(case, &spec, &BudgetName::Default);
+                let hot = ctx.get(case, &spec.clone().with_warm(), &BudgetName::Default);
                 if cold.is_some() || hot.is_some() {
                     warm.rows.push(row(case, kind.name(), cold, hot));
                 }
