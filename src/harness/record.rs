@@ -175,10 +175,10 @@ pub struct RunRecord {
     pub certificate_bound: Option<f64>,
     /// Scene: steps whose solve ended `no_solution` or `diverged` (the step's problem has no
     /// solution, or the impulse met the tolerance only by growing along a direction `A`
-    /// cancels). Absent in rows written before the column existed.
+    /// cancels). Empty when the row does not record it.
     pub no_solution_steps: Option<usize>,
-    /// Host name of the machine the run ran on (see [`Machine`]); empty in rows written before
-    /// sweeps recorded it.
+    /// Host name of the machine the run ran on (see [`Machine`]); empty when the row does not
+    /// record it.
     pub host: Option<String>,
     /// CPU model of that machine.
     pub cpu_model: Option<String>,

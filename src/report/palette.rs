@@ -68,7 +68,8 @@ mod tests {
 
     #[test]
     fn shipped_solvers_keep_their_plot_colours() {
-        // The fixed order the report has always used.
+        // Each shipped solver's slot, in palette order: a solver keeps its colour from one
+        // report to the next.
         let fixed = [
             "pgs",
             "sor",

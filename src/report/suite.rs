@@ -373,8 +373,8 @@ const FULL: Plan = Plan {
     fclib_files: usize::MAX,
 };
 
-/// Families of the robustness matrix besides SPD, each at every size with seed 1.
-/// The generated families of the matrix besides SPD (PSD of the default rank).
+/// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
+/// run at every size with seed 1.
 fn matrix_families(n: usize) -> [GenFamily; 6] {
     [
         GenFamily::psd_default(n),
