@@ -207,7 +207,19 @@ pub enum BudgetName {
     /// `realtime`: tolerance 1e-6, 20 iterations, 1 s.
     Realtime,
     /// A custom budget, named by its `TOL:ITER:SECONDS` text as given.
-    Custom(String),
+    Custom(CustomBudget),
+}
+
+/// The text of a custom budget, `TOL:ITER:SECONDS` as given (`1e-6:20:1`). Made only by
+/// parsing a [`BudgetName`], so it always names a valid budget.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CustomBudget(String);
+
+impl CustomBudget {
+    /// The text.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
 }
 
 impl BudgetName {
@@ -218,7 +230,7 @@ impl BudgetName {
             BudgetName::Default => "default",
             BudgetName::Tight => "tight",
             BudgetName::Realtime => "realtime",
-            BudgetName::Custom(spec) => spec,
+            BudgetName::Custom(spec) => spec.as_str(),
         }
     }
 
@@ -249,7 +261,7 @@ impl std::str::FromStr for BudgetName {
             return Ok(name.clone());
         }
         Budget::parse_custom(s)?;
-        Ok(BudgetName::Custom(s.to_owned()))
+        Ok(BudgetName::Custom(CustomBudget(s.to_owned())))
     }
 }
 
@@ -291,7 +303,7 @@ mod tests {
         assert_eq!(b.budget.time_s, 2.0);
         assert!("fast".parse::<NamedBudget>().is_err());
         assert!("1e-6:500".parse::<NamedBudget>().is_err());
-        assert_eq!(b.name, BudgetName::Custom("1e-6:500:2s".into()));
+        assert!(matches!(&b.name, BudgetName::Custom(c) if c.as_str() == "1e-6:500:2s"));
     }
 
     #[test]

@@ -37,7 +37,7 @@ pub mod solver_spec;
 pub mod sweep;
 mod text;
 
-pub use budget::{Budget, BudgetError, BudgetName, NamedBudget};
+pub use budget::{Budget, BudgetError, BudgetName, CustomBudget, NamedBudget};
 pub use case::{Case, CaseFamily, ProblemClass};
 pub use fault::Fault;
 pub use record::{HistoryRow, RunKey, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
