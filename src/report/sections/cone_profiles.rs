@@ -13,6 +13,9 @@ use std::fmt::Write as _;
 
 pub(super) struct ConeProfiles;
 
+/// The budget of the cone solvers' runs.
+const BUDGET: BudgetName = BudgetName::Tight;
+
 impl Section for ConeProfiles {
     fn title(&self) -> &'static str {
         "Cone solvers on the exported scene steps"
@@ -29,7 +32,7 @@ impl Section for ConeProfiles {
             md,
             "## Cone solvers on the exported scene steps\n\nThe exported scene LCPs above in their \
              exact Coulomb cone form (each contact's normal and two tangent rows as one cone), solved \
-             by every cone solver under budget `tight`; times to the relative cone residual (the \
+             by every cone solver under budget `{BUDGET}`; times to the relative cone residual (the \
              natural map with the cone projection, measured contact by contact). `clarabel-socp` \
              solves Anitescu's convex relaxation, so a sliding contact keeps it from converging \
              (its lift-off is in the run's reason). Profiles at 1e-4 and 1e-8 are in the figures.\n\n{}",
@@ -68,7 +71,7 @@ fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[SolverSpec]
     for s in solvers {
         let runs: Vec<&RunRecord> = cases
             .iter()
-            .filter_map(|c| ctx.get(c, s, &BudgetName::Tight))
+            .filter_map(|c| ctx.get(c, s, &BUDGET))
             .collect();
         let mut row = vec![s.to_string()];
         for level in [1e-4, 1e-8] {

@@ -11,6 +11,9 @@ use std::collections::BTreeMap;
 
 pub(super) struct Convergence;
 
+/// The budget whose histories are plotted: `tight`, whose histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
+
 /// The two x axes: name, label.
 const AXES: [(&str, &str); 2] = [
     ("iter", "iterations (sweeps, pivots, interior-point steps)"),
@@ -45,7 +48,7 @@ impl Section for Convergence {
                     &series(&by_solver, axis),
                 )?;
                 figures.push(Figure::new(
-                    format!("Residual against {axis} on `{case}` (budget tight)"),
+                    format!("Residual against {axis} on `{case}` (budget {BUDGET})"),
                     path,
                 ));
             }
@@ -61,7 +64,7 @@ fn histories<'a>(ctx: &ReportContext<'a>, case: &Case) -> BTreeMap<String, Vec<&
     for h in ctx
         .histories
         .iter()
-        .filter(|h| h.case == key && h.budget == BudgetName::Tight)
+        .filter(|h| h.case == key && h.budget == BUDGET)
     {
         if h.solver.plain_kind().is_some() {
             by_solver.entry(h.solver.to_string()).or_default().push(h);

@@ -10,6 +10,9 @@ use std::fmt::Write as _;
 
 pub(super) struct Fastest;
 
+/// The budget of the runs compared: `tight`, whose residual histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
+
 impl Section for Fastest {
     fn title(&self) -> &'static str {
         "Fastest solver per problem"
@@ -35,7 +38,7 @@ impl Section for Fastest {
         let _ = writeln!(
             md,
             "## Fastest solver per problem\n\nSolver time until the shared relative residual first \
-             reached 1e-4 and 1e-8 (from the residual history of each solve under budget `tight`).\n\n{}",
+             reached 1e-4 and 1e-8 (from the residual history of each solve under budget `{BUDGET}`).\n\n{}",
             ctx.table(&fastest)?
         );
         Ok(Vec::new())
@@ -46,12 +49,12 @@ fn row(ctx: &ReportContext, case: &Case) -> Vec<String> {
     let mut row = vec![format!("`{case}`")];
     let n = all_solvers()
         .iter()
-        .find_map(|s| ctx.get(case, s, &BudgetName::Tight).and_then(|r| r.n));
+        .find_map(|s| ctx.get(case, s, &BUDGET).and_then(|r| r.n));
     row.push(n.map(|n| n.to_string()).unwrap_or_default());
     for level in [1e-4, 1e-8] {
         let best = all_solvers()
             .iter()
-            .filter_map(|s| ctx.get(case, s, &BudgetName::Tight))
+            .filter_map(|s| ctx.get(case, s, &BUDGET))
             .filter_map(|r| r.tta(level).map(|t| (r.solver.to_string(), t)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match best {

@@ -14,6 +14,9 @@ use std::path::Path;
 
 pub(super) struct Profiles;
 
+/// The budget of the runs profiled: `tight`, whose residual histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
+
 impl Section for Profiles {
     fn title(&self) -> &'static str {
         "Performance profiles of the matrix solvers"
@@ -52,10 +55,7 @@ pub(super) fn performance_profile(
     for case in cases {
         let times: Vec<Option<f64>> = solvers
             .iter()
-            .map(|s| {
-                ctx.get(case, s, &BudgetName::Tight)
-                    .and_then(|r| r.tta(level))
-            })
+            .map(|s| ctx.get(case, s, &BUDGET).and_then(|r| r.tta(level)))
             .collect();
         let Some(best) = times.iter().flatten().copied().reduce(f64::min) else {
             continue;

@@ -13,6 +13,9 @@ use std::fmt::Write as _;
 
 pub(super) struct Robustness;
 
+/// The budget of the runs counted.
+const BUDGET: BudgetName = BudgetName::Default;
+
 impl Section for Robustness {
     fn title(&self) -> &'static str {
         "Robustness matrix"
@@ -32,7 +35,7 @@ impl Section for Robustness {
                 let runs: Vec<&RunRecord> = ctx
                     .lcp_cases
                     .iter()
-                    .filter_map(|c| ctx.get_any_machine(c, &solver, &BudgetName::Default))
+                    .filter_map(|c| ctx.get_any_machine(c, &solver, &BUDGET))
                     .filter(|r| r.class == *class)
                     .collect();
                 row.push(cell(*class, &runs));
@@ -41,7 +44,7 @@ impl Section for Robustness {
         }
         let _ = writeln!(
             md,
-            "## Robustness matrix\n\nWhich solver solves which class (budget `default`: tolerance \
+            "## Robustness matrix\n\nWhich solver solves which class (budget `{BUDGET}`: tolerance \
              1e-8, 10 000 iterations, 5 s), as Siconos' expected-failure matrix: converged runs / \
              runs; for the infeasible class, runs that *report* infeasibility (`no_solution`). \
              ✓ all, ~ some, ✗ none. Classes: SPD (cond 1e2–1e10), rank-deficient PSD, \

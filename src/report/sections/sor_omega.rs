@@ -11,6 +11,9 @@ use std::fmt::Write as _;
 
 pub(super) struct SorOmega;
 
+/// The budget of the SOR runs.
+const BUDGET: BudgetName = BudgetName::Default;
+
 impl Section for SorOmega {
     fn title(&self) -> &'static str {
         "SOR relaxation sweep"
@@ -39,7 +42,7 @@ impl Section for SorOmega {
         for &w in &suite.omegas {
             let mut row = vec![format!("{w}")];
             for (case, series) in suite.omega_cases.iter().zip(&mut series) {
-                let cell = match ctx.get(case, &SolverSpec::sor(w), &BudgetName::Default) {
+                let cell = match ctx.get(case, &SolverSpec::sor(w), &BUDGET) {
                     Some(r) if r.converged => {
                         let it = r.iterations.unwrap_or(0);
                         series.points.push((w, it as f64));
@@ -54,7 +57,7 @@ impl Section for SorOmega {
         }
         let _ = writeln!(
             md,
-            "## SOR relaxation sweep\n\nSweeps to relative residual 1e-8 (budget `default`) \
+            "## SOR relaxation sweep\n\nSweeps to relative residual 1e-8 (budget `{BUDGET}`) \
              against the relaxation factor `omega` (`omega = 1` is PGS).\n\n{}",
             ctx.table(&table)?
         );

@@ -11,6 +11,9 @@ use std::fmt::Write as _;
 
 pub(super) struct TimeToAccuracy;
 
+/// The budget of the runs measured: `tight`, whose residual histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
+
 impl Section for TimeToAccuracy {
     fn title(&self) -> &'static str {
         "Time to accuracy"
@@ -31,7 +34,7 @@ impl Section for TimeToAccuracy {
             let runs: Vec<&RunRecord> = ctx
                 .feasible_cases
                 .iter()
-                .filter_map(|c| ctx.get(c, &solver, &BudgetName::Tight))
+                .filter_map(|c| ctx.get(c, &solver, &BUDGET))
                 .collect();
             tta.rows.push(summary_row(&solver, &runs));
             tta_full.rows.extend(runs.iter().map(|r| full_row(r)));

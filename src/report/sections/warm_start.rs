@@ -10,6 +10,9 @@ use std::fmt::Write as _;
 
 pub(super) struct WarmStart;
 
+/// The budget of the warm and cold runs.
+const BUDGET: BudgetName = BudgetName::Default;
+
 impl Section for WarmStart {
     fn title(&self) -> &'static str {
         "Warm start versus cold start"
@@ -31,8 +34,8 @@ impl Section for WarmStart {
         for case in &ctx.suite.warm_cases {
             for kind in SolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
                 let spec = SolverSpec::plain(kind);
-                let cold = ctx.get(case, &spec, &BudgetName::Default);
-                let hot = ctx.get(case, &spec.clone().with_warm(), &BudgetName::Default);
+                let cold = ctx.get(case, &spec, &BUDGET);
+                let hot = ctx.get(case, &spec.clone().with_warm(), &BUDGET);
                 if cold.is_some() || hot.is_some() {
                     warm.rows.push(row(case, kind.name(), cold, hot));
                 }
@@ -40,7 +43,7 @@ impl Section for WarmStart {
         }
         let _ = writeln!(
             md,
-            "## Warm start versus cold start\n\nIterative solvers, budget `default`. The warm start \
+            "## Warm start versus cold start\n\nIterative solvers, budget `{BUDGET}`. The warm start \
              of a generated problem is its planted solution perturbed by 1 % (as from the previous \
              step of a slowly changing scene); of a problem file, 20 cold PGS sweeps.\n\n{}",
             ctx.table(&warm)?
