@@ -24,7 +24,7 @@ enum Command {
     /// Run a scene and print per-run figures.
     Simulate(cli::simulate::SimulateArgs),
     /// Write the contact LCP of one step of a scene as a problem file.
-    Export(cli::simulate::ExportArgs),
+    Export(cli::export::ExportArgs),
     /// Write an interactive HTML page of a recording (or two side by side) or of every solver
     /// on a problem.
     View(cli::view::ViewArgs),
@@ -33,12 +33,12 @@ enum Command {
     /// Run solvers × scenes × budgets and write result rows as they finish.
     Bench(cli::bench::BenchArgs),
     /// Run the default suite and write the comparison report.
-    Report(cli::bench::ReportArgs),
+    Report(cli::report::ReportArgs),
     /// Join the output directories of the shards of a sweep (`--shard K/N`) into one.
     Merge(cli::merge::MergeArgs),
     /// One isolated run of a sweep (used internally by `bench` and `report`).
     #[command(hide = true, name = "bench-one")]
-    BenchOne(cli::bench::BenchOneArgs),
+    BenchOne(cli::bench_one::BenchOneArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,13 +50,13 @@ fn main() -> ExitCode {
         Command::Solvers => cli::solve::list_solvers(),
         Command::Gen(args) => cli::gen::run(args),
         Command::Simulate(args) => cli::simulate::run_simulate(args),
-        Command::Export(args) => cli::simulate::run_export(args),
+        Command::Export(args) => cli::export::run(args),
         Command::View(args) => cli::view::run(args),
         Command::Import(args) => cli::import::run(args),
-        Command::Bench(args) => cli::bench::run_bench(args),
-        Command::Report(args) => cli::bench::run_report(args),
+        Command::Bench(args) => cli::bench::run(args),
+        Command::Report(args) => cli::report::run(args),
         Command::Merge(args) => cli::merge::run(args),
-        Command::BenchOne(args) => cli::bench::run_bench_one(args),
+        Command::BenchOne(args) => cli::bench_one::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -22,7 +22,7 @@ fn scene_rows_carry_step_metrics_and_analytic_errors() {
     let rows = read_results(&out.join("results.csv")).unwrap();
     assert_eq!(rows.len(), 3);
     for r in &rows {
-        assert_eq!(r.class, "scene");
+        assert_eq!(r.class, lcpbench::harness::ProblemClass::Scene);
         assert_eq!(r.steps, Some(30), "{r:?}");
         assert!(r.time_per_step_s.unwrap() > 0.0);
         assert_eq!(r.analytic_metric, "wall force (relative)");
@@ -59,7 +59,7 @@ fn a_run_unsupported_on_every_step_is_unsupported_not_time_limit() {
         // Stopped by the run limit or by three steps over their budget, whichever came first.
         let stopped = format!("stopped after {steps} of 1000 steps");
         assert!(r.reason.contains(&stopped), "{r:?}");
-        match r.solver.as_str() {
+        match r.solver.to_string().as_str() {
             "enum" => {
                 assert_eq!(r.status.as_str(), "unsupported", "{r:?}");
                 assert!(r.reason.contains("all "), "{r:?}");

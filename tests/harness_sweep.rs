@@ -36,7 +36,7 @@ fn faults_are_recorded_and_the_sweep_continues() {
     assert_eq!(rows.len(), 5);
     let status_of = |solver: &str| {
         rows.iter()
-            .find(|r| r.solver == solver)
+            .find(|r| r.solver.to_string() == solver)
             .map(|r| r.status)
             .unwrap()
     };
@@ -45,7 +45,10 @@ fn faults_are_recorded_and_the_sweep_continues() {
     assert_eq!(status_of("fault-panic"), RunStatus::Panic);
     assert_eq!(status_of("fault-abort"), RunStatus::Crash);
     assert_eq!(status_of("fault-hang"), RunStatus::Timeout);
-    let panic_row = rows.iter().find(|r| r.solver == "fault-panic").unwrap();
+    let panic_row = rows
+        .iter()
+        .find(|r| r.solver.to_string() == "fault-panic")
+        .unwrap();
     assert!(panic_row.reason.contains("injected fault"), "{panic_row:?}");
 }
 
@@ -69,8 +72,8 @@ fn rows_are_written_as_runs_finish_and_a_rerun_resumes() {
     let mut seen_early = false;
     while child.try_wait().unwrap().is_none() {
         if let Ok(rows) = read_results(&results) {
-            if rows.iter().any(|r| r.solver == "pgs") {
-                assert!(rows.iter().all(|r| r.solver != "sor"));
+            if rows.iter().any(|r| r.solver.to_string() == "pgs") {
+                assert!(rows.iter().all(|r| r.solver.to_string() != "sor"));
                 seen_early = true;
                 break;
             }

@@ -1,12 +1,7 @@
-//! `lcpbench bench`, `lcpbench report` and the hidden `lcpbench bench-one` that runs one
-//! isolated run in a child process.
+//! `lcpbench bench`: run solvers × cases × budgets and write result rows as they finish.
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget::Fault;
-use lcpbench::harness::isolate::write_protocol;
-use lcpbench::harness::merge::{self, MergedManifest};
-use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
 use lcpbench::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
 use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
@@ -60,61 +55,6 @@ pub struct BenchArgs {
     pub shard: Option<Shard>,
 }
 
-/// Arguments of `lcpbench report`.
-#[derive(Args)]
-pub struct ReportArgs {
-    /// Output directory.
-    #[arg(long, default_value = "reports")]
-    pub out: PathBuf,
-    /// Run a much smaller suite with every section (under a minute on two cores, instead of
-    /// about 35 minutes).
-    #[arg(long)]
-    pub quick: bool,
-    /// Scene files of the suite (glob) [default: bench_scenes/*.toml, which must match]; a
-    /// pattern given here may match nothing, for a report on generated LCPs alone.
-    #[arg(long)]
-    pub scenes: Option<String>,
-    /// Keep the rows of an interrupted earlier run instead of starting fresh.
-    #[arg(long)]
-    pub resume: bool,
-    /// Only rewrite tables and figures from the existing data in `--out` (no runs); the exported
-    /// LCPs in `--out`/lcps keep the names the data records them under, so a copy of a report's
-    /// directory rebuilds the same tables.
-    #[arg(long)]
-    pub no_run: bool,
-    /// Worker threads (each drives one child process): 1 to 4 per core of the machine.
-    #[arg(long, default_value_t = 2)]
-    pub jobs: usize,
-    /// Do not draw a progress bar.
-    #[arg(long)]
-    pub no_progress: bool,
-    /// Run only the K-th of N parts of the suite (1 <= K <= N) into `--out`, without writing
-    /// the report: `lcpbench merge` joins the parts' directories, `report --no-run` then writes
-    /// the report from the merged rows (see docs/cluster.md).
-    #[arg(long, value_name = "K/N", conflicts_with = "no_run")]
-    pub shard: Option<Shard>,
-}
-
-/// Arguments of the hidden `lcpbench bench-one` (one isolated run; prints the child protocol).
-#[derive(Args)]
-pub struct BenchOneArgs {
-    /// Case key.
-    #[arg(long)]
-    pub case: String,
-    /// Solver specification.
-    #[arg(long)]
-    pub solver: String,
-    /// Budget as TOL:ITER:SECONDS or a preset name.
-    #[arg(long)]
-    pub budget: String,
-    /// Name of the budget written to the row.
-    #[arg(long)]
-    pub budget_name: Option<String>,
-    /// Inject a fault instead of running (panic, hang, abort); for testing the isolation.
-    #[arg(long)]
-    pub fault: Option<String>,
-}
-
 fn parse_solvers(list: &[String]) -> Result<Vec<SolverSpec>> {
     let mut out = Vec::new();
     for s in list {
@@ -138,7 +78,7 @@ fn parse_budgets(list: &[String]) -> Result<Vec<NamedBudget>> {
 }
 
 /// Run `lcpbench bench`.
-pub fn run_bench(args: BenchArgs) -> Result<()> {
+pub fn run(args: BenchArgs) -> Result<()> {
     check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let solvers = parse_solvers(&args.solvers)?;
     let budgets = parse_budgets(&args.budgets)?;
@@ -281,181 +221,4 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
     }
     line.push_str(&format!(", {} isolation failures", summary.failed));
     eprintln!("{line}");
-}
-
-/// The report's scene files when `--scenes` is not given (relative to the working directory).
-const DEFAULT_SCENES: &str = "bench_scenes/*.toml";
-
-/// Run `lcpbench report`.
-pub fn run_report(args: ReportArgs) -> Result<()> {
-    check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
-    let pattern = args.scenes.as_deref().unwrap_or(DEFAULT_SCENES);
-    let scenes = report::scenes_matching(pattern)?;
-    if scenes.is_empty() {
-        if args.scenes.is_none() {
-            bail!(
-                "no scene file matches `{DEFAULT_SCENES}` from {}: the report's suite is made of \
-                 the scenes and of the FCLIB problems in `fclib/` beside them; run lcpbench from \
-                 its checkout, or pass --scenes 'DIR/bench_scenes/*.toml'",
-                std::env::current_dir()
-                    .map(|d| d.display().to_string())
-                    .unwrap_or_else(|_| "this directory".into())
-            );
-        }
-        eprintln!(
-            "--scenes `{pattern}` matches no scene file: the report covers generated LCPs only"
-        );
-    }
-    report::check_output_dir(&args.out)?;
-    let merged = check_report_dir(&args)?;
-    let lcp_dir = args.out.join("lcps");
-    let exported = if args.no_run {
-        // Tables from existing data: the LCPs exported by the run that produced it.
-        report::recorded_exports(&args.out)?
-    } else {
-        remove_exported_lcps(&lcp_dir)?;
-        // Sorted by path, the order `--no-run` lists them in.
-        let mut exported = lcpbench::harness::export::export_suite_lcps(
-            &suite::suite_scenes(args.quick, &scenes),
-            &lcp_dir,
-            if args.quick { 60 } else { 400 },
-            suite::LARGE_SCENE_BODIES,
-        )?;
-        exported.sort();
-        exported
-    };
-    let mut sweep = SweepConfig::new(args.out.join("data"))?;
-    sweep.jobs = args.jobs;
-    sweep.progress = !args.no_progress;
-    let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let options = report::ReportOptions {
-        out_dir: args.out.clone(),
-        quick: args.quick,
-        resume: args.resume,
-        scenes,
-        exported,
-        sweep,
-        command,
-    };
-    if let Some(shard) = args.shard {
-        let summary = report::shard::run_shard(&options, shard)?;
-        eprintln!(
-            "shard {shard} of sweep {}: ran {} runs in {:.0} s ({} isolation failures), skipped \
-             {} already done; merge the shards with `lcpbench merge DIR... --out DIR`",
-            summary.manifest.sweep,
-            summary.sweep.ran,
-            summary.sweep_seconds,
-            summary.sweep.failed,
-            summary.sweep.skipped,
-        );
-        return Ok(());
-    }
-    if args.no_run {
-        let suite = suite::default_suite(options.quick, &options.scenes, &options.exported);
-        let mut header =
-            report::Header::collect(&options.command, options.sweep.jobs, &options.out_dir);
-        if let Some(merged) = merged {
-            // The rows' commit, not the one rewriting the tables.
-            header.commit = merged.commit;
-        }
-        let readme = report::write_report(&options.out_dir, &suite, &header, 0.0)?;
-        eprintln!("wrote {}", readme.display());
-        return Ok(());
-    }
-    let summary = report::run(&options)?;
-    eprintln!(
-        "ran {} runs in {:.0} s ({} isolation failures); wrote {}",
-        summary.sweep.ran,
-        summary.sweep_seconds,
-        summary.sweep.failed,
-        summary.readme.display()
-    );
-    Ok(())
-}
-
-/// Check that `report`'s output directory suits what it is asked to do: a shard's directory is
-/// only resumed by the same `--shard`, and `--no-run` on a merged directory needs the suite its
-/// shards ran (`--quick` or not). Returns the merged directory's manifest, if it has one.
-fn check_report_dir(args: &ReportArgs) -> Result<Option<MergedManifest>> {
-    if args.shard.is_none() {
-        if let Some(m) = shard::read_manifest(&args.out)? {
-            bail!(
-                "{} holds {} only; merge every shard with `lcpbench merge DIR... --out DIR` and \
-                 write the report from that directory{}",
-                args.out.display(),
-                m.describe(),
-                if args.no_run {
-                    ""
-                } else {
-                    ", or give this run another output directory"
-                }
-            );
-        }
-    }
-    let merged = merge::read_merged(&args.out)?;
-    if let Some(m) = &merged {
-        if !args.no_run {
-            bail!(
-                "{} holds rows merged from shards; write their report with --no-run, or give \
-                 this run another output directory",
-                args.out.display()
-            );
-        }
-        let suite = SweepKind::report(args.quick);
-        if m.kind != suite {
-            bail!(
-                "{} holds the rows of a {} sweep; {}",
-                args.out.display(),
-                m.kind,
-                match m.kind {
-                    SweepKind::ReportQuick => "add --quick",
-                    SweepKind::ReportFull => "drop --quick",
-                    SweepKind::Bench => "the report is written from report sweeps",
-                }
-            );
-        }
-    }
-    Ok(merged)
-}
-
-/// Remove the problems an earlier report exported into `dir` (`SCENE_stepK.json`), and
-/// nothing else there: the directory may hold files lcpbench did not write.
-fn remove_exported_lcps(dir: &std::path::Path) -> Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(());
-    };
-    for entry in entries.flatten() {
-        let name = entry.file_name();
-        let name = name.to_string_lossy();
-        let exported = name
-            .strip_suffix(".json")
-            .and_then(|stem| stem.rsplit_once("_step"))
-            .is_some_and(|(_, k)| !k.is_empty() && k.bytes().all(|c| c.is_ascii_digit()));
-        let regular = entry.file_type().is_ok_and(|t| t.is_file());
-        if exported && regular {
-            std::fs::remove_file(entry.path())
-                .with_context(|| format!("removing {}", entry.path().display()))?;
-        }
-    }
-    Ok(())
-}
-
-/// Run `lcpbench bench-one` (the child side of the isolation).
-pub fn run_bench_one(args: BenchOneArgs) -> Result<()> {
-    if let Some(fault) = &args.fault {
-        let fault = Fault::from_name(fault)
-            .with_context(|| format!("--fault must be panic, hang or abort, got `{fault}`"))?;
-        fault.trigger();
-    }
-    let case: Case = args.case.parse()?;
-    let solver: SolverSpec = args.solver.parse()?;
-    let mut budget: NamedBudget = args.budget.parse()?;
-    if let Some(name) = args.budget_name {
-        budget.name = name;
-    }
-    let output = run_in_process(&case, &solver, &budget);
-    let stdout = std::io::stdout();
-    let mut lock = stdout.lock();
-    write_protocol(&mut lock, &output).context("writing the run's row")?;
-    Ok(())
 }

@@ -1,20 +1,14 @@
-//! `lcpbench simulate` and `lcpbench export`.
+//! `lcpbench simulate`: step a scene and print per-run figures.
 
+use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
-use lcpbench::harness::export::{step_problem, StepProblem};
-use lcpbench::harness::SolverSpec;
-use lcpbench_contact::scene::{check_solver, LoadOptions, Scene, MAX_STEPS};
-use lcpbench_contact::step::{ContactSolver, PhaseTimes, StepReport, World};
-use lcpbench_contact::FrictionModel;
-use lcpbench_solvers::{
-    cone_problem_to_json, problem_to_json, write_problem, ConeProblem, Problem,
-};
+use lcpbench_contact::scene::{LoadOptions, Scene};
+use lcpbench_contact::step::{PhaseTimes, StepReport, World};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `lcpbench simulate`.
 #[derive(Args)]
@@ -74,125 +68,6 @@ pub struct SimulateArgs {
     pub allow_outside_paths: bool,
 }
 
-/// Arguments of `lcpbench export`.
-#[derive(Args)]
-pub struct ExportArgs {
-    /// Scene file (TOML).
-    pub scene: PathBuf,
-    /// The step whose LCP is written (0-based; earlier steps are simulated first).
-    #[arg(long, default_value_t = 0)]
-    pub step: usize,
-    /// Solver used for the steps before `--step` (overrides the scene's; a cone solver for
-    /// friction model cone; `NAME+warm` warm-starts them, `NAME` starts them cold).
-    #[arg(long, short)]
-    pub solver: Option<String>,
-    /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K, or
-    /// cone (writes the step's cone problem, which `lcpbench solve` reads too).
-    #[arg(long)]
-    pub friction_model: Option<String>,
-    /// Solver tolerance for the steps before `--step` (overrides the scene's).
-    #[arg(long)]
-    pub tol: Option<f64>,
-    /// Solver iteration / pivot / sweep cap per step for the steps before `--step` (overrides
-    /// the scene's).
-    #[arg(long)]
-    pub max_iter: Option<usize>,
-    /// Wall-time budget of each step's solve before `--step`, seconds (none by default).
-    #[arg(long)]
-    pub time_budget: Option<f64>,
-    /// Output problem file (JSON, the `lcpbench solve` format). With a warm-started solver the
-    /// file also holds the step's warm start (`warm_start`: the previous step's impulses,
-    /// projected as the stepper passes them), which `lcpbench solve --warm` starts from.
-    #[arg(long, short)]
-    pub output: PathBuf,
-    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
-    /// leading out), which are refused otherwise.
-    #[arg(long)]
-    pub allow_outside_paths: bool,
-}
-
-/// Refuse a step count beyond [`MAX_STEPS`] (or zero, for `--steps`).
-fn check_steps(flag: &str, steps: usize) -> Result<()> {
-    let min = usize::from(flag == "--steps");
-    if steps < min || steps > MAX_STEPS {
-        bail!("{flag} must be between {min} and {MAX_STEPS}, got {steps}");
-    }
-    Ok(())
-}
-
-/// Steps after which a run counts as long work: a warning is printed and a progress bar drawn
-/// (on a terminal).
-const LONG_RUN_STEPS: u64 = 10_000;
-
-/// A progress bar over `steps` steps, drawn on stderr for long runs only.
-fn step_progress(steps: u64, scene: &str) -> ProgressBar {
-    if steps < LONG_RUN_STEPS {
-        return ProgressBar::hidden();
-    }
-    eprintln!("simulating {steps} steps of {scene}; this may take a while");
-    let bar = ProgressBar::new(steps);
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} steps ({eta} left)")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
-/// Load a scene and build its world, applying solver and friction-model overrides.
-fn load_world(
-    path: &Path,
-    solver: Option<&str>,
-    friction_model: Option<&str>,
-    options: &LoadOptions,
-) -> Result<(Scene, World)> {
-    let mut scene = Scene::load_with(path, options)?;
-    if let Some(model) = friction_model {
-        let directions = match scene.settings.builder.friction_model {
-            FrictionModel::Pyramid { directions } => directions,
-            _ => 4,
-        };
-        scene.settings.builder.friction_model = FrictionModel::parse(model, directions)
-            .map_err(|(_, m)| anyhow::anyhow!("{m}"))
-            .with_context(|| {
-                format!(
-                    "unknown friction model `{model}` (known: {})",
-                    FrictionModel::NAMES
-                )
-            })?;
-    }
-    if let Some(name) = solver {
-        let spec: SolverSpec = name.parse()?;
-        let choice = spec.contact_solver(&scene).with_context(|| {
-            format!(
-                "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
-                ContactSolver::all_names()
-            )
-        })?;
-        scene.settings.solver = choice;
-        // As in `bench` and the report's rows: `NAME` starts every step cold, `NAME+warm`
-        // from the previous step's impulses (the scene's `warm_start` applies without `-s`).
-        scene.settings.warm_start = spec.warm();
-    }
-    check_solver(
-        &scene.settings.solver,
-        scene.settings.builder.friction_model,
-    )
-    .map_err(|m| {
-        anyhow::anyhow!(
-            "{}: unsupported solver for this friction model: {m}{}",
-            path.display(),
-            if scene.settings.solver.is_cone() {
-                " (--friction-model cone selects the cone)"
-            } else {
-                ""
-            }
-        )
-    })?;
-    let world = scene.world();
-    Ok((scene, world))
-}
-
 /// The highest dynamic body at the start and the height the scene expects it to keep
 /// (`[metrics] expected_top_height` or `expected_rest_height`), for the sag and lateral drift
 /// of stacks (the same measure as the harness's scene rows).
@@ -243,32 +118,6 @@ impl TopBody {
             Some((d - d.dot(&self.up) * self.up).norm()),
         )
     }
-}
-
-/// Apply the `--tol`, `--max-iter` and `--time-budget` options to the world.
-fn apply_solver_overrides(
-    tol: Option<f64>,
-    max_iter: Option<usize>,
-    time_budget: Option<f64>,
-    world: &mut World,
-) -> Result<()> {
-    if let Some(tol) = tol {
-        world.settings.tolerance =
-            lcpbench::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
-    }
-    if let Some(max_iter) = max_iter {
-        if max_iter == 0 {
-            bail!("--max-iter must be at least 1");
-        }
-        world.settings.max_iterations = max_iter;
-    }
-    if let Some(seconds) = time_budget {
-        world.settings.step_time_budget = Some(
-            lcpbench::harness::budget::time_budget(seconds)
-                .map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?,
-        );
-    }
-    Ok(())
 }
 
 /// Apply the solver, `--no-residuals` and history options to the world.
@@ -600,80 +449,4 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         t.last_energy,
         t.last_energy - t.energy0
     );
-}
-
-/// Run `lcpbench export`.
-pub fn run_export(args: ExportArgs) -> Result<()> {
-    let (scene, mut world) = load_world(
-        &args.scene,
-        args.solver.as_deref(),
-        args.friction_model.as_deref(),
-        &LoadOptions {
-            allow_outside_paths: args.allow_outside_paths,
-        },
-    )?;
-    check_steps("--step", args.step)?;
-    apply_solver_overrides(args.tol, args.max_iter, args.time_budget, &mut world)?;
-    let bar = step_progress(args.step as u64, &scene.name);
-    let (problem, contacts) = step_problem(&mut world, &scene.name, args.step, || bar.inc(1));
-    bar.finish_and_clear();
-    let (problem, warm_start) = match problem {
-        StepProblem::Lcp {
-            problem,
-            warm_start,
-        } => (problem, warm_start),
-        StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
-        StepProblem::NoContacts => bail!(
-            "step {} of {} has no contacts, so there is no LCP to export",
-            args.step,
-            args.scene.display()
-        ),
-        StepProblem::Refused(reason) => bail!(
-            "{}: step {} has no problem to export: {reason}",
-            args.scene.display(),
-            args.step
-        ),
-    };
-    match &warm_start {
-        Some(ws) => write_problem_with_warm_start(&problem, ws, &args.output)?,
-        None => write_problem(&problem, &args.output)?,
-    }
-    println!(
-        "wrote {}: {} rows ({contacts} contacts) of step {} of {}{}",
-        args.output.display(),
-        problem.n(),
-        args.step,
-        scene.name,
-        if warm_start.is_some() {
-            ", with its warm start"
-        } else {
-            ""
-        }
-    );
-    Ok(())
-}
-
-/// Write `problem` as JSON with the key `warm_start` added.
-fn write_problem_with_warm_start(problem: &Problem, warm_start: &[f64], path: &Path) -> Result<()> {
-    let mut value: serde_json::Value = serde_json::from_str(&problem_to_json(problem))?;
-    if let Some(object) = value.as_object_mut() {
-        object.insert("warm_start".into(), json!(warm_start));
-    }
-    std::fs::write(path, serde_json::to_string(&value)?)
-        .with_context(|| format!("cannot write {}", path.display()))
-}
-
-/// Write the cone problem of `lcpbench export` (friction model `cone`).
-fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
-    std::fs::write(&args.output, cone_problem_to_json(cone))
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
-    println!(
-        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
-        args.output.display(),
-        cone.contacts(),
-        cone.n(),
-        args.step,
-        scene_name
-    );
-    Ok(())
 }

@@ -2,7 +2,9 @@
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget::{self, catalogue, SolverSpec};
+use lcpbench::harness::budget;
+use lcpbench::harness::catalogue::catalogue;
+use lcpbench::harness::SolverSpec;
 use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, read_problem, Certificate, ConeProblem,

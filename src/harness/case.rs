@@ -20,6 +20,7 @@
 //! | `scene:PATH?friction=MODEL`           | the scene with its friction model replaced (`none`, `box`, `pyramid`, `pyramid-K`, `cone`) |
 //! | `scene:PATH?steps=N&friction=MODEL`   | both                                                   |
 
+use crate::harness::text::serde_as_text;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::generate::{self, generate, Family, Generated, MAX_CONDITION};
 use lcpbench_solvers::{read_problem, Problem};
@@ -43,10 +44,24 @@ pub struct CaseError {
     pub message: String,
 }
 
+/// A class or family name that names none of them.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("unknown {what} `{name}`: expected one of {expected}")]
+pub struct UnknownName {
+    /// What was being named (`problem class`, `case family`).
+    pub what: &'static str,
+    /// The name as given.
+    pub name: String,
+    /// The names known.
+    pub expected: String,
+}
+
 /// The problem class a case belongs to, as used by the robustness matrix.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ProblemClass {
-    /// Symmetric positive definite `A`.
+    /// Symmetric positive definite `A` (also the value of a
+    /// [`RunRecord`](crate::harness::RunRecord) not yet filled).
+    #[default]
     Spd,
     /// Symmetric positive semidefinite, rank-deficient `A`.
     RankDeficient,
@@ -86,20 +101,129 @@ impl ProblemClass {
         }
     }
 
+    /// Every class: those of the robustness matrix, then scenes.
+    pub const ALL: [ProblemClass; 7] = [
+        ProblemClass::Spd,
+        ProblemClass::RankDeficient,
+        ProblemClass::NonSymmetric,
+        ProblemClass::Degenerate,
+        ProblemClass::Infeasible,
+        ProblemClass::Friction,
+        ProblemClass::Scene,
+    ];
+
     /// Inverse of [`ProblemClass::name`].
     pub fn from_name(name: &str) -> Option<Self> {
-        [
-            ProblemClass::Spd,
-            ProblemClass::RankDeficient,
-            ProblemClass::NonSymmetric,
-            ProblemClass::Degenerate,
-            ProblemClass::Infeasible,
-            ProblemClass::Friction,
-            ProblemClass::Scene,
-        ]
-        .into_iter()
-        .find(|c| c.name() == name)
+        Self::ALL.into_iter().find(|c| c.name() == name)
     }
+}
+
+impl fmt::Display for ProblemClass {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.pad(self.name())
+    }
+}
+
+impl std::str::FromStr for ProblemClass {
+    type Err = UnknownName;
+
+    fn from_str(name: &str) -> Result<Self, UnknownName> {
+        Self::from_name(name).ok_or_else(|| UnknownName {
+            what: "problem class",
+            name: name.to_owned(),
+            expected: names(Self::ALL.map(Self::name)),
+        })
+    }
+}
+
+serde_as_text!(ProblemClass);
+
+/// The family a case belongs to, named by the first part of its key (`spd`, `psd`, `pmatrix`,
+/// `murty`, `dup`, `weak`, `zerob`, `infeasible`, `file`, `scene`): the `family` column.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CaseFamily {
+    /// Generated SPD (also the value of a [`RunRecord`](crate::harness::RunRecord) not yet
+    /// filled).
+    #[default]
+    Spd,
+    /// Generated PSD of a given rank.
+    Psd,
+    /// Generated non-symmetric P-matrix.
+    PMatrix,
+    /// Murty's example.
+    Murty,
+    /// Every row duplicated.
+    Duplicated,
+    /// Weakly complementary rows.
+    Weak,
+    /// PSD with `b = 0`.
+    ZeroB,
+    /// No solution.
+    Infeasible,
+    /// A problem file.
+    File,
+    /// A scene.
+    Scene,
+}
+
+impl CaseFamily {
+    /// Every family, in the order of the case keys' table.
+    pub const ALL: [CaseFamily; 10] = [
+        CaseFamily::Spd,
+        CaseFamily::Psd,
+        CaseFamily::PMatrix,
+        CaseFamily::Murty,
+        CaseFamily::Duplicated,
+        CaseFamily::Weak,
+        CaseFamily::ZeroB,
+        CaseFamily::Infeasible,
+        CaseFamily::File,
+        CaseFamily::Scene,
+    ];
+
+    /// The key prefix, as written in the `family` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            CaseFamily::Spd => "spd",
+            CaseFamily::Psd => "psd",
+            CaseFamily::PMatrix => "pmatrix",
+            CaseFamily::Murty => "murty",
+            CaseFamily::Duplicated => "dup",
+            CaseFamily::Weak => "weak",
+            CaseFamily::ZeroB => "zerob",
+            CaseFamily::Infeasible => "infeasible",
+            CaseFamily::File => "file",
+            CaseFamily::Scene => "scene",
+        }
+    }
+}
+
+impl fmt::Display for CaseFamily {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        out.pad(self.name())
+    }
+}
+
+impl std::str::FromStr for CaseFamily {
+    type Err = UnknownName;
+
+    fn from_str(name: &str) -> Result<Self, UnknownName> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == name)
+            .ok_or_else(|| UnknownName {
+                what: "case family",
+                name: name.to_owned(),
+                expected: names(Self::ALL.map(Self::name)),
+            })
+    }
+}
+
+serde_as_text!(CaseFamily);
+
+/// `a, b, c` from a list of names.
+fn names<const N: usize>(list: [&str; N]) -> String {
+    list.join(", ")
 }
 
 /// A generated LCP family, including the degenerate families the harness adds to the solver
@@ -381,10 +505,22 @@ impl Case {
         }
     }
 
-    /// Short family label for grouping (`spd`, `psd`, `file`, `scene`, ...).
-    pub fn family_label(&self) -> String {
-        let key = self.to_string();
-        key.split(':').next().unwrap_or_default().to_owned()
+    /// The family the case belongs to (the first part of its key).
+    pub fn family(&self) -> CaseFamily {
+        match self {
+            Case::Generated { family, .. } => match family {
+                GenFamily::Spd { .. } => CaseFamily::Spd,
+                GenFamily::Psd { .. } => CaseFamily::Psd,
+                GenFamily::PMatrix => CaseFamily::PMatrix,
+                GenFamily::Murty => CaseFamily::Murty,
+                GenFamily::Duplicated => CaseFamily::Duplicated,
+                GenFamily::Weak => CaseFamily::Weak,
+                GenFamily::ZeroB => CaseFamily::ZeroB,
+                GenFamily::Infeasible => CaseFamily::Infeasible,
+            },
+            Case::File(_) => CaseFamily::File,
+            Case::Scene { .. } => CaseFamily::Scene,
+        }
     }
 
     /// Size: rows for generated problems, `None` for files and scenes until loaded.
@@ -574,7 +710,15 @@ mod tests {
         ] {
             let case: Case = key.parse().unwrap();
             assert_eq!(case.to_string(), key);
+            // The family column is the key's first part, and reads back as the same family.
+            let family = case.family();
+            assert_eq!(family.to_string(), key.split(':').next().unwrap());
+            assert_eq!(family.to_string().parse::<CaseFamily>(), Ok(family));
+            let class = case.class();
+            assert_eq!(class.to_string().parse::<ProblemClass>(), Ok(class));
         }
+        assert!("Spd".parse::<CaseFamily>().is_err());
+        assert!("rank-deficient".parse::<ProblemClass>().is_err());
         assert!("spd:n=0".parse::<Case>().is_err());
         assert!("spd:n=100000000".parse::<Case>().is_err());
         assert!("scene:a.toml?steps=0".parse::<Case>().is_err());

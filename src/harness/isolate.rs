@@ -17,10 +17,10 @@
 //!
 //! CSV rather than JSON so infinite and NaN residuals survive the trip.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::machine::Machine;
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
+use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::HistoryPoint;
 use std::io::{Read, Write};
 use std::path::Path;
@@ -102,7 +102,7 @@ fn run_child(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -
         .arg("--budget")
         .arg(&budget_spec)
         .arg("--budget-name")
-        .arg(&budget.name)
+        .arg(budget.name.to_string())
         .env("RUST_BACKTRACE", "0")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

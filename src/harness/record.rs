@@ -4,14 +4,17 @@
 //! an LCP case, an analytic error on a scene without one, a time-to-accuracy never reached).
 //!
 //! The outcome of a run is a [`RunStatus`] (the solver statuses plus the harness's own
-//! outcomes), serialised as the same lowercase names the CSV has always had; a run is identified
-//! by its [`RunKey`]. [`RunOutput`] and [`base_record`] live here, shared by the in-process run
+//! outcomes), serialised as lowercase names; a run is identified by its [`RunKey`]. The class,
+//! family, solver and budget columns are typed ([`ProblemClass`], [`CaseFamily`],
+//! [`SolverSpec`], [`BudgetName`]) and written as their text: a row that names an unknown one
+//! does not read. [`RunOutput`] and [`base_record`] live here, shared by the in-process run
 //! ([`crate::harness::run`], [`crate::harness::scene`]) and the isolation layer, so neither of
 //! those modules imports the other.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
-use crate::harness::case::Case;
+use crate::harness::budget::{BudgetName, NamedBudget};
+use crate::harness::case::{Case, CaseFamily, ProblemClass};
 use crate::harness::machine::Machine;
+use crate::harness::solver_spec::SolverSpec;
 use lcpbench_solvers::{HistoryPoint, Status};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -26,21 +29,21 @@ pub struct RunRecord {
     pub case: String,
     /// Problem class (`spd`, `rank_deficient`, `non_symmetric`, `degenerate`, `infeasible`,
     /// `friction`, `scene`).
-    pub class: String,
-    /// Family label (`spd`, `psd`, ..., `file`, `scene`).
-    pub family: String,
+    pub class: ProblemClass,
+    /// Family (`spd`, `psd`, ..., `file`, `scene`).
+    pub family: CaseFamily,
     /// Rows of the LCP; for a scene, the largest number of LCP rows in a step.
     pub n: Option<usize>,
     /// Solver specification (`pgs`, `sor@1.7`, `pgs+warm`, ...).
-    pub solver: String,
-    /// Solver name without variant.
+    pub solver: SolverSpec,
+    /// Solver name without variant ([`SolverSpec::base_name`]).
     pub solver_base: String,
     /// SOR relaxation, when set.
     pub omega: Option<f64>,
     /// Warm start.
     pub warm: bool,
     /// Budget name.
-    pub budget: String,
+    pub budget: BudgetName,
     /// Tolerance of the budget.
     pub tolerance: f64,
     /// Iteration cap of the budget.
@@ -172,10 +175,10 @@ pub struct RunRecord {
     pub certificate_bound: Option<f64>,
     /// Scene: steps whose solve ended `no_solution` or `diverged` (the step's problem has no
     /// solution, or the impulse met the tolerance only by growing along a direction `A`
-    /// cancels). Absent in rows written before the column existed.
+    /// cancels). Empty when the row does not record it.
     pub no_solution_steps: Option<usize>,
-    /// Host name of the machine the run ran on (see [`Machine`]); empty in rows written before
-    /// sweeps recorded it.
+    /// Host name of the machine the run ran on (see [`Machine`]); empty when the row does not
+    /// record it.
     pub host: Option<String>,
     /// CPU model of that machine.
     pub cpu_model: Option<String>,
@@ -186,7 +189,7 @@ pub struct RunRecord {
 impl RunRecord {
     /// The resume key: (case, solver, budget).
     pub fn key(&self) -> RunKey {
-        RunKey::new(&self.case, &self.solver, &self.budget)
+        RunKey::new(&self.case, &self.solver.to_string(), self.budget.as_str())
     }
 
     /// Time to reach relative residual `level` (one of [`TTA_LEVELS`]).
@@ -386,11 +389,11 @@ impl RunKey {
     }
 
     /// The key of the run of `solver` on `case` under the budget called `budget`.
-    pub fn of(case: &Case, solver: &SolverSpec, budget: &str) -> Self {
+    pub fn of(case: &Case, solver: &SolverSpec, budget: &BudgetName) -> Self {
         Self {
             case: case.to_string(),
             solver: solver.to_string(),
-            budget: budget.to_owned(),
+            budget: budget.to_string(),
         }
     }
 }
@@ -432,10 +435,10 @@ impl RunOutput {
 pub fn base_record(case: &Case, solver: &SolverSpec, budget: &NamedBudget) -> RunRecord {
     RunRecord {
         case: case.to_string(),
-        class: case.class().name().to_owned(),
-        family: case.family_label(),
+        class: case.class(),
+        family: case.family(),
         n: case.size(),
-        solver: solver.to_string(),
+        solver: solver.clone(),
         solver_base: solver.base_name(),
         omega: solver.omega(),
         warm: solver.warm(),
@@ -453,9 +456,9 @@ pub struct HistoryRow {
     /// Case key.
     pub case: String,
     /// Solver specification.
-    pub solver: String,
+    pub solver: SolverSpec,
     /// Budget name.
-    pub budget: String,
+    pub budget: BudgetName,
     /// Iteration or pivot count.
     pub iteration: usize,
     /// Solver time so far, seconds.
@@ -467,7 +470,7 @@ pub struct HistoryRow {
 impl HistoryRow {
     /// The key of the run this point belongs to.
     pub fn key(&self) -> RunKey {
-        RunKey::new(&self.case, &self.solver, &self.budget)
+        RunKey::new(&self.case, &self.solver.to_string(), self.budget.as_str())
     }
 }
 
@@ -504,5 +507,35 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!(back.status, RunStatus::BlowUp);
+    }
+
+    /// The typed columns are written as the text they were parsed from, and a row whose solver
+    /// or budget names nothing known does not read.
+    #[test]
+    fn typed_columns_round_trip_and_unknown_names_are_refused() {
+        let case: Case = "psd:n=20:rank=5:seed=2".parse().unwrap();
+        let solver: SolverSpec = "sor@1.7+warm".parse().unwrap();
+        let budget: NamedBudget = "1e-6:20:1".parse().unwrap();
+        let record = base_record(&case, &solver, &budget);
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(&record).unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        let row = text.lines().nth(1).unwrap();
+        assert!(
+            row.starts_with(
+                "psd:n=20:rank=5:seed=2,rank_deficient,psd,20,sor@1.7+warm,sor,1.7,true,1e-6:20:1,"
+            ),
+            "{row}"
+        );
+        let read = |text: &str| -> Result<RunRecord, csv::Error> {
+            csv::Reader::from_reader(text.as_bytes())
+                .deserialize()
+                .next()
+                .unwrap()
+        };
+        assert_eq!(read(&text).unwrap(), record);
+        assert!(read(&text.replace(",sor@1.7+warm,", ",sro@1.7+warm,")).is_err());
+        assert!(read(&text.replace(",1e-6:20:1,", ",tigth,")).is_err());
+        assert!(read(&text.replace(",rank_deficient,", ",rank-deficient,")).is_err());
     }
 }

@@ -2,10 +2,10 @@
 //! isolated child (`lcpbench bench-one`) executes; [`crate::harness::isolate`] runs it in a child
 //! process so a panic, an abort or a hang cannot take the sweep down.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::{Case, GenFamily, LoadedLcp};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
 use crate::harness::scene;
+use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::{
     ConeProblem, ConeSolver, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
 };
@@ -37,7 +37,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     };
     record.n = Some(lcp.problem.n());
     if let Case::File(_) = case {
-        record.class = Case::class_of_problem(&lcp.problem).name().to_owned();
+        record.class = Case::class_of_problem(&lcp.problem);
     }
     if let Some(solver) = spec.create_cone() {
         return run_cone_lcp(solver, &lcp, spec, budget, record);

@@ -18,10 +18,10 @@
 //!
 //! [`StepReport`]: lcpbench_contact::step::StepReport
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::metrics::{SceneMetricsAccumulator, TimeStop};
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
+use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::World;
 use lcpbench_solvers::Status;

@@ -567,8 +567,8 @@ pub fn refuse_shard_directory(dir: &Path) -> Result<(), ShardError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::harness::budget::{NamedBudget, SolverSpec};
     use crate::harness::cross_product;
+    use crate::harness::{NamedBudget, SolverSpec};
 
     fn named(spec: &str) -> NamedBudget {
         spec.parse().unwrap()

@@ -21,7 +21,6 @@
 //!   `PID` run. It is removed when the sweep ends; copies left by a killed sweep are removed by
 //!   the next sweep on the directory.
 
-use crate::harness::budget::{NamedBudget, SolverSpec};
 use crate::harness::case::Case;
 use crate::harness::isolate::run_isolated;
 use crate::harness::outdir::{
@@ -29,6 +28,7 @@ use crate::harness::outdir::{
 };
 pub use crate::harness::outdir::{lock_dir, DirLock, LOCK_FILE};
 use crate::harness::record::{HistoryRow, RunKey, RunOutput, RunRecord};
+use crate::harness::{BudgetName, NamedBudget, SolverSpec};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::collections::{HashMap, HashSet, VecDeque};
@@ -170,8 +170,8 @@ pub fn result_columns() -> Vec<String> {
 pub fn history_columns() -> Vec<String> {
     columns_of(&HistoryRow {
         case: String::new(),
-        solver: String::new(),
-        budget: String::new(),
+        solver: SolverSpec::default(),
+        budget: BudgetName::default(),
         iteration: 0,
         time_s: 0.0,
         residual: 0.0,

@@ -8,12 +8,10 @@
 
 use super::machine::Header;
 use super::machines::Machines;
-use super::suite::Suite;
+use super::suite::{scene_solvers, Suite};
 use super::table::Table;
-use crate::harness::{Case, HistoryRow, ProblemClass, RunKey, RunRecord};
+use crate::harness::{BudgetName, Case, HistoryRow, ProblemClass, RunKey, RunRecord, SolverSpec};
 use anyhow::Result;
-use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_solvers::SolverKind;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -109,10 +107,13 @@ impl<'a> ReportContext<'a> {
 
     /// The run of `case` by `solver` under `budget`, if there is one among the rows the timing
     /// tables use (see [`Machines`]).
-    pub(super) fn get(&self, case: &Case, solver: &str, budget: &str) -> Option<&'a RunRecord> {
-        self.by_key
-            .get(&RunKey::new(&case.to_string(), solver, budget))
-            .copied()
+    pub(super) fn get(
+        &self,
+        case: &Case,
+        solver: &SolverSpec,
+        budget: &BudgetName,
+    ) -> Option<&'a RunRecord> {
+        self.by_key.get(&RunKey::of(case, solver, budget)).copied()
     }
 
     /// The run of `case` by `solver` under `budget` on whichever machine ran it, for tables
@@ -120,12 +121,26 @@ impl<'a> ReportContext<'a> {
     pub(super) fn get_any_machine(
         &self,
         case: &Case,
-        solver: &str,
-        budget: &str,
+        solver: &SolverSpec,
+        budget: &BudgetName,
     ) -> Option<&'a RunRecord> {
         self.all_by_key
-            .get(&RunKey::new(&case.to_string(), solver, budget))
+            .get(&RunKey::of(case, solver, budget))
             .copied()
+    }
+
+    /// The runs of `case` under `budget`, one per solver of `solvers` that has one, in that
+    /// order.
+    pub(super) fn runs_of(
+        &self,
+        case: &Case,
+        solvers: &[SolverSpec],
+        budget: &BudgetName,
+    ) -> Vec<&'a RunRecord> {
+        solvers
+            .iter()
+            .filter_map(|s| self.get(case, s, budget))
+            .collect()
     }
 
     /// Write the table's CSV under `tables/` and return its Markdown.
@@ -135,14 +150,11 @@ impl<'a> ReportContext<'a> {
     }
 }
 
-/// The matrix solvers, in their order.
-pub(super) fn solver_names() -> Vec<&'static str> {
-    SolverKind::ALL.iter().map(|k| k.name()).collect()
-}
-
-/// Every solver a scene can use: the matrix solvers, then the body-level ones.
-pub(super) fn scene_solver_names() -> Vec<&'static str> {
-    let mut v = solver_names();
-    v.extend(BodySolverKind::ALL.iter().map(|k| k.name()));
-    v
+/// Every scene solver (matrix, then body-level), each cold then warm-started; the warm form of
+/// a solver that does not iterate names no run.
+pub(super) fn scene_solvers_cold_and_warm() -> Vec<SolverSpec> {
+    scene_solvers()
+        .into_iter()
+        .flat_map(|s| [s.clone(), s.with_warm()])
+        .collect()
 }

@@ -121,14 +121,14 @@ impl Machines {
 mod tests {
     use super::*;
     use crate::harness::machine::Machine;
+    use crate::harness::{BudgetName, SolverSpec};
     use crate::report::write_results_for_tests;
+    use lcpbench_solvers::SolverKind;
 
     /// A row of `case` run on (host, CPU model), 4 cores.
     fn row(case: &str, machine: Option<(&str, &str)>) -> RunRecord {
         let mut r = RunRecord {
             case: case.into(),
-            solver: "pgs".into(),
-            budget: "default".into(),
             ..RunRecord::default()
         };
         if let Some((host, cpu)) = machine {
@@ -178,8 +178,8 @@ mod tests {
         assert_eq!(timed, ["b", "c"]);
         let history = |case: &str| HistoryRow {
             case: case.into(),
-            solver: "pgs".into(),
-            budget: "default".into(),
+            solver: SolverSpec::plain(SolverKind::Pgs),
+            budget: BudgetName::Default,
             iteration: 1,
             time_s: 0.0,
             residual: 1.0,
@@ -201,12 +201,12 @@ mod tests {
         use crate::report::suite::Suite;
 
         let spd: Case = "spd:n=8:cond=1e2:seed=1".parse().unwrap();
-        let run = |solver: &str, budget: &str, tta: f64, cpu: &str| {
+        let run = |solver: SolverKind, budget: BudgetName, tta: f64, cpu: &str| {
             let mut r = row(&spd.to_string(), Some(("node", cpu)));
-            r.class = spd.class().name().to_owned();
-            r.solver = solver.into();
-            r.solver_base = solver.into();
-            r.budget = budget.into();
+            r.class = spd.class();
+            r.solver = SolverSpec::plain(solver);
+            r.solver_base = solver.name().into();
+            r.budget = budget;
             r.status = RunStatus::Converged;
             r.converged = true;
             r.n = Some(8);
@@ -216,11 +216,11 @@ mod tests {
             r
         };
         let rows = [
-            run("pgs", "tight", 2e-3, "a"),
-            run("lemke", "tight", 1e-3, "a"),
-            run("lemke", "default", 1e-3, "a"),
-            run("newton-fb", "tight", 1e-6, "b"),
-            run("pgs", "default", 1e-3, "b"),
+            run(SolverKind::Pgs, BudgetName::Tight, 2e-3, "a"),
+            run(SolverKind::Lemke, BudgetName::Tight, 1e-3, "a"),
+            run(SolverKind::Lemke, BudgetName::Default, 1e-3, "a"),
+            run(SolverKind::NewtonFb, BudgetName::Tight, 1e-6, "b"),
+            run(SolverKind::Pgs, BudgetName::Default, 1e-3, "b"),
         ];
         let dir = tempfile::tempdir().unwrap();
         write_results_for_tests(dir.path(), &rows);

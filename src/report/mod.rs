@@ -40,6 +40,7 @@
 //!   scaling            log–log slopes of time against rows and against contacts
 //!   fclib              the FCLIB problems of Siconos' test data: time to 1e-6 per solver
 //! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
+//! palette.rs           the plots' colours: a fixed one per shipped solver, hashed for others
 //! status.rs            the run-status predicates the sections use
 //! machine.rs           the header's machine, commit and date
 //! machines.rs          the machines the rows ran on; the rows the timing tables use
@@ -52,6 +53,7 @@
 mod context;
 pub mod machine;
 mod machines;
+pub mod palette;
 pub mod plots;
 pub mod replays;
 mod sections;

@@ -69,10 +69,10 @@ pub enum LegendAt {
     LowerRight,
 }
 
-/// A stable colour per solver name (the shipped solvers get fixed colours; see
-/// [`crate::harness::budget::colour`], next to the solver names).
+/// A stable colour per series key (the shipped solvers get fixed colours; see
+/// [`crate::report::palette::colour`]).
 pub fn color_for(key: &str) -> RGBColor {
-    let (r, g, b) = crate::harness::budget::colour(key);
+    let (r, g, b) = crate::report::palette::colour(key);
     RGBColor(r, g, b)
 }
 

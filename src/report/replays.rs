@@ -6,13 +6,29 @@
 //! [`replay_section`] where it wants the links.
 
 use super::suite::{is_large_scene, LARGE_SCENE_STEPS, SCENE_STEPS};
+use crate::harness::SolverSpec;
 use crate::view::{self, recording::step_line, Recording};
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::ContactSolver;
+use lcpbench_solvers::SolverKind;
 use std::path::{Path, PathBuf};
 
 /// Solvers of the replays: a pivoting matrix solver and a body-level one.
-pub const REPLAY_SOLVERS: [&str; 2] = ["dantzig", "si"];
+pub const REPLAY_SOLVERS: [SolverSpec; 2] = [
+    SolverSpec::plain(SolverKind::Dantzig),
+    SolverSpec::body(BodySolverKind::SequentialImpulses),
+];
+
+/// The stepper's solver of a replay solver with its default parameters (`None` for a fault).
+fn replay_solver(spec: &SolverSpec) -> Option<ContactSolver> {
+    match *spec {
+        SolverSpec::Matrix { kind, .. } => Some(kind.into()),
+        SolverSpec::Body { kind, .. } => Some(kind.into()),
+        SolverSpec::Cone { kind, .. } => Some(kind.into()),
+        SolverSpec::Fault(_) => None,
+    }
+}
 
 /// Size bound of one replay page, bytes.
 pub const REPLAY_MAX_BYTES: usize = 1_500_000;
@@ -74,8 +90,8 @@ pub fn write_replays(scenes: &[PathBuf], out_dir: &Path) -> Vec<ReplayLink> {
                 };
                 let steps = scene.settings.steps.min(cap);
                 let mut recordings = Vec::new();
-                for solver in REPLAY_SOLVERS {
-                    let choice = ContactSolver::from_name(solver).ok_or("unknown solver")?;
+                for solver in &REPLAY_SOLVERS {
+                    let choice = replay_solver(solver).ok_or("no stepper solver")?;
                     if let Ok(r) = record(&scene, path, choice, steps) {
                         link.solvers.push(solver.to_string());
                         recordings.push(r);

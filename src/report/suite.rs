@@ -33,7 +33,7 @@
 //! FCLIB file.
 
 use crate::harness::case::GenFamily;
-use crate::harness::{Case, Job, NamedBudget, SolverSpec};
+use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
@@ -43,7 +43,8 @@ use std::path::PathBuf;
 /// solver cold and the iterative ones warm-started too. A budget's seconds bound each step's
 /// solve. `tight` is not run on scenes: at 10 s per step, the runs of the solvers that cannot
 /// keep up would take more than the rest of the report; the LCP sections carry it.
-pub const SCENE_BUDGETS: [&str; 3] = ["realtime", "loose", "default"];
+pub const SCENE_BUDGETS: [BudgetName; 3] =
+    [BudgetName::Realtime, BudgetName::Loose, BudgetName::Default];
 
 /// Scenes with more dynamic bodies than this are *large*: [`large_scene_steps`] steps, and
 /// their own section (speed–accuracy per budget, phase times).
@@ -85,7 +86,13 @@ pub const HUGE_SCENE_BODIES: usize = 2_000;
 /// the Delassus matrix (PGS, SOR) and the body-level solvers, as engines step such scenes. The
 /// others read rows of the assembled `A` (44 million entries on the 5,525-box pyramid) and
 /// would spend their runs forming and factoring it.
-pub const HUGE_SCENE_SOLVERS: [&str; 5] = ["pgs", "sor", "si", "body-micro", "penalty"];
+pub const HUGE_SCENE_SOLVERS: [SolverSpec; 5] = [
+    SolverSpec::plain(SolverKind::Pgs),
+    SolverSpec::plain(SolverKind::Sor),
+    SolverSpec::body(BodySolverKind::SequentialImpulses),
+    SolverSpec::body(BodySolverKind::MicroImpulses),
+    SolverSpec::body(BodySolverKind::Penalty),
+];
 
 /// True when the scene has more than [`HUGE_SCENE_BODIES`] dynamic bodies.
 pub fn is_huge_scene(path: &std::path::Path) -> bool {
@@ -155,6 +162,11 @@ pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
 /// 100,000 iterations and 20 s (the slowest Gauss–Seidel runs take a few seconds).
 pub const FCLIB_BUDGET: &str = "1e-6:100000:20";
 
+/// [`FCLIB_BUDGET`] with its name.
+pub fn fclib_budget() -> NamedBudget {
+    custom_budget(FCLIB_BUDGET)
+}
+
 /// The FCLIB problem files: `fclib/*.hdf5` in the directory of the first scene file.
 pub fn fclib_files(scenes: &[PathBuf]) -> Vec<PathBuf> {
     let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
@@ -182,21 +194,37 @@ pub const FRICTION_STEPS: usize = 100;
 /// `1e-8`, which the converged-step counts show), and 1 s per step.
 pub const FRICTION_BUDGET: &str = "1e-8:1000:1";
 
+/// [`FRICTION_BUDGET`] with its name.
+pub fn friction_budget() -> NamedBudget {
+    custom_budget(FRICTION_BUDGET)
+}
+
 /// The friction models compared and the solvers run on each: a Gauss–Seidel method (warm
 /// started) and a Newton or pivoting method. PGS is left out of the pyramid: its LCP matrix is
 /// not symmetric and PGS does not converge on it.
-pub const FRICTION_MODELS: [(FrictionModel, &[&str]); 3] = [
+pub const FRICTION_MODELS: [(FrictionModel, &[SolverSpec]); 3] = [
     (
         FrictionModel::Box,
-        &["pgs+warm", "nsgs+warm", "newton-fb+warm"],
+        &[
+            SolverSpec::plain(SolverKind::Pgs).with_warm(),
+            SolverSpec::plain(SolverKind::Nsgs).with_warm(),
+            SolverSpec::plain(SolverKind::NewtonFb).with_warm(),
+        ],
     ),
     (
         FrictionModel::Pyramid { directions: 4 },
-        &["newton-fb+warm", "lemke"],
+        &[
+            SolverSpec::plain(SolverKind::NewtonFb).with_warm(),
+            SolverSpec::plain(SolverKind::Lemke),
+        ],
     ),
     (
         FrictionModel::Cone,
-        &["nsgs-cone+warm", "newton-ac+warm", "clarabel-socp"],
+        &[
+            SolverSpec::cone(ConeSolverKind::NsgsCone).with_warm(),
+            SolverSpec::cone(ConeSolverKind::NewtonAc).with_warm(),
+            SolverSpec::cone(ConeSolverKind::ClarabelSocp),
+        ],
     ),
 ];
 
@@ -252,8 +280,14 @@ pub struct Suite {
     pub fclib_cases: Vec<Case>,
 }
 
-fn budget(name: &str) -> NamedBudget {
-    name.parse().expect("preset budget")
+/// A preset budget with its name.
+fn preset(name: BudgetName) -> NamedBudget {
+    name.named().expect("a preset names a budget")
+}
+
+/// One of the suite's custom budgets (`TOL:ITER:SECONDS`), named by its text.
+fn custom_budget(spec: &str) -> NamedBudget {
+    spec.parse().expect("the suite's custom budgets are valid")
 }
 
 /// Every matrix solver with default parameters, cold start.
@@ -339,8 +373,8 @@ const FULL: Plan = Plan {
     fclib_files: usize::MAX,
 };
 
-/// Families of the robustness matrix besides SPD, each at every size with seed 1.
-/// The generated families of the matrix besides SPD (PSD of the default rank).
+/// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
+/// run at every size with seed 1.
 fn matrix_families(n: usize) -> [GenFamily; 6] {
     [
         GenFamily::psd_default(n),
@@ -458,25 +492,35 @@ fn warm(s: &SolverSpec) -> SolverSpec {
 /// exported ones, the scaling family, the omega sweep, warm against cold.
 fn lcp_jobs(suite: &mut Suite) {
     let solvers = all_solvers();
-    let matrix_budgets = [budget("default"), budget("tight")];
+    let matrix_budgets = [preset(BudgetName::Default), preset(BudgetName::Tight)];
     let (matrix, exported) = (suite.matrix_cases.clone(), suite.exported_cases.clone());
     push(suite, &matrix, &solvers, &matrix_budgets);
     push(suite, &exported, &solvers, &matrix_budgets);
     // The cone form of the same exported steps (each contact's normal and two tangent rows as
     // one Coulomb cone), for the cone solvers' performance profiles.
-    push(suite, &exported, &cone_solvers(), &[budget("tight")]);
+    push(
+        suite,
+        &exported,
+        &cone_solvers(),
+        &[preset(BudgetName::Tight)],
+    );
     let scaling = suite.scaling_cases.clone();
-    push(suite, &scaling, &solvers, &[budget("default")]);
+    push(suite, &scaling, &solvers, &[preset(BudgetName::Default)]);
     let omega_specs: Vec<SolverSpec> = suite.omegas.iter().map(|&w| SolverSpec::sor(w)).collect();
     let omega = suite.omega_cases.clone();
-    push(suite, &omega, &omega_specs, &[budget("default")]);
+    push(suite, &omega, &omega_specs, &[preset(BudgetName::Default)]);
     let iterative: Vec<SolverSpec> = solvers
         .iter()
         .filter(|s| s.is_iterative())
         .flat_map(|s| [s.clone(), warm(s)])
         .collect();
     let warm_cases = suite.warm_cases.clone();
-    push(suite, &warm_cases, &iterative, &[budget("default")]);
+    push(
+        suite,
+        &warm_cases,
+        &iterative,
+        &[preset(BudgetName::Default)],
+    );
 }
 
 /// The iterative scene solvers, warm started.
@@ -491,7 +535,7 @@ fn warm_scene_solvers() -> Vec<SolverSpec> {
 /// Every scene solver, cold and (the iterative ones) warm-started, on every scene under every
 /// budget of [`SCENE_BUDGETS`].
 fn scene_jobs(suite: &mut Suite, _large_scenes: &[Case]) {
-    let scene_budgets: Vec<NamedBudget> = SCENE_BUDGETS.iter().map(|b| budget(b)).collect();
+    let scene_budgets: Vec<NamedBudget> = SCENE_BUDGETS.into_iter().map(preset).collect();
     let mut solvers = scene_solvers();
     solvers.extend(warm_scene_solvers());
     let (huge, rest): (Vec<Case>, Vec<Case>) =
@@ -506,7 +550,7 @@ fn scene_jobs(suite: &mut Suite, _large_scenes: &[Case]) {
     push(suite, &rest, &solvers, &scene_budgets);
     let engine: Vec<SolverSpec> = solvers
         .into_iter()
-        .filter(|s| HUGE_SCENE_SOLVERS.contains(&s.base_name().as_str()))
+        .filter(|s| HUGE_SCENE_SOLVERS.contains(&s.clone().cold()))
         .collect();
     push(suite, &huge, &engine, &scene_budgets);
 }
@@ -524,15 +568,13 @@ fn friction_jobs(suite: &mut Suite) {
         let specs = FRICTION_MODELS
             .iter()
             .find(|(m, _)| m == model)
-            .map(|(_, specs)| specs.iter().map(|s| s.parse().expect("suite solver spec")))
-            .into_iter()
-            .flatten()
-            .collect::<Vec<SolverSpec>>();
+            .map(|(_, specs)| specs.to_vec())
+            .unwrap_or_default();
         push(
             suite,
             std::slice::from_ref(&case),
             &specs,
-            &[budget(FRICTION_BUDGET)],
+            &[friction_budget()],
         );
     }
 }
@@ -549,7 +591,7 @@ fn tower_jobs(suite: &mut Suite, scenes: &[PathBuf], steps: Option<usize>) {
         .map(|p| Case::scene(p, steps))
         .collect();
     suite.tower_solvers = warm_scene_solvers();
-    suite.tower_budgets = TOWER_BUDGETS.into_iter().map(budget).collect();
+    suite.tower_budgets = TOWER_BUDGETS.into_iter().map(custom_budget).collect();
     let (cases, solvers, budgets) = (
         suite.tower_cases.clone(),
         suite.tower_solvers.clone(),
@@ -570,7 +612,12 @@ fn scene_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf], plan: &Plan) {
         .map(|p| Case::scene(p, Some(plan.scaling_steps)))
         .collect();
     let cases = suite.scene_scaling_cases.clone();
-    push(suite, &cases, &scene_solvers(), &[budget("default")]);
+    push(
+        suite,
+        &cases,
+        &scene_solvers(),
+        &[preset(BudgetName::Default)],
+    );
 }
 
 /// The FCLIB problems (the plan's smallest, by file size) × every matrix solver, budget
@@ -583,7 +630,7 @@ fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf], count: usize) {
     }
     suite.fclib_cases = files.into_iter().map(Case::File).collect();
     let cases = suite.fclib_cases.clone();
-    push(suite, &cases, &all_solvers(), &[budget(FCLIB_BUDGET)]);
+    push(suite, &cases, &all_solvers(), &[fclib_budget()]);
 }
 
 #[cfg(test)]
@@ -624,9 +671,10 @@ mod tests {
             v
         };
         let on_huge = specs_on(&huge);
-        assert!(on_huge
+        let huge_names: Vec<String> = HUGE_SCENE_SOLVERS.iter().map(|s| s.to_string()).collect();
+        assert!(on_huge.iter().all(|spec| huge_names
             .iter()
-            .all(|spec| { HUGE_SCENE_SOLVERS.contains(&spec.trim_end_matches("+warm")) }));
+            .any(|h| h == spec.trim_end_matches("+warm"))));
         for wanted in ["pgs", "pgs+warm", "sor+warm", "si", "si+warm"] {
             assert!(
                 on_huge.iter().any(|s| s == wanted),
@@ -648,7 +696,7 @@ mod tests {
             .jobs
             .iter()
             .filter(|j| s.fclib_cases.contains(&j.case))
-            .inspect(|j| assert_eq!(j.budget.name, FCLIB_BUDGET))
+            .inspect(|j| assert_eq!(j.budget.name.as_str(), FCLIB_BUDGET))
             .count();
         assert_eq!(jobs, 5 * SolverKind::ALL.len());
         // The quick suite keeps the smallest file.

@@ -4,14 +4,17 @@
 //! when the suite has no exported LCPs.
 
 use super::profiles::{performance_profile, profile_plot};
-use crate::harness::{Case, RunRecord};
+use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::suite::cone_solvers;
 use crate::report::table::{fmt_time, geo_mean, Table};
 use anyhow::Result;
-use lcpbench_solvers::ConeSolverKind;
 use std::fmt::Write as _;
 
 pub(super) struct ConeProfiles;
+
+/// The budget of the cone solvers' runs.
+const BUDGET: BudgetName = BudgetName::Tight;
 
 impl Section for ConeProfiles {
     fn title(&self) -> &'static str {
@@ -23,13 +26,13 @@ impl Section for ConeProfiles {
         if cases.is_empty() {
             return Ok(Vec::new());
         }
-        let solvers: Vec<&'static str> = ConeSolverKind::ALL.iter().map(|k| k.name()).collect();
+        let solvers = cone_solvers();
         let t = time_to_accuracy(ctx, &cases, &solvers);
         let _ = writeln!(
             md,
             "## Cone solvers on the exported scene steps\n\nThe exported scene LCPs above in their \
              exact Coulomb cone form (each contact's normal and two tangent rows as one cone), solved \
-             by every cone solver under budget `tight`; times to the relative cone residual (the \
+             by every cone solver under budget `{BUDGET}`; times to the relative cone residual (the \
              natural map with the cone projection, measured contact by contact). `clarabel-socp` \
              solves Anitescu's convex relaxation, so a sliding contact keeps it from converging \
              (its lift-off is in the run's reason). Profiles at 1e-4 and 1e-8 are in the figures.\n\n{}",
@@ -53,7 +56,7 @@ impl Section for ConeProfiles {
     }
 }
 
-fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[&str]) -> Table {
+fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[SolverSpec]) -> Table {
     let mut t = Table::new(
         "cone_time_to_accuracy",
         &[
@@ -65,12 +68,12 @@ fn time_to_accuracy(ctx: &ReportContext, cases: &[&Case], solvers: &[&str]) -> T
             "converged at 1e-10",
         ],
     );
-    for &s in solvers {
+    for s in solvers {
         let runs: Vec<&RunRecord> = cases
             .iter()
-            .filter_map(|c| ctx.get(c, s, "tight"))
+            .filter_map(|c| ctx.get(c, s, &BUDGET))
             .collect();
-        let mut row = vec![s.to_owned()];
+        let mut row = vec![s.to_string()];
         for level in [1e-4, 1e-8] {
             let times: Vec<f64> = runs.iter().filter_map(|r| r.tta(level)).collect();
             row.push(format!("{} of {}", times.len(), cases.len()));

@@ -2,15 +2,17 @@
 //! every matrix solver against iterations and against solver time (budget `tight`, whose
 //! histories reach 1e-10): figures only.
 
-use crate::harness::{Case, HistoryRow};
+use crate::harness::{BudgetName, Case, HistoryRow};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::table::slug;
 use anyhow::Result;
-use lcpbench_solvers::SolverKind;
 use std::collections::BTreeMap;
 
 pub(super) struct Convergence;
+
+/// The budget whose histories are plotted: `tight`, whose histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
 
 /// The two x axes: name, label.
 const AXES: [(&str, &str); 2] = [
@@ -46,7 +48,7 @@ impl Section for Convergence {
                     &series(&by_solver, axis),
                 )?;
                 figures.push(Figure::new(
-                    format!("Residual against {axis} on `{case}` (budget tight)"),
+                    format!("Residual against {axis} on `{case}` (budget {BUDGET})"),
                     path,
                 ));
             }
@@ -62,10 +64,10 @@ fn histories<'a>(ctx: &ReportContext<'a>, case: &Case) -> BTreeMap<String, Vec<&
     for h in ctx
         .histories
         .iter()
-        .filter(|h| h.case == key && h.budget == "tight")
+        .filter(|h| h.case == key && h.budget == BUDGET)
     {
-        if SolverKind::from_name(&h.solver).is_some() {
-            by_solver.entry(h.solver.clone()).or_default().push(h);
+        if h.solver.plain_kind().is_some() {
+            by_solver.entry(h.solver.to_string()).or_default().push(h);
         }
     }
     by_solver

@@ -7,8 +7,8 @@
 //! suite has no FCLIB runs.
 
 use crate::harness::{Case, RunRecord, RunStatus};
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
-use crate::report::suite::FCLIB_BUDGET;
+use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::suite::{all_solvers, fclib_budget};
 use crate::report::table::{fmt_sci, fmt_time, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
@@ -28,18 +28,18 @@ impl Section for Fclib {
         let mut header = vec!["solver".to_owned()];
         header.extend(cases.iter().map(|c| column(ctx, c)));
         let mut t = Table::with_header("fclib", header);
-        for solver in solver_names() {
-            let mut row = vec![solver.to_owned()];
-            row.extend(cases.iter().map(|c| cell(ctx.get(c, solver, FCLIB_BUDGET))));
+        let budget = fclib_budget().name;
+        for solver in all_solvers() {
+            let mut row = vec![solver.to_string()];
+            row.extend(cases.iter().map(|c| cell(ctx.get(c, &solver, &budget))));
             t.rows.push(row);
         }
         let mut fastest = vec!["fastest".to_owned()];
         fastest.extend(cases.iter().map(|c| {
-            solver_names()
+            ctx.runs_of(c, &all_solvers(), &budget)
                 .into_iter()
-                .filter_map(|s| ctx.get(c, s, FCLIB_BUDGET))
                 .filter(|r| r.converged)
-                .filter_map(|r| r.solve_time_s.map(|t| (r.solver.clone(), t)))
+                .filter_map(|r| r.solve_time_s.map(|t| (r.solver.to_string(), t)))
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(s, t)| format!("**{s}**, {}", fmt_time(Some(t))))
                 .unwrap_or_else(|| "none".to_owned())
@@ -50,7 +50,7 @@ impl Section for Fclib {
             "## FCLIB problems\n\nThe FCLIB frictional-contact problems of Siconos' test data \
              (`bench_scenes/fclib/`), each read as a box-friction LCP (per contact a normal row \
              and two friction rows bounded by ±mu·f_n). Every matrix solver, cold start, budget \
-             `{FCLIB_BUDGET}`: the solve time when the shared relative residual reached 1e-6, \
+             `{budget}`: the solve time when the shared relative residual reached 1e-6, \
              otherwise the status and the residual it ended at.\n\n{}",
             ctx.table(&t)?
         );
@@ -61,9 +61,10 @@ impl Section for Fclib {
 /// `name (rows)`, the row count from any run of the case.
 fn column(ctx: &ReportContext, case: &Case) -> String {
     let name = case.short_name();
-    let n = solver_names()
-        .into_iter()
-        .find_map(|s| ctx.get(case, s, FCLIB_BUDGET).and_then(|r| r.n));
+    let budget = fclib_budget().name;
+    let n = all_solvers()
+        .iter()
+        .find_map(|s| ctx.get(case, s, &budget).and_then(|r| r.n));
     match n {
         Some(n) => format!("{name} ({n} rows)"),
         None => name,

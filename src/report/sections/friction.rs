@@ -6,10 +6,10 @@
 //! (`tables/friction_models.csv`), then the solver time per step of the same runs
 //! (`tables/friction_models_time.csv`). Empty when the suite has no friction-model runs.
 
-use crate::harness::{Case, RunRecord};
+use crate::harness::{Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::status;
-use crate::report::suite::{Suite, FRICTION_BUDGET, FRICTION_MODELS};
+use crate::report::suite::{friction_budget, Suite, FRICTION_BUDGET, FRICTION_MODELS};
 use crate::report::table::{fmt_sci, fmt_time, Table};
 use anyhow::Result;
 use lcpbench_contact::FrictionModel;
@@ -96,12 +96,12 @@ fn run<'a>(
     ctx: &ReportContext<'a>,
     cases: &[&Case],
     model: FrictionModel,
-    solver: &str,
+    solver: &SolverSpec,
 ) -> Option<&'a RunRecord> {
     cases
         .iter()
         .find(|c| model_of(c) == Some(model))
-        .and_then(|c| ctx.get(c, solver, FRICTION_BUDGET))
+        .and_then(|c| ctx.get(c, solver, &friction_budget().name))
 }
 
 /// Write the section and its two tables (`friction_models`, `friction_models_time`).
@@ -153,7 +153,7 @@ fn tables(ctx: &ReportContext, scenes: &FrictionScenes) -> (Table, Table) {
     let mut times = Table::with_header("friction_models_time", time_header);
     for (model, solvers) in FRICTION_MODELS {
         for solver in solvers {
-            let mut row = vec![model.name(), (*solver).to_owned()];
+            let mut row = vec![model.name(), solver.to_string()];
             let mut time_row = row.clone();
             let (mut done, mut converged) = (0, 0);
             for (_, cases) in scenes {

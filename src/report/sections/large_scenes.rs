@@ -4,10 +4,11 @@
 //! residual (the one against the median is in the scenes section).
 
 use super::scenes::{converged_steps, speed_accuracy_figure};
-use crate::harness::{Case, RunRecord};
-use crate::report::context::{scene_solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, Case, RunRecord};
+use crate::report::context::{scene_solvers_cold_and_warm, Figure, ReportContext, Section};
 use crate::report::suite::{
-    LARGE_SCENE_BODIES, LARGE_SCENE_STEPS, LARGE_SCENE_STEP_EXCEPTIONS, SCENE_BUDGETS,
+    scene_solvers, LARGE_SCENE_BODIES, LARGE_SCENE_STEPS, LARGE_SCENE_STEP_EXCEPTIONS,
+    SCENE_BUDGETS,
 };
 use crate::report::table::{fmt_time, slug, Table};
 use anyhow::Result;
@@ -39,7 +40,11 @@ impl Section for LargeScenes {
              {LARGE_SCENE_STEPS} steps ({}; the sphere piles fall for their first 17 steps); \
              budget `tight` is not run; a run stops after three consecutive steps over the \
              per-step budget (`cut` in the tables).\n",
-            SCENE_BUDGETS.join(", "),
+            SCENE_BUDGETS
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(", "),
             exceptions.join(", ")
         );
         let mut header = vec![
@@ -53,11 +58,7 @@ impl Section for LargeScenes {
         for case in cases {
             let any = SCENE_BUDGETS
                 .iter()
-                .flat_map(|b| {
-                    scene_solver_names()
-                        .into_iter()
-                        .filter_map(|s| ctx.get(case, s, b))
-                })
+                .flat_map(|b| ctx.runs_of(case, &scene_solvers(), b))
                 .next();
             let mut row = vec![
                 case.short_name(),
@@ -65,7 +66,7 @@ impl Section for LargeScenes {
                 any.and_then(|r| r.contacts_mean)
                     .map_or("–".into(), |c| format!("{c:.0}")),
             ];
-            for budget in SCENE_BUDGETS {
+            for budget in &SCENE_BUDGETS {
                 row.push(best_cell(ctx, case, budget));
             }
             best.rows.push(row);
@@ -91,11 +92,10 @@ impl Section for LargeScenes {
 }
 
 /// The best run on `case` under `budget` among every solver, cold and warm.
-fn best_cell(ctx: &ReportContext, case: &Case, budget: &str) -> String {
-    let runs: Vec<&RunRecord> = scene_solver_names()
+fn best_cell(ctx: &ReportContext, case: &Case, budget: &BudgetName) -> String {
+    let runs: Vec<&RunRecord> = ctx
+        .runs_of(case, &scene_solvers_cold_and_warm(), budget)
         .into_iter()
-        .flat_map(|s| [s.to_owned(), format!("{s}+warm")])
-        .filter_map(|s| ctx.get(case, &s, budget))
         .filter(|r| !r.is_isolation_failure() && r.blow_up != Some(true))
         .collect();
     let every_step = runs

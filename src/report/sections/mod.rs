@@ -104,10 +104,11 @@ fn gallery(md: &mut String, figures: &[Figure], out_dir: &Path) {
 #[cfg(test)]
 mod tests {
     use super::{write_report, SECTIONS};
-    use crate::harness::{Case, RunRecord};
+    use crate::harness::{BudgetName, Case, CaseFamily, ProblemClass, RunRecord, SolverSpec};
     use crate::report::machine::Header;
     use crate::report::suite::Suite;
     use crate::report::write_results_for_tests;
+    use lcpbench_solvers::SolverKind;
 
     #[test]
     fn section_titles_are_distinct() {
@@ -117,13 +118,13 @@ mod tests {
         assert_eq!(titles.len(), SECTIONS.len());
     }
 
-    fn record(case: &Case, solver: &str, status: &str, converged: bool) -> RunRecord {
+    fn record(case: &Case, solver: SolverSpec, status: &str, converged: bool) -> RunRecord {
         RunRecord {
             case: case.to_string(),
-            class: case.class().name().to_owned(),
-            solver: solver.to_owned(),
-            solver_base: solver.to_owned(),
-            budget: "default".to_owned(),
+            class: case.class(),
+            solver_base: solver.base_name(),
+            solver,
+            budget: BudgetName::Default,
             status: status.parse().expect("a run status"),
             converged,
             iterations: Some(3),
@@ -142,9 +143,19 @@ mod tests {
         let spd: Case = "spd:n=8:cond=1e2:seed=1".parse().unwrap();
         let infeasible: Case = "infeasible:n=8:seed=1".parse().unwrap();
         let rows = [
-            record(&spd, "pgs", "converged", true),
-            record(&infeasible, "lemke", "no_solution", false),
-            record(&infeasible, "pgs", "iteration_limit", false),
+            record(&spd, SolverSpec::plain(SolverKind::Pgs), "converged", true),
+            record(
+                &infeasible,
+                SolverSpec::plain(SolverKind::Lemke),
+                "no_solution",
+                false,
+            ),
+            record(
+                &infeasible,
+                SolverSpec::plain(SolverKind::Pgs),
+                "iteration_limit",
+                false,
+            ),
         ];
         write_results_for_tests(dir.path(), &rows);
         let suite = Suite {
@@ -200,19 +211,20 @@ mod tests {
 
     fn scene_record(
         case: &Case,
-        solver: &str,
-        budget: &str,
+        solver: SolverSpec,
+        budget: BudgetName,
         converged_steps: usize,
         time_per_step_s: f64,
     ) -> RunRecord {
         let steps = 10;
         RunRecord {
             case: case.to_string(),
-            class: "scene".to_owned(),
-            solver: solver.to_owned(),
-            solver_base: solver.trim_end_matches("+warm").to_owned(),
-            warm: solver.ends_with("+warm"),
-            budget: budget.to_owned(),
+            class: ProblemClass::Scene,
+            family: CaseFamily::Scene,
+            solver_base: solver.base_name(),
+            warm: solver.warm(),
+            solver,
+            budget,
             status: if converged_steps == steps {
                 "converged"
             } else {
@@ -250,11 +262,13 @@ mod tests {
     fn scene_sections_render_budgets_best_solvers_and_phases() {
         let dir = tempfile::tempdir().unwrap();
         let tower: Case = "scene:bench_scenes/tower_40.toml?steps=10".parse().unwrap();
+        let pgs_warm = SolverSpec::plain(SolverKind::Pgs).with_warm();
+        let newton = SolverSpec::plain(SolverKind::NewtonFb);
         let rows = [
-            scene_record(&tower, "pgs+warm", "realtime", 4, 2e-3),
-            scene_record(&tower, "pgs+warm", "default", 10, 2e-3),
-            scene_record(&tower, "newton-fb", "default", 10, 1e-3),
-            scene_record(&tower, "newton-fb", "loose", 7, 1e-3),
+            scene_record(&tower, pgs_warm.clone(), BudgetName::Realtime, 4, 2e-3),
+            scene_record(&tower, pgs_warm, BudgetName::Default, 10, 2e-3),
+            scene_record(&tower, newton.clone(), BudgetName::Default, 10, 1e-3),
+            scene_record(&tower, newton, BudgetName::Loose, 7, 1e-3),
         ];
         write_results_for_tests(dir.path(), &rows);
         let suite = Suite {

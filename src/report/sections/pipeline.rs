@@ -3,17 +3,21 @@
 //! in milliseconds per step and per 1,000 contacts, beside reference figures of engines, and
 //! as stacked bars.
 
-use crate::harness::RunRecord;
+use crate::harness::{BudgetName, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::stacked_bars;
 use crate::report::table::Table;
 use anyhow::Result;
+use lcpbench_solvers::SolverKind;
 use std::fmt::Write as _;
 
 pub(super) struct Pipeline;
 
-/// The run whose phases a large scene's row shows.
-const PIPELINE_RUN: (&str, &str) = ("pgs+warm", "realtime");
+/// The solver of the run whose phases a large scene's row shows: warm-started PGS.
+const PIPELINE_SOLVER: SolverSpec = SolverSpec::plain(SolverKind::Pgs).with_warm();
+
+/// The budget of that run: `realtime`, 20 sweeps per step.
+const PIPELINE_BUDGET: BudgetName = BudgetName::Realtime;
 
 /// The phases, with the accessor of their mean per step in a row.
 type Phase = (&'static str, fn(&RunRecord) -> Option<f64>);
@@ -37,7 +41,7 @@ impl Section for Pipeline {
     }
 
     fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
-        let (solver, budget) = PIPELINE_RUN;
+        let (solver, budget) = (&PIPELINE_SOLVER, &PIPELINE_BUDGET);
         let runs: Vec<(String, &RunRecord)> = ctx
             .suite
             .large_scene_cases

@@ -5,14 +5,17 @@
 //! Reference: E. D. Dolan and J. J. Moré, "Benchmarking optimization software with
 //! performance profiles", Math. Program. 91 (2002).
 
-use crate::harness::Case;
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, Case, SolverSpec};
+use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
+use crate::report::suite::all_solvers;
 use anyhow::Result;
-use std::collections::BTreeMap;
 use std::path::Path;
 
 pub(super) struct Profiles;
+
+/// The budget of the runs profiled: `tight`, whose residual histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
 
 impl Section for Profiles {
     fn title(&self) -> &'static str {
@@ -20,7 +23,7 @@ impl Section for Profiles {
     }
 
     fn render(&self, ctx: &ReportContext, _md: &mut String) -> Result<Vec<Figure>> {
-        let solvers = solver_names();
+        let solvers = all_solvers();
         let mut figures = Vec::new();
         for (level, label) in [(1e-4, "1e-4"), (1e-8, "1e-8")] {
             let path = ctx.plots_dir.join(format!("profile_{label}.svg"));
@@ -44,30 +47,31 @@ impl Section for Profiles {
 pub(super) fn performance_profile(
     ctx: &ReportContext,
     cases: &[&Case],
-    solvers: &[&'static str],
+    solvers: &[SolverSpec],
     level: f64,
 ) -> Vec<Series> {
-    let mut ratios: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    let mut ratios: Vec<Vec<f64>> = vec![Vec::new(); solvers.len()];
     let mut problems = 0usize;
     for case in cases {
         let times: Vec<Option<f64>> = solvers
             .iter()
-            .map(|s| ctx.get(case, s, "tight").and_then(|r| r.tta(level)))
+            .map(|s| ctx.get(case, s, &BUDGET).and_then(|r| r.tta(level)))
             .collect();
         let Some(best) = times.iter().flatten().copied().reduce(f64::min) else {
             continue;
         };
         problems += 1;
         let best = best.max(1e-9);
-        for (s, t) in solvers.iter().zip(&times) {
+        for (solver_ratios, t) in ratios.iter_mut().zip(&times) {
             if let Some(t) = t {
-                ratios.entry(s).or_default().push(t.max(1e-9) / best);
+                solver_ratios.push(t.max(1e-9) / best);
             }
         }
     }
     solvers
         .iter()
-        .map(|&s| profile_series(s, ratios.remove(s).unwrap_or_default(), problems))
+        .zip(ratios)
+        .map(|(s, r)| profile_series(&s.to_string(), r, problems))
         .collect()
 }
 

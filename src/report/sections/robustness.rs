@@ -3,14 +3,18 @@
 //! the runs that report infeasibility. Unsupported and crashed runs are counted in the cell.
 //! It shows no times, so it counts the rows of every machine.
 
-use crate::harness::{ProblemClass, RunRecord};
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, ProblemClass, RunRecord};
+use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::status;
+use crate::report::suite::all_solvers;
 use crate::report::table::{mark, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
 
 pub(super) struct Robustness;
+
+/// The budget of the runs counted.
+const BUDGET: BudgetName = BudgetName::Default;
 
 impl Section for Robustness {
     fn title(&self) -> &'static str {
@@ -25,14 +29,14 @@ impl Section for Robustness {
         let mut header = vec!["solver".to_owned()];
         header.extend(classes.iter().map(|c| c.name().to_owned()));
         let mut robust = Table::with_header("robustness", header);
-        for solver in solver_names() {
-            let mut row = vec![solver.to_owned()];
+        for solver in all_solvers() {
+            let mut row = vec![solver.to_string()];
             for class in &classes {
                 let runs: Vec<&RunRecord> = ctx
                     .lcp_cases
                     .iter()
-                    .filter_map(|c| ctx.get_any_machine(c, solver, "default"))
-                    .filter(|r| r.class == class.name())
+                    .filter_map(|c| ctx.get_any_machine(c, &solver, &BUDGET))
+                    .filter(|r| r.class == *class)
                     .collect();
                 row.push(cell(*class, &runs));
             }
@@ -40,7 +44,7 @@ impl Section for Robustness {
         }
         let _ = writeln!(
             md,
-            "## Robustness matrix\n\nWhich solver solves which class (budget `default`: tolerance \
+            "## Robustness matrix\n\nWhich solver solves which class (budget `{BUDGET}`: tolerance \
              1e-8, 10 000 iterations, 5 s), as Siconos' expected-failure matrix: converged runs / \
              runs; for the infeasible class, runs that *report* infeasibility (`no_solution`). \
              ✓ all, ~ some, ✗ none. Classes: SPD (cond 1e2–1e10), rank-deficient PSD, \

@@ -6,8 +6,10 @@
 //! finished, but a step cut short by the limit or by the iteration cap would bend the line); a
 //! table of the slopes and a log–log figure of each with the fitted lines.
 
-use crate::report::context::{scene_solver_names, solver_names, Figure, ReportContext, Section};
+use crate::harness::BudgetName;
+use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{loglog_fit, plot, LegendAt, Mark, PlotSpec, Series};
+use crate::report::suite::{all_solvers, scene_solvers};
 use crate::report::table::Table;
 use anyhow::Result;
 use std::collections::HashMap;
@@ -37,11 +39,12 @@ impl Section for Scaling {
                 "time/step ∝ contacts^k (scene scaling family)",
             ],
         );
-        for solver in scene_solver_names() {
+        for solver in scene_solvers() {
+            let name = solver.to_string();
             slopes.rows.push(vec![
-                solver.to_owned(),
-                lcp_slope.get(solver).cloned().unwrap_or("–".into()),
-                scene_slope.get(solver).cloned().unwrap_or("–".into()),
+                name.clone(),
+                lcp_slope.get(&name).cloned().unwrap_or("–".into()),
+                scene_slope.get(&name).cloned().unwrap_or("–".into()),
             ]);
         }
         let _ = writeln!(
@@ -66,10 +69,10 @@ fn scene_scaling(ctx: &ReportContext, slopes: &mut Slopes) -> Result<Option<Figu
         return Ok(None);
     }
     let mut series = Vec::new();
-    for solver in scene_solver_names() {
+    for solver in scene_solvers() {
         let pts: Vec<(f64, f64)> = scaling_scenes
             .iter()
-            .filter_map(|c| ctx.get(c, solver, "default"))
+            .filter_map(|c| ctx.get(c, &solver, &BudgetName::Default))
             .filter(|r| {
                 r.blow_up != Some(true)
                     && !r.is_isolation_failure()
@@ -79,7 +82,7 @@ fn scene_scaling(ctx: &ReportContext, slopes: &mut Slopes) -> Result<Option<Figu
             .filter_map(|r| Some((r.contacts_mean?, r.time_per_step_s?)))
             .filter(|(c, t)| *c > 0.0 && *t > 0.0)
             .collect();
-        push_fit(&mut series, solver, pts, slopes);
+        push_fit(&mut series, &solver.to_string(), pts, slopes);
     }
     let path = ctx.plots_dir.join("scaling_scenes.svg");
     plot(
@@ -104,16 +107,16 @@ fn scene_scaling(ctx: &ReportContext, slopes: &mut Slopes) -> Result<Option<Figu
 /// Solver time against rows on the SPD scaling family (converged runs).
 fn lcp_scaling(ctx: &ReportContext, slopes: &mut Slopes) -> Result<Figure> {
     let mut series = Vec::new();
-    for solver in solver_names() {
+    for solver in all_solvers() {
         let pts: Vec<(f64, f64)> = ctx
             .suite
             .scaling_cases
             .iter()
-            .filter_map(|c| ctx.get(c, solver, "default"))
+            .filter_map(|c| ctx.get(c, &solver, &BudgetName::Default))
             .filter(|r| r.converged)
             .filter_map(|r| Some((r.n? as f64, r.solve_time_s?)))
             .collect();
-        push_fit(&mut series, solver, pts, slopes);
+        push_fit(&mut series, &solver.to_string(), pts, slopes);
     }
     let path = ctx.plots_dir.join("scaling_lcp.svg");
     plot(

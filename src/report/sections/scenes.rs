@@ -13,11 +13,11 @@
 //! * A speed–accuracy figure per scene: time per step against the median residual per step
 //!   under budgets `realtime`, `loose` and `default`, with the Pareto front.
 
-use crate::harness::{Case, RunRecord};
-use crate::report::context::{scene_solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
+use crate::report::context::{scene_solvers_cold_and_warm, Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::status;
-use crate::report::suite;
+use crate::report::suite::{self, scene_solvers};
 use crate::report::table::{fmt_sci, fmt_time, slug, Table};
 use anyhow::Result;
 use lcpbench_contact::scene::Scene;
@@ -81,7 +81,11 @@ impl Section for Scenes {
                 .collect::<Vec<_>>()
                 .join(", "),
             suite::HUGE_SCENE_BODIES,
-            suite::HUGE_SCENE_SOLVERS.join(", ")
+            suite::HUGE_SCENE_SOLVERS
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
         );
         at_a_glance(ctx, md)?;
         without_solution(ctx, md)?;
@@ -122,12 +126,12 @@ impl Section for Scenes {
 
 fn at_a_glance(ctx: &ReportContext, md: &mut String) -> Result<()> {
     let mut header = vec!["scene".to_owned()];
-    header.extend(scene_solver_names().iter().map(|s| s.to_string()));
+    header.extend(scene_solvers().iter().map(|s| s.to_string()));
     let mut glance = Table::with_header("scenes_at_a_glance", header);
     for case in &ctx.suite.scene_cases {
         let mut row = vec![case.short_name()];
-        for solver in scene_solver_names() {
-            row.push(match ctx.get(case, solver, "default") {
+        for solver in scene_solvers() {
+            row.push(match ctx.get(case, &solver, &BudgetName::Default) {
                 None => "–".into(),
                 Some(r) => glance_cell(r),
             });
@@ -177,7 +181,7 @@ fn without_solution(ctx: &ReportContext, md: &mut String) -> Result<()> {
         let Some(most) = with.iter().max_by_key(|r| r.no_solution_steps.unwrap_or(0)) else {
             continue;
         };
-        let mut solvers: Vec<&str> = with.iter().map(|r| r.solver_base.as_str()).collect();
+        let mut solvers: Vec<String> = with.iter().map(|r| r.solver.base_name()).collect();
         solvers.sort_unstable();
         solvers.dedup();
         let (correction, description) = match Scene::load(path) {
@@ -242,10 +246,9 @@ const BY_BUDGET_COLUMNS: [&str; 12] = [
 
 /// The solver specifications with a run on `case`, in the order of the scene solvers, each
 /// cold then warm.
-fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<String> {
-    scene_solver_names()
+fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<SolverSpec> {
+    scene_solvers_cold_and_warm()
         .into_iter()
-        .flat_map(|s| [s.to_owned(), format!("{s}+warm")])
         .filter(|s| {
             suite::SCENE_BUDGETS
                 .iter()
@@ -261,8 +264,8 @@ fn budget_matrix(ctx: &ReportContext, case: &Case, by_budget: &mut Table) -> Str
     header.extend(suite::SCENE_BUDGETS.iter().map(|b| b.to_string()));
     let mut t = Table::with_header("budgets", header);
     for solver in solvers_of(ctx, case) {
-        let mut row = vec![solver.clone()];
-        for budget in suite::SCENE_BUDGETS {
+        let mut row = vec![solver.to_string()];
+        for budget in &suite::SCENE_BUDGETS {
             match ctx.get(case, &solver, budget) {
                 Some(r) => {
                     row.push(glance_cell(r));
@@ -280,8 +283,8 @@ fn by_budget_row(case: &Case, r: &RunRecord) -> Vec<String> {
     let count = |v: Option<usize>| v.map_or("–".into(), |v| v.to_string());
     vec![
         case.to_string(),
-        r.solver.clone(),
-        r.budget.clone(),
+        r.solver.to_string(),
+        r.budget.to_string(),
         r.status.to_string(),
         count(r.steps),
         count(r.steps_planned),
@@ -302,14 +305,12 @@ pub(super) fn converged_steps(r: &RunRecord) -> Option<usize> {
 /// The scene's table (budget `default`) as Markdown; its rows are added to `all` too.
 fn scene_table(ctx: &ReportContext, case: &Case, all: &mut Table) -> String {
     let mut t = Table::new("scene", &COLUMNS[1..]);
-    for solver in scene_solver_names() {
-        if let Some(r) = ctx.get(case, solver, "default") {
-            let cells = scene_cells(r);
-            t.rows.push(cells.clone());
-            let mut full = vec![case.to_string()];
-            full.extend(cells);
-            all.rows.push(full);
-        }
+    for r in ctx.runs_of(case, &scene_solvers(), &BudgetName::Default) {
+        let cells = scene_cells(r);
+        t.rows.push(cells.clone());
+        let mut full = vec![case.to_string()];
+        full.extend(cells);
+        all.rows.push(full);
     }
     t.markdown()
 }
@@ -317,12 +318,12 @@ fn scene_table(ctx: &ReportContext, case: &Case, all: &mut Table) -> String {
 /// The fastest solver whose every step converged, at budgets `loose` and `default`.
 fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
     let mut row = vec![case.short_name()];
-    for budget in ["loose", "default"] {
-        let best = scene_solver_names()
+    for budget in [BudgetName::Loose, BudgetName::Default] {
+        let best = ctx
+            .runs_of(case, &scene_solvers(), &budget)
             .into_iter()
-            .filter_map(|s| ctx.get(case, s, budget))
             .filter(|r| r.converged && r.blow_up != Some(true))
-            .filter_map(|r| Some((r.solver.clone(), r.time_per_step_s?)))
+            .filter_map(|r| Some((r.solver.to_string(), r.time_per_step_s?)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match best {
             Some((s, tm)) => {
@@ -373,12 +374,11 @@ pub(super) fn speed_accuracy_figure(
             .filter_map(|r| Some((r.time_per_step_s?, residual(r)?)))
             .collect();
         if !pts.is_empty() {
-            let base = solver.trim_end_matches("+warm").to_owned();
             pareto.push(Series {
-                name: solver.clone(),
-                color_key: base,
+                name: solver.to_string(),
+                color_key: solver.base_name(),
                 points: pts,
-                mark: if solver.ends_with("+warm") {
+                mark: if solver.warm() {
                     Mark::LinePoints
                 } else {
                     Mark::Points
@@ -477,7 +477,7 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         format!("{} ({reason})", r.status)
     };
     vec![
-        r.solver.clone(),
+        r.solver.to_string(),
         status,
         r.steps.map(|s| s.to_string()).unwrap_or("–".into()),
         r.contacts_mean

@@ -2,6 +2,7 @@
 //! the relaxation factor `omega` on the suite's omega cases (`omega = 1` is PGS), as a table
 //! and a figure of the converged runs.
 
+use crate::harness::{BudgetName, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::table::Table;
@@ -9,6 +10,9 @@ use anyhow::Result;
 use std::fmt::Write as _;
 
 pub(super) struct SorOmega;
+
+/// The budget of the SOR runs.
+const BUDGET: BudgetName = BudgetName::Default;
 
 impl Section for SorOmega {
     fn title(&self) -> &'static str {
@@ -38,7 +42,7 @@ impl Section for SorOmega {
         for &w in &suite.omegas {
             let mut row = vec![format!("{w}")];
             for (case, series) in suite.omega_cases.iter().zip(&mut series) {
-                let cell = match ctx.get(case, &format!("sor@{w}"), "default") {
+                let cell = match ctx.get(case, &SolverSpec::sor(w), &BUDGET) {
                     Some(r) if r.converged => {
                         let it = r.iterations.unwrap_or(0);
                         series.points.push((w, it as f64));
@@ -53,7 +57,7 @@ impl Section for SorOmega {
         }
         let _ = writeln!(
             md,
-            "## SOR relaxation sweep\n\nSweeps to relative residual 1e-8 (budget `default`) \
+            "## SOR relaxation sweep\n\nSweeps to relative residual 1e-8 (budget `{BUDGET}`) \
              against the relaxation factor `omega` (`omega = 1` is PGS).\n\n{}",
             ctx.table(&table)?
         );

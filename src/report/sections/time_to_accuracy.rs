@@ -2,13 +2,17 @@
 //! budget `tight`) each matrix solver reached the relative residuals 1e-4 … 1e-10, and the
 //! geometric mean of the time it took; per problem in `tables/time_to_accuracy.csv`.
 
-use crate::harness::{RunRecord, TTA_LEVELS};
-use crate::report::context::{solver_names, Figure, ReportContext, Section};
+use crate::harness::{BudgetName, RunRecord, SolverSpec, TTA_LEVELS};
+use crate::report::context::{Figure, ReportContext, Section};
+use crate::report::suite::all_solvers;
 use crate::report::table::{fmt_time, geo_mean, Table};
 use anyhow::Result;
 use std::fmt::Write as _;
 
 pub(super) struct TimeToAccuracy;
+
+/// The budget of the runs measured: `tight`, whose residual histories reach 1e-10.
+const BUDGET: BudgetName = BudgetName::Tight;
 
 impl Section for TimeToAccuracy {
     fn title(&self) -> &'static str {
@@ -26,13 +30,13 @@ impl Section for TimeToAccuracy {
                 "case", "solver", "t_1e-4", "t_1e-6", "t_1e-8", "t_1e-10", "status",
             ],
         );
-        for solver in solver_names() {
+        for solver in all_solvers() {
             let runs: Vec<&RunRecord> = ctx
                 .feasible_cases
                 .iter()
-                .filter_map(|c| ctx.get(c, solver, "tight"))
+                .filter_map(|c| ctx.get(c, &solver, &BUDGET))
                 .collect();
-            tta.rows.push(summary_row(solver, &runs));
+            tta.rows.push(summary_row(&solver, &runs));
             tta_full.rows.extend(runs.iter().map(|r| full_row(r)));
         }
         let summary = ctx.table(&tta)?;
@@ -53,8 +57,8 @@ impl Section for TimeToAccuracy {
     }
 }
 
-fn summary_row(solver: &str, runs: &[&RunRecord]) -> Vec<String> {
-    let mut row = vec![solver.to_owned()];
+fn summary_row(solver: &SolverSpec, runs: &[&RunRecord]) -> Vec<String> {
+    let mut row = vec![solver.to_string()];
     for level in TTA_LEVELS {
         let times: Vec<f64> = runs.iter().filter_map(|r| r.tta(level)).collect();
         row.push(format!(
@@ -68,7 +72,7 @@ fn summary_row(solver: &str, runs: &[&RunRecord]) -> Vec<String> {
 }
 
 fn full_row(r: &RunRecord) -> Vec<String> {
-    let mut row = vec![r.case.clone(), r.solver.clone()];
+    let mut row = vec![r.case.clone(), r.solver.to_string()];
     row.extend(
         TTA_LEVELS
             .iter()

@@ -62,10 +62,9 @@ fn header(ctx: &ReportContext) -> Vec<String> {
 fn tower_table(ctx: &ReportContext, case: &Case, name: &str) -> Table {
     let mut t = Table::with_header(format!("towers_{name}"), header(ctx));
     for solver in &ctx.suite.tower_solvers {
-        let solver = solver.to_string();
-        let mut row = vec![solver.clone()];
+        let mut row = vec![solver.to_string()];
         for b in &ctx.suite.tower_budgets {
-            match ctx.get(case, &solver, &b.name) {
+            match ctx.get(case, solver, &b.name) {
                 Some(r) => row.extend(cells(r)),
                 None => row.extend(std::iter::repeat_n("–".to_owned(), 4)),
             }

@@ -1,7 +1,7 @@
 //! Warm start against cold start: iterations, solver time and status of every iterative matrix
 //! solver, cold and `+warm`, on the suite's warm cases (budget `default`).
 
-use crate::harness::{Case, RunRecord};
+use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
@@ -9,6 +9,9 @@ use lcpbench_solvers::SolverKind;
 use std::fmt::Write as _;
 
 pub(super) struct WarmStart;
+
+/// The budget of the warm and cold runs.
+const BUDGET: BudgetName = BudgetName::Default;
 
 impl Section for WarmStart {
     fn title(&self) -> &'static str {
@@ -29,9 +32,10 @@ impl Section for WarmStart {
             ],
         );
         for case in &ctx.suite.warm_cases {
-            for kind in SolverKind::ALL.iter().filter(|k| k.is_iterative()) {
-                let cold = ctx.get(case, kind.name(), "default");
-                let hot = ctx.get(case, &format!("{}+warm", kind.name()), "default");
+            for kind in SolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
+                let spec = SolverSpec::plain(kind);
+                let cold = ctx.get(case, &spec, &BUDGET);
+                let hot = ctx.get(case, &spec.clone().with_warm(), &BUDGET);
                 if cold.is_some() || hot.is_some() {
                     warm.rows.push(row(case, kind.name(), cold, hot));
                 }
@@ -39,7 +43,7 @@ impl Section for WarmStart {
         }
         let _ = writeln!(
             md,
-            "## Warm start versus cold start\n\nIterative solvers, budget `default`. The warm start \
+            "## Warm start versus cold start\n\nIterative solvers, budget `{BUDGET}`. The warm start \
              of a generated problem is its planted solution perturbed by 1 % (as from the previous \
              step of a slowly changing scene); of a problem file, 20 cold PGS sweeps.\n\n{}",
             ctx.table(&warm)?

@@ -1,0 +1,125 @@
+//! `lcpbench export`: write the contact LCP (or cone problem) of one step of a scene.
+
+use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use lcpbench::harness::export::{step_problem, StepProblem};
+use lcpbench_contact::scene::LoadOptions;
+use lcpbench_solvers::{
+    cone_problem_to_json, problem_to_json, write_problem, ConeProblem, Problem,
+};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `lcpbench export`.
+#[derive(Args)]
+pub struct ExportArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// The step whose LCP is written (0-based; earlier steps are simulated first).
+    #[arg(long, default_value_t = 0)]
+    pub step: usize,
+    /// Solver used for the steps before `--step` (overrides the scene's; a cone solver for
+    /// friction model cone; `NAME+warm` warm-starts them, `NAME` starts them cold).
+    #[arg(long, short)]
+    pub solver: Option<String>,
+    /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K, or
+    /// cone (writes the step's cone problem, which `lcpbench solve` reads too).
+    #[arg(long)]
+    pub friction_model: Option<String>,
+    /// Solver tolerance for the steps before `--step` (overrides the scene's).
+    #[arg(long)]
+    pub tol: Option<f64>,
+    /// Solver iteration / pivot / sweep cap per step for the steps before `--step` (overrides
+    /// the scene's).
+    #[arg(long)]
+    pub max_iter: Option<usize>,
+    /// Wall-time budget of each step's solve before `--step`, seconds (none by default).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
+    /// Output problem file (JSON, the `lcpbench solve` format). With a warm-started solver the
+    /// file also holds the step's warm start (`warm_start`: the previous step's impulses,
+    /// projected as the stepper passes them), which `lcpbench solve --warm` starts from.
+    #[arg(long, short)]
+    pub output: PathBuf,
+    /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
+    /// leading out), which are refused otherwise.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
+}
+
+/// Run `lcpbench export`.
+pub fn run(args: ExportArgs) -> Result<()> {
+    let (scene, mut world) = load_world(
+        &args.scene,
+        args.solver.as_deref(),
+        args.friction_model.as_deref(),
+        &LoadOptions {
+            allow_outside_paths: args.allow_outside_paths,
+        },
+    )?;
+    check_steps("--step", args.step)?;
+    apply_solver_overrides(args.tol, args.max_iter, args.time_budget, &mut world)?;
+    let bar = step_progress(args.step as u64, &scene.name);
+    let (problem, contacts) = step_problem(&mut world, &scene.name, args.step, || bar.inc(1));
+    bar.finish_and_clear();
+    let (problem, warm_start) = match problem {
+        StepProblem::Lcp {
+            problem,
+            warm_start,
+        } => (problem, warm_start),
+        StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
+        StepProblem::NoContacts => bail!(
+            "step {} of {} has no contacts, so there is no LCP to export",
+            args.step,
+            args.scene.display()
+        ),
+        StepProblem::Refused(reason) => bail!(
+            "{}: step {} has no problem to export: {reason}",
+            args.scene.display(),
+            args.step
+        ),
+    };
+    match &warm_start {
+        Some(ws) => write_problem_with_warm_start(&problem, ws, &args.output)?,
+        None => write_problem(&problem, &args.output)?,
+    }
+    println!(
+        "wrote {}: {} rows ({contacts} contacts) of step {} of {}{}",
+        args.output.display(),
+        problem.n(),
+        args.step,
+        scene.name,
+        if warm_start.is_some() {
+            ", with its warm start"
+        } else {
+            ""
+        }
+    );
+    Ok(())
+}
+
+/// Write `problem` as JSON with the key `warm_start` added.
+fn write_problem_with_warm_start(problem: &Problem, warm_start: &[f64], path: &Path) -> Result<()> {
+    let mut value: serde_json::Value = serde_json::from_str(&problem_to_json(problem))?;
+    if let Some(object) = value.as_object_mut() {
+        object.insert("warm_start".into(), json!(warm_start));
+    }
+    std::fs::write(path, serde_json::to_string(&value)?)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Write the cone problem of `lcpbench export` (friction model `cone`).
+fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
+    std::fs::write(&args.output, cone_problem_to_json(cone))
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
+        args.output.display(),
+        cone.contacts(),
+        cone.n(),
+        args.step,
+        scene_name
+    );
+    Ok(())
+}

@@ -1,0 +1,317 @@
+//! Every section of the report rendered from a handful of hand-made rows (no sweep): each
+//! section's heading is in the README and a cell the rows determine is in its table.
+
+use lcpbench::harness::record::base_record;
+use lcpbench::harness::{
+    BudgetName, Case, HistoryRow, NamedBudget, RunRecord, RunStatus, SolverSpec,
+};
+use lcpbench::report::replays::{replay_section, ReplayLink, REPLAY_SOLVERS};
+use lcpbench::report::suite::{self, Suite};
+use lcpbench::report::{write_report, Header};
+use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::FrictionModel;
+use lcpbench_solvers::{ConeSolverKind, SolverKind};
+use std::path::Path;
+
+fn preset(name: BudgetName) -> NamedBudget {
+    name.named().unwrap()
+}
+
+fn pgs() -> SolverSpec {
+    SolverSpec::plain(SolverKind::Pgs)
+}
+
+/// A converged LCP run that reached every accuracy level in `time_s`.
+fn lcp_run(case: &Case, solver: &SolverSpec, budget: &NamedBudget, time_s: f64) -> RunRecord {
+    let mut r = base_record(case, solver, budget);
+    r.status = RunStatus::Converged;
+    r.converged = true;
+    r.n = Some(8);
+    r.iterations = Some(12);
+    r.solve_time_s = Some(time_s);
+    r.residual_rel = Some(1e-11);
+    r.set_tta([Some(time_s / 4.0), Some(time_s / 2.0), Some(time_s), None]);
+    r
+}
+
+/// A scene run of 10 steps of which `converged` converged, `time_s` of solver time per step.
+fn scene_run(
+    case: &Case,
+    solver: &SolverSpec,
+    budget: &NamedBudget,
+    converged: usize,
+    time_s: f64,
+) -> RunRecord {
+    let mut r = base_record(case, solver, budget);
+    let steps = 10;
+    r.status = if converged == steps {
+        RunStatus::Converged
+    } else {
+        RunStatus::IterationLimit
+    };
+    r.converged = converged == steps;
+    r.n = Some(120);
+    r.steps = Some(steps);
+    r.steps_planned = Some(steps);
+    r.nonconverged_steps = Some(steps - converged);
+    r.no_solution_steps = Some(0);
+    r.nan_steps = Some(0);
+    r.fallback_steps = Some(0);
+    r.blow_up = Some(false);
+    r.contacts_mean = Some(40.0);
+    r.time_per_step_s = Some(time_s);
+    r.step_time_s = Some(3e-3);
+    r.iterations_per_step = Some(20.0);
+    r.residual_rel = Some(1e-7);
+    r.residual_rel_median = Some(1e-9);
+    r
+}
+
+fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut w = csv::Writer::from_path(path).unwrap();
+    for r in rows {
+        w.serialize(r).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+fn read(dir: &Path, table: &str) -> String {
+    std::fs::read_to_string(dir.join(format!("tables/{table}.csv")))
+        .unwrap_or_else(|e| panic!("tables/{table}.csv: {e}"))
+}
+
+/// Assert that `tables/{table}.csv` holds `cell`.
+fn has(dir: &Path, table: &str, cell: &str) {
+    let text = read(dir, table);
+    assert!(
+        text.contains(cell),
+        "tables/{table}.csv lacks `{cell}`:\n{text}"
+    );
+}
+
+/// The suite of the fixture: one or two cases per section, with the rows below.
+fn fixture_suite() -> Suite {
+    let spd: Case = "spd:n=8:cond=1e2:seed=1".parse().unwrap();
+    let infeasible: Case = "infeasible:n=8:seed=1".parse().unwrap();
+    let exported = Case::File("lcps/tower_10_step3.json".into());
+    let fclib = Case::File("bench_scenes/fclib/Box_Stacks-i0122-82-5.hdf5".into());
+    let wedged = Case::scene("bench_scenes/wedged.toml", Some(10));
+    let large = Case::scene("bench_scenes/tower_40.toml", Some(10));
+    let tower = Case::scene("bench_scenes/tower_10_60hz.toml", Some(10));
+    let incline = Case::scene_with_friction(
+        "bench_scenes/incline_slide.toml",
+        Some(10),
+        FrictionModel::Box,
+    );
+    Suite {
+        jobs: Vec::new(),
+        matrix_cases: vec![spd.clone(), infeasible],
+        scaling_cases: vec![spd.clone()],
+        omega_cases: vec![spd.clone()],
+        omegas: vec![1.3],
+        warm_cases: vec![spd.clone()],
+        scene_cases: vec![wedged, large.clone(), tower.clone()],
+        large_scene_cases: vec![large],
+        scene_scaling_cases: Vec::new(),
+        friction_cases: vec![incline],
+        exported_cases: vec![exported],
+        history_cases: vec![spd],
+        tower_cases: vec![tower],
+        tower_solvers: vec![pgs().with_warm()],
+        tower_budgets: vec!["1e-6:20:1".parse().unwrap()],
+        fclib_cases: vec![fclib],
+    }
+}
+
+/// The rows of the fixture, for the cases of [`fixture_suite`] in its order.
+fn fixture_rows(suite: &Suite) -> (Vec<RunRecord>, Vec<HistoryRow>) {
+    let (default, tight) = (preset(BudgetName::Default), preset(BudgetName::Tight));
+    let (spd, infeasible) = (&suite.matrix_cases[0], &suite.matrix_cases[1]);
+    let lemke = SolverSpec::plain(SolverKind::Lemke);
+    let mut rows = vec![
+        lcp_run(spd, &pgs(), &default, 2e-4),
+        lcp_run(spd, &pgs(), &tight, 3e-4),
+        lcp_run(spd, &lemke, &tight, 1e-4),
+        lcp_run(spd, &pgs().with_warm(), &default, 1e-4),
+        lcp_run(spd, &SolverSpec::sor(1.3), &default, 1e-4),
+        lcp_run(&suite.exported_cases[0], &pgs(), &tight, 5e-4),
+        lcp_run(
+            &suite.exported_cases[0],
+            &SolverSpec::cone(ConeSolverKind::NsgsCone),
+            &tight,
+            6e-4,
+        ),
+        lcp_run(&suite.fclib_cases[0], &pgs(), &suite::fclib_budget(), 7e-3),
+    ];
+    let mut no_solution = base_record(infeasible, &lemke, &default);
+    no_solution.status = RunStatus::NoSolution;
+    rows.push(no_solution);
+    rows[3].iterations = Some(5);
+
+    let (wedged, large, tower) = (
+        &suite.scene_cases[0],
+        &suite.scene_cases[1],
+        &suite.scene_cases[2],
+    );
+    let si = SolverSpec::body(BodySolverKind::SequentialImpulses);
+    let mut stuck = scene_run(wedged, &pgs(), &default, 6, 1e-3);
+    stuck.no_solution_steps = Some(4);
+    rows.push(stuck);
+    rows.push(scene_run(wedged, &si, &default, 10, 2e-3));
+    let realtime = preset(BudgetName::Realtime);
+    let mut pipeline = scene_run(large, &pgs().with_warm(), &realtime, 4, 2e-3);
+    pipeline.phase_collision_s = Some(2e-4);
+    pipeline.phase_broad_s = Some(5e-5);
+    pipeline.phase_narrow_s = Some(1.5e-4);
+    pipeline.phase_assembly_s = Some(4e-4);
+    pipeline.phase_islands_s = Some(1e-5);
+    pipeline.phase_solve_s = Some(2e-3);
+    pipeline.phase_residual_s = Some(3e-4);
+    pipeline.phase_integration_s = Some(9e-5);
+    rows.push(pipeline);
+    rows.push(scene_run(large, &pgs(), &default, 10, 4e-3));
+    let mut sagging = scene_run(tower, &pgs().with_warm(), &suite.tower_budgets[0], 8, 1e-3);
+    sagging.sag = Some(0.25);
+    sagging.lateral_drift = Some(0.5);
+    rows.push(sagging);
+    rows.push(scene_run(tower, &pgs(), &default, 10, 1e-3));
+    let mut sliding = scene_run(
+        &suite.friction_cases[0],
+        &pgs().with_warm(),
+        &suite::friction_budget(),
+        10,
+        1e-3,
+    );
+    sliding.analytic_metric = "acceleration".into();
+    sliding.analytic_error = Some(0.25);
+    rows.push(sliding);
+
+    let history = (1..=4)
+        .map(|i| HistoryRow {
+            case: spd.to_string(),
+            solver: pgs(),
+            budget: BudgetName::Tight,
+            iteration: i,
+            time_s: 1e-5 * i as f64,
+            residual: 10f64.powi(-2 * i as i32),
+        })
+        .collect();
+    (rows, history)
+}
+
+#[test]
+fn every_section_renders_from_a_fixture_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let suite = fixture_suite();
+    let (rows, histories) = fixture_rows(&suite);
+    write_csv(&out.join("data/results.csv"), &rows);
+    write_csv(&out.join("data/histories.csv"), &histories);
+    let header = Header {
+        cpu: "cpu".into(),
+        cores: 2,
+        os: "os".into(),
+        commit: "abc".into(),
+        date: "today".into(),
+        command: "lcpbench report".into(),
+        workers: 2,
+    };
+    let readme = write_report(out, &suite, &header, 3.0).unwrap();
+    let md = std::fs::read_to_string(readme).unwrap();
+    for heading in [
+        "# lcpbench",
+        "## Budgets",
+        "## Scenes",
+        "### At a glance",
+        "### Steps without a solution",
+        "### wedged",
+        "### Fastest solver per scene",
+        "## Large scenes",
+        "## Pipeline",
+        "## Towers at 60 Hz, low budgets",
+        "### tower_10_60hz",
+        "## Friction models",
+        "## Robustness matrix",
+        "## Fastest solver per problem",
+        "## Time to accuracy",
+        "## Cone solvers on the exported scene steps",
+        "## Warm start versus cold start",
+        "## SOR relaxation sweep",
+        "## Scaling",
+        "## FCLIB problems",
+        "## Figures",
+    ] {
+        assert!(
+            md.lines().any(|l| l.starts_with(heading)),
+            "missing {heading}"
+        );
+    }
+
+    // One known cell per table.
+    has(out, "budgets", "tight,1e-10,100000,10");
+    has(out, "scenes_at_a_glance", "wedged,~ 1.00 ms (6/10)");
+    let without = read(out, "scenes_without_solution");
+    assert!(without.contains("wedged,1 / 2,4 (10),pgs,"), "{without}");
+    has(
+        out,
+        "scenes_by_budget",
+        ",pgs+warm,realtime,iteration_limit,10,",
+    );
+    has(
+        out,
+        "large_scenes_best",
+        "none on every step; most: pgs+warm",
+    );
+    has(
+        out,
+        "pipeline",
+        "tower_40,40,3.00,0.20,0.40,0.01,2.00,0.30,0.09",
+    );
+    let towers = read(out, "towers_tower_10_60hz");
+    assert!(
+        towers.contains("pgs+warm,2.5e-1,5.0e-1,1.00 ms,2 of 10"),
+        "{towers}"
+    );
+    let friction = read(out, "friction_models");
+    assert!(friction.contains("box,pgs+warm,2.5e-1"), "{friction}");
+    let robust = read(out, "robustness");
+    assert!(robust.contains("pgs,✓ 1/1"), "{robust}");
+    assert!(robust.contains("lemke,–,–,–,–,✓ 1/1 detected"), "{robust}");
+    has(out, "fastest", "lemke,25.0 µs,lemke,100.0 µs");
+    has(out, "time_to_accuracy", "spd:n=8:cond=1e2:seed=1,lemke,");
+    has(out, "cone_time_to_accuracy", "nsgs-cone,1 of 1");
+    has(out, "warm_vs_cold", ",pgs,12,5,");
+    has(out, "sor_omega", "1.3,12");
+    has(out, "scaling_slopes", "pgs,");
+    has(out, "fclib", "**pgs**, 7.00 ms");
+
+    // The replay section, appended after a run's replays are written.
+    let links = [ReplayLink {
+        scene: "wedged".into(),
+        page: Some(out.join("replays/wedged.html")),
+        solvers: REPLAY_SOLVERS.iter().map(ToString::to_string).collect(),
+        error: None,
+    }];
+    let replays = replay_section(&links, out);
+    assert!(replays.starts_with("## Replays"), "{replays}");
+    assert!(
+        replays.contains("| wedged | [dantzig vs si](replays/wedged.html) |"),
+        "{replays}"
+    );
+
+    // The sections that are figures only.
+    for plot in [
+        "profile_1e-4",
+        "profile_cone_1e-8",
+        "convergence_spd_n_8_cond_1e2_seed_1_iter",
+        "pareto_wedged",
+        "large_worst_tower_40",
+        "pipeline_phases",
+    ] {
+        assert!(
+            out.join(format!("plots/{plot}.svg")).exists(),
+            "missing plots/{plot}.svg"
+        );
+    }
+}
