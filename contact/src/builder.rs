@@ -54,6 +54,7 @@ use lcpbench_solvers::{
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 /// A material: Coulomb friction and Newton restitution coefficients.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -243,7 +244,7 @@ pub enum RowKind {
 }
 
 /// One side of a Jacobian row: a dynamic body and its 6 entries `[linear; angular]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct JacobianBlock {
     /// Body index.
     pub body: usize,
@@ -267,7 +268,52 @@ pub struct JacobianRow {
     /// What the row stands for.
     pub kind: RowKind,
     /// The blocks of dynamic bodies.
-    pub blocks: Vec<JacobianBlock>,
+    pub blocks: RowBlocks,
+}
+
+/// The (at most two) blocks of a row, stored in the row: building a step's rows allocates
+/// nothing per row.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RowBlocks {
+    blocks: [JacobianBlock; 2],
+    len: u8,
+}
+
+impl RowBlocks {
+    /// No block (a slack row, or a row between two static bodies).
+    pub const EMPTY: Self = Self {
+        blocks: [JacobianBlock {
+            body: 0,
+            linear: Vector3::new(0.0, 0.0, 0.0),
+            angular: Vector3::new(0.0, 0.0, 0.0),
+        }; 2],
+        len: 0,
+    };
+
+    /// Appends a block.
+    ///
+    /// # Panics
+    /// When the row has two blocks already (a row couples at most two bodies).
+    pub fn push(&mut self, block: JacobianBlock) {
+        assert!(self.len < 2, "a Jacobian row couples at most two bodies");
+        self.blocks[self.len as usize] = block;
+        self.len += 1;
+    }
+}
+
+impl std::ops::Deref for RowBlocks {
+    type Target = [JacobianBlock];
+    fn deref(&self) -> &[JacobianBlock] {
+        &self.blocks[..self.len as usize]
+    }
+}
+
+impl<'a> IntoIterator for &'a RowBlocks {
+    type Item = &'a JacobianBlock;
+    type IntoIter = std::slice::Iter<'a, JacobianBlock>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
 }
 
 /// Generalised velocity of one body: `(v, ω)`, world frame.
@@ -364,7 +410,29 @@ pub struct ContactImpulse {
 /// Impulses of the previous step, by [`Contact::key`].
 #[derive(Debug, Clone, Default)]
 pub struct WarmStartCache {
-    map: HashMap<u64, ContactImpulse>,
+    map: HashMap<u64, ContactImpulse, BuildHasherDefault<KeyHasher>>,
+}
+
+/// The hasher of [`WarmStartCache`]: a contact key is already a well-mixed 64-bit hash
+/// ([`crate::collision::narrow_phase::contact_key`]), so it is its own hash (a general-purpose
+/// hasher would cost more than the lookup).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(b);
+        }
+    }
+
+    fn write_u64(&mut self, key: u64) {
+        self.0 = key;
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
 }
 
 impl WarmStartCache {
@@ -940,7 +1008,7 @@ impl ContactSystem {
         for &i in subset.rows {
             let start = col_idx.len();
             let blocks = &self.rows[i].blocks;
-            match blocks.as_slice() {
+            match &blocks[..] {
                 [] => {}
                 [b1] => {
                     let j1 = six(b1);
@@ -1262,7 +1330,7 @@ fn jacobian_row(
     dir: Vector3<f64>,
     kind: RowKind,
 ) -> JacobianRow {
-    let mut blocks = Vec::with_capacity(2);
+    let mut blocks = RowBlocks::EMPTY;
     if !ba.is_static {
         let ra = ct.point - ba.position;
         blocks.push(JacobianBlock {
@@ -1414,7 +1482,7 @@ fn add_friction_rows(
     let slack_row = sys.rows.len();
     sys.rows.push(JacobianRow {
         kind: RowKind::Slack { contact: c },
-        blocks: Vec::new(),
+        blocks: RowBlocks::EMPTY,
     });
     sys.lo.push(0.0);
     sys.hi.push(f64::INFINITY);

@@ -1179,7 +1179,11 @@ impl World {
         let mut u = system.free_velocity.clone();
         op.add_response(f, &mut u);
         // One shared name per body, not one copy per contact.
-        let names: Vec<Arc<str>> = self.bodies.iter().map(|b| Arc::from(b.name.as_str())).collect();
+        let names: Vec<Arc<str>> = self
+            .bodies
+            .iter()
+            .map(|b| Arc::from(b.name.as_str()))
+            .collect();
         let name = |i: usize| names.get(i).cloned().unwrap_or_else(|| Arc::from(""));
         let velocity = |i: usize, p| {
             self.bodies

@@ -248,7 +248,7 @@ fn v_groove_walls_carry_mg_over_2_cos_alpha() {
         let mut force = [0.0; 2];
         for c in &last.contact_records {
             let f = Vector3::from(c.impulse).norm() / s.settings.dt;
-            let wall = c.bodies.iter().any(|b| b == "left_wall") as usize;
+            let wall = c.bodies.iter().any(|b| &**b == "left_wall") as usize;
             force[1 - wall] += f;
         }
         let err = force

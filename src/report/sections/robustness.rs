@@ -3,12 +3,12 @@
 //! the runs that report infeasibility. Unsupported and crashed runs are counted in the cell.
 //! It shows no times, so it counts the rows of every machine.
 
-use crate::harness::{BudgetName, ProblemClass, RunRecord};
+use crate::harness::{Budget, BudgetName, ProblemClass, RunRecord};
 use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::status;
 use crate::report::suite::all_solvers;
 use crate::report::table::{mark, Table};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use std::fmt::Write as _;
 
 pub(super) struct Robustness;
@@ -42,14 +42,18 @@ impl Section for Robustness {
             }
             robust.rows.push(row);
         }
+        let budget = Budget::preset(&BUDGET).context("the robustness budget is a preset")?;
         let _ = writeln!(
             md,
             "## Robustness matrix\n\nWhich solver solves which class (budget `{BUDGET}`: tolerance \
-             1e-8, 10 000 iterations, 5 s), as Siconos' expected-failure matrix: converged runs / \
+             {:e}, {} iterations, {} s), as Siconos' expected-failure matrix: converged runs / \
              runs; for the infeasible class, runs that *report* infeasibility (`no_solution`). \
              ✓ all, ~ some, ✗ none. Classes: SPD (cond 1e2–1e10), rank-deficient PSD, \
              non-symmetric P-matrices and Murty's example, degenerate (duplicated rows, weakly \
              complementary solutions, `b = 0`), infeasible{}.\n\n{}",
+            budget.tolerance,
+            budget.max_iterations,
+            budget.time_s,
             if classes.contains(&ProblemClass::Friction) {
                 ", friction (boxed LCPs exported from the scenes)"
             } else {
