@@ -26,7 +26,8 @@
 //!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant
 //!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
 //!   `−1e-6 · A_ii` proves `A` is neither and gives `Unsupported`; a ray on a matrix that is not
-//!   symmetric PSD (checked by an eigenvalue decomposition, only then) also gives `Unsupported`.
+//!   symmetric PSD (checked by an eigenvalue decomposition, only then) proves nothing and gives
+//!   `Stalled`, as in Lemke ([`crate::lcp::ray`]).
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
@@ -82,8 +83,9 @@
 //! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
 //! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
-use crate::lemke::Lemke;
-use crate::metrics::{impulse_scale, residuals};
+use crate::lcp::lemke::Lemke;
+use crate::lcp::ray::{is_psd, ray_outcome};
+use crate::problem::metrics::{impulse_scale, residuals};
 use crate::problem::Problem;
 use crate::solver::{
     solve_by_islands, solve_equilibrated, Monitor, Outcome, Settings, SolveResult, Solver, Status,
@@ -798,24 +800,18 @@ impl<'a> Pass<'a> {
 }
 
 /// An unblocked drive: a proof that no solution exists when `A` is symmetric positive
-/// semidefinite; otherwise the problem is outside the class the method handles (a P-matrix
-/// problem always has a solution, so it never ends here).
+/// semidefinite, otherwise `Stalled` ([`crate::lcp::ray`]; a P-matrix problem always has a
+/// solution, so it never ends here).
 fn ray(problem: &Problem, i: usize, pivots: usize) -> Outcome {
-    let what = format!("the drive of row {i} at pivot {pivots} is not blocked");
-    let n = problem.n();
-    let amax = problem.max_abs_entry();
-    let psd = problem.is_symmetric(1e-12)
-        && problem
-            .to_dense()
-            .self_adjoint_eigenvalues(faer::Side::Lower)
-            .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * amax * n as f64));
-    if psd {
-        Outcome::NoSolution(format!("ray: {what}; A is PSD, so there is no solution"))
-    } else {
-        Outcome::Unsupported(format!(
-            "ray: {what}, and A is not symmetric positive semidefinite, so this proves nothing"
-        ))
-    }
+    let what = format!("ray: the drive of row {i} at pivot {pivots} is not blocked");
+    let psd =
+        problem.is_symmetric(1e-12) && is_psd(problem.to_dense().as_ref(), problem.max_abs_entry());
+    ray_outcome(
+        &what,
+        psd,
+        "A is PSD, so there is no solution",
+        "A is not symmetric positive semidefinite, so this proves nothing",
+    )
 }
 
 fn negative_pivot(i: usize, pivot: f64) -> Outcome {
@@ -935,7 +931,7 @@ impl ClampedLu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::test_util::lcp;
     use crate::ProjectedSor;
@@ -991,7 +987,7 @@ mod tests {
         // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
         let n = 10;
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let a = crate::problem::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
         let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0];
@@ -1023,9 +1019,9 @@ mod tests {
     fn random_contacts(contacts: usize, dofs: usize, mu: f64, eps: f64, seed: u64) -> Problem {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = 3 * contacts;
-        let j = Mat::from_fn(n, dofs, |_, _| crate::generate::gaussian(&mut rng));
+        let j = Mat::from_fn(n, dofs, |_, _| crate::problem::generate::gaussian(&mut rng));
         let v: Vec<f64> = (0..dofs)
-            .map(|_| crate::generate::gaussian(&mut rng))
+            .map(|_| crate::problem::generate::gaussian(&mut rng))
             .collect();
         let a = Mat::from_fn(n, n, |r, c| {
             (0..dofs).map(|k| j[(r, k)] * j[(c, k)]).sum::<f64>() + if r == c { eps } else { 0.0 }
@@ -1158,7 +1154,7 @@ mod tests {
         }
         // Nearly identical rows (a PSD perturbation of 1e-9): no blow-up either.
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let g = Mat::from_fn(4, 4, |_, _| crate::generate::gaussian(&mut rng));
+        let g = Mat::from_fn(4, 4, |_, _| crate::problem::generate::gaussian(&mut rng));
         let a = Mat::from_fn(4, 4, |i, j| {
             1.0 + 1e-9 * (0..4).map(|k| g[(i, k)] * g[(j, k)]).sum::<f64>()
         });
@@ -1201,12 +1197,13 @@ mod tests {
         let g = generate(Family::Infeasible, 20, 5);
         let r = Dantzig::default().solve(&g.problem, &Settings::default());
         assert_eq!(r.status.name(), "no_solution", "{}", r.status);
-        // Indefinite: [[0, 1], [1, 0]] has the solution (1, 1), but the drive of row 0 is a ray.
+        // Indefinite: [[0, 1], [1, 0]] has the solution (1, 1), but the drive of row 0 is a ray,
+        // which on an indefinite A proves nothing: stalled, as Lemke reports such a ray.
         let r = Dantzig::default().solve(
             &lcp(&[&[0.0, 1.0], &[1.0, 0.0]], &[-1.0, -1.0]),
             &Settings::default(),
         );
-        assert_eq!(r.status.name(), "unsupported", "{}", r.status);
+        assert_eq!(r.status.name(), "stalled", "{}", r.status);
         let r = Dantzig::default().solve(&lcp(&[&[-1.0]], &[-1.0]), &Settings::default());
         assert_eq!(r.status.name(), "unsupported", "{}", r.status);
         let g = generate(Family::Spd { cond: 1e3 }, 50, 1);

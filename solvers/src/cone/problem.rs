@@ -51,8 +51,8 @@
 //! Coulomb friction: formulations and numerical comparisons*, Advanced Topics in Nonsmooth
 //! Dynamics, Springer 2018 (FC3D, FCLIB, the error measure).
 
-use crate::certificate::Certificate;
-use crate::metrics::Residuals;
+use crate::problem::certificate::Certificate;
+use crate::problem::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
 use crate::solver::{Measured, Monitor, Settings, SolveResult, Status};
 use faer::sparse::SparseRowMat;

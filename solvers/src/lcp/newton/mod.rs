@@ -92,15 +92,15 @@
 //! methods for linear complementarity problems in physics-based animation*, SIGGRAPH course
 //! 2013, §5 (min-map Newton, num4lcp); Siconos numerics, `NEWTON_MIN_FBLSA`.
 
-use crate::apgd::project;
-use crate::metrics::relative_row_error;
-use crate::pgs::{skipped_rows, sweep_assembled};
+use crate::lcp::pgs::sweep_assembled;
+use crate::linalg::sparse_lu::SparseLu;
+use crate::problem::diagonal::skipped_rows;
+use crate::problem::metrics::{impulse_scale, relative_row_error};
 use crate::problem::{DelassusFactors, Problem};
 use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
     SolveResult, Solver, Stagnation,
 };
-use crate::sparse_lu::SparseLu;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::amd;
@@ -701,23 +701,7 @@ impl Newton {
         let d = &d[..];
         let skip = skipped_rows(problem);
         let b = problem.b();
-        let scale = {
-            let s = (0..n)
-                .map(|i| (b[i] / d[i]).abs())
-                .chain(
-                    (0..n)
-                        .filter(|&i| problem.friction_of(i).is_none())
-                        .flat_map(|i| [problem.lo()[i], problem.hi()[i]])
-                        .filter(|v| v.is_finite())
-                        .map(f64::abs),
-                )
-                .fold(0.0_f64, f64::max);
-            if s > 0.0 {
-                s
-            } else {
-                1.0
-            }
-        };
+        let scale = impulse_scale(problem);
         // D⁻¹ A x (without b).
         let scaled_product = |x: &[f64], out: &mut [f64]| {
             for (i, o) in out.iter_mut().enumerate() {
@@ -1026,7 +1010,7 @@ fn finished(
     tol: f64,
 ) -> Result<Vec<f64>, ShortOfTolerance> {
     let mut fp = f.to_vec();
-    project(problem, &mut fp);
+    problem.project_onto_bounds(&mut fp);
     let projected = monitor.residual_of(&fp);
     if projected <= tol {
         return Ok(fp);
@@ -1507,7 +1491,7 @@ fn island_rank(problem: &Problem) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::test_util::lcp;
     use crate::{Dantzig, Status};
@@ -1600,7 +1584,7 @@ mod tests {
     fn boxed_and_friction_problems_match_dantzig() {
         let n = 12;
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
-        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let a = crate::problem::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
         let lo = vec![

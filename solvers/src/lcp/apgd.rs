@@ -32,7 +32,7 @@
 //! multibody dynamics with friction and contact*, ACM TOG 34(3), 2015; B. O'Donoghue, E. Candès,
 //! *Adaptive restart for accelerated gradient schemes*, Found. Comput. Math. 15, 2015.
 
-use crate::metrics::residuals;
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -42,20 +42,6 @@ use crate::solver::{
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (PGS projection); symmetric A only; O(1/k^2) for SPD/PSD";
-
-/// PGS's projection: non-friction rows clamped to their bounds, then friction rows to `±mu f_k`
-/// at the projected normals.
-pub(crate) fn project(problem: &Problem, f: &mut [f64]) {
-    for (i, fi) in f.iter_mut().enumerate() {
-        if problem.friction_of(i).is_none() {
-            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
-        }
-    }
-    for fr in problem.friction() {
-        let (lo, hi) = problem.bounds_at(fr.row, f);
-        f[fr.row] = f[fr.row].max(lo).min(hi);
-    }
-}
 
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| a * b).sum()
@@ -134,7 +120,7 @@ impl Solver for Apgd {
                 for i in 0..n {
                     trial[i] = y[i] - t * g[i];
                 }
-                project(problem, &mut trial);
+                problem.project_onto_bounds(&mut trial);
                 let w = problem.velocity(&trial);
                 let step: Vec<f64> = trial.iter().zip(&y).map(|(x, z)| x - z).collect();
                 let bound = obj_y + dot(&g, &step) + 0.5 * lipschitz * dot(&step, &step);
@@ -181,7 +167,7 @@ impl Solver for Apgd {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::{Lemke, Status};
 
     #[test]

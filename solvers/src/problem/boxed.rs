@@ -727,6 +727,22 @@ impl Problem {
         }
     }
 
+    /// Project `f` onto the bounds in place: rows that are not friction rows clamped to their
+    /// stored `[lo, hi]`, then each friction row to `±mu · max(f_k, 0)` at the projected normal
+    /// impulse `f_k`. The projection PGS applies row by row, applied to the whole vector; the
+    /// iterative solvers use it for warm starts, trial points and Clarabel's answer.
+    pub fn project_onto_bounds(&self, f: &mut [f64]) {
+        for (i, fi) in f.iter_mut().enumerate() {
+            if self.friction_of[i].is_none() {
+                *fi = fi.max(self.lo[i]).min(self.hi[i]);
+            }
+        }
+        for fr in &self.friction {
+            let (lo, hi) = self.bounds_at(fr.row, f);
+            f[fr.row] = f[fr.row].max(lo).min(hi);
+        }
+    }
+
     /// `w = A f + b`.
     pub fn velocity(&self, f: &[f64]) -> Vec<f64> {
         let mut w = vec![0.0; self.n()];

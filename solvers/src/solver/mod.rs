@@ -1,8 +1,8 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::certificate::{certificate_from, Certificate};
-use crate::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
+use crate::problem::certificate::{certificate_from, Certificate};
+use crate::problem::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
@@ -48,7 +48,7 @@ impl Default for Settings {
 
 /// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
 /// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
-/// the problem's data ([`crate::metrics::unresolved_row`]); a result that meets the tolerance
+/// the problem's data ([`crate::problem::metrics::unresolved_row`]); a result that meets the tolerance
 /// only through cancellation is `Diverged`, or `NoSolution` when a Farkas certificate read off it
 /// proves there is no solution.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -316,7 +316,7 @@ impl Measured for Problem {
 }
 
 /// The data-resolution test of a finite LCP impulse `f` (with `w = A f + b`) that meets the
-/// tolerance ([`crate::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
+/// tolerance ([`crate::problem::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
 /// `NoSolution` when the Farkas certificate read off `f` ([`certificate_from`]) proves there is
 /// no solution, and `Diverged` else, with the certificate when it bounds the size of every
 /// solution.
@@ -665,15 +665,7 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
         Some(ws) if ws.len() == n && ws.iter().all(|v| v.is_finite()) => ws.clone(),
         _ => vec![0.0; n],
     };
-    for (i, fi) in f.iter_mut().enumerate() {
-        if problem.friction_of(i).is_none() {
-            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
-        }
-    }
-    for fr in problem.friction() {
-        let (lo, hi) = problem.bounds_at(fr.row, &f);
-        f[fr.row] = f[fr.row].max(lo).min(hi);
-    }
+    problem.project_onto_bounds(&mut f);
     f
 }
 
@@ -801,7 +793,7 @@ fn island_rank(o: &Outcome) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::residuals;
+    use crate::problem::metrics::residuals;
     use faer::Mat;
 
     /// A measured point is reused only when it is bit for bit the returned impulse; any other
@@ -906,7 +898,8 @@ mod tests {
             assert_eq!(r.status.name(), "no_solution", "{}", r.status);
             assert!(r.certificate.as_ref().unwrap().proves_no_solution);
         }
-        let g = crate::generate::generate(crate::generate::Family::Infeasible, 6, 1);
+        let g =
+            crate::problem::generate::generate(crate::problem::generate::Family::Infeasible, 6, 1);
         let loose = Settings {
             tolerance: 1e-4,
             ..Settings::default()

@@ -126,7 +126,7 @@
 //!   ([`Problem::islands`]); each is densified and solved on its own. An island above
 //!   [`DENSE_LIMIT`] rows gives `Unsupported` with the reason.
 //!
-//! Measured on Murty's example ([`crate::generate::Family::Murty`]: `M` lower triangular, 1 on
+//! Measured on Murty's example ([`crate::problem::generate::Family::Murty`]: `M` lower triangular, 1 on
 //! the diagonal and 2 below, `q = −e`, `d = e`): exactly `2ⁿ` pivots, the first `z0` pivot and
 //! the last included, for every `n = 2..=10` (4, 8, 16, …, 1024; the unit tests check it). The
 //! first pivot is a tie between all rows, which the lexicographic rule breaks towards the last
@@ -137,7 +137,8 @@
 //! Complementarity Problem*, 1992, §4.4; K. G. Murty, *Linear Complementarity, Linear and
 //! Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the exponential example).
 
-use crate::metrics::residuals;
+use crate::lcp::ray::{is_psd, ray_outcome};
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
 use std::fmt;
@@ -234,13 +235,13 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
     if best <= tol {
         return;
     }
-    let skip = crate::pgs::skipped_rows(problem);
+    let skip = crate::problem::diagonal::skipped_rows(problem);
     let d = problem.diagonal_scale();
     let mut g = f.to_vec();
     // Whether the monitor's last measurement is of `f` (then `finish` reuses it).
     let mut last_is_f = true;
     for _ in 0..POLISH_SWEEPS {
-        crate::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
+        crate::lcp::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
         let r = monitor.residual_of(&g);
         last_is_f = r < best;
         if last_is_f {
@@ -924,21 +925,13 @@ fn ray_termination(red: &Reduction, pivot: usize, entering: Var) -> Outcome {
     let k = red.q.len();
     let mmax = red.m.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     let sym = faer::Mat::from_fn(k, k, |i, j| 0.5 * (red.m[i * k + j] + red.m[j * k + i]));
-    let psd = sym
-        .self_adjoint_eigenvalues(faer::Side::Lower)
-        .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * mmax * k as f64));
-    if psd {
-        Outcome::NoSolution(format!(
-            "ray termination at pivot {pivot}: entering {entering} is not blocked; M + Mᵀ is \
-             positive semidefinite (M is copositive-plus), so there is no solution"
-        ))
-    } else {
-        Outcome::Stalled(format!(
-            "ray termination at pivot {pivot}: entering {entering} is not blocked; not a proof \
-             of infeasibility for this matrix class (M + Mᵀ is not positive semidefinite, so M \
-             is not known to be copositive-plus)"
-        ))
-    }
+    ray_outcome(
+        &format!("ray termination at pivot {pivot}: entering {entering} is not blocked"),
+        is_psd(sym.as_ref(), mmax),
+        "M + Mᵀ is positive semidefinite (M is copositive-plus), so there is no solution",
+        "not a proof of infeasibility for this matrix class (M + Mᵀ is not positive \
+         semidefinite, so M is not known to be copositive-plus)",
+    )
 }
 
 /// Why a refactorisation gave no new `B⁻¹`.
@@ -1001,7 +994,7 @@ fn invert(b: &[f64], k: usize, stop: &dyn Fn() -> bool) -> Result<Vec<f64>, Brea
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::test_util::lcp;
     use crate::Status;
     use faer::Mat;
@@ -1127,7 +1120,7 @@ mod tests {
         // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
         let n = 10;
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
-        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let a = crate::problem::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
         let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0];

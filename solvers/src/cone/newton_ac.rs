@@ -28,7 +28,7 @@
 //! References: P. Alart, A. Curnier, CMAME 92, 1991; V. Acary, M. Brémond, O. Huber, 2018
 //! (Siconos' `FC3D_NSN_AC`).
 
-use crate::alart_curnier::linearise;
+use crate::cone::alart_curnier::linearise;
 use crate::cone::{
     cone_residuals, initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver,
 };

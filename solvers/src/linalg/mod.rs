@@ -1,0 +1,3 @@
+//! Linear algebra the solvers share: a sparse LU with a reusable symbolic analysis.
+
+pub(crate) mod sparse_lu;
