@@ -72,6 +72,7 @@ pub use lcp::pgs::{ProjectedSor, SweepForm};
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use problem::certificate::Certificate;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
+pub use solver::line_search::{Backtracking, LineSearchError};
 pub use solver::{
     decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver,
     Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,

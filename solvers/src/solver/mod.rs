@@ -1,6 +1,8 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
+pub mod line_search;
+
 use crate::problem::certificate::{certificate_from, Certificate};
 use crate::problem::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;

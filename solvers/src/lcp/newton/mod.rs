@@ -97,6 +97,7 @@ use crate::linalg::sparse_lu::SparseLu;
 use crate::problem::diagonal::skipped_rows;
 use crate::problem::metrics::{impulse_scale, relative_row_error};
 use crate::problem::{DelassusFactors, Problem};
+use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
     SolveResult, Solver, Stagnation,
@@ -261,10 +262,6 @@ const ROUND_OFF: f64 = 1e-12;
 /// Nesting of refinements.
 const MAX_REFINE_DEPTH: usize = 2;
 
-/// Armijo constant.
-const SIGMA: f64 = 1e-4;
-/// Backtracking steps before a direction is given up.
-const MAX_BACKTRACKS: usize = 40;
 /// The non-monotone line search's memory: a step is accepted on sufficient decrease against
 /// the largest merit of the last this many iterates (Grippo, Lampariello and Lucidi's rule).
 /// Measured at 1 (monotone), 5 and 10 (`lcpbench simulate SCENE -s S --steps 50 --tol 1e-8
@@ -741,6 +738,7 @@ impl Newton {
             .as_ref()
             .is_some_and(|ws| ws.len() == n && ws.iter().any(|v| *v != 0.0));
         let mut restarted = false;
+        let line_search = Backtracking::newton();
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
@@ -835,8 +833,7 @@ impl Newton {
             let dnorm2: f64 = newton_dir.iter().map(|v| v * v).sum();
             let slope: f64 = (0..n).map(|i| grad[i] * newton_dir[i]).sum();
             let gnorm = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let newton_ok =
-                newton_dir.iter().all(|v| v.is_finite()) && slope <= -1e-8 * gnorm * dnorm2.sqrt();
+            let newton_ok = is_descent(&newton_dir, slope, gnorm, dnorm2.sqrt());
             let gradient_dir: Vec<f64> = (0..n).map(|i| -grad[i]).collect();
             let gslope = -(0..n).map(|i| grad[i] * grad[i]).sum::<f64>();
             let candidates: Vec<(&[f64], f64)> = if newton_ok {
@@ -852,22 +849,18 @@ impl Newton {
                     continue;
                 }
                 scaled_product(direction, &mut ad);
-                let mut t = 1.0;
-                for _ in 0..MAX_BACKTRACKS {
+                let step = line_search.armijo(reference, slope, |t| {
                     for i in 0..n {
                         trial_f[i] = f[i] + t * direction[i];
                         trial_vel[i] = vel[i] + t * ad[i];
                     }
-                    let trial_theta = self.merit(problem, &trial_f, &trial_vel, &mut trial_phi);
-                    if trial_theta <= reference + SIGMA * t * slope {
-                        std::mem::swap(&mut f, &mut trial_f);
-                        std::mem::swap(&mut phi, &mut trial_phi);
-                        accepted = true;
-                        break;
-                    }
-                    t *= 0.5;
-                }
-                if accepted {
+                    self.merit(problem, &trial_f, &trial_vel, &mut trial_phi)
+                });
+                if step.is_some() {
+                    // The trial buffers hold the accepted step's iterate and `Φ`.
+                    std::mem::swap(&mut f, &mut trial_f);
+                    std::mem::swap(&mut phi, &mut trial_phi);
+                    accepted = true;
                     break;
                 }
             }
