@@ -74,8 +74,9 @@ pub use problem::certificate::Certificate;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
 pub use solver::line_search::{Backtracking, LineSearchError};
 pub use solver::{
-    decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver,
-    Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,
+    decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SettingsError, SolveResult,
+    Solver, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP,
+    STAGNATION_MEASURE_EVERY,
 };
 
 /// The solvers lcpbench ships, by name.

@@ -2,51 +2,15 @@
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
 pub mod line_search;
+mod settings;
+
+pub use settings::{Settings, SettingsError};
 
 use crate::problem::certificate::{certificate_from, Certificate};
 use crate::problem::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
-
-/// Settings shared by every solver. Solver-specific parameters (SOR's `omega`, ...) live on the
-/// solver value itself.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Settings {
-    /// Tolerance on the relative natural-map residual
-    /// ([`Residuals::natural_map_rel`]). Default `1e-8`.
-    pub tolerance: f64,
-    /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
-    /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
-    /// It is a total for one solve: a solver that splits the problem into independent islands
-    /// gives each island what the islands before it left, and ends `iteration_limit` when
-    /// nothing is left. Default `10_000`.
-    pub max_iterations: usize,
-    /// Wall-time budget; `None` (the default) means none.
-    pub time_budget: Option<Duration>,
-    /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
-    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and the cone
-    /// solvers NSGS-cone and Newton-AC; enumeration uses it only to order its first guesses of
-    /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
-    /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
-    /// and cone solvers only. Default `None` (zero).
-    pub warm_start: Option<Vec<f64>>,
-    /// Record the shared residual after every iteration (time spent measuring it is excluded from
-    /// the reported wall time). Default `false`.
-    pub record_history: bool,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Self {
-            tolerance: 1e-8,
-            max_iterations: 10_000,
-            time_budget: None,
-            warm_start: None,
-            record_history: false,
-        }
-    }
-}
 
 /// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
 /// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
@@ -477,6 +441,12 @@ impl<'a, P: Measured> Monitor<'a, P> {
         iterations: usize,
         outcome: Outcome,
     ) -> SolveResult {
+        // Settings the library refuses end the solve before its result is read: a tolerance of 1
+        // or more would otherwise call a zero impulse converged.
+        let outcome = match self.settings.validate() {
+            Ok(()) => outcome,
+            Err(e) => Outcome::Unsupported(format!("invalid settings: {e}")),
+        };
         let measured = self.measured.take().filter(|(x, ..)| {
             x.len() == f.len() && x.iter().zip(&f).all(|(a, b)| a.to_bits() == b.to_bits())
         });
