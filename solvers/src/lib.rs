@@ -252,6 +252,13 @@ impl ConeSolverKind {
         }
     }
 
+    /// True for solvers that iterate from a starting reaction (and so use
+    /// [`Settings::warm_start`]): NSGS-cone and Newton-AC. Clarabel's SOCP starts from its own
+    /// interior point and ignores a warm start.
+    pub fn is_iterative(self) -> bool {
+        matches!(self, ConeSolverKind::NsgsCone | ConeSolverKind::NewtonAc)
+    }
+
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
     /// contact slides, and so not `converged` on sliding problems).
     pub fn is_relaxation(self) -> bool {
