@@ -254,6 +254,21 @@ impl Dantzig {
     }
 }
 
+/// `w_j` within `W_ZERO · d_j · s` of zero counts as zero (`d_j` the diagonal scale, `s` the
+/// impulse scale): `10⁴` machine epsilons of the size of `w_j` at the solution, above the
+/// round-off of the drives' incremental updates of `w` between refreshes.
+const W_ZERO: f64 = 1e-12;
+
+/// A rate `Δf_c` of a clamped row within `DIRECTION_ZERO · max(1, ‖Δf_C‖∞)` of zero does not
+/// block the drive: a few hundred machine epsilons of the direction's size, the round-off of the
+/// triangular solves that give it.
+const DIRECTION_ZERO: f64 = 1e-13;
+
+/// A rate `Δw_j` within `RATE_ZERO · d_j · max(1, ‖Δf_C‖∞)` of zero does not make row `j` join
+/// `C`: ten times [`DIRECTION_ZERO`], since `Δw_j` is a sum over the clamped rows of products
+/// with `Δf_C`, which adds round-off.
+const RATE_ZERO: f64 = 1e-11;
+
 /// A pivot below `−NEGATIVE_PIVOT_TOL · A_ii` proves that `A` is not PSD (nor a P-matrix);
 /// smaller negative pivots are round-off on a zero pivot (rank-deficient `A`).
 const NEGATIVE_PIVOT_TOL: f64 = 1e-6;
@@ -485,6 +500,16 @@ enum Set {
     Dependent,
 }
 
+/// The drive of one row: the clamped rows in factor order, their rates `Δf_C`, the rates `Δw`,
+/// the direction `±1` of `f_i`, and `max(1, ‖Δf_C‖∞)`.
+struct Drive {
+    rows: Vec<usize>,
+    dx_c: Vec<f64>,
+    dw: Vec<f64>,
+    dir: f64,
+    dx_max: f64,
+}
+
 /// What limits a drive step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Event {
@@ -569,7 +594,7 @@ impl<'a> Pass<'a> {
     }
 
     fn w_tol(&self, j: usize) -> f64 {
-        1e-12 * self.d[j] * self.scale
+        W_ZERO * self.d[j] * self.scale
     }
 
     /// Put row `i` into `C` if its pivot is large enough, else into `D`.
@@ -592,26 +617,19 @@ impl<'a> Pass<'a> {
         monitor: &mut Monitor<'_>,
     ) -> Result<(), Outcome> {
         let n = self.problem.n();
-        let (lo_i, hi_i) = (self.lo[i], self.hi[i]);
         self.w[i] = crate::problem::dot(self.problem.dense_row(i), &self.x) + self.problem.b()[i];
         // Rows that may not block this row's drive again (their pivot was too small to join C).
         let mut ignored = vec![false; n];
-        let mut dx_c: Vec<f64> = Vec::new();
-        let mut dw = vec![0.0; n];
+        let mut drive = Drive {
+            rows: Vec::new(),
+            dx_c: Vec::new(),
+            dw: vec![0.0; n],
+            dir: 0.0,
+            dx_max: 0.0,
+        };
         loop {
-            let (xi, wi, tol) = (self.x[i], self.w[i], self.w_tol(i));
-            let at_lo = xi <= lo_i;
-            let at_hi = xi >= hi_i;
-            if at_lo && wi >= -tol {
-                self.set[i] = Set::AtLo;
-                return Ok(());
-            }
-            if at_hi && wi <= tol {
-                self.set[i] = Set::AtHi;
-                return Ok(());
-            }
-            if !at_lo && !at_hi && wi.abs() <= tol {
-                return self.clamp_or_depend(i);
+            if let Some(done) = self.settled(i) {
+                return done;
             }
             if *pivots >= settings.max_iterations {
                 return Err(Outcome::IterationLimit);
@@ -620,96 +638,11 @@ impl<'a> Pass<'a> {
                 return Err(Outcome::TimeLimit);
             }
             *pivots += 1;
-            let dir = if wi < 0.0 { 1.0 } else { -1.0 };
-
-            // Direction: Δf_i = dir, Δf_C = −A_CC⁻¹ A_Ci dir, Δf_N = 0.
-            let rows = self.lu.rows.clone();
-            dx_c.clear();
-            dx_c.extend(rows.iter().map(|&c| -self.problem.dense_row(c)[i] * dir));
-            self.lu.solve(&mut dx_c);
-            let dx_max = dx_c.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
-            if !dx_max.is_finite() {
-                return Err(Outcome::NumericalFailure(format!(
-                    "non-finite direction while adding row {i} (pivot {pivots})"
-                )));
-            }
-            let rate = |j: usize| -> f64 {
-                let row = self.problem.dense_row(j);
-                rows.iter()
-                    .zip(&dx_c)
-                    .map(|(&c, v)| row[c] * v)
-                    .sum::<f64>()
-                    + row[i] * dir
-            };
-            for (j, (dwj, set)) in dw.iter_mut().zip(&self.set).enumerate() {
-                *dwj = match set {
-                    Set::AtLo | Set::AtHi | Set::Dependent => rate(j),
-                    _ => 0.0,
-                };
-            }
-            dw[i] = rate(i);
-            let pivot = dw[i] * dir;
-            let tol_i = self.pivot_tol * self.d[i];
-            if pivot < -NEGATIVE_PIVOT_TOL * self.d[i] {
-                return Err(negative_pivot(i, pivot));
-            }
-
-            // Ratio tests, in tie-break order.
-            let mut best: Option<(f64, Event)> = None;
-            let mut offer = |s: f64, e: Event| {
-                let s = s.max(0.0);
-                if best.is_none_or(|(b, _)| s < b) {
-                    best = Some((s, e));
-                }
-            };
-            if pivot > tol_i {
-                offer(-wi / dw[i], Event::RowClamps);
-            }
-            if dir > 0.0 && hi_i.is_finite() {
-                offer(hi_i - xi, Event::RowAtBound(true));
-            }
-            if dir < 0.0 && lo_i.is_finite() {
-                offer(xi - lo_i, Event::RowAtBound(false));
-            }
-            let x_tol = 1e-13 * dx_max;
-            for (p, (&c, &v)) in rows.iter().zip(&dx_c).enumerate() {
-                if v < -x_tol && self.lo[c].is_finite() {
-                    offer((self.lo[c] - self.x[c]) / v, Event::Leaves(p, false));
-                } else if v > x_tol && self.hi[c].is_finite() {
-                    offer((self.hi[c] - self.x[c]) / v, Event::Leaves(p, true));
-                }
-            }
-            for j in 0..n {
-                if ignored[j] || j == i {
-                    continue;
-                }
-                let rate_tol = 1e-11 * self.d[j] * dx_max;
-                match self.set[j] {
-                    Set::AtLo if self.lo[j] < self.hi[j] && dw[j] < -rate_tol => {
-                        offer(-self.w[j] / dw[j], Event::Joins(j))
-                    }
-                    Set::AtHi if self.lo[j] < self.hi[j] && dw[j] > rate_tol => {
-                        offer(-self.w[j] / dw[j], Event::Joins(j))
-                    }
-                    Set::Dependent if dw[j].abs() > rate_tol => offer(0.0, Event::Joins(j)),
-                    _ => {}
-                }
-            }
-            let Some((s, event)) = best else {
+            self.direction(i, &mut drive, *pivots)?;
+            let Some((s, event)) = self.ratio_test(i, &drive, &ignored) else {
                 return Err(ray(self.problem, i, *pivots));
             };
-
-            // Step.
-            self.x[i] += s * dir;
-            for (&c, &v) in rows.iter().zip(&dx_c) {
-                self.x[c] += s * v;
-            }
-            for ((wj, dwj), set) in self.w.iter_mut().zip(&dw).zip(&self.set) {
-                if matches!(set, Set::AtLo | Set::AtHi | Set::Dependent) {
-                    *wj += s * dwj;
-                }
-            }
-            self.w[i] += s * dw[i];
+            self.step(i, s, &drive);
             if self.record {
                 monitor.record(*pivots, &self.x);
                 monitor.record_active_set(*pivots, || {
@@ -718,32 +651,185 @@ impl<'a> Pass<'a> {
                     rows
                 });
             }
+            if self.apply(i, event, &drive, &mut ignored, *pivots)? {
+                return Ok(());
+            }
+        }
+    }
 
-            match event {
-                Event::RowClamps => return self.clamp_or_depend(i),
-                Event::RowAtBound(upper) => {
-                    self.x[i] = if upper { hi_i } else { lo_i };
-                    self.set[i] = if upper { Set::AtHi } else { Set::AtLo };
-                    return Ok(());
+    /// `Some` when row `i`'s complementarity conditions hold (it joins `N` at a bound, or `C`
+    /// or `D` with `w_i = 0` inside its box), with the result of placing it.
+    fn settled(&mut self, i: usize) -> Option<Result<(), Outcome>> {
+        let (xi, wi, tol) = (self.x[i], self.w[i], self.w_tol(i));
+        let at_lo = xi <= self.lo[i];
+        let at_hi = xi >= self.hi[i];
+        if at_lo && wi >= -tol {
+            self.set[i] = Set::AtLo;
+            return Some(Ok(()));
+        }
+        if at_hi && wi <= tol {
+            self.set[i] = Set::AtHi;
+            return Some(Ok(()));
+        }
+        if !at_lo && !at_hi && wi.abs() <= tol {
+            return Some(self.clamp_or_depend(i));
+        }
+        None
+    }
+
+    /// The drive of row `i` towards `w_i = 0`: `Δf_i = dir`, `Δf_C = −A_CC⁻¹ A_Ci dir`,
+    /// `Δf_N = 0`, and the rates `Δw` of the rows of `N` and `D` and of row `i`. `Err` on a
+    /// non-finite direction or a negative pivot (`A` neither PSD nor a P-matrix).
+    fn direction(&mut self, i: usize, drive: &mut Drive, pivots: usize) -> Result<(), Outcome> {
+        drive.dir = if self.w[i] < 0.0 { 1.0 } else { -1.0 };
+        let dir = drive.dir;
+        drive.rows.clone_from(&self.lu.rows);
+        drive.dx_c.clear();
+        drive.dx_c.extend(
+            drive
+                .rows
+                .iter()
+                .map(|&c| -self.problem.dense_row(c)[i] * dir),
+        );
+        self.lu.solve(&mut drive.dx_c);
+        drive.dx_max = drive.dx_c.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+        if !drive.dx_max.is_finite() {
+            return Err(Outcome::NumericalFailure(format!(
+                "non-finite direction while adding row {i} (pivot {pivots})"
+            )));
+        }
+        let rate = |j: usize| -> f64 {
+            let row = self.problem.dense_row(j);
+            drive
+                .rows
+                .iter()
+                .zip(&drive.dx_c)
+                .map(|(&c, v)| row[c] * v)
+                .sum::<f64>()
+                + row[i] * dir
+        };
+        let mut dw = std::mem::take(&mut drive.dw);
+        for (j, (dwj, set)) in dw.iter_mut().zip(&self.set).enumerate() {
+            *dwj = match set {
+                Set::AtLo | Set::AtHi | Set::Dependent => rate(j),
+                _ => 0.0,
+            };
+        }
+        dw[i] = rate(i);
+        drive.dw = dw;
+        let pivot = drive.dw[i] * dir;
+        if pivot < -NEGATIVE_PIVOT_TOL * self.d[i] {
+            return Err(negative_pivot(i, pivot));
+        }
+        Ok(())
+    }
+
+    /// The ratio tests of the drive of row `i`: the shortest step to an event, ties broken in
+    /// the order row `i` clamps, row `i` reaches a bound, a clamped row leaves `C`, a row joins
+    /// `C`. `None` when nothing blocks the drive (a ray).
+    fn ratio_test(&self, i: usize, drive: &Drive, ignored: &[bool]) -> Option<(f64, Event)> {
+        let Drive {
+            rows,
+            dx_c,
+            dw,
+            dir,
+            dx_max,
+        } = drive;
+        let (xi, wi) = (self.x[i], self.w[i]);
+        let (lo_i, hi_i) = (self.lo[i], self.hi[i]);
+        let mut best: Option<(f64, Event)> = None;
+        let mut offer = |s: f64, e: Event| {
+            let s = s.max(0.0);
+            if best.is_none_or(|(b, _)| s < b) {
+                best = Some((s, e));
+            }
+        };
+        if dw[i] * dir > self.pivot_tol * self.d[i] {
+            offer(-wi / dw[i], Event::RowClamps);
+        }
+        if *dir > 0.0 && hi_i.is_finite() {
+            offer(hi_i - xi, Event::RowAtBound(true));
+        }
+        if *dir < 0.0 && lo_i.is_finite() {
+            offer(xi - lo_i, Event::RowAtBound(false));
+        }
+        let x_tol = DIRECTION_ZERO * dx_max;
+        for (p, (&c, &v)) in rows.iter().zip(dx_c).enumerate() {
+            if v < -x_tol && self.lo[c].is_finite() {
+                offer((self.lo[c] - self.x[c]) / v, Event::Leaves(p, false));
+            } else if v > x_tol && self.hi[c].is_finite() {
+                offer((self.hi[c] - self.x[c]) / v, Event::Leaves(p, true));
+            }
+        }
+        for j in 0..self.problem.n() {
+            if ignored[j] || j == i {
+                continue;
+            }
+            let rate_tol = RATE_ZERO * self.d[j] * dx_max;
+            match self.set[j] {
+                Set::AtLo if self.lo[j] < self.hi[j] && dw[j] < -rate_tol => {
+                    offer(-self.w[j] / dw[j], Event::Joins(j))
                 }
-                Event::Leaves(p, upper) => {
-                    let c = rows[p];
-                    self.lu.remove(p).map_err(|reason| {
-                        Outcome::NumericalFailure(format!(
-                            "{reason} (row {c} leaving the clamped set, pivot {pivots})"
-                        ))
-                    })?;
-                    self.x[c] = if upper { self.hi[c] } else { self.lo[c] };
-                    self.w[c] = 0.0;
-                    self.set[c] = if upper { Set::AtHi } else { Set::AtLo };
+                Set::AtHi if self.lo[j] < self.hi[j] && dw[j] > rate_tol => {
+                    offer(-self.w[j] / dw[j], Event::Joins(j))
                 }
-                Event::Joins(j) => {
-                    self.w[j] = 0.0;
-                    match self.lu.try_add(self.problem, j, self.pivot_tol * self.d[j]) {
-                        Ok(()) => self.set[j] = Set::Clamped,
-                        Err(_) => ignored[j] = true,
-                    }
+                Set::Dependent if dw[j].abs() > rate_tol => offer(0.0, Event::Joins(j)),
+                _ => {}
+            }
+        }
+        best
+    }
+
+    /// Move `f` and `w` by the step `s` along the drive of row `i`.
+    fn step(&mut self, i: usize, s: f64, drive: &Drive) {
+        self.x[i] += s * drive.dir;
+        for (&c, &v) in drive.rows.iter().zip(&drive.dx_c) {
+            self.x[c] += s * v;
+        }
+        for ((wj, dwj), set) in self.w.iter_mut().zip(&drive.dw).zip(&self.set) {
+            if matches!(set, Set::AtLo | Set::AtHi | Set::Dependent) {
+                *wj += s * dwj;
+            }
+        }
+        self.w[i] += s * drive.dw[i];
+    }
+
+    /// Carry out the event that blocked the drive of row `i`. `Ok(true)` when row `i` is
+    /// placed (the drive ends), `Ok(false)` when the drive goes on with the new sets.
+    fn apply(
+        &mut self,
+        i: usize,
+        event: Event,
+        drive: &Drive,
+        ignored: &mut [bool],
+        pivots: usize,
+    ) -> Result<bool, Outcome> {
+        match event {
+            Event::RowClamps => self.clamp_or_depend(i).map(|()| true),
+            Event::RowAtBound(upper) => {
+                self.x[i] = if upper { self.hi[i] } else { self.lo[i] };
+                self.set[i] = if upper { Set::AtHi } else { Set::AtLo };
+                Ok(true)
+            }
+            Event::Leaves(p, upper) => {
+                let c = drive.rows[p];
+                self.lu.remove(p).map_err(|reason| {
+                    Outcome::NumericalFailure(format!(
+                        "{reason} (row {c} leaving the clamped set, pivot {pivots})"
+                    ))
+                })?;
+                self.x[c] = if upper { self.hi[c] } else { self.lo[c] };
+                self.w[c] = 0.0;
+                self.set[c] = if upper { Set::AtHi } else { Set::AtLo };
+                Ok(false)
+            }
+            Event::Joins(j) => {
+                self.w[j] = 0.0;
+                match self.lu.try_add(self.problem, j, self.pivot_tol * self.d[j]) {
+                    Ok(()) => self.set[j] = Set::Clamped,
+                    Err(_) => ignored[j] = true,
                 }
+                Ok(false)
             }
         }
     }

@@ -318,22 +318,45 @@ struct Reduction {
     sliding_rows: usize,
 }
 
-impl Reduction {
-    fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
+/// The LCP variables of a boxed problem's rows (the reductions of the module documentation),
+/// before `M` and `q` are formed.
+struct Variables {
+    /// Offset of each original row.
+    c: Vec<f64>,
+    /// `(row, sign)` of each variable that is (a signed part of) `f_row − c_row`.
+    vars: Vec<(usize, f64)>,
+    /// `(index of the variable x in vars, (hi − lo) / scale)` for every box row.
+    slacks: Vec<(usize, f64)>,
+    /// `(index of x⁺ in vars, friction row, its normal row, mu)` for every friction row.
+    sliding: Vec<(usize, usize, usize, f64)>,
+    /// The first variable of each row (read only by the sliding rows; empty without them).
+    first_var: Vec<usize>,
+}
+
+impl Variables {
+    /// The variables of every row; `Err` when a friction row's normal does not have the
+    /// bounds `[0, ∞)` the sliding reduction needs.
+    fn of(problem: &Problem, scale: &[f64]) -> Result<Self, String> {
         let n = problem.n();
         let (lo, hi) = (problem.lo(), problem.hi());
-        let mut c = vec![0.0; n];
-        let mut vars: Vec<(usize, f64)> = Vec::with_capacity(n);
-        // (index of the variable x in `vars`, hi − lo) for every box row.
-        let mut slacks: Vec<(usize, f64)> = Vec::new();
-        // (index of x⁺ in `vars`, friction row, its normal row, mu) for every friction row.
-        let mut sliding: Vec<(usize, usize, usize, f64)> = Vec::new();
-        // The first variable of each row (read only by the sliding rows).
-        let mut first_var = if problem.friction().is_empty() {
-            Vec::new()
-        } else {
-            vec![0; n]
+        let mut out = Variables {
+            c: vec![0.0; n],
+            vars: Vec::with_capacity(n),
+            slacks: Vec::new(),
+            sliding: Vec::new(),
+            first_var: if problem.friction().is_empty() {
+                Vec::new()
+            } else {
+                vec![0; n]
+            },
         };
+        let Variables {
+            c,
+            vars,
+            slacks,
+            sliding,
+            first_var,
+        } = &mut out;
         for i in 0..n {
             if let Some(first) = first_var.get_mut(i) {
                 *first = vars.len();
@@ -371,15 +394,27 @@ impl Reduction {
                 }
             }
         }
-        // Offsets in the original units; the LCP variables are in the equilibrated ones
-        // (`f_i = c_i + scale_i · x`), so `M = S A S` and `q = S w(c)` up to signs.
-        let w0: std::borrow::Cow<'_, [f64]> = if c.iter().all(|&v| v == 0.0) {
+        Ok(out)
+    }
+
+    /// The number of LCP variables: the row variables, one slack per box row and one sliding
+    /// speed per friction row.
+    fn len(&self) -> usize {
+        self.vars.len() + self.slacks.len() + self.sliding.len()
+    }
+
+    /// `M` (row-major) and `q`, unscaled, in the equilibrated units `f_i = c_i + scale_i · x`:
+    /// `M = S A S` and `q = S w(c)` up to signs on the row variables, then the slack and
+    /// sliding blocks.
+    fn lcp(&self, problem: &Problem, scale: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let (vars, n) = (&self.vars, problem.n());
+        let w0: std::borrow::Cow<'_, [f64]> = if self.c.iter().all(|&v| v == 0.0) {
             problem.b().into()
         } else {
-            problem.velocity(&c).into()
+            problem.velocity(&self.c).into()
         };
         let nv = vars.len();
-        let m = nv + slacks.len() + sliding.len();
+        let m = self.len();
         let mut q = vec![0.0; m];
         // A standard LCP maps every row to one variable of its own: `M = S A S` row by row,
         // every entry written once (so not zero-filled first).
@@ -398,15 +433,15 @@ impl Reduction {
             let row = problem.dense_row(i);
             let si = s * scale[i];
             if identity_map {
-                mat.extend(row.iter().zip(&scale).map(|(a, sj)| si * a * sj));
+                mat.extend(row.iter().zip(scale).map(|(a, sj)| si * a * sj));
             } else {
                 let out = &mut mat[v * m..(v + 1) * m];
-                for (o, &(j, t)) in out.iter_mut().zip(&vars) {
+                for (o, &(j, t)) in out.iter_mut().zip(vars) {
                     *o = t * si * row[j] * scale[j];
                 }
             }
         }
-        for (k, &(v, width)) in slacks.iter().enumerate() {
+        for (k, &(v, width)) in self.slacks.iter().enumerate() {
             let y = nv + k;
             mat[v * m + y] = 1.0;
             mat[y * m + v] = -1.0;
@@ -414,48 +449,61 @@ impl Reduction {
         }
         // Friction row `i` on normal `k`: `x⁺ ⟂ w_i + λ`, `x⁻ ⟂ −w_i + λ` and
         // `λ ⟂ mu·f_k − x⁺ − x⁻`, all in row `i`'s equilibrated units.
-        for (l, &(v, i, k, mu)) in sliding.iter().enumerate() {
-            let y = nv + slacks.len() + l;
+        for (l, &(v, i, k, mu)) in self.sliding.iter().enumerate() {
+            let y = nv + self.slacks.len() + l;
             mat[v * m + y] = 1.0;
             mat[(v + 1) * m + y] = 1.0;
             mat[y * m + v] = -1.0;
             mat[y * m + v + 1] = -1.0;
-            mat[y * m + first_var[k]] = mu * scale[k] / scale[i];
+            mat[y * m + self.first_var[k]] = mu * scale[k] / scale[i];
         }
+        (mat, q)
+    }
+}
+
+/// `max|v|` (1 for a zero `v`), for finite `v`.
+fn max_abs(v: &[f64]) -> f64 {
+    // Four running maxima: one would be a chain of dependent comparisons.
+    let mut m4 = [0.0_f64; 4];
+    let mut chunks = v.chunks_exact(4);
+    for c in &mut chunks {
+        for l in 0..4 {
+            // A plain comparison (the data are finite): `f64::max` also orders NaNs.
+            let a = c[l].abs();
+            if a > m4[l] {
+                m4[l] = a;
+            }
+        }
+    }
+    let s = chunks
+        .remainder()
+        .iter()
+        .fold(m4[0].max(m4[1]).max(m4[2].max(m4[3])), |m, x| {
+            m.max(x.abs())
+        });
+    if s > 0.0 {
+        s
+    } else {
+        1.0
+    }
+}
+
+impl Reduction {
+    fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
+        let variables = Variables::of(problem, &scale)?;
+        let (mut mat, mut q) = variables.lcp(problem, &scale);
         if let Some(i) = q.iter().position(|v| !v.is_finite()) {
             return Err(format!(
                 "the reduced LCP has a non-finite constant term q[{i}] (bounds too large)"
             ));
         }
-        // `max|v|` (1 for a zero `v`).
-        let max_abs = |v: &[f64]| {
-            // Four running maxima: one would be a chain of dependent comparisons.
-            let mut m4 = [0.0_f64; 4];
-            let mut chunks = v.chunks_exact(4);
-            for c in &mut chunks {
-                for l in 0..4 {
-                    // A plain comparison (the data are finite): `f64::max` also orders NaNs.
-                    let a = c[l].abs();
-                    if a > m4[l] {
-                        m4[l] = a;
-                    }
-                }
-            }
-            let s = chunks
-                .remainder()
-                .iter()
-                .fold(m4[0].max(m4[1]).max(m4[2].max(m4[3])), |m, x| {
-                    m.max(x.abs())
-                });
-            if s > 0.0 {
-                s
-            } else {
-                1.0
-            }
-        };
         let (sm, sq) = (max_abs(&mat), max_abs(&q));
         mat.iter_mut().for_each(|v| *v /= sm);
         q.iter_mut().for_each(|v| *v /= sq);
+        let m = variables.len();
+        let Variables {
+            c, vars, sliding, ..
+        } = variables;
         let mut var_row: Vec<Option<(usize, f64)>> = vars.into_iter().map(Some).collect();
         var_row.resize(m, None);
         Ok(Self {
