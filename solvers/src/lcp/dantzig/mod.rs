@@ -83,6 +83,9 @@
 //! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
 //! §4.2 (principal pivoting); Murty 1988, ch. 4.
 
+mod clamped_lu;
+mod coupled;
+
 use crate::lcp::lemke::Lemke;
 use crate::lcp::ray::{is_psd, ray_outcome};
 use crate::problem::metrics::{impulse_scale, residuals};
@@ -90,6 +93,8 @@ use crate::problem::Problem;
 use crate::solver::{
     solve_by_islands, solve_equilibrated, Monitor, Outcome, Settings, SolveResult, Solver, Status,
 };
+use clamped_lu::ClampedLu;
+use coupled::Coupled;
 
 /// Largest island Dantzig densifies.
 pub const DENSE_LIMIT: usize = 3000;
@@ -380,109 +385,6 @@ fn sliding_rows(problem: &Problem, f: &[f64]) -> Vec<(usize, f64)> {
             (c > 0.0 && t != 0.0 && !sticks && (slips || at_bound)).then_some((fr.row, sign))
         })
         .collect()
-}
-
-/// The problem with the sliding friction rows `t` eliminated by `f_t = sign · mu · f_k`: column
-/// `k` of `A` gains `sign · mu · A_{:,t}` (so `A` becomes non-symmetric), and row `t` is dropped.
-struct Coupled {
-    problem: Problem,
-    /// Original row of each kept row.
-    kept: Vec<usize>,
-    /// `(t, k, sign · mu)` per eliminated row.
-    sliding: Vec<(usize, usize, f64)>,
-    n: usize,
-}
-
-impl Coupled {
-    fn new(problem: &Problem, sliding: &[(usize, f64)]) -> Option<Self> {
-        let n = problem.n();
-        let mut gone = vec![false; n];
-        let sliding: Vec<(usize, usize, f64)> = sliding
-            .iter()
-            .map(|&(t, sign)| {
-                gone[t] = true;
-                let (k, mu) = problem.friction_of(t).expect("a friction row");
-                (t, k, sign * mu)
-            })
-            .collect();
-        let kept: Vec<usize> = (0..n).filter(|&i| !gone[i]).collect();
-        let mut new_index = vec![usize::MAX; n];
-        for (r, &i) in kept.iter().enumerate() {
-            new_index[i] = r;
-        }
-        let a = problem.dense().expect("Dantzig works on dense islands");
-        let mut full = a.clone();
-        for &(t, k, s) in &sliding {
-            for r in 0..n {
-                full[(r, k)] += s * a[(r, t)];
-            }
-        }
-        let m = kept.len();
-        let reduced = faer::Mat::from_fn(m, m, |r, c| full[(kept[r], kept[c])]);
-        let pick = |v: &[f64]| kept.iter().map(|&i| v[i]).collect::<Vec<_>>();
-        let friction = problem
-            .friction()
-            .iter()
-            .filter(|fr| !gone[fr.row])
-            .map(|fr| crate::problem::FrictionRow {
-                row: new_index[fr.row],
-                normal: new_index[fr.normal],
-                mu: fr.mu,
-            })
-            .collect();
-        let lo: Vec<f64> = kept
-            .iter()
-            .map(|&i| {
-                if problem.friction_of(i).is_some() {
-                    0.0
-                } else {
-                    problem.lo()[i]
-                }
-            })
-            .collect();
-        let hi: Vec<f64> = kept
-            .iter()
-            .map(|&i| {
-                if problem.friction_of(i).is_some() {
-                    0.0
-                } else {
-                    problem.hi()[i]
-                }
-            })
-            .collect();
-        let problem = Problem::boxed(reduced, pick(problem.b()), lo, hi, friction).ok()?;
-        Some(Self {
-            problem,
-            kept,
-            sliding,
-            n,
-        })
-    }
-
-    /// The reduced problem with its friction rows given fixed bounds `±mu f_k` at the normals of
-    /// the full impulse `f`.
-    fn with_fixed_bounds(&self, f: &[f64]) -> Problem {
-        let p = &self.problem;
-        let (mut lo, mut hi) = (p.lo().to_vec(), p.hi().to_vec());
-        for fr in p.friction() {
-            let c = fr.mu * f[self.kept[fr.normal]].max(0.0);
-            lo[fr.row] = -c;
-            hi[fr.row] = c;
-        }
-        Problem::boxed(p.to_dense(), p.b().to_vec(), lo, hi, Vec::new()).expect("valid bounds")
-    }
-
-    /// The full impulse from the reduced one.
-    fn expand(&self, g: &[f64]) -> Vec<f64> {
-        let mut f = vec![0.0; self.n];
-        for (&i, &v) in self.kept.iter().zip(g) {
-            f[i] = v;
-        }
-        for &(t, k, s) in &self.sliding {
-            f[t] = s * f[k];
-        }
-        f
-    }
 }
 
 /// Where an added row is.
@@ -905,113 +807,6 @@ fn negative_pivot(i: usize, pivot: f64) -> Outcome {
         "row {i} has a negative pivot {pivot:.3e}: A is neither positive semidefinite nor a \
          P-matrix"
     ))
-}
-
-/// `A_CC = L U` (unit lower `L`, no row exchanges) for the clamped rows in factor order, stored
-/// row-major with stride `cap`.
-#[derive(Clone)]
-struct ClampedLu {
-    cap: usize,
-    rows: Vec<usize>,
-    l: Vec<f64>,
-    u: Vec<f64>,
-}
-
-impl ClampedLu {
-    fn new(cap: usize) -> Self {
-        Self {
-            cap,
-            rows: Vec::with_capacity(cap),
-            l: vec![0.0; cap * cap],
-            u: vec![0.0; cap * cap],
-        }
-    }
-
-    /// Solve `A_CC v = rhs` in place.
-    fn solve(&self, rhs: &mut [f64]) {
-        let (m, cap) = (self.rows.len(), self.cap);
-        for r in 0..m {
-            let s: f64 = (0..r).map(|c| self.l[r * cap + c] * rhs[c]).sum();
-            rhs[r] -= s;
-        }
-        for r in (0..m).rev() {
-            let s: f64 = (r + 1..m).map(|c| self.u[r * cap + c] * rhs[c]).sum();
-            rhs[r] = (rhs[r] - s) / self.u[r * cap + r];
-        }
-    }
-
-    /// Border the factorisation with row and column `i`. Fails, leaving it unchanged, with the
-    /// pivot `A_ii − A_iC A_CC⁻¹ A_Ci` when that is not above `tol`.
-    fn try_add(&mut self, problem: &Problem, i: usize, tol: f64) -> Result<(), f64> {
-        let (m, cap) = (self.rows.len(), self.cap);
-        let row_i = problem.dense_row(i);
-        // l: Uᵀ l = A_iC; u: L u = A_Ci.
-        let mut l: Vec<f64> = self.rows.iter().map(|&c| row_i[c]).collect();
-        let mut u: Vec<f64> = self.rows.iter().map(|&c| problem.dense_row(c)[i]).collect();
-        for k in 0..m {
-            let s: f64 = (0..k).map(|j| l[j] * self.u[j * cap + k]).sum();
-            l[k] = (l[k] - s) / self.u[k * cap + k];
-            let s: f64 = (0..k).map(|j| self.l[k * cap + j] * u[j]).sum();
-            u[k] -= s;
-        }
-        let pivot = row_i[i] - l.iter().zip(&u).map(|(a, b)| a * b).sum::<f64>();
-        if pivot.is_nan() || pivot <= tol {
-            return Err(pivot);
-        }
-        for k in 0..m {
-            self.l[m * cap + k] = l[k];
-            self.u[k * cap + m] = u[k];
-        }
-        self.u[m * cap + m] = pivot;
-        self.rows.push(i);
-        Ok(())
-    }
-
-    /// Remove the row and column at factor position `p`: the trailing block takes the rank-one
-    /// update `L₃₃U₃₃ + l₃ₚ uₚ₃ᵀ` (Bennett), then position `p` is deleted.
-    fn remove(&mut self, p: usize) -> Result<(), String> {
-        let (m, cap) = (self.rows.len(), self.cap);
-        let mut x: Vec<f64> = (0..m)
-            .map(|r| if r > p { self.l[r * cap + p] } else { 0.0 })
-            .collect();
-        let mut y: Vec<f64> = (0..m)
-            .map(|c| if c > p { self.u[p * cap + c] } else { 0.0 })
-            .collect();
-        for j in p + 1..m {
-            let ujj = self.u[j * cap + j];
-            let new = ujj + x[j] * y[j];
-            if new.is_nan() || new.abs() <= 1e-14 * ujj.abs() {
-                return Err(format!(
-                    "singular pivot {new:.3e} in the factorisation update"
-                ));
-            }
-            for c in j + 1..m {
-                let ujc = self.u[j * cap + c];
-                self.u[j * cap + c] = ujc + x[j] * y[c];
-                y[c] = (ujj * y[c] - y[j] * ujc) / new;
-            }
-            for r in j + 1..m {
-                let lrj = self.l[r * cap + j];
-                let xr = x[r];
-                x[r] = xr - x[j] * lrj;
-                self.l[r * cap + j] = (lrj * ujj + xr * y[j]) / new;
-            }
-            self.u[j * cap + j] = new;
-        }
-        // Delete row and column p from both factors.
-        for r in 0..m {
-            for c in 0..m {
-                if r == p || c == p {
-                    continue;
-                }
-                let (r2, c2) = (r - usize::from(r > p), c - usize::from(c > p));
-                self.l[r2 * cap + c2] = self.l[r * cap + c];
-                self.u[r2 * cap + c2] = self.u[r * cap + c];
-            }
-        }
-        self.rows.remove(p);
-        Ok(())
-    }
 }
 
 #[cfg(test)]
