@@ -32,6 +32,7 @@ use crate::cone::alart_curnier::linearise;
 use crate::cone::{
     cone_residuals, initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver,
 };
+use crate::lcp::newton::MAX_REGULARISATION;
 use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{Outcome, Settings, SolveResult};
 use faer::linalg::solvers::Solve;
@@ -151,7 +152,7 @@ impl ConeSolver for NewtonAc {
             let phi_col = Col::from_fn(n, |i| phi[i]);
             let grad = jac.transpose() * &phi_col;
             let phi_inf = phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let lambda = (phi_inf / scale).min(1e-2);
+            let lambda = (phi_inf / scale).min(MAX_REGULARISATION);
             let mut h = jac.clone();
             for i in 0..n {
                 h[(i, i)] += lambda;

@@ -231,7 +231,7 @@ const ROUND_OFF: f64 = 1e-12;
 /// enough to keep `H + μI` regular on a rank-deficient PSD `A` far from the solution, small
 /// enough that the step stays close to Newton's; it vanishes with `Φ`, so the local
 /// convergence stays quadratic.
-const MAX_REGULARISATION: f64 = 1e-2;
+pub(crate) const MAX_REGULARISATION: f64 = 1e-2;
 /// Nesting of refinements.
 const MAX_REFINE_DEPTH: usize = 2;
 
@@ -302,20 +302,8 @@ impl Newton {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
         self.workspace.reduced.rank.clear();
-        let limit = if sparse {
-            self.max_sparse
-        } else {
-            self.max_dense
-        };
-        if n > limit {
-            return monitor.finish(
-                Vec::new(),
-                0,
-                Outcome::Unsupported(format!(
-                    "n = {n} rows: the {} Newton system is formed only up to n = {limit}",
-                    if sparse { "sparse" } else { "dense" }
-                )),
-            );
+        if let Some(reason) = self.too_large(n, sparse) {
+            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
         }
         // Formed at the first iteration that needs a direction: a warm start that already meets
         // the tolerance costs no factorisation analysis.
@@ -446,6 +434,22 @@ impl Newton {
             }
         }
         monitor.finish(f, iterations, outcome)
+    }
+
+    /// Why an island of `n` rows is beyond the size up to which the (sparse or dense) Newton
+    /// system is formed, if it is.
+    fn too_large(&self, n: usize, sparse: bool) -> Option<String> {
+        let limit = if sparse {
+            self.max_sparse
+        } else {
+            self.max_dense
+        };
+        (n > limit).then(|| {
+            format!(
+                "n = {n} rows: the {} Newton system is formed only up to n = {limit}",
+                if sparse { "sparse" } else { "dense" }
+            )
+        })
     }
 
     /// The iterate at `f`: its scaled velocity, `Φ` and merit, with a fresh line-search memory.
