@@ -55,22 +55,17 @@ impl std::fmt::Debug for SymbolicCache {
 pub(crate) const SPARSE_BELOW_DENSITY: f64 = 0.1;
 /// Largest sparse reduced system solved by [`sparse_reduced_solve`] (no ordering or symbolic
 /// analysis of its own); larger ones get faer's COLAMD ordering and supernodal LU, their
-/// symbolic analysis reused while the kept rows stay the same. FCLIB spheres-in-a-box's
-/// 303–368 kept rows take the cheaper path. Above, measured with `lcpbench simulate
-/// bench_scenes/S.toml -s newton-min+warm --steps 50 --tol 1e-8 --max-iter 10000`: with faer's
-/// simplicial LU for every reduced system, pyramid_20 (reduced systems of thousands of rows)
-/// took 55.5 ms per step against 27.2 with COLAMD and supernodal LU; with [`SparseLu`]
-/// (diagonal preference `0.1`) for every one, pyramid_20 was within noise of this limit, and
-/// sphere_pile_100 left 9 of 50 steps at the iteration limit, against 6 with this limit.
+/// symbolic analysis reused while the kept rows stay the same. Up to a few hundred rows (FCLIB
+/// spheres-in-a-box keeps 303–368) skipping the analysis is cheaper than the fill it saves;
+/// reduced systems of thousands of rows (`pyramid_20`) factorise about twice as fast with the
+/// ordering and the supernodal LU.
 pub(crate) const SIMPLICIAL_UP_TO: usize = 400;
 /// Fraction of an island's rows with `β_i = 0` from which the Newton system is solved through
-/// their [`Elimination`]. Measured against no elimination (`lcpbench simulate SCENE -s S
-/// --steps 50 --tol 1e-8 --max-iter 10000`, solver time per step): sphere_pile_100
-/// newton-min+warm 3.35 s → 0.65 s (46 of 50 steps converged instead of 42), confined
-/// newton-min+warm 797 → 538 ms, pyramid_10 newton-min+warm 16.0 → 9.3 ms, pyramid_20 27 ms
-/// instead of 35, house_of_cards 0.79 → 0.30 ms; tower_40_60hz, arch, wall_105 and pyramid_5
-/// within noise (their contacts stick: after the first iteration of a step no row is
-/// eliminated); FCLIB spheres-in-a-box newton-min 70 → 46 ms in 63 iterations either way.
+/// their [`Elimination`]. From a tenth of the rows the smaller system pays for the elimination:
+/// on scenes where contacts separate and slide (sphere piles, `confined`, pyramids, FCLIB
+/// spheres-in-a-box) the solve takes a fraction of the time of the full system, and where
+/// contacts stick (towers, arches, walls) no row is eliminated after the first iteration, so
+/// nothing is lost.
 pub(crate) const REDUCE_FROM: f64 = 0.1;
 /// Rows from which [`LinearSystem::Auto`] considers the sparse factorisation.
 pub(crate) const SPARSE_FROM_ROWS: usize = 100;
@@ -266,9 +261,9 @@ impl SparseJacobian {
 }
 
 /// Whether the augmented body-space system is worth its extra unknowns: when `A` has more
-/// than twice its entries (about `2·nnz(J) + n + 6·bodies`). Measured: a 40-box tower (A has
-/// 1.4× the augmented entries) factorises in 0.6× the time in the `A` form; the 4,800-row
-/// `pyramid_20` island (3.5×) in 0.7× the time in the augmented form.
+/// than twice its entries (about `2·nnz(J) + n + 6·bodies`). Below that the Delassus form is
+/// faster (a 40-box tower, whose `A` has 1.4× the augmented entries); above it the augmented
+/// form is (the 4,800-row `pyramid_20` island, 3.5×).
 pub(crate) fn augmented_pays(problem: &Problem, factors: &DelassusFactors) -> bool {
     let jac = factors.jacobian();
     let augmented = 2 * jac.compute_nnz() + problem.n() + jac.ncols();
@@ -597,14 +592,10 @@ impl RowAssembly {
 /// transposed solve. The column order is the island's fill-reducing ordering ([`island_rank`],
 /// computed once per island solve) restricted to the kept rows, so an iteration does no
 /// ordering or symbolic analysis of its own; the kept rows change at almost every iteration
-/// where contacts separate and slide, which made the per-iteration ordering (COLAMD, 17 % of
-/// the solve) the largest single cost on FCLIB spheres-in-a-box. Measured there (newton-min to
-/// 1e-6, 63 iterations; fastest of 30 solves in one process): 34.1 ms per solve with COLAMD
-/// and faer's supernodal LU per reduced system; with the restricted ordering, 29.0 ms with
-/// faer's supernodal LU (its symbolic analysis still runs per iteration, and on the
-/// symmetric ordering it assumes more fill), 25.6 ms with faer's simplicial LU, 23.1 ms with
-/// [`SparseLu`]. A restricted COLAMD ordering of the island instead of AMD: 33–35 ms. `NaN`
-/// when the factorisation fails.
+/// where contacts separate and slide, so an ordering per iteration would be the largest
+/// single cost of such a solve (COLAMD takes 17 % of it on FCLIB spheres-in-a-box), and a
+/// left-looking LU without symbolic analysis beats faer's supernodal and simplicial LUs on
+/// systems of this size. `NaN` when the factorisation fails.
 pub(crate) fn sparse_reduced_solve(
     problem: &Problem,
     elimination: &Elimination,

@@ -79,8 +79,8 @@
 //! * **Never spins**: an iterate that solves the problem while its projection does not (a
 //!   normal at `−1e-20` whose friction rows sit at their bounds `±mu·max(f_k, 0) = 0`; the
 //!   projection clips the normal and leaves the friction rows 100 % wrong) is returned as it
-//!   is: on a 1,008-row island of `sphere_pile_200` the solve otherwise went on for 10,000
-//!   iterations at a residual of `7e-15`. And when the iterate's residual has made no new low,
+//!   is, instead of iterating to the cap at a round-off residual (a 1,008-row island of
+//!   `sphere_pile_200` sits at `7e-15` there). And when the iterate's residual has made no new low,
 //!   1 % below its best, in 100 iterations ([`crate::solver`]'s stagnation rule), a
 //!   warm-started solve restarts once from zero, keeping its best point, and a cold one stops
 //!   `Stalled`.
@@ -237,18 +237,17 @@ const MAX_REFINE_DEPTH: usize = 2;
 
 /// The non-monotone line search's memory: a step is accepted on sufficient decrease against
 /// the largest merit of the last this many iterates (Grippo, Lampariello and Lucidi's rule).
-/// Measured at 1 (monotone), 5 and 10 (`lcpbench simulate SCENE -s S --steps 50 --tol 1e-8
-/// --max-iter 10000`): pyramid_10 newton-fb 256 → 56 → 47 ms/step, newton-min 47/50 steps
-/// converged at 1.8 s/step → 50/50 at 18 and 20 ms; house_of_cards newton-fb+warm 49/50 at
-/// 29 ms → 50/50 at 3.2 and 0.9 ms; FCLIB spheres-in-a-box newton-fb 150 → 70 iterations,
-/// newton-min stalled at 2.4e-6 → converged in 63.
+/// Ten iterates let full Newton steps cross the kinks of `Φ` (contacts switching between
+/// sticking, sliding and separating) that a monotone search cuts to `2⁻⁶…2⁻¹²`; on the pyramid,
+/// house-of-cards and FCLIB scenes (`lcpbench simulate SCENE -s newton-fb --steps 50`) it
+/// converges every step, where a monotone search leaves steps stalled and takes several times
+/// the iterations.
 const NONMONOTONE_MEMORY: usize = 10;
 /// Newton iterations without a 1 % new low of the iterate's residual after which a solve has
 /// stagnated ([`Stagnation`]): a warm-started solve then restarts once from zero, a cold one
-/// stops `Stalled`. A cold solve of a 843-row sphere-pile island sat at `3.85e-2` for 60
-/// iterations before converging in 10 more; on the 50 steps of `sphere_pile_200` at `1e-8`, a
-/// window of 50 left 19 (FB) and 12 (min-map) cold steps stalled, 100 left 14 and 5, 200 no
-/// fewer.
+/// stops `Stalled`. Long enough for the plateaus a semismooth Newton method crosses on large
+/// sphere piles (a cold 843-row island sits at `3.85e-2` for 60 iterations before converging in
+/// 10 more); a longer window stalls no fewer steps of `sphere_pile_200` and only wastes work.
 const STAGNATION_WINDOW: usize = 100;
 
 impl Solver for Newton {
