@@ -61,7 +61,9 @@ pub(crate) const PROBLEM_CLASSES: &str =
 /// than needed on the generated families).
 const MEASURE_WITHIN: f64 = 10.0;
 
-/// Largest number of complementary bases a block is enumerated over.
+/// Largest number of complementary bases a block is enumerated over: `3⁵ = 243`, a normal row
+/// with two friction rows (18 bases) and room for blocks of up to five rows of three states;
+/// beyond that the `O(m³)` work per basis outgrows the local sweeps used instead.
 const MAX_BLOCK_BASES: usize = 243;
 
 /// NSGS. See the module documentation.
