@@ -16,7 +16,7 @@ use std::path::Path;
 fn config(cases: u32) -> ProptestConfig {
     ProptestConfig {
         cases,
-        rng_seed: RngSeed::Fixed(0x0f11_e5),
+        rng_seed: RngSeed::Fixed(0x000f_11e5),
         failure_persistence: None,
         ..ProptestConfig::default()
     }

@@ -426,20 +426,22 @@ mod tests {
         assert_eq!(lu.factorize(&ptr, &[0], &[1.0], &[0, 1]), Err(Singular(1)));
     }
 
+    /// A matrix in compressed columns with its dense copy, a column order and a right-hand side.
+    #[derive(Debug, Clone)]
+    struct Case {
+        ptr: Vec<usize>,
+        idx: Vec<usize>,
+        val: Vec<f64>,
+        dense: Mat<f64>,
+        q: Vec<usize>,
+        rhs: Vec<f64>,
+    }
+
     /// A sparse nonsingular matrix: a strictly diagonally dominant `B` (each diagonal entry
     /// twice its row's off-diagonal magnitude, plus one) with rows permuted, so that zero
     /// diagonals force off-diagonal pivots. Compressed columns, the dense copy and a right-hand
     /// side.
-    fn dominant_permuted() -> impl proptest::strategy::Strategy<
-        Value = (
-            Vec<usize>,
-            Vec<usize>,
-            Vec<f64>,
-            Mat<f64>,
-            Vec<usize>,
-            Vec<f64>,
-        ),
-    > {
+    fn dominant_permuted() -> impl proptest::strategy::Strategy<Value = Case> {
         use proptest::prelude::*;
         (1usize..40, 0usize..5, any::<u64>()).prop_map(|(n, per_row, seed)| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -469,14 +471,21 @@ mod tests {
             }
             let q = shuffled(n, seed.wrapping_add(1));
             let rhs = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
-            (ptr, idx, val, dense, q, rhs)
+            Case {
+                ptr,
+                idx,
+                val,
+                dense,
+                q,
+                rhs,
+            }
         })
     }
 
     proptest::proptest! {
         #![proptest_config(proptest::test_runner::Config {
             cases: 48,
-            rng_seed: proptest::test_runner::RngSeed::Fixed(0x5ba5e_1u64),
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x005b_a5e1),
             failure_persistence: None,
             ..proptest::test_runner::Config::default()
         })]
@@ -484,7 +493,8 @@ mod tests {
         /// On random sparse nonsingular matrices in random column orders, `Mᵀ x = b` agrees with
         /// faer's dense partial-pivoting LU.
         #[test]
-        fn agrees_with_the_dense_lu((ptr, idx, val, dense, q, rhs) in dominant_permuted()) {
+        fn agrees_with_the_dense_lu(case in dominant_permuted()) {
+            let Case { ptr, idx, val, dense, q, rhs } = case;
             let n = q.len();
             let mut lu = SparseLu::default();
             proptest::prop_assert!(lu.factorize(&ptr, &idx, &val, &q).is_ok());
