@@ -21,10 +21,15 @@ fn solve(kind: SolverKind, p: &Problem) -> SolveResult {
 /// documentation of `lcpbench_solvers::metrics`) rather than taken from the library, so that a
 /// wrong residual in the library cannot vouch for itself:
 /// `max_i |f_i − mid(lo_i, hi_i, f_i − w_i / d_i)| / s_i` with `s_i = (|b_i| + Σ_j |A_ij f_j|) / d_i`,
-/// `d_i = A_ii` when positive (else the row's largest magnitude, or 1), `0/0 = 0`, `x/0 = ∞`.
+/// `d_i = A_ii` when positive (else the row's largest magnitude, or 1), `0/0 = 0`, `x/0 = ∞`;
+/// infinite for a non-finite `f`.
 /// `A` is read entry by entry and `w_i` summed with Neumaier's compensation.
 fn independent_residual(p: &Problem, f: &[f64]) -> f64 {
     let n = p.n();
+    // A non-finite impulse is no answer at all.
+    if f.len() != n || f.iter().any(|v| !v.is_finite()) {
+        return f64::INFINITY;
+    }
     let mut worst = 0.0f64;
     for i in 0..n {
         let row: Vec<f64> = (0..n).map(|j| p.entry(i, j)).collect();
@@ -63,7 +68,12 @@ fn independent_residual(p: &Problem, f: &[f64]) -> f64 {
         } else {
             step / scale
         };
-        worst = worst.max(rel);
+        // NaN (an overflowing velocity) counts as infinitely wrong.
+        worst = if rel.is_nan() {
+            f64::INFINITY
+        } else {
+            worst.max(rel)
+        };
     }
     worst
 }

@@ -279,11 +279,17 @@ fn dot(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| a * b).sum()
 }
 
+/// A Gaussian-elimination pivot below `SINGULAR_PIVOT` times the matrix's largest entry marks
+/// the matrix singular: about `450 ε`, the round-off a small dense elimination leaves on a pivot
+/// that is zero in exact arithmetic (shared by the enumeration kernel and Lemke's basis
+/// inversion).
+pub(crate) const SINGULAR_PIVOT: f64 = 1e-13;
+
 /// Solve the row-major `m × m` system in place by Gaussian elimination with partial pivoting;
 /// false when a pivot falls below `1e-13` times the largest entry of its column.
 fn gauss_solve(a: &mut [f64], x: &mut [f64], m: usize) -> bool {
     let amax = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
-    let tol = 1e-13 * amax.max(f64::MIN_POSITIVE);
+    let tol = SINGULAR_PIVOT * amax.max(f64::MIN_POSITIVE);
     for col in 0..m {
         let mut p = col;
         for r in col + 1..m {

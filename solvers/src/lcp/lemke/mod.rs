@@ -261,6 +261,9 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
 }
 
 /// Relative levels (of `max z`) below which basic values are tried as degenerate zeros.
+/// From round-off level (about `10⁴ ε`) to `1e-6`: a level is tried only while the shared
+/// residual is above tolerance, and its candidate kept only when it lowers the residual, so a
+/// level too coarse for a problem costs one residual evaluation and nothing else.
 const DEGENERATE_LEVELS: [f64; 4] = [1e-12, 1e-10, 1e-8, 1e-6];
 
 /// The impulse of the final basic solution `z`, with its degenerate zeros made exact when that
@@ -317,10 +320,15 @@ impl fmt::Display for Var {
 }
 
 /// Entries of the entering column below `PIVOT_TOL · max(1, max|y|)` are never pivoted on.
+/// `√ε ≈ 1.5e-8` (`ε` the machine epsilon), the usual pivot threshold of a product-form
+/// simplex tableau: a smaller pivot would amplify the tableau's accumulated round-off past half
+/// the digits of the `M` scaled to `max|M| = 1`.
 const PIVOT_TOL: f64 = 1e-8;
 /// Most steps of iterative refinement of `x_B` at a refactorisation.
 const REFINEMENT_STEPS: usize = 3;
-/// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
+/// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test: above the
+/// round-off of the ratios of a scaled tableau (a few hundred `ε`), below any difference between
+/// genuinely different ratios of a problem scaled to `max|M| = max|q| = 1`.
 const TIE_TOL: f64 = 1e-10;
 
 /// The revised tableau: the basis, `B⁻¹` and the basic values `x_B = B⁻¹ q`, all on the scaled
@@ -752,7 +760,7 @@ fn invert(b: &[f64], k: usize, stop: &dyn Fn() -> bool) -> Result<Vec<f64>, Brea
         inv[i * k + i] = 1.0;
     }
     let amax = a.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let tol = 1e-13 * amax.max(f64::MIN_POSITIVE);
+    let tol = crate::lcp::local::SINGULAR_PIVOT * amax.max(f64::MIN_POSITIVE);
     for col in 0..k {
         if k > 64 && col % 16 == 0 && stop() {
             return Err(Breakdown::OutOfTime);
