@@ -37,7 +37,7 @@
 //! under positive scalings of each contact's rows and columns (`W → R W C`, `R`, `C` constant on
 //! each contact's three rows: the cone is invariant under positive scaling). The absolute measure
 //! reported next to it is Siconos' FC3D numerator `max_c ‖r_c − P_K(r_c − û_c)‖` (`ρ = 1`; Siconos
-//! divides its sum by `1 + ‖q‖`). A cone result's [`Residuals`] hold:
+//! divides its sum by `1 + ‖q‖`). A cone result's [`Residuals`](crate::Residuals) hold:
 //!
 //! * `natural_map`: `max_c ‖r_c − P_K(r_c − û_c)‖₂`;
 //! * `natural_map_rel`: `rel` above — `Converged` if and only if `rel <= tolerance`;

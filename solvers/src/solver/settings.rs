@@ -8,7 +8,7 @@ use thiserror::Error;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     /// Tolerance on the relative natural-map residual
-    /// ([`Residuals::natural_map_rel`]). Default `1e-8`.
+    /// ([`Residuals::natural_map_rel`](crate::Residuals::natural_map_rel)). Default `1e-8`.
     pub tolerance: f64,
     /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
     /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
