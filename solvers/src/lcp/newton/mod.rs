@@ -185,8 +185,9 @@ pub enum LinearSystem {
 /// Which sparse system gives the Newton directions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SparseForm {
-    /// The augmented body-space form when the problem carries its [`DelassusFactors`](crate::DelassusFactors) and `A`
-    /// has more than twice the augmented system's entries; the Delassus form otherwise.
+    /// The augmented body-space form when the problem carries its
+    /// [`DelassusFactors`](crate::DelassusFactors) and `A` has more than twice the augmented
+    /// system's entries; the Delassus form otherwise.
     Auto,
     /// `H` itself, on the stored pattern of `A`.
     Delassus,
