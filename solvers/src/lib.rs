@@ -32,64 +32,51 @@
 //! ```
 #![warn(missing_docs)]
 
-mod alart_curnier;
-mod apgd;
-pub mod certificate;
-mod clarabel_qp;
-mod clarabel_socp;
 pub mod cone;
-mod cone_io;
-mod dantzig;
 pub mod delassus;
-mod enumeration;
-pub mod generate;
 pub mod io;
-mod lemke;
-pub mod metrics;
-mod micro_impulse;
-mod newton;
-mod newton_ac;
-mod nncg;
-mod nsgs;
-mod nsgs_cone;
-mod pgs;
+mod lcp;
+mod linalg;
 mod problem;
 mod solver;
-mod sparse_lu;
 #[cfg(test)]
 mod test_util;
 
-pub use apgd::Apgd;
-pub use certificate::Certificate;
-pub use clarabel_qp::ClarabelQp;
-pub use clarabel_socp::ClarabelSocp;
+pub use problem::{certificate, generate, metrics};
+
+pub use cone::clarabel_socp::ClarabelSocp;
+pub use cone::newton_ac::NewtonAc;
+pub use cone::nsgs_cone::NsgsCone;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
 };
-pub use cone_io::{cone_problem_to_json, is_cone_file, parse_cone_problem};
-pub use dantzig::Dantzig;
-pub use enumeration::{Enumeration, MAX_BASES};
+pub use io::cone::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use io::fclib::{parse_fclib, read_fclib, write_fclib_local, write_problem_as_fclib};
 pub use io::siconos::{parse_siconos, parse_siconos_lcp};
 pub use io::{
     parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,
 };
-pub use lemke::Lemke;
-pub use metrics::{residuals, residuals_and_velocity, Residuals};
-pub use micro_impulse::MicroImpulse;
-pub use newton::{
+pub use lcp::apgd::Apgd;
+pub use lcp::clarabel_qp::{ClarabelQp, InteriorPoint};
+pub use lcp::dantzig::Dantzig;
+pub use lcp::enumeration::{Enumeration, MAX_BASES};
+pub use lcp::lemke::Lemke;
+pub use lcp::micro_impulse::MicroImpulse;
+pub use lcp::newton::{
     FrictionHandling, LinearSystem, Newton, NewtonWorkspace, Reformulation, SparseForm,
 };
-pub use newton_ac::NewtonAc;
-pub use nncg::Nncg;
-pub use nsgs::Nsgs;
-pub use nsgs_cone::NsgsCone;
-pub use pgs::{ProjectedSor, SweepForm};
+pub use lcp::nncg::Nncg;
+pub use lcp::nsgs::Nsgs;
+pub use lcp::pgs::{ProjectedSor, SweepForm};
+pub use metrics::{residuals, residuals_and_velocity, Residuals};
+pub use problem::certificate::Certificate;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
+pub use solver::line_search::{Backtracking, LineSearchError};
 pub use solver::{
-    decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SolveResult, Solver,
-    Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP, STAGNATION_MEASURE_EVERY,
+    decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SettingsError, SolveResult,
+    Solver, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW, STAGNATION_DROP,
+    STAGNATION_MEASURE_EVERY,
 };
 
 /// The solvers lcpbench ships, by name.
@@ -166,16 +153,16 @@ impl SolverKind {
         match self {
             SolverKind::Pgs => "LCP, boxed LCP, friction rows; converges for SPD A",
             SolverKind::Sor => "as PGS, with relaxation omega in (0, 2) (default 1.3)",
-            SolverKind::Lemke => lemke::PROBLEM_CLASSES,
-            SolverKind::Dantzig => dantzig::PROBLEM_CLASSES,
-            SolverKind::Clarabel => clarabel_qp::PROBLEM_CLASSES,
-            SolverKind::MicroImpulse => micro_impulse::PROBLEM_CLASSES,
-            SolverKind::NewtonFb => newton::PROBLEM_CLASSES_FB,
-            SolverKind::NewtonMin => newton::PROBLEM_CLASSES_MIN,
-            SolverKind::Apgd => apgd::PROBLEM_CLASSES,
-            SolverKind::Nncg => nncg::PROBLEM_CLASSES,
-            SolverKind::Nsgs => nsgs::PROBLEM_CLASSES,
-            SolverKind::Enumeration => enumeration::PROBLEM_CLASSES,
+            SolverKind::Lemke => lcp::lemke::PROBLEM_CLASSES,
+            SolverKind::Dantzig => lcp::dantzig::PROBLEM_CLASSES,
+            SolverKind::Clarabel => lcp::clarabel_qp::PROBLEM_CLASSES,
+            SolverKind::MicroImpulse => lcp::micro_impulse::PROBLEM_CLASSES,
+            SolverKind::NewtonFb => lcp::newton::PROBLEM_CLASSES_FB,
+            SolverKind::NewtonMin => lcp::newton::PROBLEM_CLASSES_MIN,
+            SolverKind::Apgd => lcp::apgd::PROBLEM_CLASSES,
+            SolverKind::Nncg => lcp::nncg::PROBLEM_CLASSES,
+            SolverKind::Nsgs => lcp::nsgs::PROBLEM_CLASSES,
+            SolverKind::Enumeration => lcp::enumeration::PROBLEM_CLASSES,
         }
     }
 
@@ -259,10 +246,17 @@ impl ConeSolverKind {
     /// The problem classes the solver handles, in one line.
     pub fn problem_classes(self) -> &'static str {
         match self {
-            ConeSolverKind::NsgsCone => nsgs_cone::PROBLEM_CLASSES,
-            ConeSolverKind::NewtonAc => newton_ac::PROBLEM_CLASSES,
-            ConeSolverKind::ClarabelSocp => clarabel_socp::PROBLEM_CLASSES,
+            ConeSolverKind::NsgsCone => cone::nsgs_cone::PROBLEM_CLASSES,
+            ConeSolverKind::NewtonAc => cone::newton_ac::PROBLEM_CLASSES,
+            ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
+    }
+
+    /// True for solvers that iterate from a starting reaction (and so use
+    /// [`Settings::warm_start`]): NSGS-cone and Newton-AC. Clarabel's SOCP starts from its own
+    /// interior point and ignores a warm start.
+    pub fn is_iterative(self) -> bool {
+        matches!(self, ConeSolverKind::NsgsCone | ConeSolverKind::NewtonAc)
     }
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no

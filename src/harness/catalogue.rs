@@ -58,7 +58,7 @@ pub fn catalogue() -> Vec<CatalogueEntry> {
         name: k.name(),
         level: SolverLevel::Cone,
         problem_classes: k.problem_classes(),
-        iterative: true,
+        iterative: k.is_iterative(),
     });
     matrix.chain(body).chain(cone).collect()
 }

@@ -192,7 +192,7 @@ impl SolverSpec {
         match self {
             Self::Matrix { kind, .. } => kind.is_iterative(),
             Self::Body { kind, .. } => kind.is_iterative(),
-            Self::Cone { .. } => true,
+            Self::Cone { kind, .. } => kind.is_iterative(),
             Self::Fault(_) => false,
         }
     }

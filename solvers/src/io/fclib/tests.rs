@@ -1,5 +1,5 @@
 use super::*;
-use crate::metrics::residuals;
+use crate::problem::metrics::residuals;
 use crate::problem::FrictionRow;
 use crate::{Settings, SolverKind, Status};
 use faer::linalg::solvers::Solve;

@@ -38,7 +38,8 @@
 //! animation*, SIGGRAPH course notes 2013, §4; Cottle–Pang–Stone 1992, §5.2.
 
 use crate::delassus::DelassusFactors;
-use crate::metrics::{relative_row_error, residuals};
+use crate::problem::diagonal::skipped_rows;
+use crate::problem::metrics::{relative_row_error, residuals};
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -182,15 +183,6 @@ impl Solver for ProjectedSor {
         };
         monitor.finish(f, iterations, outcome)
     }
-}
-
-/// The rows a sweep leaves alone: those whose diagonal is at most `1e-12` of `A`'s largest
-/// entry, which a Gauss–Seidel update would divide by.
-pub(crate) fn skipped_rows(problem: &Problem) -> Vec<bool> {
-    let amax = problem.max_abs_entry();
-    (0..problem.n())
-        .map(|i| problem.diagonal(i) <= 1e-12 * amax)
-        .collect()
 }
 
 /// One sweep over the stored rows of `A`. Returns the largest relative row error of the rows

@@ -78,7 +78,7 @@
 //! QP). B. Stellato et al., *OSQP: an operator splitting solver for quadratic programs*, Math.
 //! Prog. Comp. 12, 2020, §5.2 (solution polishing).
 
-use crate::metrics::residuals;
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{Monitor, Outcome, Settings, SolveResult, Solver};
 use clarabel::algebra::CscMatrix;
@@ -96,19 +96,9 @@ pub(crate) const PROBLEM_CLASSES: &str =
 /// The LCP as a convex QP, solved by Clarabel. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClarabelQp {
-    /// Relative tolerance (of the largest entry of `A`) under which `A` counts as symmetric.
-    /// Default `1e-10`.
-    pub symmetry_tolerance: f64,
-    /// `A` counts as positive semidefinite when its scaled form `Â` shifted by
-    /// `psd_tolerance · ‖Â‖_F` has a Cholesky factorisation. Default `1e-10`.
-    pub psd_tolerance: f64,
-    /// Clarabel's gap and feasibility tolerances are `tolerance_factor · Settings::tolerance`.
-    /// Default `1e-2`.
-    pub tolerance_factor: f64,
-    /// Floor on Clarabel's gap and feasibility tolerances. Default `1e-13`.
-    pub min_ipm_tolerance: f64,
-    /// Cap on interior-point iterations, whatever `Settings::max_iterations` says. Default `200`.
-    pub max_ipm_iterations: u32,
+    /// The acceptance tests on `A` and the limits of the interior-point run.
+    /// Default [`InteriorPoint::default`].
+    pub ipm: InteriorPoint,
     /// Make the problem dimensionless before handing it to Clarabel (see the module doc).
     /// Default `true`.
     pub scale: bool,
@@ -120,11 +110,7 @@ pub struct ClarabelQp {
 impl Default for ClarabelQp {
     fn default() -> Self {
         Self {
-            symmetry_tolerance: 1e-10,
-            psd_tolerance: 1e-10,
-            tolerance_factor: 1e-2,
-            min_ipm_tolerance: 1e-13,
-            max_ipm_iterations: 200,
+            ipm: InteriorPoint::default(),
             scale: true,
             polish_refinements: 3,
         }
@@ -295,7 +281,7 @@ impl ScaledQp {
                 g[i] += self.e[i] * dy[(r, 0)];
             }
         }
-        project_onto_bounds(problem, &mut g);
+        problem.project_onto_bounds(&mut g);
         Some(g)
     }
 }
@@ -375,6 +361,41 @@ pub(crate) fn upper_triangle(a_hat: &SparseColMat<usize, f64>) -> CscMatrix<f64>
     CscMatrix::new(n, n, colptr, rowval, nzval)
 }
 
+/// The parameters both Clarabel solvers ([`ClarabelQp`], [`crate::ClarabelSocp`]) share: when
+/// the matrix counts as symmetric positive semidefinite, and how tightly and how long Clarabel
+/// runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InteriorPoint {
+    /// Relative tolerance (of the matrix's largest entry) under which `A` (or `W`) counts as
+    /// symmetric. Default `1e-10`.
+    pub symmetry_tolerance: f64,
+    /// The matrix counts as positive semidefinite when its scaled form `Â` shifted by
+    /// `psd_tolerance · ‖Â‖_F` has a Cholesky factorisation. Default `1e-10`.
+    pub psd_tolerance: f64,
+    /// Clarabel's gap and feasibility tolerances are `tolerance_factor · Settings::tolerance`,
+    /// so that the interior point stops a little inside the shared residual's tolerance.
+    /// Default `1e-2`.
+    pub tolerance_factor: f64,
+    /// Floor on Clarabel's gap and feasibility tolerances (a few hundred machine epsilons,
+    /// near the accuracy Clarabel's double-precision KKT solves reach). Default `1e-13`.
+    pub min_ipm_tolerance: f64,
+    /// Cap on interior-point iterations, whatever `Settings::max_iterations` says (Clarabel's
+    /// own default). Default `200`.
+    pub max_ipm_iterations: u32,
+}
+
+impl Default for InteriorPoint {
+    fn default() -> Self {
+        Self {
+            symmetry_tolerance: 1e-10,
+            psd_tolerance: 1e-10,
+            tolerance_factor: 1e-2,
+            min_ipm_tolerance: 1e-13,
+            max_ipm_iterations: 200,
+        }
+    }
+}
+
 /// Limits of one interior-point run.
 pub(crate) struct IpmLimits {
     /// Clarabel's gap, feasibility and infeasibility tolerances.
@@ -387,15 +408,13 @@ pub(crate) struct IpmLimits {
 
 impl IpmLimits {
     /// The limits of a run that may take the time left of `settings.time_budget` after
-    /// `elapsed`, at most `max_ipm_iterations` interior-point iterations, to Clarabel's
-    /// tolerance `tolerance_factor · settings.tolerance` (not below `min_tolerance`).
-    /// `Err` when the time or the iterations are already spent.
+    /// `elapsed`, at most `ipm.max_ipm_iterations` interior-point iterations, to Clarabel's
+    /// tolerance `ipm.tolerance_factor · settings.tolerance` (not below
+    /// `ipm.min_ipm_tolerance`). `Err` when the time or the iterations are already spent.
     pub(crate) fn new(
         settings: &Settings,
         elapsed: std::time::Duration,
-        max_ipm_iterations: u32,
-        tolerance_factor: f64,
-        min_tolerance: f64,
+        ipm: &InteriorPoint,
     ) -> Result<Self, Outcome> {
         let time_limit = match settings.time_budget {
             Some(budget) => {
@@ -409,13 +428,13 @@ impl IpmLimits {
         };
         let max_iter = settings
             .max_iterations
-            .min(max_ipm_iterations as usize)
+            .min(ipm.max_ipm_iterations as usize)
             .min(u32::MAX as usize) as u32;
         if max_iter == 0 {
             return Err(Outcome::IterationLimit);
         }
         Ok(Self {
-            tol: (tolerance_factor * settings.tolerance).max(min_tolerance),
+            tol: (ipm.tolerance_factor * settings.tolerance).max(ipm.min_ipm_tolerance),
             max_iter,
             time_limit,
         })
@@ -465,19 +484,6 @@ pub(crate) fn run_clarabel(
     run.unwrap_or_else(|_| Err("Clarabel panicked".into()))
 }
 
-/// Project `f` onto the stored bounds, then friction rows onto `±mu · max(f_k, 0)`.
-fn project_onto_bounds(problem: &Problem, f: &mut [f64]) {
-    for (i, fi) in f.iter_mut().enumerate() {
-        if problem.friction_of(i).is_none() {
-            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
-        }
-    }
-    for fr in problem.friction() {
-        let (lo, hi) = problem.bounds_at(fr.row, f);
-        f[fr.row] = f[fr.row].max(lo).min(hi);
-    }
-}
-
 impl Solver for ClarabelQp {
     fn name(&self) -> &'static str {
         "clarabel"
@@ -493,14 +499,8 @@ impl Solver for ClarabelQp {
             Err(outcome) => return monitor.finish(Vec::new(), 0, outcome),
         };
         let mut fallback = vec![0.0; problem.n()];
-        project_onto_bounds(problem, &mut fallback);
-        let limits = match IpmLimits::new(
-            settings,
-            monitor.elapsed(),
-            self.max_ipm_iterations,
-            self.tolerance_factor,
-            self.min_ipm_tolerance,
-        ) {
+        problem.project_onto_bounds(&mut fallback);
+        let limits = match IpmLimits::new(settings, monitor.elapsed(), &self.ipm) {
             Ok(limits) => limits,
             Err(outcome) => return monitor.finish(fallback, 0, outcome),
         };
@@ -530,7 +530,7 @@ impl Solver for ClarabelQp {
         );
         let (mut f, outcome) = interpret(problem, &qp, status, &h, fallback);
         if f.iter().all(|v| v.is_finite()) {
-            project_onto_bounds(problem, &mut f);
+            problem.project_onto_bounds(&mut f);
             if !infeasible {
                 self.polish_if_better(problem, &qp, &mut f);
             }
@@ -544,17 +544,17 @@ impl Solver for ClarabelQp {
 impl ClarabelQp {
     /// The scaled QP of a symmetric PSD problem; otherwise why the LCP is not a convex QP.
     fn formulate(&self, problem: &Problem) -> Result<ScaledQp, Outcome> {
-        if !problem.is_symmetric(self.symmetry_tolerance) {
+        if !problem.is_symmetric(self.ipm.symmetry_tolerance) {
             return Err(Outcome::Unsupported(format!(
                 "A is not symmetric (relative tolerance {:.0e}); the LCP is not the KKT system of a QP",
-                self.symmetry_tolerance
+                self.ipm.symmetry_tolerance
             )));
         }
         let qp = ScaledQp::new(problem, self.scale);
-        if !is_psd(&qp.a_hat, self.psd_tolerance) {
+        if !is_psd(&qp.a_hat, self.ipm.psd_tolerance) {
             return Err(Outcome::Unsupported(format!(
                 "A is indefinite (Cholesky of the scaled A + {:.0e}·‖A‖_F·I failed); the QP is not convex",
-                self.psd_tolerance
+                self.ipm.psd_tolerance
             )));
         }
         Ok(qp)
@@ -629,7 +629,7 @@ fn interpret(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::Status;
 

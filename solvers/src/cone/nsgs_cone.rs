@@ -23,7 +23,7 @@
 //! M. Brémond, O. Huber, 2018 (NSGS with the local Alart–Curnier Newton, Siconos'
 //! `NSGS` + `ONECONTACT_NSN`).
 
-use crate::alart_curnier::solve_contact;
+use crate::cone::alart_curnier::solve_contact;
 use crate::cone::{cone_residuals, initial_reaction, ConeMonitor, ConeProblem, ConeSolver};
 use crate::solver::{Outcome, Settings, SolveResult};
 

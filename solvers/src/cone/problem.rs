@@ -1,58 +1,9 @@
-//! The exact Coulomb cone: the three-dimensional frictional contact problem (FC3D, the form of
-//! Siconos and FCLIB), its shared residual, and the interface of the solvers that take it.
-//!
-//! `n_c` contacts, each with three rows ordered (normal, tangent 1, tangent 2), a Delassus matrix
-//! `W` (`3n_c × 3n_c`, dense or sparse), a free velocity `q` and a friction coefficient `mu_c`
-//! per contact. Find reactions `r` and velocities `u = W r + q` satisfying Coulomb's law, in De
-//! Saxcé's complementarity form, contact by contact:
-//!
-//! ```text
-//! K_c ∋ r_c  ⟂  û_c ∈ K_c*,     û_c = u_c + mu_c ‖u_{c,T}‖ e_N,
-//! K_c  = { r : ‖r_T‖ <= mu_c r_N },   K_c* = { v : mu_c ‖v_T‖ <= v_N }  (the dual cone).
-//! ```
-//!
-//! A contact takes off (`r_c = 0`, `u_{c,N} >= 0`), sticks (`r_c ∈ K_c`, `u_c = 0`) or slides
-//! (`‖r_T‖ = mu r_N`, `u_N = 0`, `r_T = −mu r_N u_T / ‖u_T‖`): the friction force opposes the
-//! sliding velocity with the same magnitude in every tangent direction, which the box (and
-//! pyramid) LCP approximations of [`crate::Problem`] do not.
-//!
-//! # The cone residual (the only status decider for cone solves)
-//!
-//! With the projection `P_K` onto the second-order cone ([`project_onto_cone`]), the natural map
-//! `r − P_K(r − ρ û)` vanishes exactly at a solution, for any `ρ > 0`. Per contact `c`, with `d_c`
-//! the [diagonal scale](crate::Problem::diagonal_scale_of) of its normal row (`W_nn` when
-//! positive) and `ρ_c = 1 / d_c`:
-//!
-//! ```text
-//! e_c   = ‖r_c − P_K(r_c − û_c / d_c)‖₂,
-//! t_i   = |q_i| + Σ_j |W_ij r_j|                                  (i a row of c)
-//! s_c   = ‖(t_N + mu_c ‖(t_1, t_2)‖₂,  t_1,  t_2)‖₂ / d_c,
-//! rel   = max_c  e_c / s_c                                       (0/0 = 0, x/0 = ∞)
-//! ```
-//!
-//! This is the per-row philosophy of [`crate::metrics`] lifted to contacts: each contact's step
-//! is measured against the magnitudes of the terms that make up its own `û_c / d_c` (the
-//! componentwise backward-error scale of Oettli and Prager, with `mu ‖u_T‖` bounded by
-//! `mu ‖(t_1, t_2)‖`), so no other contact can hide a contact's error, and the measure is invariant
-//! under positive scalings of each contact's rows and columns (`W → R W C`, `R`, `C` constant on
-//! each contact's three rows: the cone is invariant under positive scaling). The absolute measure
-//! reported next to it is Siconos' FC3D numerator `max_c ‖r_c − P_K(r_c − û_c)‖` (`ρ = 1`; Siconos
-//! divides its sum by `1 + ‖q‖`). A cone result's [`Residuals`] hold:
-//!
-//! * `natural_map`: `max_c ‖r_c − P_K(r_c − û_c)‖₂`;
-//! * `natural_map_rel`: `rel` above — `Converged` if and only if `rel <= tolerance`;
-//! * `complementarity_gap`: `Σ_c |r_c · û_c|`;
-//! * `bound_violation`: `max_c ‖r_c − P_K(r_c)‖₂`, the distance to the friction cone.
-//!
-//! References: G. De Saxcé, Z.-Q. Feng, *New inequality and functional for contact with
-//! friction: the implicit standard material approach*, Mech. Struct. Mach. 19, 1991; P. Alart,
-//! A. Curnier, *A mixed formulation for frictional contact problems prone to Newton like solution
-//! methods*, CMAME 92, 1991; V. Acary, M. Brémond, O. Huber, *On solving contact problems with
-//! Coulomb friction: formulations and numerical comparisons*, Advanced Topics in Nonsmooth
-//! Dynamics, Springer 2018 (FC3D, FCLIB, the error measure).
+//! The cone problem ([`ConeProblem`]), its conversions to and from the box-friction LCP, and
+//! the interface of its solvers ([`ConeSolver`]).
 
-use crate::certificate::Certificate;
-use crate::metrics::Residuals;
+use super::residual::{cone_residuals_and_velocity, project_onto_cone};
+use crate::problem::certificate::Certificate;
+use crate::problem::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
 use crate::solver::{Measured, Monitor, Settings, SolveResult, Status};
 use faer::sparse::SparseRowMat;
@@ -313,114 +264,6 @@ impl ConeProblem {
     }
 }
 
-/// The projection of `x = (x_N, x_T)` onto the cone `‖x_T‖ <= mu x_N` (Euclidean).
-pub fn project_onto_cone(mu: f64, x: [f64; 3]) -> [f64; 3] {
-    let t = x[1].hypot(x[2]);
-    if t <= mu * x[0] {
-        x
-    } else if mu * t <= -x[0] {
-        [0.0; 3]
-    } else {
-        let a = (x[0] + mu * t) / (1.0 + mu * mu);
-        [a, mu * a * x[1] / t, mu * a * x[2] / t]
-    }
-}
-
-/// De Saxcé's modified velocity `û = u + mu ‖u_T‖ e_N`.
-#[inline]
-pub fn de_saxce(mu: f64, u: [f64; 3]) -> [f64; 3] {
-    [u[0] + mu * u[1].hypot(u[2]), u[1], u[2]]
-}
-
-#[inline]
-fn norm3(x: [f64; 3]) -> f64 {
-    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
-}
-
-/// `‖r − P_K(r − ρ û(u))‖` for one contact.
-#[inline]
-pub(crate) fn contact_natural_map(mu: f64, rho: f64, r: [f64; 3], u: [f64; 3]) -> f64 {
-    let uh = de_saxce(mu, u);
-    let p = project_onto_cone(
-        mu,
-        [r[0] - rho * uh[0], r[1] - rho * uh[1], r[2] - rho * uh[2]],
-    );
-    norm3([r[0] - p[0], r[1] - p[1], r[2] - p[2]])
-}
-
-#[inline]
-fn relative(e: f64, s: f64) -> f64 {
-    if e == 0.0 {
-        0.0
-    } else if s > 0.0 {
-        e / s
-    } else {
-        f64::INFINITY
-    }
-}
-
-/// The cone residuals of `r` (see the module doc), computing `u = W r + q`.
-pub fn cone_residuals(problem: &ConeProblem, r: &[f64]) -> Residuals {
-    let mut u = vec![0.0; problem.n()];
-    cone_residuals_and_velocity(problem, r, &mut u)
-}
-
-/// The cone residuals of `r`, writing `u = W r + q` into `u` in the same pass over `W`.
-pub fn cone_residuals_and_velocity(problem: &ConeProblem, r: &[f64], u: &mut [f64]) -> Residuals {
-    let n = problem.n();
-    if r.len() != n || u.len() != n || r.iter().any(|v| !v.is_finite()) {
-        u.iter_mut().for_each(|v| *v = f64::NAN);
-        return Residuals::INFINITE;
-    }
-    let mut res = Residuals::ZERO;
-    for c in 0..problem.contacts() {
-        let one = contact_residuals(problem, c, r, u);
-        res.natural_map = res.natural_map.max(one.natural_map);
-        res.natural_map_rel = res.natural_map_rel.max(one.natural_map_rel);
-        res.complementarity_gap += one.complementarity_gap;
-        res.bound_violation = res.bound_violation.max(one.bound_violation);
-    }
-    if !u.iter().all(|v| v.is_finite()) {
-        return Residuals::INFINITE;
-    }
-    res
-}
-
-/// The relative cone residual `e_c / s_c` of each contact (see the module doc) at a finite `r`
-/// of the right length.
-pub(crate) fn contact_relative_residuals(problem: &ConeProblem, r: &[f64]) -> Vec<f64> {
-    let mut u = vec![0.0; problem.n()];
-    (0..problem.contacts())
-        .map(|c| contact_residuals(problem, c, r, &mut u).natural_map_rel)
-        .collect()
-}
-
-/// The four measures of the module doc for contact `c` alone, writing its rows of `u = W r + q`.
-fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) -> Residuals {
-    let (w, q, mu) = (problem.delassus(), problem.q(), problem.mu()[c]);
-    let mut uc = [0.0; 3];
-    let mut t = [0.0; 3];
-    for a in 0..3 {
-        let i = 3 * c + a;
-        let (wr, m) = w.row(i).dot_and_magnitude(r);
-        uc[a] = wr + q[i];
-        t[a] = q[i].abs() + m;
-        u[i] = uc[a];
-    }
-    let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-    let d = problem.scale_of(c);
-    let e = contact_natural_map(mu, 1.0 / d, rc, uc);
-    let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
-    let uh = de_saxce(mu, uc);
-    let p = project_onto_cone(mu, rc);
-    Residuals {
-        natural_map: contact_natural_map(mu, 1.0, rc, uc),
-        natural_map_rel: relative(e, s),
-        complementarity_gap: (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs(),
-        bound_violation: norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]),
-    }
-}
-
 /// A solver of the FC3D problem: takes a [`ConeProblem`], returns reactions `r` (in
 /// [`SolveResult::f`]), velocities `u` (in [`SolveResult::w`]) and a status decided by the cone
 /// residual alone.
@@ -475,6 +318,7 @@ pub(crate) fn initial_reaction(problem: &ConeProblem, settings: &Settings) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cone::residual::*;
 
     #[test]
     fn rejects_bad_data() {

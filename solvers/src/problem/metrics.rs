@@ -383,9 +383,9 @@ pub fn unresolved_row(problem: &Problem, f: &[f64], w: &[f64]) -> Option<Unresol
     worst.map(|(_, u)| u)
 }
 
-/// A global impulse scale `max(‖D⁻¹ b‖∞, largest finite fixed bound)` (1 when zero). It no
-/// longer defines the residual; pivoting solvers use it only to size their internal round-off
-/// tolerances.
+/// A global impulse scale `max(‖D⁻¹ b‖∞, largest finite fixed bound)` (1 when zero): the size
+/// of impulse the problem's data call for. The residual is per row and does not use it; the
+/// pivoting, Newton and enumeration solvers size their internal round-off tolerances by it.
 pub(crate) fn impulse_scale(problem: &Problem) -> f64 {
     let b = problem.b();
     let (lo, hi) = (problem.lo(), problem.hi());

@@ -13,6 +13,9 @@
 //! current `f` (ODE's and Bullet's `findex`). Its stored `lo`/`hi` are ignored.
 
 pub use crate::delassus::DelassusFactors;
+mod islands;
+mod scaling;
+
 use faer::sparse::{SparseColMat, SparseRowMat, Triplet};
 use faer::Mat;
 use std::sync::{Arc, OnceLock};
@@ -730,6 +733,22 @@ impl Problem {
         }
     }
 
+    /// Project `f` onto the bounds in place: rows that are not friction rows clamped to their
+    /// stored `[lo, hi]`, then each friction row to `±mu · max(f_k, 0)` at the projected normal
+    /// impulse `f_k`. The projection PGS applies row by row, applied to the whole vector; the
+    /// iterative solvers use it for warm starts, trial points and Clarabel's answer.
+    pub fn project_onto_bounds(&self, f: &mut [f64]) {
+        for (i, fi) in f.iter_mut().enumerate() {
+            if self.friction_of[i].is_none() {
+                *fi = fi.max(self.lo[i]).min(self.hi[i]);
+            }
+        }
+        for fr in &self.friction {
+            let (lo, hi) = self.bounds_at(fr.row, f);
+            f[fr.row] = f[fr.row].max(lo).min(hi);
+        }
+    }
+
     /// `w = A f + b`.
     pub fn velocity(&self, f: &[f64]) -> Vec<f64> {
         let mut w = vec![0.0; self.n()];
@@ -751,189 +770,6 @@ impl Problem {
         }
     }
 
-    /// Diagonal scaling used by the relative residual, by sweeping solvers and for
-    /// equilibration: `d_i = A_ii` when `A_ii > 0`; otherwise the largest magnitude in row `i`
-    /// (or 1 when the row is zero). Never zero. A positive diagonal is used as it is, however
-    /// small, so that `d` follows every diagonal scaling of the problem.
-    pub fn diagonal_scale(&self) -> Vec<f64> {
-        (0..self.n()).map(|i| self.diagonal_scale_of(i)).collect()
-    }
-
-    /// Row `i`'s entry of [`Problem::diagonal_scale`].
-    #[inline]
-    pub fn diagonal_scale_of(&self, i: usize) -> f64 {
-        let d = self.diag[i];
-        if d > 0.0 {
-            return d;
-        }
-        let row_max = match self.unassembled_factors() {
-            Some(factors) => {
-                let mut m = 0.0f64;
-                factors.for_each_entry(i, |_, v| m = m.max(v.abs()));
-                m
-            }
-            None => self.row(i).iter().fold(0.0f64, |m, (_, v)| m.max(v.abs())),
-        };
-        if row_max > 0.0 {
-            row_max
-        } else {
-            1.0
-        }
-    }
-
-    /// The independent sub-problems: rows grouped so that no nonzero of `A` and no friction row
-    /// links two groups (union–find over the nonzeros, `O(nnz)`; over the bodies of `J`,
-    /// `O(nnz(J))`, when the problem carries its factors: rows that share a body are joined,
-    /// which joins every pair with `A_ij ≠ 0`). Each group's rows are increasing; groups are
-    /// ordered by their first row. A dense `A` with no zero off-diagonal entries is one group.
-    pub fn islands(&self) -> Vec<Vec<usize>> {
-        let n = self.n();
-        let mut parent: Vec<usize> = (0..n).collect();
-        fn find(parent: &mut [usize], mut x: usize) -> usize {
-            while parent[x] != x {
-                parent[x] = parent[parent[x]];
-                x = parent[x];
-            }
-            x
-        }
-        let union = |parent: &mut Vec<usize>, a: usize, b: usize| {
-            let (ra, rb) = (find(parent, a), find(parent, b));
-            if ra != rb {
-                parent[ra.max(rb)] = ra.min(rb);
-            }
-        };
-        if let Some(factors) = self.factors() {
-            // The first row seen on each body; later rows on it join that row's group.
-            let mut first = vec![usize::MAX; factors.inverse_mass().len()];
-            for i in 0..n {
-                for blk in factors.row_blocks(i) {
-                    if first[blk.body] == usize::MAX {
-                        first[blk.body] = i;
-                    } else if first[blk.body] != i {
-                        union(&mut parent, i, first[blk.body]);
-                    }
-                }
-            }
-        } else {
-            for i in 0..n {
-                for (j, v) in self.row(i).iter() {
-                    if v != 0.0 && j != i {
-                        union(&mut parent, i, j);
-                    }
-                }
-            }
-        }
-        for i in 0..n {
-            if let Some((k, _)) = self.friction_of[i] {
-                union(&mut parent, i, k);
-            }
-        }
-        let mut group_of = vec![usize::MAX; n];
-        let mut groups: Vec<Vec<usize>> = Vec::new();
-        for i in 0..n {
-            let r = find(&mut parent, i);
-            if group_of[r] == usize::MAX {
-                group_of[r] = groups.len();
-                groups.push(Vec::new());
-            }
-            groups[group_of[r]].push(i);
-        }
-        groups
-    }
-
-    /// The sub-problem on `rows` (increasing, and holding the normal row of every friction row
-    /// among them, as each island of [`Problem::islands`] does). Small sub-problems are stored
-    /// dense, larger ones keep the storage of `self`.
-    pub fn restrict(&self, rows: &[usize]) -> Result<Self, ProblemError> {
-        self.restrict_holding(rows, None)
-    }
-
-    /// The sub-problem on `rows` with every other row's impulse held at `f` (the block of a
-    /// block Gauss–Seidel step): `b'_r = b_i + Σ_{j ∉ rows} A_ij f_j`, and a friction row whose
-    /// normal is outside `rows` gets the fixed bounds `±mu · max(f_normal, 0)`. `rows` increasing.
-    pub(crate) fn restrict_at(&self, rows: &[usize], f: &[f64]) -> Result<Self, ProblemError> {
-        self.restrict_holding(rows, Some(f))
-    }
-
-    /// [`Problem::restrict`], and with `held` [`Problem::restrict_at`]: the entries outside
-    /// `rows` are dropped, or moved into `b` at the held impulses, in the same pass.
-    fn restrict_holding(&self, rows: &[usize], held: Option<&[f64]>) -> Result<Self, ProblemError> {
-        let n = self.n();
-        let m = rows.len();
-        let mut local = vec![usize::MAX; n];
-        for (k, &i) in rows.iter().enumerate() {
-            if i >= n {
-                return Err(ProblemError::DimensionMismatch {
-                    what: "a restricted row index",
-                    expected: n,
-                    found: i,
-                });
-            }
-            local[i] = k;
-        }
-        let pick = |v: &[f64]| rows.iter().map(|&i| v[i]).collect::<Vec<_>>();
-        let (mut b, mut lo, mut hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
-        let mut friction = Vec::new();
-        for (r, &i) in rows.iter().enumerate() {
-            if let Some((k, mu)) = self.friction_of[i] {
-                match held {
-                    // Its normal is held: the bounds are fixed at the held normal.
-                    Some(f) if local[k] == usize::MAX => (lo[r], hi[r]) = self.bounds_at(i, f),
-                    _ => friction.push(FrictionRow {
-                        row: r,
-                        normal: local[k],
-                        mu,
-                    }),
-                }
-            }
-        }
-        let mut triplets = Vec::new();
-        for (r, &i) in rows.iter().enumerate() {
-            let mut outside = 0.0;
-            for (j, v) in self.row(i).iter() {
-                if local[j] != usize::MAX {
-                    if v != 0.0 || i == j {
-                        triplets.push(Triplet::new(r, local[j], v));
-                    }
-                } else if let Some(f) = held {
-                    outside += v * f[j];
-                }
-            }
-            b[r] += outside;
-        }
-        let mut p = if m <= DENSE_SUBPROBLEM_ROWS || !self.is_sparse() {
-            let mut a = Mat::zeros(m, m);
-            for t in &triplets {
-                a[(t.row, t.col)] = t.val;
-            }
-            Self::boxed(a, b, lo, hi, friction)?
-        } else {
-            let a = SparseRowMat::try_new_from_triplets(m, m, &triplets)
-                .map_err(|_| ProblemError::UnsortedSparseRow { row: 0 })?;
-            Self::boxed_sparse(a, b, lo, hi, friction)?
-        };
-        p.name = self.name.clone();
-        Ok(p)
-    }
-
-    /// The sub-problem on `rows` stored dense (for solvers that factorise; the caller bounds
-    /// the size).
-    pub(crate) fn restrict_dense(&self, rows: &[usize]) -> Result<Self, ProblemError> {
-        let p = self.restrict(rows)?;
-        if !p.is_sparse() {
-            return Ok(p);
-        }
-        let mut dense = Self::boxed(
-            p.to_dense(),
-            p.b.clone(),
-            p.lo.clone(),
-            p.hi.clone(),
-            p.friction.clone(),
-        )?;
-        dense.name = p.name;
-        Ok(dense)
-    }
-
     /// Row `i` of a dense `A` as a slice. Only for solvers that work on dense islands
     /// ([`crate::solver::solve_by_islands`] hands them dense problems).
     #[inline]
@@ -942,89 +778,6 @@ impl Problem {
             Row::Dense(row) => row,
             Row::Sparse { .. } => unreachable!("dense_row on a sparse problem"),
         }
-    }
-
-    /// A copy with rows and columns permuted: new row `k` is old row `perm[k]`.
-    pub fn permuted(&self, perm: &[usize]) -> Self {
-        let n = self.n();
-        assert_eq!(perm.len(), n, "permutation length");
-        let mut inv = vec![0; n];
-        for (k, &p) in perm.iter().enumerate() {
-            inv[p] = k;
-        }
-        let pick = |v: &[f64]| perm.iter().map(|&p| v[p]).collect::<Vec<_>>();
-        let friction = self
-            .friction
-            .iter()
-            .map(|fr| FrictionRow {
-                row: inv[fr.row],
-                normal: inv[fr.normal],
-                mu: fr.mu,
-            })
-            .collect();
-        let (b, lo, hi) = (pick(&self.b), pick(&self.lo), pick(&self.hi));
-        let mut p = match &self.storage {
-            Storage::Dense { a, .. } => {
-                let a = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
-                Self::boxed(a, b, lo, hi, friction)
-            }
-            Storage::Sparse(_) | Storage::Factored { .. } => {
-                let mut triplets = Vec::with_capacity(self.nnz());
-                for (k, &p) in perm.iter().enumerate() {
-                    for (j, v) in self.row(p).iter() {
-                        triplets.push(Triplet::new(k, inv[j], v));
-                    }
-                }
-                let a = SparseRowMat::try_new_from_triplets(n, n, &triplets)
-                    .expect("a permutation of valid indices is valid");
-                Self::boxed_sparse(a, b, lo, hi, friction)
-            }
-        }
-        .expect("a permutation of a valid problem is valid");
-        p.name = self.name.clone();
-        p
-    }
-
-    /// The symmetrically scaled problem `A' = S A S`, `b' = S b` with `S = diag(s)`, `s_i > 0`,
-    /// whose solutions are `f' = S⁻¹ f`: bounds become `lo_i / s_i`, `hi_i / s_i`, and a friction
-    /// row `t` of normal `k` keeps its meaning with `mu' = mu · s_k / s_t`. Pivoting solvers use
-    /// it with `s_i = 1/√d_i` (equilibration), so that data scaled over many decades does not
-    /// decide their pivots.
-    pub fn scaled_symmetric(&self, s: &[f64]) -> Self {
-        let n = self.n();
-        assert_eq!(s.len(), n, "scaling length");
-        let b = (0..n).map(|i| s[i] * self.b[i]).collect();
-        let lo = (0..n).map(|i| self.lo[i] / s[i]).collect();
-        let hi = (0..n).map(|i| self.hi[i] / s[i]).collect();
-        let friction = self
-            .friction
-            .iter()
-            .map(|fr| FrictionRow {
-                mu: fr.mu * s[fr.normal] / s[fr.row],
-                ..*fr
-            })
-            .collect();
-        let mut p = match &self.storage {
-            Storage::Dense { a, .. } => {
-                let a = Mat::from_fn(n, n, |i, j| s[i] * a[(i, j)] * s[j]);
-                Self::boxed(a, b, lo, hi, friction)
-            }
-            Storage::Sparse(_) | Storage::Factored { .. } => {
-                let mut a = self.to_sparse();
-                let ptr: Vec<usize> = a.symbolic().row_ptr().to_vec();
-                let idx: Vec<usize> = a.symbolic().col_idx().to_vec();
-                let val = a.val_mut();
-                for i in 0..n {
-                    for k in ptr[i]..ptr[i + 1] {
-                        val[k] *= s[i] * s[idx[k]];
-                    }
-                }
-                Self::boxed_sparse(a, b, lo, hi, friction)
-            }
-        }
-        .expect("a positive scaling of a valid problem is valid");
-        p.name = self.name.clone();
-        p
     }
 }
 

@@ -1,54 +1,20 @@
 //! The interface every solver implements: shared [`Settings`], a [`Status`] decided by the shared
 //! residual, and a [`SolveResult`] carrying the impulse, timings and convergence history.
 
-use crate::certificate::{certificate_from, Certificate};
-use crate::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
+pub mod line_search;
+mod settings;
+
+pub use settings::{Settings, SettingsError};
+
+use crate::problem::certificate::{certificate_from, Certificate};
+use crate::problem::metrics::{residuals_and_velocity, unresolved_row, Residuals, RESOLUTION};
 use crate::problem::Problem;
 use serde::Serialize;
 use std::time::{Duration, Instant};
 
-/// Settings shared by every solver. Solver-specific parameters (SOR's `omega`, ...) live on the
-/// solver value itself.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Settings {
-    /// Tolerance on the relative natural-map residual
-    /// ([`Residuals::natural_map_rel`]). Default `1e-8`.
-    pub tolerance: f64,
-    /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
-    /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
-    /// It is a total for one solve: a solver that splits the problem into independent islands
-    /// gives each island what the islands before it left, and ends `iteration_limit` when
-    /// nothing is left. Default `10_000`.
-    pub max_iterations: usize,
-    /// Wall-time budget; `None` (the default) means none.
-    pub time_budget: Option<Duration>,
-    /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
-    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and the cone
-    /// solvers NSGS-cone and Newton-AC; enumeration uses it only to order its first guesses of
-    /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
-    /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
-    /// and cone solvers only. Default `None` (zero).
-    pub warm_start: Option<Vec<f64>>,
-    /// Record the shared residual after every iteration (time spent measuring it is excluded from
-    /// the reported wall time). Default `false`.
-    pub record_history: bool,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Self {
-            tolerance: 1e-8,
-            max_iterations: 10_000,
-            time_budget: None,
-            warm_start: None,
-            record_history: false,
-        }
-    }
-}
-
 /// How a solve ended. Decided from the shared residual recomputed from the returned `f`:
 /// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
-/// the problem's data ([`crate::metrics::unresolved_row`]); a result that meets the tolerance
+/// the problem's data ([`crate::problem::metrics::unresolved_row`]); a result that meets the tolerance
 /// only through cancellation is `Diverged`, or `NoSolution` when a Farkas certificate read off it
 /// proves there is no solution.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -316,7 +282,7 @@ impl Measured for Problem {
 }
 
 /// The data-resolution test of a finite LCP impulse `f` (with `w = A f + b`) that meets the
-/// tolerance ([`crate::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
+/// tolerance ([`crate::problem::metrics::unresolved_row`]): `None` when every row is resolved; otherwise
 /// `NoSolution` when the Farkas certificate read off `f` ([`certificate_from`]) proves there is
 /// no solution, and `Diverged` else, with the certificate when it bounds the size of every
 /// solution.
@@ -475,6 +441,12 @@ impl<'a, P: Measured> Monitor<'a, P> {
         iterations: usize,
         outcome: Outcome,
     ) -> SolveResult {
+        // Settings the library refuses end the solve before its result is read: a tolerance of 1
+        // or more would otherwise call a zero impulse converged.
+        let outcome = match self.settings.validate() {
+            Ok(()) => outcome,
+            Err(e) => Outcome::Unsupported(format!("invalid settings: {e}")),
+        };
         let measured = self.measured.take().filter(|(x, ..)| {
             x.len() == f.len() && x.iter().zip(&f).all(|(a, b)| a.to_bits() == b.to_bits())
         });
@@ -665,15 +637,7 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
         Some(ws) if ws.len() == n && ws.iter().all(|v| v.is_finite()) => ws.clone(),
         _ => vec![0.0; n],
     };
-    for (i, fi) in f.iter_mut().enumerate() {
-        if problem.friction_of(i).is_none() {
-            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
-        }
-    }
-    for fr in problem.friction() {
-        let (lo, hi) = problem.bounds_at(fr.row, &f);
-        f[fr.row] = f[fr.row].max(lo).min(hi);
-    }
+    problem.project_onto_bounds(&mut f);
     f
 }
 
@@ -801,7 +765,7 @@ fn island_rank(o: &Outcome) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::residuals;
+    use crate::problem::metrics::residuals;
     use faer::Mat;
 
     /// A measured point is reused only when it is bit for bit the returned impulse; any other
@@ -906,7 +870,8 @@ mod tests {
             assert_eq!(r.status.name(), "no_solution", "{}", r.status);
             assert!(r.certificate.as_ref().unwrap().proves_no_solution);
         }
-        let g = crate::generate::generate(crate::generate::Family::Infeasible, 6, 1);
+        let g =
+            crate::problem::generate::generate(crate::problem::generate::Family::Infeasible, 6, 1);
         let loose = Settings {
             tolerance: 1e-4,
             ..Settings::default()

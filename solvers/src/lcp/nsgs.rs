@@ -42,11 +42,9 @@
 //! M. Brémond, O. Huber, *On solving contact problems with Coulomb friction: formulations and
 //! numerical comparisons*, 2018 (NSGS in Siconos' FC3D).
 
-use crate::enumeration::{
-    basis_count, enumerate, LocalBound, LocalLcp, Workspace as EnumWorkspace,
-};
-use crate::metrics::{relative_row_error, residuals_and_velocity};
-use crate::nncg::usable_diagonal;
+use crate::lcp::local::{basis_count, enumerate, LocalBound, LocalLcp, Workspace as EnumWorkspace};
+use crate::problem::diagonal::usable_diagonal;
+use crate::problem::metrics::{relative_row_error, residuals_and_velocity};
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -63,7 +61,9 @@ pub(crate) const PROBLEM_CLASSES: &str =
 /// than needed on the generated families).
 const MEASURE_WITHIN: f64 = 10.0;
 
-/// Largest number of complementary bases a block is enumerated over.
+/// Largest number of complementary bases a block is enumerated over: `3⁵ = 243`, a normal row
+/// with two friction rows (18 bases) and room for blocks of up to five rows of three states;
+/// beyond that the `O(m³)` work per basis outgrows the local sweeps used instead.
 const MAX_BLOCK_BASES: usize = 243;
 
 /// NSGS. See the module documentation.
@@ -306,7 +306,7 @@ impl Solver for Nsgs {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::{Dantzig, Lemke, Status};
     use faer::Mat;

@@ -126,7 +126,7 @@
 //!   ([`Problem::islands`]); each is densified and solved on its own. An island above
 //!   [`DENSE_LIMIT`] rows gives `Unsupported` with the reason.
 //!
-//! Measured on Murty's example ([`crate::generate::Family::Murty`]: `M` lower triangular, 1 on
+//! Measured on Murty's example ([`crate::problem::generate::Family::Murty`]: `M` lower triangular, 1 on
 //! the diagonal and 2 below, `q = −e`, `d = e`): exactly `2ⁿ` pivots, the first `z0` pivot and
 //! the last included, for every `n = 2..=10` (4, 8, 16, …, 1024; the unit tests check it). The
 //! first pivot is a tie between all rows, which the lexicographic rule breaks towards the last
@@ -137,9 +137,13 @@
 //! Complementarity Problem*, 1992, §4.4; K. G. Murty, *Linear Complementarity, Linear and
 //! Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the exponential example).
 
-use crate::metrics::residuals;
+mod reduction;
+
+use crate::lcp::ray::{is_psd, ray_outcome};
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver};
+use reduction::Reduction;
 use std::fmt;
 
 /// Largest island Lemke densifies (the reduced tableau is at most `3n × 3n`, for friction rows).
@@ -234,13 +238,13 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
     if best <= tol {
         return;
     }
-    let skip = crate::pgs::skipped_rows(problem);
+    let skip = crate::problem::diagonal::skipped_rows(problem);
     let d = problem.diagonal_scale();
     let mut g = f.to_vec();
     // Whether the monitor's last measurement is of `f` (then `finish` reuses it).
     let mut last_is_f = true;
     for _ in 0..POLISH_SWEEPS {
-        crate::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
+        crate::lcp::pgs::sweep_assembled(problem, &mut g, &skip, &d, 1.0);
         let r = monitor.residual_of(&g);
         last_is_f = r < best;
         if last_is_f {
@@ -257,6 +261,9 @@ fn polish_friction_rows(problem: &Problem, f: &mut [f64], tol: f64, monitor: &mu
 }
 
 /// Relative levels (of `max z`) below which basic values are tried as degenerate zeros.
+/// From round-off level (about `10⁴ ε`) to `1e-6`: a level is tried only while the shared
+/// residual is above tolerance, and its candidate kept only when it lowers the residual, so a
+/// level too coarse for a problem costs one residual evaluation and nothing else.
 const DEGENERATE_LEVELS: [f64; 4] = [1e-12, 1e-10, 1e-8, 1e-6];
 
 /// The impulse of the final basic solution `z`, with its degenerate zeros made exact when that
@@ -294,209 +301,6 @@ fn degenerate_zeros(problem: &Problem, red: &Reduction, z: Vec<f64>, tol: f64) -
     best.1
 }
 
-/// The standard LCP `w' = M z + q` that a boxed problem reduces to, scaled so that
-/// `max|M| = max|q| = 1` (the pivot and tie tolerances are relative), and the map back
-/// `f_i = c_i + Σ_v s_v z_v` over the variables `v` of row `i`.
-struct Reduction {
-    /// `M / max|M|`, row-major, `m × m`.
-    m: Vec<f64>,
-    /// `q / max|q|`.
-    q: Vec<f64>,
-    /// `max|q|` and `max|M|` before the scaling: the LCP's `z` is the scaled one times
-    /// `max|q| / max|M|`.
-    q_scale: f64,
-    m_scale: f64,
-    /// Offset of each original row.
-    c: Vec<f64>,
-    /// For each LCP variable: `Some((row, sign))` when it is (a signed part of) `f_row − c_row`,
-    /// `None` for a box slack.
-    var_row: Vec<Option<(usize, f64)>>,
-    /// The equilibration `s_i = 1/√d_i`: row `i`'s LCP variables are in units of `scale_i`.
-    scale: Vec<f64>,
-    /// Friction rows reduced by sliding speeds (their `M` is never copositive-plus).
-    sliding_rows: usize,
-}
-
-impl Reduction {
-    fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
-        let n = problem.n();
-        let (lo, hi) = (problem.lo(), problem.hi());
-        let mut c = vec![0.0; n];
-        let mut vars: Vec<(usize, f64)> = Vec::with_capacity(n);
-        // (index of the variable x in `vars`, hi − lo) for every box row.
-        let mut slacks: Vec<(usize, f64)> = Vec::new();
-        // (index of x⁺ in `vars`, friction row, its normal row, mu) for every friction row.
-        let mut sliding: Vec<(usize, usize, usize, f64)> = Vec::new();
-        // The first variable of each row (read only by the sliding rows).
-        let mut first_var = if problem.friction().is_empty() {
-            Vec::new()
-        } else {
-            vec![0; n]
-        };
-        for i in 0..n {
-            if let Some(first) = first_var.get_mut(i) {
-                *first = vars.len();
-            }
-            if let Some((k, mu)) = problem.friction_of(i) {
-                if lo[k] != 0.0 || hi[k] != f64::INFINITY || problem.friction_of(k).is_some() {
-                    return Err(format!(
-                        "friction row {i}'s normal row {k} has bounds [{}, {}]: the friction \
-                         reduction needs a normal row with bounds [0, ∞)",
-                        lo[k], hi[k]
-                    ));
-                }
-                sliding.push((vars.len(), i, k, mu));
-                vars.push((i, 1.0));
-                vars.push((i, -1.0));
-                continue;
-            }
-            match (lo[i].is_finite(), hi[i].is_finite()) {
-                (true, false) => {
-                    c[i] = lo[i];
-                    vars.push((i, 1.0));
-                }
-                (false, true) => {
-                    c[i] = hi[i];
-                    vars.push((i, -1.0));
-                }
-                (true, true) => {
-                    c[i] = lo[i];
-                    slacks.push((vars.len(), (hi[i] - lo[i]) / scale[i]));
-                    vars.push((i, 1.0));
-                }
-                (false, false) => {
-                    vars.push((i, 1.0));
-                    vars.push((i, -1.0));
-                }
-            }
-        }
-        // Offsets in the original units; the LCP variables are in the equilibrated ones
-        // (`f_i = c_i + scale_i · x`), so `M = S A S` and `q = S w(c)` up to signs.
-        let w0: std::borrow::Cow<'_, [f64]> = if c.iter().all(|&v| v == 0.0) {
-            problem.b().into()
-        } else {
-            problem.velocity(&c).into()
-        };
-        let nv = vars.len();
-        let m = nv + slacks.len() + sliding.len();
-        let mut q = vec![0.0; m];
-        // A standard LCP maps every row to one variable of its own: `M = S A S` row by row,
-        // every entry written once (so not zero-filled first).
-        let identity_map = m == n
-            && vars
-                .iter()
-                .enumerate()
-                .all(|(v, &(i, t))| v == i && t == 1.0);
-        let mut mat = if identity_map {
-            Vec::with_capacity(m * m)
-        } else {
-            vec![0.0; m * m]
-        };
-        for (v, &(i, s)) in vars.iter().enumerate() {
-            q[v] = s * scale[i] * w0[i];
-            let row = problem.dense_row(i);
-            let si = s * scale[i];
-            if identity_map {
-                mat.extend(row.iter().zip(&scale).map(|(a, sj)| si * a * sj));
-            } else {
-                let out = &mut mat[v * m..(v + 1) * m];
-                for (o, &(j, t)) in out.iter_mut().zip(&vars) {
-                    *o = t * si * row[j] * scale[j];
-                }
-            }
-        }
-        for (k, &(v, width)) in slacks.iter().enumerate() {
-            let y = nv + k;
-            mat[v * m + y] = 1.0;
-            mat[y * m + v] = -1.0;
-            q[y] = width;
-        }
-        // Friction row `i` on normal `k`: `x⁺ ⟂ w_i + λ`, `x⁻ ⟂ −w_i + λ` and
-        // `λ ⟂ mu·f_k − x⁺ − x⁻`, all in row `i`'s equilibrated units.
-        for (l, &(v, i, k, mu)) in sliding.iter().enumerate() {
-            let y = nv + slacks.len() + l;
-            mat[v * m + y] = 1.0;
-            mat[(v + 1) * m + y] = 1.0;
-            mat[y * m + v] = -1.0;
-            mat[y * m + v + 1] = -1.0;
-            mat[y * m + first_var[k]] = mu * scale[k] / scale[i];
-        }
-        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "the reduced LCP has a non-finite constant term q[{i}] (bounds too large)"
-            ));
-        }
-        // `max|v|` (1 for a zero `v`).
-        let max_abs = |v: &[f64]| {
-            // Four running maxima: one would be a chain of dependent comparisons.
-            let mut m4 = [0.0_f64; 4];
-            let mut chunks = v.chunks_exact(4);
-            for c in &mut chunks {
-                for l in 0..4 {
-                    // A plain comparison (the data are finite): `f64::max` also orders NaNs.
-                    let a = c[l].abs();
-                    if a > m4[l] {
-                        m4[l] = a;
-                    }
-                }
-            }
-            let s = chunks
-                .remainder()
-                .iter()
-                .fold(m4[0].max(m4[1]).max(m4[2].max(m4[3])), |m, x| {
-                    m.max(x.abs())
-                });
-            if s > 0.0 {
-                s
-            } else {
-                1.0
-            }
-        };
-        let (sm, sq) = (max_abs(&mat), max_abs(&q));
-        mat.iter_mut().for_each(|v| *v /= sm);
-        q.iter_mut().for_each(|v| *v /= sq);
-        let mut var_row: Vec<Option<(usize, f64)>> = vars.into_iter().map(Some).collect();
-        var_row.resize(m, None);
-        Ok(Self {
-            m: mat,
-            q,
-            q_scale: sq,
-            m_scale: sm,
-            sliding_rows: sliding.len(),
-            c,
-            var_row,
-            scale,
-        })
-    }
-
-    /// `f = c + S T z`.
-    fn impulse(&self, z: &[f64]) -> Vec<f64> {
-        let mut f = self.c.clone();
-        if z.len() == self.var_row.len() {
-            for (v, &zv) in z.iter().enumerate() {
-                if let Some((i, s)) = self.var_row[v] {
-                    f[i] += s * self.scale[i] * zv;
-                }
-            }
-        }
-        f
-    }
-
-    /// Original rows whose variables are basic in `z` (the active set).
-    fn active_rows(&self, basis: &[Var]) -> Vec<usize> {
-        let mut rows: Vec<usize> = basis
-            .iter()
-            .filter_map(|v| match v {
-                Var::Z(j) => self.var_row[*j].map(|(i, _)| i),
-                _ => None,
-            })
-            .collect();
-        rows.sort_unstable();
-        rows.dedup();
-        rows
-    }
-}
-
 /// A variable of the augmented system `I w − M z − d z0 = q`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Var {
@@ -516,10 +320,15 @@ impl fmt::Display for Var {
 }
 
 /// Entries of the entering column below `PIVOT_TOL · max(1, max|y|)` are never pivoted on.
+/// `√ε ≈ 1.5e-8` (`ε` the machine epsilon), the usual pivot threshold of a product-form
+/// simplex tableau: a smaller pivot would amplify the tableau's accumulated round-off past half
+/// the digits of the `M` scaled to `max|M| = 1`.
 const PIVOT_TOL: f64 = 1e-8;
 /// Most steps of iterative refinement of `x_B` at a refactorisation.
 const REFINEMENT_STEPS: usize = 3;
-/// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test.
+/// Two ratios within `TIE_TOL · max(1, |min|)` are a tie for the lexicographic test: above the
+/// round-off of the ratios of a scaled tableau (a few hundred `ε`), below any difference between
+/// genuinely different ratios of a problem scaled to `max|M| = max|q| = 1`.
 const TIE_TOL: f64 = 1e-10;
 
 /// The revised tableau: the basis, `B⁻¹` and the basic values `x_B = B⁻¹ q`, all on the scaled
@@ -924,21 +733,13 @@ fn ray_termination(red: &Reduction, pivot: usize, entering: Var) -> Outcome {
     let k = red.q.len();
     let mmax = red.m.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     let sym = faer::Mat::from_fn(k, k, |i, j| 0.5 * (red.m[i * k + j] + red.m[j * k + i]));
-    let psd = sym
-        .self_adjoint_eigenvalues(faer::Side::Lower)
-        .is_ok_and(|ev| ev.iter().all(|&l| l >= -1e-10 * mmax * k as f64));
-    if psd {
-        Outcome::NoSolution(format!(
-            "ray termination at pivot {pivot}: entering {entering} is not blocked; M + Mᵀ is \
-             positive semidefinite (M is copositive-plus), so there is no solution"
-        ))
-    } else {
-        Outcome::Stalled(format!(
-            "ray termination at pivot {pivot}: entering {entering} is not blocked; not a proof \
-             of infeasibility for this matrix class (M + Mᵀ is not positive semidefinite, so M \
-             is not known to be copositive-plus)"
-        ))
-    }
+    ray_outcome(
+        &format!("ray termination at pivot {pivot}: entering {entering} is not blocked"),
+        is_psd(sym.as_ref(), mmax),
+        "M + Mᵀ is positive semidefinite (M is copositive-plus), so there is no solution",
+        "not a proof of infeasibility for this matrix class (M + Mᵀ is not positive \
+         semidefinite, so M is not known to be copositive-plus)",
+    )
 }
 
 /// Why a refactorisation gave no new `B⁻¹`.
@@ -959,7 +760,7 @@ fn invert(b: &[f64], k: usize, stop: &dyn Fn() -> bool) -> Result<Vec<f64>, Brea
         inv[i * k + i] = 1.0;
     }
     let amax = a.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let tol = 1e-13 * amax.max(f64::MIN_POSITIVE);
+    let tol = crate::lcp::local::SINGULAR_PIVOT * amax.max(f64::MIN_POSITIVE);
     for col in 0..k {
         if k > 64 && col % 16 == 0 && stop() {
             return Err(Breakdown::OutOfTime);
@@ -1001,7 +802,7 @@ fn invert(b: &[f64], k: usize, stop: &dyn Fn() -> bool) -> Result<Vec<f64>, Brea
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::test_util::lcp;
     use crate::Status;
     use faer::Mat;
@@ -1127,7 +928,7 @@ mod tests {
         // SPD A with every kind of bound: [0, ∞), (−∞, 0.3], [−0.2, 0.4], free, fixed.
         let n = 10;
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
-        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let a = crate::problem::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
         let lo = vec![0.0, -inf, -0.2, -inf, 0.1, 0.0, -inf, -0.2, -inf, 0.0];

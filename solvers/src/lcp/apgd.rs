@@ -32,8 +32,9 @@
 //! multibody dynamics with friction and contact*, ACM TOG 34(3), 2015; B. O'Donoghue, E. Candès,
 //! *Adaptive restart for accelerated gradient schemes*, Found. Comput. Math. 15, 2015.
 
-use crate::metrics::residuals;
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
+use crate::solver::line_search::{Backtracking, ARMIJO_SIGMA, HALVING};
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
     FIRST_ORDER_STAGNATION_WINDOW,
@@ -43,19 +44,14 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (PGS projection); symmetric A only; O(1/k^2) for SPD/PSD";
 
-/// PGS's projection: non-friction rows clamped to their bounds, then friction rows to `±mu f_k`
-/// at the projected normals.
-pub(crate) fn project(problem: &Problem, f: &mut [f64]) {
-    for (i, fi) in f.iter_mut().enumerate() {
-        if problem.friction_of(i).is_none() {
-            *fi = fi.max(problem.lo()[i]).min(problem.hi()[i]);
-        }
-    }
-    for fr in problem.friction() {
-        let (lo, hi) = problem.bounds_at(fr.row, f);
-        f[fr.row] = f[fr.row].max(lo).min(hi);
-    }
-}
+/// Doublings of the Lipschitz estimate in one iteration before the step is taken as it is: `2⁶⁰`
+/// (about `10¹⁸`) covers any estimate from a unit trial step to the stiffest Delassus matrix in
+/// double precision.
+const LIPSCHITZ_DOUBLINGS: usize = 60;
+
+/// Relative slack in the quadratic upper-bound test (of `|objective|`): a few hundred machine
+/// epsilons, so that a bound met up to round-off is accepted instead of doubling `L` for nothing.
+const BOUND_SLACK: f64 = 1e-14;
 
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     x.iter().zip(y).map(|(a, b)| a * b).sum()
@@ -116,6 +112,9 @@ impl Solver for Apgd {
         let mut iterations = 0;
         let mut trial = vec![0.0; n];
         let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
+        // `search` applies the upper-bound test below, so `σ` plays no part here.
+        let lipschitz_search = Backtracking::new(ARMIJO_SIGMA, HALVING, LIPSCHITZ_DOUBLINGS + 1)
+            .expect("valid constants");
         let outcome = loop {
             if best_res <= tol {
                 break Outcome::Stopped;
@@ -128,23 +127,25 @@ impl Solver for Apgd {
             }
             let g = problem.velocity(&y);
             let obj_y = objective(&y, &g);
-            let mut backtracks = 0;
-            loop {
-                let t = 1.0 / lipschitz;
-                for i in 0..n {
-                    trial[i] = y[i] - t * g[i];
-                }
-                project(problem, &mut trial);
-                let w = problem.velocity(&trial);
-                let step: Vec<f64> = trial.iter().zip(&y).map(|(x, z)| x - z).collect();
-                let bound = obj_y + dot(&g, &step) + 0.5 * lipschitz * dot(&step, &step);
-                let obj = objective(&trial, &w);
-                if obj <= bound + 1e-14 * obj_y.abs().max(1e-300) || backtracks >= 60 {
-                    break;
-                }
-                lipschitz *= 2.0;
-                backtracks += 1;
-            }
+            // Backtracking on the Lipschitz estimate: the step `s / L₀` is tried for
+            // `s = 1, ½, ¼, …`, i.e. `L = L₀ / s` doubles, until the quadratic upper bound holds.
+            // When no step passes, the last one tried stands.
+            let l0 = lipschitz;
+            let s = lipschitz_search
+                .search(|s| {
+                    let l = l0 / s;
+                    let t = 1.0 / l;
+                    for i in 0..n {
+                        trial[i] = y[i] - t * g[i];
+                    }
+                    problem.project_onto_bounds(&mut trial);
+                    let w = problem.velocity(&trial);
+                    let step: Vec<f64> = trial.iter().zip(&y).map(|(x, z)| x - z).collect();
+                    let bound = obj_y + dot(&g, &step) + 0.5 * l * dot(&step, &step);
+                    objective(&trial, &w) <= bound + BOUND_SLACK * obj_y.abs().max(1e-300)
+                })
+                .unwrap_or_else(|last| last);
+            lipschitz = l0 / s;
             let theta_next = 0.5 * (theta * (theta * theta + 4.0).sqrt() - theta * theta);
             let beta = theta * (1.0 - theta) / (theta * theta + theta_next);
             let restart = (0..n).map(|i| g[i] * (trial[i] - f[i])).sum::<f64>() > 0.0;
@@ -181,7 +182,7 @@ impl Solver for Apgd {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::{Lemke, Status};
 
     #[test]

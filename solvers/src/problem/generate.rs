@@ -242,7 +242,7 @@ pub fn p_matrix(n: usize, rng: &mut impl Rng) -> Mat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::residuals;
+    use crate::problem::metrics::residuals;
 
     #[test]
     fn planted_solutions_have_zero_residual() {

@@ -63,7 +63,7 @@
 //! University of California, Berkeley, 1996, ch. 4; B. Mirtich and J. Canny, *Impulse-based
 //! simulation of rigid bodies*, Proc. Symposium on Interactive 3D Graphics, 1995.
 
-use crate::metrics::residuals;
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -241,7 +241,7 @@ impl Solver for MicroImpulse {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::test_util::mat;
     use crate::Status;

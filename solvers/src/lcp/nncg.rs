@@ -27,8 +27,8 @@
 //! Reference: M. Silcowitz, S. Niebe, K. Erleben, *A nonsmooth nonlinear conjugate gradient method
 //! for interactive contact force problems*, The Visual Computer 26, 2010.
 
-use crate::apgd::project;
-use crate::metrics::residuals;
+use crate::problem::diagonal::usable_diagonal;
+use crate::problem::metrics::residuals;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -39,8 +39,8 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (PGS sweeps with conjugate directions); SPD A in practice";
 
-/// One projected Gauss–Seidel sweep in place. Rows whose diagonal is below `1e-12 · max|A|` are
-/// left alone (as in PGS).
+/// One projected Gauss–Seidel sweep in place. Rows with a zero entry in `diag` (tiny diagonals,
+/// [`usable_diagonal`]) are left alone, as in PGS.
 pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
     let b = problem.b();
     for i in 0..f.len() {
@@ -51,27 +51,6 @@ pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
         let (lo, hi) = problem.bounds_at(i, f);
         f[i] = (f[i] - wi / diag[i]).max(lo).min(hi);
     }
-}
-
-/// The diagonal of `A`, with entries `<= 1e-12 · max|A|` set to zero (never divided by).
-pub(crate) fn usable_diagonal(problem: &Problem) -> Vec<f64> {
-    let n = problem.n();
-    let mut diag = vec![0.0; n];
-    let mut amax: f64 = 0.0;
-    for (i, d) in diag.iter_mut().enumerate() {
-        for (j, v) in problem.row(i).iter() {
-            amax = amax.max(v.abs());
-            if j == i {
-                *d = v;
-            }
-        }
-    }
-    for d in &mut diag {
-        if *d <= 1e-12 * amax {
-            *d = 0.0;
-        }
-    }
-    diag
 }
 
 /// NNCG. See the module documentation.
@@ -125,7 +104,7 @@ impl Solver for Nncg {
                     x[i] += beta * p[i];
                     p[i] = beta * p[i] + step;
                 }
-                project(problem, &mut x);
+                problem.project_onto_bounds(&mut x);
             }
             grad_norm2 = g2;
             iterations += 1;
@@ -155,7 +134,7 @@ impl Solver for Nncg {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::{Lemke, ProjectedSor, Status};
 
     #[test]

@@ -79,8 +79,8 @@
 //! * **Never spins**: an iterate that solves the problem while its projection does not (a
 //!   normal at `−1e-20` whose friction rows sit at their bounds `±mu·max(f_k, 0) = 0`; the
 //!   projection clips the normal and leaves the friction rows 100 % wrong) is returned as it
-//!   is: on a 1,008-row island of `sphere_pile_200` the solve otherwise went on for 10,000
-//!   iterations at a residual of `7e-15`. And when the iterate's residual has made no new low,
+//!   is, instead of iterating to the cap at a round-off residual (a 1,008-row island of
+//!   `sphere_pile_200` sits at `7e-15` there). And when the iterate's residual has made no new low,
 //!   1 % below its best, in 100 iterations ([`crate::solver`]'s stagnation rule), a
 //!   warm-started solve restarts once from zero, keeping its best point, and a cold one stops
 //!   `Stalled`.
@@ -92,23 +92,25 @@
 //! methods for linear complementarity problems in physics-based animation*, SIGGRAPH course
 //! 2013, §5 (min-map Newton, num4lcp); Siconos numerics, `NEWTON_MIN_FBLSA`.
 
-use crate::apgd::project;
-use crate::metrics::relative_row_error;
-use crate::pgs::{skipped_rows, sweep_assembled};
-use crate::problem::{DelassusFactors, Problem};
+mod merit;
+
+use crate::lcp::pgs::sweep_assembled;
+use crate::linalg::newton_system::{
+    augmented_pays, dense_direction, reduced_direction, sparse_direction, Elimination, Jacobian,
+    ReducedCache, SparseJacobian, SymbolicCache, System, SIMPLICIAL_UP_TO, SPARSE_BELOW_DENSITY,
+    SPARSE_FROM_ROWS,
+};
+use crate::problem::diagonal::skipped_rows;
+use crate::problem::metrics::{impulse_scale, relative_row_error};
+use crate::problem::Problem;
+use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{
     initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
     SolveResult, Solver, Stagnation,
 };
-use crate::sparse_lu::SparseLu;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::amd;
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
-use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::Mat;
-use faer::{Conj, Par};
+use faer::sparse::linalg::lu::NumericLu;
+use merit::merit_gradient;
+use std::collections::VecDeque;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
@@ -168,39 +170,6 @@ pub struct NewtonWorkspace {
     reduced: ReducedCache,
 }
 
-/// What the sparse reduced systems ([`reduced_direction`]) keep: the last large reduced
-/// system's symbolic analysis and numeric factors' storage, and the island's ordering for the
-/// small ones.
-#[derive(Debug, Clone, Default)]
-struct ReducedCache {
-    symbolic: Option<SymbolicCache>,
-    numeric: NumericLu<usize, f64>,
-    /// The island's fill-reducing ordering, as each row's rank ([`island_rank`]); emptied at
-    /// the start of each island solve.
-    rank: Vec<usize>,
-    /// The small reduced systems' LU storage.
-    lu: SparseLu,
-}
-
-/// A sparse pattern with its column ordering and symbolic LU.
-#[derive(Clone)]
-struct SymbolicCache {
-    size: usize,
-    pairs: Vec<Pair<usize, usize>>,
-    symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
-    lu: SymbolicLu<usize>,
-}
-
-impl std::fmt::Debug for SymbolicCache {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SymbolicCache")
-            .field("size", &self.size)
-            .field("entries", &self.pairs.len())
-            .finish()
-    }
-}
-
 /// How the Newton systems `(H + μI) d = −Φ` are factorised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LinearSystem {
@@ -216,8 +185,9 @@ pub enum LinearSystem {
 /// Which sparse system gives the Newton directions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SparseForm {
-    /// The augmented body-space form when the problem carries its [`DelassusFactors`] and `A`
-    /// has more than twice the augmented system's entries; the Delassus form otherwise.
+    /// The augmented body-space form when the problem carries its
+    /// [`DelassusFactors`](crate::DelassusFactors) and `A` has more than twice the augmented
+    /// system's entries; the Delassus form otherwise.
     Auto,
     /// `H` itself, on the stored pattern of `A`.
     Delassus,
@@ -258,161 +228,28 @@ impl Newton {
 /// `‖Φ‖∞` below this fraction of the island's impulse scale is round-off level: rows still
 /// short of the tolerance there are refined on their own ([`Newton::refine`]).
 const ROUND_OFF: f64 = 1e-12;
+/// Largest Levenberg regularisation `μ` of the Newton system (`μ = min(10⁻², ‖Φ‖∞ / s)`): large
+/// enough to keep `H + μI` regular on a rank-deficient PSD `A` far from the solution, small
+/// enough that the step stays close to Newton's; it vanishes with `Φ`, so the local
+/// convergence stays quadratic.
+pub(crate) const MAX_REGULARISATION: f64 = 1e-2;
 /// Nesting of refinements.
 const MAX_REFINE_DEPTH: usize = 2;
 
-/// Armijo constant.
-const SIGMA: f64 = 1e-4;
-/// Backtracking steps before a direction is given up.
-const MAX_BACKTRACKS: usize = 40;
 /// The non-monotone line search's memory: a step is accepted on sufficient decrease against
 /// the largest merit of the last this many iterates (Grippo, Lampariello and Lucidi's rule).
-/// Measured at 1 (monotone), 5 and 10 (`lcpbench simulate SCENE -s S --steps 50 --tol 1e-8
-/// --max-iter 10000`): pyramid_10 newton-fb 256 → 56 → 47 ms/step, newton-min 47/50 steps
-/// converged at 1.8 s/step → 50/50 at 18 and 20 ms; house_of_cards newton-fb+warm 49/50 at
-/// 29 ms → 50/50 at 3.2 and 0.9 ms; FCLIB spheres-in-a-box newton-fb 150 → 70 iterations,
-/// newton-min stalled at 2.4e-6 → converged in 63.
+/// Ten iterates let full Newton steps cross the kinks of `Φ` (contacts switching between
+/// sticking, sliding and separating) that a monotone search cuts to `2⁻⁶…2⁻¹²`; on the pyramid,
+/// house-of-cards and FCLIB scenes (`lcpbench simulate SCENE -s newton-fb --steps 50`) it
+/// converges every step, where a monotone search leaves steps stalled and takes several times
+/// the iterations.
 const NONMONOTONE_MEMORY: usize = 10;
 /// Newton iterations without a 1 % new low of the iterate's residual after which a solve has
 /// stagnated ([`Stagnation`]): a warm-started solve then restarts once from zero, a cold one
-/// stops `Stalled`. A cold solve of a 843-row sphere-pile island sat at `3.85e-2` for 60
-/// iterations before converging in 10 more; on the 50 steps of `sphere_pile_200` at `1e-8`, a
-/// window of 50 left 19 (FB) and 12 (min-map) cold steps stalled, 100 left 14 and 5, 200 no
-/// fewer.
+/// stops `Stalled`. Long enough for the plateaus a semismooth Newton method crosses on large
+/// sphere piles (a cold 843-row island sits at `3.85e-2` for 60 iterations before converging in
+/// 10 more); a longer window stalls no fewer steps of `sphere_pile_200` and only wastes work.
 const STAGNATION_WINDOW: usize = 100;
-
-/// `φ(a, b) = a + b − √(a² + b²)` and its partial derivatives.
-#[inline]
-fn fb(a: f64, b: f64) -> (f64, f64, f64) {
-    let r = a.hypot(b);
-    if r == 0.0 {
-        let c = 1.0 - std::f64::consts::FRAC_1_SQRT_2;
-        (0.0, c, c)
-    } else {
-        (a + b - r, 1.0 - a / r, 1.0 - b / r)
-    }
-}
-
-/// One row of `Φ` and of the Jacobian: `Φ_i`, `α_i`, `β_i`, and `γ_i`, the derivative with
-/// respect to the normal impulse `f_k` of a friction row (0 otherwise).
-struct RowLinearisation {
-    phi: f64,
-    alpha: f64,
-    beta: f64,
-    gamma: f64,
-}
-
-impl Newton {
-    /// `Φ_i` (and its derivative parts) at `f_i`, scaled velocity `fi_vel`, bounds `(lo, hi)`;
-    /// `dmu` is `∂hi/∂f_k = −∂lo/∂f_k` for a friction row.
-    fn row(&self, fi: f64, vel: f64, lo: f64, hi: f64, dmu: f64) -> RowLinearisation {
-        match self.reformulation {
-            Reformulation::MinMap => {
-                let t = fi - vel;
-                if t <= lo {
-                    RowLinearisation {
-                        phi: fi - lo,
-                        alpha: 1.0,
-                        beta: 0.0,
-                        gamma: dmu,
-                    }
-                } else if t >= hi {
-                    RowLinearisation {
-                        phi: fi - hi,
-                        alpha: 1.0,
-                        beta: 0.0,
-                        gamma: -dmu,
-                    }
-                } else {
-                    RowLinearisation {
-                        phi: vel,
-                        alpha: 0.0,
-                        beta: 1.0,
-                        gamma: 0.0,
-                    }
-                }
-            }
-            Reformulation::FischerBurmeister => match (lo.is_finite(), hi.is_finite()) {
-                (true, false) => {
-                    let (phi, pa, pb) = fb(fi - lo, vel);
-                    RowLinearisation {
-                        phi,
-                        alpha: pa,
-                        beta: pb,
-                        gamma: pa * dmu,
-                    }
-                }
-                (false, true) => {
-                    let (phi, pa, pb) = fb(hi - fi, -vel);
-                    RowLinearisation {
-                        phi: -phi,
-                        alpha: pa,
-                        beta: pb,
-                        gamma: -pa * dmu,
-                    }
-                }
-                (false, false) => RowLinearisation {
-                    phi: vel,
-                    alpha: 0.0,
-                    beta: 1.0,
-                    gamma: 0.0,
-                },
-                (true, true) => {
-                    let (psi, qa, qb) = fb(hi - fi, -vel);
-                    let (phi, pa, pb) = fb(fi - lo, -psi);
-                    RowLinearisation {
-                        phi,
-                        alpha: pa + pb * qa,
-                        beta: pb * qb,
-                        gamma: dmu * (pa - pb * qa),
-                    }
-                }
-            },
-        }
-    }
-
-    /// `Φ(f)` into `phi`, given the scaled velocity `vel = D⁻¹ (A f + b)`; returns `θ = ½‖Φ‖²`.
-    fn merit(&self, problem: &Problem, f: &[f64], vel: &[f64], phi: &mut [f64]) -> f64 {
-        let mut theta = 0.0;
-        for i in 0..f.len() {
-            let (lo, hi) = problem.bounds_at(i, f);
-            let r = self.row(f[i], vel[i], lo, hi, 0.0);
-            phi[i] = r.phi;
-            theta += 0.5 * r.phi * r.phi;
-        }
-        if theta.is_finite() {
-            theta
-        } else {
-            f64::INFINITY
-        }
-    }
-
-    /// The element `H = diag(α) + diag(β) D⁻¹ A + coupling` of the generalised Jacobian at
-    /// `f` (`vel` the scaled velocity): `alpha`, `beta` (holding `β_i / d_i`) and `gamma`.
-    #[allow(clippy::too_many_arguments)]
-    fn linearise(
-        &self,
-        problem: &Problem,
-        f: &[f64],
-        vel: &[f64],
-        d: &[f64],
-        alpha: &mut [f64],
-        beta: &mut [f64],
-        gamma: &mut [f64],
-    ) {
-        for i in 0..f.len() {
-            let (lo, hi) = problem.bounds_at(i, f);
-            let dmu = match (problem.friction_of(i), self.friction) {
-                (Some((k, mu)), FrictionHandling::Direct) if f[k] > 0.0 => mu,
-                _ => 0.0,
-            };
-            let r = self.row(f[i], vel[i], lo, hi, dmu);
-            alpha[i] = r.alpha;
-            beta[i] = r.beta / d[i];
-            gamma[i] = if dmu != 0.0 { r.gamma } else { 0.0 };
-        }
-    }
-}
 
 impl Solver for Newton {
     fn name(&self) -> &'static str {
@@ -435,220 +272,6 @@ impl Solver for Newton {
                 self.solve_island(island, settings, false, 0)
             })
         }
-    }
-}
-
-/// Density (stored entries over `n²`) below which [`LinearSystem::Auto`] factorises sparse.
-const SPARSE_BELOW_DENSITY: f64 = 0.1;
-/// Largest sparse reduced system solved by [`sparse_reduced_solve`] (no ordering or symbolic
-/// analysis of its own); larger ones get faer's COLAMD ordering and supernodal LU, their
-/// symbolic analysis reused while the kept rows stay the same. FCLIB spheres-in-a-box's
-/// 303–368 kept rows take the cheaper path. Above, measured with `lcpbench simulate
-/// bench_scenes/S.toml -s newton-min+warm --steps 50 --tol 1e-8 --max-iter 10000`: with faer's
-/// simplicial LU for every reduced system, pyramid_20 (reduced systems of thousands of rows)
-/// took 55.5 ms per step against 27.2 with COLAMD and supernodal LU; with [`SparseLu`]
-/// (diagonal preference `0.1`) for every one, pyramid_20 was within noise of this limit, and
-/// sphere_pile_100 left 9 of 50 steps at the iteration limit, against 6 with this limit.
-const SIMPLICIAL_UP_TO: usize = 400;
-/// Fraction of an island's rows with `β_i = 0` from which the Newton system is solved through
-/// their [`Elimination`]. Measured against no elimination (`lcpbench simulate SCENE -s S
-/// --steps 50 --tol 1e-8 --max-iter 10000`, solver time per step): sphere_pile_100
-/// newton-min+warm 3.35 s → 0.65 s (46 of 50 steps converged instead of 42), confined
-/// newton-min+warm 797 → 538 ms, pyramid_10 newton-min+warm 16.0 → 9.3 ms, pyramid_20 27 ms
-/// instead of 35, house_of_cards 0.79 → 0.30 ms; tower_40_60hz, arch, wall_105 and pyramid_5
-/// within noise (their contacts stick: after the first iteration of a step no row is
-/// eliminated); FCLIB spheres-in-a-box newton-min 70 → 46 ms in 63 iterations either way.
-const REDUCE_FROM: f64 = 0.1;
-/// Rows from which [`LinearSystem::Auto`] considers the sparse factorisation.
-const SPARSE_FROM_ROWS: usize = 100;
-
-/// One Newton system `H + μI` of an island, with its storage.
-enum Jacobian {
-    /// Dense `A`; `H` formed dense and factorised by partial-pivoting LU.
-    Dense(Mat<f64>),
-    /// Sparse: the fixed pattern of `H` (the pattern of `A`, the diagonal, and a coupling entry
-    /// per friction row), its column ordering and symbolic LU (computed once, or taken from the workspace); each
-    /// iteration refills the values and factorises numerically.
-    Sparse(Box<SparseJacobian>),
-}
-
-/// What a stored entry of the sparse `H` holds.
-#[derive(Clone, Copy)]
-enum EntryKind {
-    /// `β_i A_ij`.
-    A(f64),
-    /// `α_i` (plus the regularisation).
-    Diagonal,
-    /// `γ_i`, the friction row's coupling to its normal.
-    Coupling,
-    /// `β_i J_ic` (augmented form: row `i`'s Jacobian entry at body velocity `c`).
-    Jacobian(f64),
-    /// A fixed value (augmented form: `−1` and the entries of `M⁻¹ Jᵀ`).
-    Fixed(f64),
-}
-
-struct SparseJacobian {
-    /// `(row, column, kind)` per stored entry, in the order of `values`.
-    entries: Vec<(usize, usize, EntryKind)>,
-    /// Unknowns of the system: `n`, plus six body velocities per body of the island in the
-    /// augmented form.
-    size: usize,
-    /// The pattern (`pairs` in the order of `entries`), its ordering and symbolic LU.
-    pattern: SymbolicCache,
-    values: Vec<f64>,
-    /// Numeric LU factors (storage taken from the workspace and given back) and the scratch
-    /// memory of factorisation and solve.
-    numeric: NumericLu<usize, f64>,
-    scratch: MemBuffer,
-}
-
-impl SparseJacobian {
-    fn new(problem: &Problem, cache: Option<SymbolicCache>) -> Result<Self, String> {
-        let n = problem.n();
-        let mut entries = Vec::with_capacity(problem.nnz() + 2 * n);
-        for i in 0..n {
-            // Stored entries enter the pattern even when zero, so it depends on the storage only.
-            for (j, v) in problem.row(i).iter() {
-                entries.push((i, j, EntryKind::A(v)));
-            }
-            // Duplicated positions are summed when the matrix is assembled.
-            entries.push((i, i, EntryKind::Diagonal));
-            if let Some((k, _)) = problem.friction_of(i) {
-                entries.push((i, k, EntryKind::Coupling));
-            }
-        }
-        Self::factor_pattern(entries, n, cache)
-    }
-
-    /// The augmented (body-space) form of `H + μI` for `A = J M⁻¹ Jᵀ`, with the body
-    /// velocities `u = M⁻¹ Jᵀ d` as extra unknowns:
-    ///
-    /// ```text
-    /// [ diag(α) + μI + Γ   diag(β) J ] [d]   [−Φ]
-    /// [ M⁻¹ Jᵀ             −I        ] [u] = [ 0]
-    /// ```
-    ///
-    /// It has `O(nnz(J))` entries where `A` has one per pair of rows sharing a body, so its LU
-    /// fills far less on stacks and piles (the system MuJoCo's Newton solver factorises in
-    /// joint space, here kept unsymmetric for the friction coupling).
-    fn augmented(
-        problem: &Problem,
-        factors: &DelassusFactors,
-        cache: Option<SymbolicCache>,
-    ) -> Result<Self, String> {
-        let n = problem.n();
-        let jac = factors.jacobian();
-        let sym = jac.symbolic();
-        let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), jac.val());
-        // Bodies the island's rows touch, numbered locally.
-        let mut local = vec![usize::MAX; factors.inverse_mass().len()];
-        let mut bodies = Vec::new();
-        for &c in idx.iter().take(ptr[n]) {
-            let body = c / 6;
-            if local[body] == usize::MAX {
-                local[body] = bodies.len();
-                bodies.push(body);
-            }
-        }
-        let size = n + 6 * bodies.len();
-        // Every (row, body) block enters whole, zeros included, so the pattern depends only on
-        // which bodies each row touches and stays the same while the contacts do (a lever arm
-        // component that drifts off exactly zero does not change it, and the symbolic analysis
-        // in the workspace is reused).
-        let mut entries = Vec::with_capacity(24 * n + 6 * bodies.len());
-        let minv = factors.inverse_mass();
-        let mut m_jt = Vec::new();
-        for i in 0..n {
-            let mut k = ptr[i];
-            while k < ptr[i + 1] {
-                let body = idx[k] / 6;
-                let mut jb = [0.0; 6];
-                while k < ptr[i + 1] && idx[k] / 6 == body {
-                    jb[idx[k] % 6] = val[k];
-                    k += 1;
-                }
-                let first = n + 6 * local[body];
-                for (c, &v) in jb.iter().enumerate() {
-                    entries.push((i, first + c, EntryKind::Jacobian(v)));
-                }
-                // Column i of M⁻¹ Jᵀ (row i of J gives column i).
-                for (r, row) in minv[body].iter().enumerate() {
-                    let v: f64 = row.iter().zip(&jb).map(|(a, b)| a * b).sum();
-                    m_jt.push((first + r, i, EntryKind::Fixed(v)));
-                }
-            }
-            entries.push((i, i, EntryKind::Diagonal));
-            if let Some((k, _)) = problem.friction_of(i) {
-                entries.push((i, k, EntryKind::Coupling));
-            }
-        }
-        entries.append(&mut m_jt);
-        for r in n..size {
-            entries.push((r, r, EntryKind::Fixed(-1.0)));
-        }
-        Self::factor_pattern(entries, size, cache)
-    }
-
-    /// The pattern, its column ordering and the symbolic LU; those of `cache` when its pattern
-    /// is the same.
-    fn factor_pattern(
-        entries: Vec<(usize, usize, EntryKind)>,
-        size: usize,
-        cache: Option<SymbolicCache>,
-    ) -> Result<Self, String> {
-        let pairs: Vec<Pair<usize, usize>> = entries
-            .iter()
-            .map(|&(row, col, _)| Pair { row, col })
-            .collect();
-        let pattern = match cache {
-            Some(c) if c.size == size && c.pairs == pairs => c,
-            _ => {
-                let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(
-                    size, size, &pairs,
-                )
-                .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
-                // Supernodal always: the contact blocks (three rows per contact point, six
-                // columns per body) make dense supernodes, and faer's flop-ratio rule chose the
-                // simplicial LU on towers, where it took 2.6× the instructions.
-                let params = LuSymbolicParams {
-                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                    ..Default::default()
-                };
-                let lu = factorize_symbolic_lu(symbolic.as_ref(), params)
-                    .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
-                SymbolicCache {
-                    size,
-                    pairs,
-                    symbolic,
-                    argsort,
-                    lu,
-                }
-            }
-        };
-        // Fixed entries hold their values from the start; the others are set per iteration.
-        let values = entries
-            .iter()
-            .map(|&(_, _, kind)| match kind {
-                EntryKind::Fixed(v) => v,
-                _ => 0.0,
-            })
-            .collect();
-        let scratch = StackReq::any_of(&[
-            pattern
-                .lu
-                .factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            pattern.lu.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let scratch = MemBuffer::try_new(scratch)
-            .map_err(|_| "no memory for the sparse LU's scratch space".to_string())?;
-        Ok(Self {
-            entries,
-            size,
-            pattern,
-            values,
-            numeric: NumericLu::new(),
-            scratch,
-        })
     }
 }
 
@@ -679,72 +302,18 @@ impl Newton {
         let mut monitor = Monitor::new(problem, settings);
         let n = problem.n();
         self.workspace.reduced.rank.clear();
-        let limit = if sparse {
-            self.max_sparse
-        } else {
-            self.max_dense
-        };
-        if n > limit {
-            return monitor.finish(
-                Vec::new(),
-                0,
-                Outcome::Unsupported(format!(
-                    "n = {n} rows: the {} Newton system is formed only up to n = {limit}",
-                    if sparse { "sparse" } else { "dense" }
-                )),
-            );
+        if let Some(reason) = self.too_large(n, sparse) {
+            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
         }
         // Formed at the first iteration that needs a direction: a warm start that already meets
         // the tolerance costs no factorisation analysis.
         let mut jacobian: Option<Jacobian> = None;
         let d = problem.diagonal_scale();
-        let d = &d[..];
+        let ops = Scaled { problem, d: &d };
         let skip = skipped_rows(problem);
-        let b = problem.b();
-        let scale = {
-            let s = (0..n)
-                .map(|i| (b[i] / d[i]).abs())
-                .chain(
-                    (0..n)
-                        .filter(|&i| problem.friction_of(i).is_none())
-                        .flat_map(|i| [problem.lo()[i], problem.hi()[i]])
-                        .filter(|v| v.is_finite())
-                        .map(f64::abs),
-                )
-                .fold(0.0_f64, f64::max);
-            if s > 0.0 {
-                s
-            } else {
-                1.0
-            }
-        };
-        // D⁻¹ A x (without b).
-        let scaled_product = |x: &[f64], out: &mut [f64]| {
-            for (i, o) in out.iter_mut().enumerate() {
-                *o = problem.row(i).dot(x) / d[i];
-            }
-        };
-        let scaled_velocity = |f: &[f64], out: &mut [f64]| {
-            scaled_product(f, out);
-            for i in 0..n {
-                out[i] += b[i] / d[i];
-            }
-        };
-        let mut f = initial_impulse(problem, settings);
-        let mut vel = vec![0.0; n];
-        scaled_velocity(&f, &mut vel);
-        let mut phi = vec![0.0; n];
-        let mut theta = self.merit(problem, &f, &vel, &mut phi);
-        // The merits of the last NONMONOTONE_MEMORY iterates; the line search's reference.
-        let mut recent = std::collections::VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
-        recent.push_back(theta);
-        let mut trial_f = vec![0.0; n];
-        let mut trial_vel = vec![0.0; n];
-        let mut trial_phi = vec![0.0; n];
-        let mut ad = vec![0.0; n];
-        let mut alpha = vec![0.0; n];
-        let mut beta = vec![0.0; n];
-        let mut gamma = vec![0.0; n];
+        let scale = impulse_scale(problem);
+        let mut it = self.start(&ops, initial_impulse(problem, settings));
+        let mut lin = Linearisation::new(n);
         let mut iterations = 0;
         let tol = settings.tolerance;
         let mut refined = false;
@@ -757,12 +326,13 @@ impl Newton {
             .as_ref()
             .is_some_and(|ws| ws.len() == n && ws.iter().any(|v| *v != 0.0));
         let mut restarted = false;
+        let line_search = Backtracking::newton();
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
-            let progress = match finished(problem, &mut monitor, &f, &skip, d, tol) {
+            let progress = match finished(problem, &mut monitor, &it.f, &skip, &d, tol) {
                 Ok(done) => {
-                    f = done;
+                    it.f = done;
                     break Outcome::Stopped;
                 }
                 Err(short) => {
@@ -772,14 +342,14 @@ impl Newton {
                     short.iterate
                 }
             };
-            let phi_inf = phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            let phi_inf = it.phi.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
             if !refined && depth < MAX_REFINE_DEPTH && phi_inf <= ROUND_OFF * scale {
                 refined = true;
                 let (done, sub_iterations) =
-                    self.refine(problem, &mut monitor, settings, &f, depth);
+                    self.refine(problem, &mut monitor, settings, &it.f, depth);
                 iterations += sub_iterations;
                 if let Some(done) = done {
-                    f = done;
+                    it.f = done;
                     break Outcome::Stopped;
                 }
             }
@@ -809,101 +379,40 @@ impl Newton {
                     warm_start: None,
                     ..settings.clone()
                 };
-                f = initial_impulse(problem, &cold);
-                scaled_velocity(&f, &mut vel);
-                theta = self.merit(problem, &f, &vel, &mut phi);
-                recent.clear();
-                recent.push_back(theta);
+                it = self.start(&ops, initial_impulse(problem, &cold));
                 continue;
             }
-            self.linearise(problem, &f, &vel, d, &mut alpha, &mut beta, &mut gamma);
-            let mu_reg = (phi_inf / scale).min(1e-2);
+            self.linearise(
+                problem,
+                &it.f,
+                &it.vel,
+                &d,
+                &mut lin.alpha,
+                &mut lin.beta,
+                &mut lin.gamma,
+            );
             let system = System {
-                alpha: &alpha,
-                beta: &beta,
-                gamma: &gamma,
-                phi: &phi,
-                mu_reg,
+                alpha: &lin.alpha,
+                beta: &lin.beta,
+                gamma: &lin.gamma,
+                phi: &it.phi,
+                mu_reg: (phi_inf / scale).min(MAX_REGULARISATION),
             };
-            let elimination = Elimination::of(problem, &system);
-            if jacobian.is_none() && elimination.is_none() {
-                match self.jacobian(problem, sparse) {
-                    Ok(j) => jacobian = Some(j),
-                    Err(e) => break Outcome::NumericalFailure(e),
-                }
-            }
             let grad = merit_gradient(problem, &system);
-            let newton_dir = match (elimination, jacobian.as_mut()) {
-                (Some(e), _) => reduced_direction(
-                    problem,
-                    &e,
-                    &system,
-                    !sparse,
-                    SIMPLICIAL_UP_TO,
-                    &mut self.workspace.reduced,
-                ),
-                (None, Some(Jacobian::Dense(a))) => dense_direction(problem, a, &system),
-                (None, Some(Jacobian::Sparse(j))) => sparse_direction(j, &system),
-                (None, None) => {
-                    break Outcome::NumericalFailure("no Newton system was formed".into())
-                }
+            let newton_dir = match self.direction(problem, &system, sparse, &mut jacobian) {
+                Ok(dir) => dir,
+                Err(outcome) => break outcome,
             };
-            let dnorm2: f64 = newton_dir.iter().map(|v| v * v).sum();
-            let slope: f64 = (0..n).map(|i| grad[i] * newton_dir[i]).sum();
-            let gnorm = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let newton_ok =
-                newton_dir.iter().all(|v| v.is_finite()) && slope <= -1e-8 * gnorm * dnorm2.sqrt();
-            let gradient_dir: Vec<f64> = (0..n).map(|i| -grad[i]).collect();
-            let gslope = -(0..n).map(|i| grad[i] * grad[i]).sum::<f64>();
-            let candidates: Vec<(&[f64], f64)> = if newton_ok {
-                vec![(&newton_dir, slope), (&gradient_dir, gslope)]
-            } else {
-                vec![(&gradient_dir, gslope)]
-            };
-            // Non-monotone Armijo rule: sufficient decrease against the largest recent merit.
-            let reference = recent.iter().copied().fold(theta, f64::max);
-            let mut accepted = false;
-            for (direction, slope) in candidates {
-                if slope.is_nan() || slope >= 0.0 {
-                    continue;
-                }
-                scaled_product(direction, &mut ad);
-                let mut t = 1.0;
-                for _ in 0..MAX_BACKTRACKS {
-                    for i in 0..n {
-                        trial_f[i] = f[i] + t * direction[i];
-                        trial_vel[i] = vel[i] + t * ad[i];
-                    }
-                    let trial_theta = self.merit(problem, &trial_f, &trial_vel, &mut trial_phi);
-                    if trial_theta <= reference + SIGMA * t * slope {
-                        std::mem::swap(&mut f, &mut trial_f);
-                        std::mem::swap(&mut phi, &mut trial_phi);
-                        accepted = true;
-                        break;
-                    }
-                    t *= 0.5;
-                }
-                if accepted {
-                    break;
-                }
-            }
             iterations += 1;
-            if !accepted {
-                monitor.record(iterations, &f);
+            if !self.line_search_step(&ops, &mut it, &grad, &newton_dir, &line_search) {
+                monitor.record(iterations, &it.f);
                 break Outcome::Stalled(format!(
                     "the line search found no decrease of the merit function at iteration \
                      {iterations} (a stationary point that is not a solution)"
                 ));
             }
-            // Recompute the velocity from scratch so round-off does not accumulate.
-            scaled_velocity(&f, &mut vel);
-            theta = self.merit(problem, &f, &vel, &mut phi);
-            recent.push_back(theta);
-            if recent.len() > NONMONOTONE_MEMORY {
-                recent.pop_front();
-            }
-            monitor.record(iterations, &f);
-            if f.iter().any(|v| !v.is_finite()) {
+            monitor.record(iterations, &it.f);
+            if it.f.iter().any(|v| !v.is_finite()) {
                 break Outcome::NumericalFailure(format!(
                     "non-finite iterate at iteration {iterations}"
                 ));
@@ -917,6 +426,7 @@ impl Newton {
         // the iterate itself and `best`. Every other exit leaves `f` as [`finished`] measured
         // it at the top of the last iteration, so its projection and polish are in `best`
         // already; the one exception, a non-finite iterate, falls back on `best` too.
+        let mut f = it.f;
         if outcome != Outcome::Stopped {
             let raw = monitor.residual_of(&f);
             if raw.is_nan() || best.0 <= raw {
@@ -924,6 +434,143 @@ impl Newton {
             }
         }
         monitor.finish(f, iterations, outcome)
+    }
+
+    /// Why an island of `n` rows is beyond the size up to which the (sparse or dense) Newton
+    /// system is formed, if it is.
+    fn too_large(&self, n: usize, sparse: bool) -> Option<String> {
+        let limit = if sparse {
+            self.max_sparse
+        } else {
+            self.max_dense
+        };
+        (n > limit).then(|| {
+            format!(
+                "n = {n} rows: the {} Newton system is formed only up to n = {limit}",
+                if sparse { "sparse" } else { "dense" }
+            )
+        })
+    }
+
+    /// The iterate at `f`: its scaled velocity, `Φ` and merit, with a fresh line-search memory.
+    fn start(&self, ops: &Scaled<'_>, f: Vec<f64>) -> Iterate {
+        let n = f.len();
+        let mut vel = vec![0.0; n];
+        ops.velocity(&f, &mut vel);
+        let mut phi = vec![0.0; n];
+        let theta = self.merit(ops.problem, &f, &vel, &mut phi);
+        let mut recent = VecDeque::with_capacity(NONMONOTONE_MEMORY + 1);
+        recent.push_back(theta);
+        Iterate {
+            f,
+            vel,
+            phi,
+            theta,
+            recent,
+            trial_f: vec![0.0; n],
+            trial_vel: vec![0.0; n],
+            trial_phi: vec![0.0; n],
+            ad: vec![0.0; n],
+        }
+    }
+
+    /// The Newton direction `(H + μI)⁻¹(−Φ)` of `system`: through the [`Elimination`] of the
+    /// rows with `β_i = 0` when it pays, otherwise from the island's full system, formed on
+    /// first use. `Err` with the outcome when the system cannot be formed.
+    fn direction(
+        &mut self,
+        problem: &Problem,
+        system: &System<'_>,
+        sparse: bool,
+        jacobian: &mut Option<Jacobian>,
+    ) -> Result<Vec<f64>, Outcome> {
+        let elimination = Elimination::of(problem, system);
+        if jacobian.is_none() && elimination.is_none() {
+            *jacobian = Some(
+                self.jacobian(problem, sparse)
+                    .map_err(Outcome::NumericalFailure)?,
+            );
+        }
+        match (elimination, jacobian.as_mut()) {
+            (Some(e), _) => Ok(reduced_direction(
+                problem,
+                &e,
+                system,
+                !sparse,
+                SIMPLICIAL_UP_TO,
+                &mut self.workspace.reduced,
+            )),
+            (None, Some(Jacobian::Dense(a))) => Ok(dense_direction(problem, a, system)),
+            (None, Some(Jacobian::Sparse(j))) => Ok(sparse_direction(j, system)),
+            (None, None) => Err(Outcome::NumericalFailure(
+                "no Newton system was formed".into(),
+            )),
+        }
+    }
+
+    /// One step from `it`: along the Newton direction when it is a descent direction for the
+    /// merit, else (or when no step along it passes) along `−∇θ`, its length from the
+    /// non-monotone Armijo rule (sufficient decrease against the largest recent merit). On
+    /// success `it` moves to the new iterate, whose velocity is recomputed from scratch so that
+    /// round-off does not accumulate. False when neither direction gives a decrease.
+    fn line_search_step(
+        &self,
+        ops: &Scaled<'_>,
+        it: &mut Iterate,
+        grad: &[f64],
+        newton_dir: &[f64],
+        line_search: &Backtracking,
+    ) -> bool {
+        let n = grad.len();
+        let dnorm2: f64 = newton_dir.iter().map(|v| v * v).sum();
+        let slope: f64 = (0..n).map(|i| grad[i] * newton_dir[i]).sum();
+        let gnorm = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let newton_ok = is_descent(newton_dir, slope, gnorm, dnorm2.sqrt());
+        let gradient_dir: Vec<f64> = (0..n).map(|i| -grad[i]).collect();
+        let gslope = -(0..n).map(|i| grad[i] * grad[i]).sum::<f64>();
+        let candidates: Vec<(&[f64], f64)> = if newton_ok {
+            vec![(newton_dir, slope), (&gradient_dir, gslope)]
+        } else {
+            vec![(&gradient_dir, gslope)]
+        };
+        let reference = it.recent.iter().copied().fold(it.theta, f64::max);
+        let accepted = candidates.into_iter().any(|(direction, slope)| {
+            if slope.is_nan() || slope >= 0.0 {
+                return false;
+            }
+            ops.product(direction, &mut it.ad);
+            let Iterate {
+                f,
+                vel,
+                trial_f,
+                trial_vel,
+                trial_phi,
+                ad,
+                ..
+            } = &mut *it;
+            let step = line_search.armijo(reference, slope, |t| {
+                for i in 0..n {
+                    trial_f[i] = f[i] + t * direction[i];
+                    trial_vel[i] = vel[i] + t * ad[i];
+                }
+                self.merit(ops.problem, trial_f, trial_vel, trial_phi)
+            });
+            if step.is_some() {
+                // The trial buffers hold the accepted step's iterate and `Φ`.
+                std::mem::swap(&mut it.f, &mut it.trial_f);
+                std::mem::swap(&mut it.phi, &mut it.trial_phi);
+            }
+            step.is_some()
+        });
+        if accepted {
+            ops.velocity(&it.f, &mut it.vel);
+            it.theta = self.merit(ops.problem, &it.f, &it.vel, &mut it.phi);
+            it.recent.push_back(it.theta);
+            if it.recent.len() > NONMONOTONE_MEMORY {
+                it.recent.pop_front();
+            }
+        }
+        accepted
     }
 
     /// The rows still short of the tolerance when the whole island is at round-off level of
@@ -1026,7 +673,7 @@ fn finished(
     tol: f64,
 ) -> Result<Vec<f64>, ShortOfTolerance> {
     let mut fp = f.to_vec();
-    project(problem, &mut fp);
+    problem.project_onto_bounds(&mut fp);
     let projected = monitor.residual_of(&fp);
     if projected <= tol {
         return Ok(fp);
@@ -1058,6 +705,65 @@ fn finished(
     })
 }
 
+/// The scaled products of an island: `D⁻¹ A x` and the scaled velocity `D⁻¹ (A f + b)`.
+struct Scaled<'a> {
+    problem: &'a Problem,
+    /// The diagonal scale `D`.
+    d: &'a [f64],
+}
+
+impl Scaled<'_> {
+    /// `out = D⁻¹ A x` (without `b`).
+    fn product(&self, x: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.problem.row(i).dot(x) / self.d[i];
+        }
+    }
+
+    /// `out = D⁻¹ (A f + b)`.
+    fn velocity(&self, f: &[f64], out: &mut [f64]) {
+        self.product(f, out);
+        let b = self.problem.b();
+        for (i, o) in out.iter_mut().enumerate() {
+            *o += b[i] / self.d[i];
+        }
+    }
+}
+
+/// The Newton iterate with its scaled velocity, `Φ`, merit `θ`, the merits of the last
+/// [`NONMONOTONE_MEMORY`] iterates (the line search's reference), and the line search's trial
+/// buffers.
+struct Iterate {
+    f: Vec<f64>,
+    vel: Vec<f64>,
+    phi: Vec<f64>,
+    theta: f64,
+    recent: VecDeque<f64>,
+    trial_f: Vec<f64>,
+    trial_vel: Vec<f64>,
+    trial_phi: Vec<f64>,
+    /// `D⁻¹ A d` along the direction being searched.
+    ad: Vec<f64>,
+}
+
+/// The rows of the generalised Jacobian at the iterate: `α`, `β` (holding `β_i / d_i`) and the
+/// friction couplings `γ`.
+struct Linearisation {
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    gamma: Vec<f64>,
+}
+
+impl Linearisation {
+    fn new(n: usize) -> Self {
+        Self {
+            alpha: vec![0.0; n],
+            beta: vec![0.0; n],
+            gamma: vec![0.0; n],
+        }
+    }
+}
+
 /// What [`finished`] measured at an iterate short of the tolerance.
 struct ShortOfTolerance {
     /// The smallest residual of the iterate, its projection and the polished projection.
@@ -1068,446 +774,10 @@ struct ShortOfTolerance {
     iterate: f64,
 }
 
-/// Whether the augmented body-space system is worth its extra unknowns: when `A` has more
-/// than twice its entries (about `2·nnz(J) + n + 6·bodies`). Measured: a 40-box tower (A has
-/// 1.4× the augmented entries) factorises in 0.6× the time in the `A` form; the 4,800-row
-/// `pyramid_20` island (3.5×) in 0.7× the time in the augmented form.
-fn augmented_pays(problem: &Problem, factors: &DelassusFactors) -> bool {
-    let jac = factors.jacobian();
-    let augmented = 2 * jac.compute_nnz() + problem.n() + jac.ncols();
-    problem.nnz() > 2 * augmented
-}
-
-/// The merit gradient `∇θ = HᵀΦ` for `H = diag(α) + diag(β) D⁻¹A + coupling` (the
-/// regularisation is not part of `H`), in one pass over the stored entries of `A`, whatever its
-/// storage.
-fn merit_gradient(problem: &Problem, system: &System<'_>) -> Vec<f64> {
-    let &System {
-        alpha,
-        beta,
-        gamma,
-        phi,
-        ..
-    } = system;
-    let n = phi.len();
-    let mut grad = vec![0.0; n];
-    for i in 0..n {
-        let s = beta[i] * phi[i];
-        if s != 0.0 {
-            for (c, a) in problem.row(i).iter() {
-                grad[c] += a * s;
-            }
-        }
-        grad[i] += alpha[i] * phi[i];
-        if gamma[i] != 0.0 {
-            if let Some((k, _)) = problem.friction_of(i) {
-                grad[k] += gamma[i] * phi[i];
-            }
-        }
-    }
-    grad
-}
-
-/// The Newton direction `(H + μI)⁻¹(−Φ)`, dense.
-fn dense_direction(problem: &Problem, a: &Mat<f64>, system: &System<'_>) -> Vec<f64> {
-    let &System {
-        alpha,
-        beta,
-        gamma,
-        phi,
-        mu_reg,
-    } = system;
-    let n = phi.len();
-    let mut h = Mat::from_fn(n, n, |i, j| beta[i] * a[(i, j)]);
-    for i in 0..n {
-        h[(i, i)] += alpha[i] + mu_reg;
-        if gamma[i] != 0.0 {
-            if let Some((k, _)) = problem.friction_of(i) {
-                h[(i, k)] += gamma[i];
-            }
-        }
-    }
-    let mut dir = Mat::from_fn(n, 1, |i, _| -phi[i]);
-    h.partial_piv_lu().solve_in_place(&mut dir);
-    (0..n).map(|i| dir[(i, 0)]).collect()
-}
-
-/// The Newton direction `(H + μI)⁻¹(−Φ)` with the sparse LU. A failed numeric factorisation
-/// gives a non-finite direction (the gradient step is then taken).
-fn sparse_direction(j: &mut SparseJacobian, system: &System<'_>) -> Vec<f64> {
-    let &System {
-        alpha,
-        beta,
-        gamma,
-        phi,
-        mu_reg,
-    } = system;
-    for (v, &(i, _, kind)) in j.values.iter_mut().zip(&j.entries) {
-        *v = match kind {
-            EntryKind::A(a) | EntryKind::Jacobian(a) => beta[i] * a,
-            EntryKind::Diagonal => alpha[i] + mu_reg,
-            EntryKind::Coupling => gamma[i],
-            EntryKind::Fixed(v) => v,
-        };
-    }
-    let rhs: Vec<f64> = phi.iter().map(|v| -v).collect();
-    factor_and_solve(j, &rhs)
-}
-
-/// Factorises `j` with its current values and solves for `rhs` (padded with zeros up to the
-/// system's size); the first `rhs.len()` unknowns. A failed factorisation gives NaN.
-fn factor_and_solve(j: &mut SparseJacobian, rhs: &[f64]) -> Vec<f64> {
-    let n = rhs.len();
-    let failed = || vec![f64::NAN; n];
-    let p = &j.pattern;
-    let Ok(h) = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &j.values) else {
-        return failed();
-    };
-    let stack = MemStack::new(&mut j.scratch);
-    let Ok(lu) = p.lu.factorize_numeric_lu(
-        &mut j.numeric,
-        h.as_ref(),
-        Par::Seq,
-        stack,
-        Default::default(),
-    ) else {
-        return failed();
-    };
-    let mut dir = Mat::from_fn(j.size, 1, |i, _| if i < n { rhs[i] } else { 0.0 });
-    lu.solve_in_place_with_conj(
-        Conj::No,
-        dir.as_mut(),
-        Par::Seq,
-        MemStack::new(&mut j.scratch),
-    );
-    (0..n).map(|i| dir[(i, 0)]).collect()
-}
-
-/// One Newton system `(H + μI) d = −Φ`: `H`'s coefficients as [`Newton::linearise`] gives them
-/// (`beta` holding `β_i / d_i`), `Φ` and the regularisation `μ`.
-struct System<'a> {
-    alpha: &'a [f64],
-    beta: &'a [f64],
-    gamma: &'a [f64],
-    phi: &'a [f64],
-    mu_reg: f64,
-}
-
-/// The rows of `H + μI` that [`reduced_direction`] eliminates, and how: a row with `β_i = 0`
-/// (min-map: a row clamped at a bound; FB: a row exactly at its bound with a separating
-/// velocity) reads `(α_i + μ) d_i + γ_i d_k = −Φ_i`, so `d_i = c_i + g_i d_k` with `g_i ≠ 0`
-/// only for a friction row whose normal `k` is kept.
-struct Elimination {
-    /// Position of each kept row in the reduced system, `usize::MAX` for an eliminated one.
-    position: Vec<usize>,
-    /// The kept rows, increasing.
-    kept: Vec<usize>,
-    /// `c_i` for eliminated rows.
-    offset: Vec<f64>,
-    /// `(g_i, k)` for eliminated friction rows whose normal is kept.
-    slope: Vec<Option<(f64, usize)>>,
-}
-
-impl Elimination {
-    /// `None` when fewer than [`REDUCE_FROM`] of the rows can be eliminated (the full system
-    /// is then cheaper to refactorise on its cached pattern) or a pivot `α_i + μ` is not
-    /// positive.
-    fn of(problem: &Problem, system: &System<'_>) -> Option<Self> {
-        let &System {
-            alpha,
-            beta,
-            gamma,
-            phi,
-            mu_reg,
-        } = system;
-        let n = phi.len();
-        let eliminated = beta.iter().filter(|&&b| b == 0.0).count();
-        if eliminated == 0 || (eliminated as f64) < REDUCE_FROM * n as f64 {
-            return None;
-        }
-        let mut position = vec![usize::MAX; n];
-        let mut kept = Vec::with_capacity(n - eliminated);
-        for i in 0..n {
-            if beta[i] != 0.0 {
-                position[i] = kept.len();
-                kept.push(i);
-            }
-        }
-        let mut offset = vec![0.0; n];
-        let mut slope = vec![None; n];
-        // Normal rows first (they carry no coupling), then the friction rows that hang on them.
-        for pass in 0..2 {
-            for i in 0..n {
-                if beta[i] != 0.0 || (pass == 0) == problem.friction_of(i).is_some() {
-                    continue;
-                }
-                let pivot = alpha[i] + mu_reg;
-                if !(pivot > 0.0 && pivot.is_finite()) {
-                    return None;
-                }
-                offset[i] = -phi[i] / pivot;
-                if gamma[i] != 0.0 {
-                    let (k, _) = problem.friction_of(i)?;
-                    let g = -gamma[i] / pivot;
-                    if position[k] == usize::MAX {
-                        offset[i] += g * offset[k];
-                    } else {
-                        slope[i] = Some((g, position[k]));
-                    }
-                }
-            }
-        }
-        Some(Self {
-            position,
-            kept,
-            offset,
-            slope,
-        })
-    }
-
-    /// The reduced system `R d_K = r` over the kept rows, entry by entry (duplicated positions
-    /// add up), and its right-hand side: row `i` of `H + μI` with every eliminated `d_c`
-    /// replaced by `c_c + g_c d_k`.
-    fn reduced_system(
-        &self,
-        problem: &Problem,
-        system: &System<'_>,
-        mut entry: impl FnMut(usize, usize, f64),
-    ) -> Vec<f64> {
-        let System {
-            beta, gamma, phi, ..
-        } = system;
-        let mut rhs = vec![0.0; self.kept.len()];
-        let mut add = |r: usize, c: usize, v: f64, rhs: &mut [f64]| {
-            let p = self.position[c];
-            if p != usize::MAX {
-                entry(r, p, v);
-            } else {
-                rhs[r] -= v * self.offset[c];
-                if let Some((g, k)) = self.slope[c] {
-                    entry(r, k, v * g);
-                }
-            }
-        };
-        for (r, &i) in self.kept.iter().enumerate() {
-            rhs[r] -= phi[i];
-            for (c, a) in problem.row(i).iter() {
-                add(r, c, beta[i] * a, &mut rhs);
-            }
-            add(r, i, system.alpha[i] + system.mu_reg, &mut rhs);
-            if gamma[i] != 0.0 {
-                if let Some((k, _)) = problem.friction_of(i) {
-                    add(r, k, gamma[i], &mut rhs);
-                }
-            }
-        }
-        rhs
-    }
-
-    /// The full direction from the kept rows' part `x`.
-    fn expand(&self, x: &[f64]) -> Vec<f64> {
-        (0..self.position.len())
-            .map(|i| match self.position[i] {
-                usize::MAX => self.offset[i] + self.slope[i].map_or(0.0, |(g, k)| g * x[k]),
-                p => x[p],
-            })
-            .collect()
-    }
-}
-
-/// The Newton direction `(H + μI)⁻¹(−Φ)` through the [`Elimination`] of the rows with
-/// `β_i = 0`: dense LU of the reduced matrix when `dense`; else, up to `simplicial_up_to`
-/// ([`SIMPLICIAL_UP_TO`]) kept rows, [`sparse_reduced_solve`], and above, faer's sparse LU on
-/// the reduced pattern (the symbolic analysis in `cache` reused while the kept rows, and so the
-/// pattern, stay the same). A failed factorisation gives a non-finite direction.
-fn reduced_direction(
-    problem: &Problem,
-    elimination: &Elimination,
-    system: &System<'_>,
-    dense: bool,
-    simplicial_up_to: usize,
-    cache: &mut ReducedCache,
-) -> Vec<f64> {
-    let m = elimination.kept.len();
-    let x = if dense {
-        let mut r = Mat::<f64>::zeros(m, m);
-        let rhs = elimination.reduced_system(problem, system, |i, j, v| r[(i, j)] += v);
-        let mut x = Mat::from_fn(m, 1, |i, _| rhs[i]);
-        r.partial_piv_lu().solve_in_place(&mut x);
-        (0..m).map(|i| x[(i, 0)]).collect::<Vec<f64>>()
-    } else {
-        let mut rows = RowAssembly::new(m, problem.nnz());
-        let rhs = elimination.reduced_system(problem, system, |i, j, v| rows.add(i, j, v));
-        let rt = rows.transpose();
-        if m <= simplicial_up_to {
-            sparse_reduced_solve(problem, elimination, rt, &rhs, cache)
-        } else {
-            let mut entries = Vec::with_capacity(rt.val().len());
-            for r in 0..m {
-                for (c, &v) in rt.row_idx_of_col(r).zip(rt.val_of_col(r)) {
-                    entries.push((r, c, EntryKind::Fixed(v)));
-                }
-            }
-            match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
-                Ok(mut j) => {
-                    j.numeric = std::mem::take(&mut cache.numeric);
-                    let x = factor_and_solve(&mut j, &rhs);
-                    cache.symbolic = Some(j.pattern);
-                    cache.numeric = j.numeric;
-                    x
-                }
-                Err(_) => vec![f64::NAN; m],
-            }
-        }
-    };
-    elimination.expand(&x)
-}
-
-/// A sparse matrix `R` assembled row by row into the compressed columns of `Rᵀ`: the entries of
-/// a row arrive together and rows in increasing order, as [`Elimination::reduced_system`] gives
-/// them, so no sort of the entries is needed; duplicated positions add up.
-struct RowAssembly {
-    size: usize,
-    /// Start of each row begun so far (the column pointers of `Rᵀ`).
-    start: Vec<usize>,
-    col: Vec<usize>,
-    val: Vec<f64>,
-    /// Per column, where its entry of the current row is (an older position: none yet).
-    slot: Vec<usize>,
-}
-
-impl RowAssembly {
-    fn new(size: usize, capacity: usize) -> Self {
-        let mut start = Vec::with_capacity(size + 1);
-        start.push(0);
-        Self {
-            size,
-            start,
-            col: Vec::with_capacity(capacity),
-            val: Vec::with_capacity(capacity),
-            slot: vec![usize::MAX; size],
-        }
-    }
-
-    fn add(&mut self, r: usize, c: usize, v: f64) {
-        while self.start.len() <= r {
-            self.start.push(self.col.len());
-        }
-        let s = self.slot[c];
-        if s != usize::MAX && s >= self.start[r] {
-            self.val[s] += v;
-        } else {
-            self.slot[c] = self.col.len();
-            self.col.push(c);
-            self.val.push(v);
-        }
-    }
-
-    /// `Rᵀ`, each column's row indices sorted.
-    fn transpose(mut self) -> SparseColMat<usize, f64> {
-        while self.start.len() <= self.size {
-            self.start.push(self.col.len());
-        }
-        let mut pairs = Vec::new();
-        for r in 0..self.size {
-            let (a, b) = (self.start[r], self.start[r + 1]);
-            pairs.clear();
-            pairs.extend((a..b).map(|k| (self.col[k], self.val[k])));
-            pairs.sort_unstable_by_key(|&(c, _)| c);
-            for (k, &(c, v)) in (a..b).zip(&pairs) {
-                self.col[k] = c;
-                self.val[k] = v;
-            }
-        }
-        let symbolic =
-            SymbolicSparseColMat::new_checked(self.size, self.size, self.start, None, self.col);
-        SparseColMat::new(symbolic, self.val)
-    }
-}
-
-/// The solution of the reduced system `R x = rhs`, given `Rᵀ`, by the sparse LU of `Rᵀ`
-/// ([`SparseLu`]: left-looking, threshold partial pivoting, no symbolic analysis) and a
-/// transposed solve. The column order is the island's fill-reducing ordering ([`island_rank`],
-/// computed once per island solve) restricted to the kept rows, so an iteration does no
-/// ordering or symbolic analysis of its own; the kept rows change at almost every iteration
-/// where contacts separate and slide, which made the per-iteration ordering (COLAMD, 17 % of
-/// the solve) the largest single cost on FCLIB spheres-in-a-box. Measured there (newton-min to
-/// 1e-6, 63 iterations; fastest of 30 solves in one process): 34.1 ms per solve with COLAMD
-/// and faer's supernodal LU per reduced system; with the restricted ordering, 29.0 ms with
-/// faer's supernodal LU (its symbolic analysis still runs per iteration, and on the
-/// symmetric ordering it assumes more fill), 25.6 ms with faer's simplicial LU, 23.1 ms with
-/// [`SparseLu`]. A restricted COLAMD ordering of the island instead of AMD: 33–35 ms. `NaN`
-/// when the factorisation fails.
-fn sparse_reduced_solve(
-    problem: &Problem,
-    elimination: &Elimination,
-    rt: SparseColMat<usize, f64>,
-    rhs: &[f64],
-    cache: &mut ReducedCache,
-) -> Vec<f64> {
-    let m = rhs.len();
-    if cache.rank.len() != problem.n() {
-        cache.rank = island_rank(problem);
-    }
-    let mut fwd: Vec<usize> = (0..m).collect();
-    fwd.sort_unstable_by_key(|&p| cache.rank[elimination.kept[p]]);
-    let (symbolic, val) = (rt.symbolic(), rt.val());
-    if cache
-        .lu
-        .factorize(symbolic.col_ptr(), symbolic.row_idx(), val, &fwd)
-        .is_err()
-    {
-        return vec![f64::NAN; m];
-    }
-    let mut x = rhs.to_vec();
-    cache.lu.solve_transpose(&mut x);
-    x
-}
-
-/// A fill-reducing ordering of an island, as each row's rank: approximate minimum degree
-/// (faer's AMD) on the pattern of `A` and the friction coupling (symmetrised). The identity
-/// when AMD fails (any order gives the same direction, only with more fill).
-fn island_rank(problem: &Problem) -> Vec<usize> {
-    let n = problem.n();
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut row_idx = Vec::with_capacity(problem.nnz() + n);
-    col_ptr.push(0);
-    let mut col = Vec::new();
-    for i in 0..n {
-        col.clear();
-        col.extend(problem.row(i).iter().map(|(j, _)| j));
-        col.push(i);
-        if let Some((k, _)) = problem.friction_of(i) {
-            col.push(k);
-        }
-        col.sort_unstable();
-        col.dedup();
-        row_idx.extend_from_slice(&col);
-        col_ptr.push(row_idx.len());
-    }
-    let nnz = row_idx.len();
-    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-    let mut fwd = vec![0usize; n];
-    let mut inv = vec![0usize; n];
-    let Ok(mut mem) = MemBuffer::try_new(amd::order_scratch::<usize>(n, nnz)) else {
-        return (0..n).collect();
-    };
-    match amd::order(
-        &mut fwd,
-        &mut inv,
-        pattern.as_ref(),
-        Default::default(),
-        MemStack::new(&mut mem),
-    ) {
-        Ok(_) => inv,
-        Err(_) => (0..n).collect(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Family};
+    use crate::problem::generate::{generate, Family};
     use crate::problem::FrictionRow;
     use crate::test_util::lcp;
     use crate::{Dantzig, Status};
@@ -1600,7 +870,7 @@ mod tests {
     fn boxed_and_friction_problems_match_dantzig() {
         let n = 12;
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
-        let a = crate::generate::spd_matrix(n, 10.0, &mut rng);
+        let a = crate::problem::generate::spd_matrix(n, 10.0, &mut rng);
         let b: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
         let inf = f64::INFINITY;
         let lo = vec![

@@ -42,6 +42,7 @@
 //! [`problem_to_json`] writes whichever form of `A` is smaller: dense when `n²` numbers are
 //! fewer than the `2 nnz + n + 1` numbers of the compressed-row form, compressed rows otherwise.
 
+pub(crate) mod cone;
 pub mod fclib;
 pub mod input;
 pub mod siconos;
@@ -569,7 +570,7 @@ pub fn write_problem(problem: &Problem, path: &Path) -> Result<(), ProblemFileEr
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::residuals;
+    use crate::problem::metrics::residuals;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

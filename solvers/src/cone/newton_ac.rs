@@ -28,10 +28,12 @@
 //! References: P. Alart, A. Curnier, CMAME 92, 1991; V. Acary, M. Brémond, O. Huber, 2018
 //! (Siconos' `FC3D_NSN_AC`).
 
-use crate::alart_curnier::linearise;
+use crate::cone::alart_curnier::linearise;
 use crate::cone::{
     cone_residuals, initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver,
 };
+use crate::lcp::newton::MAX_REGULARISATION;
+use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{Outcome, Settings, SolveResult};
 use faer::linalg::solvers::Solve;
 use faer::{Col, Mat};
@@ -119,6 +121,7 @@ impl ConeSolver for NewtonAc {
         let mut trial_phi = vec![0.0; n];
         let mut iterations = 0;
         let tol = settings.tolerance;
+        let line_search = Backtracking::newton();
         let outcome = loop {
             let rp = projected(problem, &r);
             if cone_residuals(problem, &rp).natural_map_rel <= tol {
@@ -149,7 +152,7 @@ impl ConeSolver for NewtonAc {
             let phi_col = Col::from_fn(n, |i| phi[i]);
             let grad = jac.transpose() * &phi_col;
             let phi_inf = phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let lambda = (phi_inf / scale).min(1e-2);
+            let lambda = (phi_inf / scale).min(MAX_REGULARISATION);
             let mut h = jac.clone();
             for i in 0..n {
                 h[(i, i)] += lambda;
@@ -160,8 +163,7 @@ impl ConeSolver for NewtonAc {
             let dnorm = newton_dir.iter().map(|v| v * v).sum::<f64>().sqrt();
             let slope: f64 = (0..n).map(|i| grad[i] * newton_dir[i]).sum();
             let gnorm = grad.norm_l2();
-            let newton_ok =
-                newton_dir.iter().all(|v| v.is_finite()) && slope <= -1e-8 * gnorm * dnorm;
+            let newton_ok = is_descent(&newton_dir, slope, gnorm, dnorm);
             let gradient_dir: Vec<f64> = (0..n).map(|i| -grad[i]).collect();
             let gslope = -gnorm * gnorm;
             let mut candidates: Vec<(&[f64], f64)> = Vec::with_capacity(2);
@@ -178,19 +180,15 @@ impl ConeSolver for NewtonAc {
                     let dc = Col::from_fn(n, |i| direction[i]);
                     &w * &dc
                 };
-                let mut t = 1.0;
-                for _ in 0..40 {
-                    let trial_r: Vec<f64> = (0..n).map(|i| r[i] + t * direction[i]).collect();
+                let mut trial_r = Vec::new();
+                let step = line_search.armijo(theta, slope, |t| {
+                    trial_r = (0..n).map(|i| r[i] + t * direction[i]).collect();
                     let trial_u: Vec<f64> = (0..n).map(|i| u[i] + t * wd[i]).collect();
-                    let trial_theta = merit(problem, &rho, &trial_r, &trial_u, &mut trial_phi);
-                    if trial_theta <= theta + 1e-4 * t * slope {
-                        r = trial_r;
-                        accepted = true;
-                        break;
-                    }
-                    t *= 0.5;
-                }
-                if accepted {
+                    merit(problem, &rho, &trial_r, &trial_u, &mut trial_phi)
+                });
+                if step.is_some() {
+                    r = trial_r;
+                    accepted = true;
                     break;
                 }
             }

@@ -59,12 +59,12 @@
 //! Y. Chen, *Clarabel: An interior-point solver for conic programs with quadratic objectives*,
 //! arXiv:2405.12762, 2024.
 
-use crate::clarabel_qp::{
-    is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, IpmLimits, IpmRun,
-};
 use crate::cone::{
     cone_residuals, contact_natural_map, contact_relative_residuals, project_onto_cone,
     ConeMonitor, ConeProblem, ConeSolver,
+};
+use crate::lcp::clarabel_qp::{
+    is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, InteriorPoint, IpmLimits, IpmRun,
 };
 use crate::solver::{Outcome, Settings, SolveResult};
 use clarabel::algebra::CscMatrix;
@@ -76,33 +76,11 @@ pub(crate) const PROBLEM_CLASSES: &str =
 
 /// The convex relaxation of the Coulomb cone problem, solved by Clarabel. See the module
 /// documentation.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct ClarabelSocp {
-    /// Relative tolerance (of the largest entry of `W`) under which `W` counts as symmetric.
-    /// Default `1e-10`.
-    pub symmetry_tolerance: f64,
-    /// `W` counts as positive semidefinite when its scaled form shifted by
-    /// `psd_tolerance · ‖Ŵ‖_F` has a Cholesky factorisation. Default `1e-10`.
-    pub psd_tolerance: f64,
-    /// Clarabel's gap and feasibility tolerances are `tolerance_factor · Settings::tolerance`.
-    /// Default `1e-2`.
-    pub tolerance_factor: f64,
-    /// Floor on Clarabel's gap and feasibility tolerances. Default `1e-13`.
-    pub min_ipm_tolerance: f64,
-    /// Cap on interior-point iterations, whatever `Settings::max_iterations` says. Default `200`.
-    pub max_ipm_iterations: u32,
-}
-
-impl Default for ClarabelSocp {
-    fn default() -> Self {
-        Self {
-            symmetry_tolerance: 1e-10,
-            psd_tolerance: 1e-10,
-            tolerance_factor: 1e-2,
-            min_ipm_tolerance: 1e-13,
-            max_ipm_iterations: 200,
-        }
-    }
+    /// The acceptance tests on `W` and the limits of the interior-point run.
+    /// Default [`InteriorPoint::default`].
+    pub ipm: InteriorPoint,
 }
 
 /// Clarabel's constraints `A h + s = 0`, `s ∈ cones`: zero rows (frictionless tangents) first,
@@ -212,16 +190,16 @@ impl ClarabelSocp {
     /// The reason `W` cannot be handed to Clarabel, if any.
     fn refusal(&self, problem: &ConeProblem, e: &[f64]) -> Option<String> {
         let w = problem.delassus();
-        if !w.is_symmetric(self.symmetry_tolerance) {
+        if !w.is_symmetric(self.ipm.symmetry_tolerance) {
             return Some(format!(
                 "W is not symmetric (relative tolerance {:.0e}); the relaxation is a convex program only for symmetric PSD W",
-                self.symmetry_tolerance
+                self.ipm.symmetry_tolerance
             ));
         }
-        if !is_psd(&scaled_symmetric_part(w, e), self.psd_tolerance) {
+        if !is_psd(&scaled_symmetric_part(w, e), self.ipm.psd_tolerance) {
             return Some(format!(
                 "W is indefinite (Cholesky of the scaled W + {:.0e}·‖W‖_F·I failed); the relaxation is not convex",
-                self.psd_tolerance
+                self.ipm.psd_tolerance
             ));
         }
         None
@@ -232,13 +210,7 @@ impl ClarabelSocp {
         settings: &Settings,
         elapsed: std::time::Duration,
     ) -> Result<IpmLimits, Outcome> {
-        IpmLimits::new(
-            settings,
-            elapsed,
-            self.max_ipm_iterations,
-            self.tolerance_factor,
-            self.min_ipm_tolerance,
-        )
+        IpmLimits::new(settings, elapsed, &self.ipm)
     }
 }
 
@@ -361,8 +333,10 @@ mod tests {
         let w = Mat::from_fn(6, 6, |i, j| if i == j { 2.0 } else { 0.3 });
         let p = ConeProblem::new(w, vec![-1.0, 0.1, 0.0, -0.5, 0.0, 0.1], vec![0.8, 0.8]).unwrap();
         let mut loose = ClarabelSocp {
-            tolerance_factor: 1e6,
-            ..ClarabelSocp::default()
+            ipm: InteriorPoint {
+                tolerance_factor: 1e6,
+                ..InteriorPoint::default()
+            },
         };
         let tight = Settings {
             tolerance: 1e-12,

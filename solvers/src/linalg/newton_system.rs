@@ -1,0 +1,663 @@
+//! The linear systems of the semismooth Newton method ([`crate::Newton`]): each iteration solves
+//! `(H + μI) d = −Φ` with `H = diag(α) + diag(β) D⁻¹A` plus a coupling entry per friction row.
+//!
+//! Four forms, chosen per island by [`crate::LinearSystem`] and [`crate::SparseForm`]: dense
+//! (partial-pivoting LU), sparse on the pattern of `A` (COLAMD ordering, supernodal LU, the
+//! symbolic analysis kept between solves), the augmented body-space form for problems that carry
+//! their factors `A = J M⁻¹ Jᵀ`, and the reduced system of the rows left after the rows with
+//! `β_i = 0` are eliminated ([`Elimination`]).
+
+use crate::linalg::sparse_lu::SparseLu;
+use crate::problem::{DelassusFactors, Problem};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::amd;
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::Mat;
+use faer::{Conj, Par};
+
+/// What the sparse reduced systems ([`reduced_direction`]) keep: the last large reduced
+/// system's symbolic analysis and numeric factors' storage, and the island's ordering for the
+/// small ones.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ReducedCache {
+    pub(crate) symbolic: Option<SymbolicCache>,
+    pub(crate) numeric: NumericLu<usize, f64>,
+    /// The island's fill-reducing ordering, as each row's rank ([`island_rank`]); emptied at
+    /// the start of each island solve.
+    pub(crate) rank: Vec<usize>,
+    /// The small reduced systems' LU storage.
+    pub(crate) lu: SparseLu,
+}
+
+/// A sparse pattern with its column ordering and symbolic LU.
+#[derive(Clone)]
+pub(crate) struct SymbolicCache {
+    pub(crate) size: usize,
+    pub(crate) pairs: Vec<Pair<usize, usize>>,
+    pub(crate) symbolic: SymbolicSparseColMat<usize>,
+    pub(crate) argsort: Argsort<usize>,
+    pub(crate) lu: SymbolicLu<usize>,
+}
+
+impl std::fmt::Debug for SymbolicCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SymbolicCache")
+            .field("size", &self.size)
+            .field("entries", &self.pairs.len())
+            .finish()
+    }
+}
+
+/// Density (stored entries over `n²`) below which [`LinearSystem::Auto`] factorises sparse.
+pub(crate) const SPARSE_BELOW_DENSITY: f64 = 0.1;
+/// Largest sparse reduced system solved by [`sparse_reduced_solve`] (no ordering or symbolic
+/// analysis of its own); larger ones get faer's COLAMD ordering and supernodal LU, their
+/// symbolic analysis reused while the kept rows stay the same. Up to a few hundred rows (FCLIB
+/// spheres-in-a-box keeps 303–368) skipping the analysis is cheaper than the fill it saves;
+/// reduced systems of thousands of rows (`pyramid_20`) factorise about twice as fast with the
+/// ordering and the supernodal LU.
+pub(crate) const SIMPLICIAL_UP_TO: usize = 400;
+/// Fraction of an island's rows with `β_i = 0` from which the Newton system is solved through
+/// their [`Elimination`]. From a tenth of the rows the smaller system pays for the elimination:
+/// on scenes where contacts separate and slide (sphere piles, `confined`, pyramids, FCLIB
+/// spheres-in-a-box) the solve takes a fraction of the time of the full system, and where
+/// contacts stick (towers, arches, walls) no row is eliminated after the first iteration, so
+/// nothing is lost.
+pub(crate) const REDUCE_FROM: f64 = 0.1;
+/// Rows from which [`LinearSystem::Auto`] considers the sparse factorisation.
+pub(crate) const SPARSE_FROM_ROWS: usize = 100;
+
+/// One Newton system `H + μI` of an island, with its storage.
+pub(crate) enum Jacobian {
+    /// Dense `A`; `H` formed dense and factorised by partial-pivoting LU.
+    Dense(Mat<f64>),
+    /// Sparse: the fixed pattern of `H` (the pattern of `A`, the diagonal, and a coupling entry
+    /// per friction row), its column ordering and symbolic LU (computed once, or taken from the workspace); each
+    /// iteration refills the values and factorises numerically.
+    Sparse(Box<SparseJacobian>),
+}
+
+/// What a stored entry of the sparse `H` holds.
+#[derive(Clone, Copy)]
+pub(crate) enum EntryKind {
+    /// `β_i A_ij`.
+    A(f64),
+    /// `α_i` (plus the regularisation).
+    Diagonal,
+    /// `γ_i`, the friction row's coupling to its normal.
+    Coupling,
+    /// `β_i J_ic` (augmented form: row `i`'s Jacobian entry at body velocity `c`).
+    Jacobian(f64),
+    /// A fixed value (augmented form: `−1` and the entries of `M⁻¹ Jᵀ`).
+    Fixed(f64),
+}
+
+pub(crate) struct SparseJacobian {
+    /// `(row, column, kind)` per stored entry, in the order of `values`.
+    pub(crate) entries: Vec<(usize, usize, EntryKind)>,
+    /// Unknowns of the system: `n`, plus six body velocities per body of the island in the
+    /// augmented form.
+    pub(crate) size: usize,
+    /// The pattern (`pairs` in the order of `entries`), its ordering and symbolic LU.
+    pub(crate) pattern: SymbolicCache,
+    pub(crate) values: Vec<f64>,
+    /// Numeric LU factors (storage taken from the workspace and given back) and the scratch
+    /// memory of factorisation and solve.
+    pub(crate) numeric: NumericLu<usize, f64>,
+    pub(crate) scratch: MemBuffer,
+}
+
+impl SparseJacobian {
+    pub(crate) fn new(problem: &Problem, cache: Option<SymbolicCache>) -> Result<Self, String> {
+        let n = problem.n();
+        let mut entries = Vec::with_capacity(problem.nnz() + 2 * n);
+        for i in 0..n {
+            // Stored entries enter the pattern even when zero, so it depends on the storage only.
+            for (j, v) in problem.row(i).iter() {
+                entries.push((i, j, EntryKind::A(v)));
+            }
+            // Duplicated positions are summed when the matrix is assembled.
+            entries.push((i, i, EntryKind::Diagonal));
+            if let Some((k, _)) = problem.friction_of(i) {
+                entries.push((i, k, EntryKind::Coupling));
+            }
+        }
+        Self::factor_pattern(entries, n, cache)
+    }
+
+    /// The augmented (body-space) form of `H + μI` for `A = J M⁻¹ Jᵀ`, with the body
+    /// velocities `u = M⁻¹ Jᵀ d` as extra unknowns:
+    ///
+    /// ```text
+    /// [ diag(α) + μI + Γ   diag(β) J ] [d]   [−Φ]
+    /// [ M⁻¹ Jᵀ             −I        ] [u] = [ 0]
+    /// ```
+    ///
+    /// It has `O(nnz(J))` entries where `A` has one per pair of rows sharing a body, so its LU
+    /// fills far less on stacks and piles (the system MuJoCo's Newton solver factorises in
+    /// joint space, here kept unsymmetric for the friction coupling).
+    pub(crate) fn augmented(
+        problem: &Problem,
+        factors: &DelassusFactors,
+        cache: Option<SymbolicCache>,
+    ) -> Result<Self, String> {
+        let n = problem.n();
+        let jac = factors.jacobian();
+        let sym = jac.symbolic();
+        let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), jac.val());
+        // Bodies the island's rows touch, numbered locally.
+        let mut local = vec![usize::MAX; factors.inverse_mass().len()];
+        let mut bodies = Vec::new();
+        for &c in idx.iter().take(ptr[n]) {
+            let body = c / 6;
+            if local[body] == usize::MAX {
+                local[body] = bodies.len();
+                bodies.push(body);
+            }
+        }
+        let size = n + 6 * bodies.len();
+        // Every (row, body) block enters whole, zeros included, so the pattern depends only on
+        // which bodies each row touches and stays the same while the contacts do (a lever arm
+        // component that drifts off exactly zero does not change it, and the symbolic analysis
+        // in the workspace is reused).
+        let mut entries = Vec::with_capacity(24 * n + 6 * bodies.len());
+        let minv = factors.inverse_mass();
+        let mut m_jt = Vec::new();
+        for i in 0..n {
+            let mut k = ptr[i];
+            while k < ptr[i + 1] {
+                let body = idx[k] / 6;
+                let mut jb = [0.0; 6];
+                while k < ptr[i + 1] && idx[k] / 6 == body {
+                    jb[idx[k] % 6] = val[k];
+                    k += 1;
+                }
+                let first = n + 6 * local[body];
+                for (c, &v) in jb.iter().enumerate() {
+                    entries.push((i, first + c, EntryKind::Jacobian(v)));
+                }
+                // Column i of M⁻¹ Jᵀ (row i of J gives column i).
+                for (r, row) in minv[body].iter().enumerate() {
+                    let v: f64 = row.iter().zip(&jb).map(|(a, b)| a * b).sum();
+                    m_jt.push((first + r, i, EntryKind::Fixed(v)));
+                }
+            }
+            entries.push((i, i, EntryKind::Diagonal));
+            if let Some((k, _)) = problem.friction_of(i) {
+                entries.push((i, k, EntryKind::Coupling));
+            }
+        }
+        entries.append(&mut m_jt);
+        for r in n..size {
+            entries.push((r, r, EntryKind::Fixed(-1.0)));
+        }
+        Self::factor_pattern(entries, size, cache)
+    }
+
+    /// The pattern, its column ordering and the symbolic LU; those of `cache` when its pattern
+    /// is the same.
+    pub(crate) fn factor_pattern(
+        entries: Vec<(usize, usize, EntryKind)>,
+        size: usize,
+        cache: Option<SymbolicCache>,
+    ) -> Result<Self, String> {
+        let pairs: Vec<Pair<usize, usize>> = entries
+            .iter()
+            .map(|&(row, col, _)| Pair { row, col })
+            .collect();
+        let pattern = match cache {
+            Some(c) if c.size == size && c.pairs == pairs => c,
+            _ => {
+                let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(
+                    size, size, &pairs,
+                )
+                .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
+                // Supernodal always: the contact blocks (three rows per contact point, six
+                // columns per body) make dense supernodes, and faer's flop-ratio rule chose the
+                // simplicial LU on towers, where it took 2.6× the instructions.
+                let params = LuSymbolicParams {
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                    ..Default::default()
+                };
+                let lu = factorize_symbolic_lu(symbolic.as_ref(), params)
+                    .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
+                SymbolicCache {
+                    size,
+                    pairs,
+                    symbolic,
+                    argsort,
+                    lu,
+                }
+            }
+        };
+        // Fixed entries hold their values from the start; the others are set per iteration.
+        let values = entries
+            .iter()
+            .map(|&(_, _, kind)| match kind {
+                EntryKind::Fixed(v) => v,
+                _ => 0.0,
+            })
+            .collect();
+        let scratch = StackReq::any_of(&[
+            pattern
+                .lu
+                .factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            pattern.lu.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let scratch = MemBuffer::try_new(scratch)
+            .map_err(|_| "no memory for the sparse LU's scratch space".to_string())?;
+        Ok(Self {
+            entries,
+            size,
+            pattern,
+            values,
+            numeric: NumericLu::new(),
+            scratch,
+        })
+    }
+}
+
+/// Whether the augmented body-space system is worth its extra unknowns: when `A` has more
+/// than twice its entries (about `2·nnz(J) + n + 6·bodies`). Below that the Delassus form is
+/// faster (a 40-box tower, whose `A` has 1.4× the augmented entries); above it the augmented
+/// form is (the 4,800-row `pyramid_20` island, 3.5×).
+pub(crate) fn augmented_pays(problem: &Problem, factors: &DelassusFactors) -> bool {
+    let jac = factors.jacobian();
+    let augmented = 2 * jac.compute_nnz() + problem.n() + jac.ncols();
+    problem.nnz() > 2 * augmented
+}
+
+/// The Newton direction `(H + μI)⁻¹(−Φ)`, dense.
+pub(crate) fn dense_direction(problem: &Problem, a: &Mat<f64>, system: &System<'_>) -> Vec<f64> {
+    let &System {
+        alpha,
+        beta,
+        gamma,
+        phi,
+        mu_reg,
+    } = system;
+    let n = phi.len();
+    let mut h = Mat::from_fn(n, n, |i, j| beta[i] * a[(i, j)]);
+    for i in 0..n {
+        h[(i, i)] += alpha[i] + mu_reg;
+        if gamma[i] != 0.0 {
+            if let Some((k, _)) = problem.friction_of(i) {
+                h[(i, k)] += gamma[i];
+            }
+        }
+    }
+    let mut dir = Mat::from_fn(n, 1, |i, _| -phi[i]);
+    h.partial_piv_lu().solve_in_place(&mut dir);
+    (0..n).map(|i| dir[(i, 0)]).collect()
+}
+
+/// The Newton direction `(H + μI)⁻¹(−Φ)` with the sparse LU. A failed numeric factorisation
+/// gives a non-finite direction (the gradient step is then taken).
+pub(crate) fn sparse_direction(j: &mut SparseJacobian, system: &System<'_>) -> Vec<f64> {
+    let &System {
+        alpha,
+        beta,
+        gamma,
+        phi,
+        mu_reg,
+    } = system;
+    for (v, &(i, _, kind)) in j.values.iter_mut().zip(&j.entries) {
+        *v = match kind {
+            EntryKind::A(a) | EntryKind::Jacobian(a) => beta[i] * a,
+            EntryKind::Diagonal => alpha[i] + mu_reg,
+            EntryKind::Coupling => gamma[i],
+            EntryKind::Fixed(v) => v,
+        };
+    }
+    let rhs: Vec<f64> = phi.iter().map(|v| -v).collect();
+    factor_and_solve(j, &rhs)
+}
+
+/// Factorises `j` with its current values and solves for `rhs` (padded with zeros up to the
+/// system's size); the first `rhs.len()` unknowns. A failed factorisation gives NaN.
+pub(crate) fn factor_and_solve(j: &mut SparseJacobian, rhs: &[f64]) -> Vec<f64> {
+    let n = rhs.len();
+    let failed = || vec![f64::NAN; n];
+    let p = &j.pattern;
+    let Ok(h) = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &j.values) else {
+        return failed();
+    };
+    let stack = MemStack::new(&mut j.scratch);
+    let Ok(lu) = p.lu.factorize_numeric_lu(
+        &mut j.numeric,
+        h.as_ref(),
+        Par::Seq,
+        stack,
+        Default::default(),
+    ) else {
+        return failed();
+    };
+    let mut dir = Mat::from_fn(j.size, 1, |i, _| if i < n { rhs[i] } else { 0.0 });
+    lu.solve_in_place_with_conj(
+        Conj::No,
+        dir.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut j.scratch),
+    );
+    (0..n).map(|i| dir[(i, 0)]).collect()
+}
+
+/// One Newton system `(H + μI) d = −Φ`: `H`'s coefficients as [`Newton::linearise`] gives them
+/// (`beta` holding `β_i / d_i`), `Φ` and the regularisation `μ`.
+pub(crate) struct System<'a> {
+    pub(crate) alpha: &'a [f64],
+    pub(crate) beta: &'a [f64],
+    pub(crate) gamma: &'a [f64],
+    pub(crate) phi: &'a [f64],
+    pub(crate) mu_reg: f64,
+}
+
+/// The rows of `H + μI` that [`reduced_direction`] eliminates, and how: a row with `β_i = 0`
+/// (min-map: a row clamped at a bound; FB: a row exactly at its bound with a separating
+/// velocity) reads `(α_i + μ) d_i + γ_i d_k = −Φ_i`, so `d_i = c_i + g_i d_k` with `g_i ≠ 0`
+/// only for a friction row whose normal `k` is kept.
+pub(crate) struct Elimination {
+    /// Position of each kept row in the reduced system, `usize::MAX` for an eliminated one.
+    pub(crate) position: Vec<usize>,
+    /// The kept rows, increasing.
+    pub(crate) kept: Vec<usize>,
+    /// `c_i` for eliminated rows.
+    pub(crate) offset: Vec<f64>,
+    /// `(g_i, k)` for eliminated friction rows whose normal is kept.
+    pub(crate) slope: Vec<Option<(f64, usize)>>,
+}
+
+impl Elimination {
+    /// `None` when fewer than [`REDUCE_FROM`] of the rows can be eliminated (the full system
+    /// is then cheaper to refactorise on its cached pattern) or a pivot `α_i + μ` is not
+    /// positive.
+    pub(crate) fn of(problem: &Problem, system: &System<'_>) -> Option<Self> {
+        let &System {
+            alpha,
+            beta,
+            gamma,
+            phi,
+            mu_reg,
+        } = system;
+        let n = phi.len();
+        let eliminated = beta.iter().filter(|&&b| b == 0.0).count();
+        if eliminated == 0 || (eliminated as f64) < REDUCE_FROM * n as f64 {
+            return None;
+        }
+        let mut position = vec![usize::MAX; n];
+        let mut kept = Vec::with_capacity(n - eliminated);
+        for i in 0..n {
+            if beta[i] != 0.0 {
+                position[i] = kept.len();
+                kept.push(i);
+            }
+        }
+        let mut offset = vec![0.0; n];
+        let mut slope = vec![None; n];
+        // Normal rows first (they carry no coupling), then the friction rows that hang on them.
+        for pass in 0..2 {
+            for i in 0..n {
+                if beta[i] != 0.0 || (pass == 0) == problem.friction_of(i).is_some() {
+                    continue;
+                }
+                let pivot = alpha[i] + mu_reg;
+                if !(pivot > 0.0 && pivot.is_finite()) {
+                    return None;
+                }
+                offset[i] = -phi[i] / pivot;
+                if gamma[i] != 0.0 {
+                    let (k, _) = problem.friction_of(i)?;
+                    let g = -gamma[i] / pivot;
+                    if position[k] == usize::MAX {
+                        offset[i] += g * offset[k];
+                    } else {
+                        slope[i] = Some((g, position[k]));
+                    }
+                }
+            }
+        }
+        Some(Self {
+            position,
+            kept,
+            offset,
+            slope,
+        })
+    }
+
+    /// The reduced system `R d_K = r` over the kept rows, entry by entry (duplicated positions
+    /// add up), and its right-hand side: row `i` of `H + μI` with every eliminated `d_c`
+    /// replaced by `c_c + g_c d_k`.
+    pub(crate) fn reduced_system(
+        &self,
+        problem: &Problem,
+        system: &System<'_>,
+        mut entry: impl FnMut(usize, usize, f64),
+    ) -> Vec<f64> {
+        let System {
+            beta, gamma, phi, ..
+        } = system;
+        let mut rhs = vec![0.0; self.kept.len()];
+        let mut add = |r: usize, c: usize, v: f64, rhs: &mut [f64]| {
+            let p = self.position[c];
+            if p != usize::MAX {
+                entry(r, p, v);
+            } else {
+                rhs[r] -= v * self.offset[c];
+                if let Some((g, k)) = self.slope[c] {
+                    entry(r, k, v * g);
+                }
+            }
+        };
+        for (r, &i) in self.kept.iter().enumerate() {
+            rhs[r] -= phi[i];
+            for (c, a) in problem.row(i).iter() {
+                add(r, c, beta[i] * a, &mut rhs);
+            }
+            add(r, i, system.alpha[i] + system.mu_reg, &mut rhs);
+            if gamma[i] != 0.0 {
+                if let Some((k, _)) = problem.friction_of(i) {
+                    add(r, k, gamma[i], &mut rhs);
+                }
+            }
+        }
+        rhs
+    }
+
+    /// The full direction from the kept rows' part `x`.
+    pub(crate) fn expand(&self, x: &[f64]) -> Vec<f64> {
+        (0..self.position.len())
+            .map(|i| match self.position[i] {
+                usize::MAX => self.offset[i] + self.slope[i].map_or(0.0, |(g, k)| g * x[k]),
+                p => x[p],
+            })
+            .collect()
+    }
+}
+
+/// The Newton direction `(H + μI)⁻¹(−Φ)` through the [`Elimination`] of the rows with
+/// `β_i = 0`: dense LU of the reduced matrix when `dense`; else, up to `simplicial_up_to`
+/// ([`SIMPLICIAL_UP_TO`]) kept rows, [`sparse_reduced_solve`], and above, faer's sparse LU on
+/// the reduced pattern (the symbolic analysis in `cache` reused while the kept rows, and so the
+/// pattern, stay the same). A failed factorisation gives a non-finite direction.
+pub(crate) fn reduced_direction(
+    problem: &Problem,
+    elimination: &Elimination,
+    system: &System<'_>,
+    dense: bool,
+    simplicial_up_to: usize,
+    cache: &mut ReducedCache,
+) -> Vec<f64> {
+    let m = elimination.kept.len();
+    let x = if dense {
+        let mut r = Mat::<f64>::zeros(m, m);
+        let rhs = elimination.reduced_system(problem, system, |i, j, v| r[(i, j)] += v);
+        let mut x = Mat::from_fn(m, 1, |i, _| rhs[i]);
+        r.partial_piv_lu().solve_in_place(&mut x);
+        (0..m).map(|i| x[(i, 0)]).collect::<Vec<f64>>()
+    } else {
+        let mut rows = RowAssembly::new(m, problem.nnz());
+        let rhs = elimination.reduced_system(problem, system, |i, j, v| rows.add(i, j, v));
+        let rt = rows.transpose();
+        if m <= simplicial_up_to {
+            sparse_reduced_solve(problem, elimination, rt, &rhs, cache)
+        } else {
+            let mut entries = Vec::with_capacity(rt.val().len());
+            for r in 0..m {
+                for (c, &v) in rt.row_idx_of_col(r).zip(rt.val_of_col(r)) {
+                    entries.push((r, c, EntryKind::Fixed(v)));
+                }
+            }
+            match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
+                Ok(mut j) => {
+                    j.numeric = std::mem::take(&mut cache.numeric);
+                    let x = factor_and_solve(&mut j, &rhs);
+                    cache.symbolic = Some(j.pattern);
+                    cache.numeric = j.numeric;
+                    x
+                }
+                Err(_) => vec![f64::NAN; m],
+            }
+        }
+    };
+    elimination.expand(&x)
+}
+
+/// A sparse matrix `R` assembled row by row into the compressed columns of `Rᵀ`: the entries of
+/// a row arrive together and rows in increasing order, as [`Elimination::reduced_system`] gives
+/// them, so no sort of the entries is needed; duplicated positions add up.
+pub(crate) struct RowAssembly {
+    pub(crate) size: usize,
+    /// Start of each row begun so far (the column pointers of `Rᵀ`).
+    pub(crate) start: Vec<usize>,
+    pub(crate) col: Vec<usize>,
+    pub(crate) val: Vec<f64>,
+    /// Per column, where its entry of the current row is (an older position: none yet).
+    pub(crate) slot: Vec<usize>,
+}
+
+impl RowAssembly {
+    pub(crate) fn new(size: usize, capacity: usize) -> Self {
+        let mut start = Vec::with_capacity(size + 1);
+        start.push(0);
+        Self {
+            size,
+            start,
+            col: Vec::with_capacity(capacity),
+            val: Vec::with_capacity(capacity),
+            slot: vec![usize::MAX; size],
+        }
+    }
+
+    pub(crate) fn add(&mut self, r: usize, c: usize, v: f64) {
+        while self.start.len() <= r {
+            self.start.push(self.col.len());
+        }
+        let s = self.slot[c];
+        if s != usize::MAX && s >= self.start[r] {
+            self.val[s] += v;
+        } else {
+            self.slot[c] = self.col.len();
+            self.col.push(c);
+            self.val.push(v);
+        }
+    }
+
+    /// `Rᵀ`, each column's row indices sorted.
+    pub(crate) fn transpose(mut self) -> SparseColMat<usize, f64> {
+        while self.start.len() <= self.size {
+            self.start.push(self.col.len());
+        }
+        let mut pairs = Vec::new();
+        for r in 0..self.size {
+            let (a, b) = (self.start[r], self.start[r + 1]);
+            pairs.clear();
+            pairs.extend((a..b).map(|k| (self.col[k], self.val[k])));
+            pairs.sort_unstable_by_key(|&(c, _)| c);
+            for (k, &(c, v)) in (a..b).zip(&pairs) {
+                self.col[k] = c;
+                self.val[k] = v;
+            }
+        }
+        let symbolic =
+            SymbolicSparseColMat::new_checked(self.size, self.size, self.start, None, self.col);
+        SparseColMat::new(symbolic, self.val)
+    }
+}
+
+/// The solution of the reduced system `R x = rhs`, given `Rᵀ`, by the sparse LU of `Rᵀ`
+/// ([`SparseLu`]: left-looking, threshold partial pivoting, no symbolic analysis) and a
+/// transposed solve. The column order is the island's fill-reducing ordering ([`island_rank`],
+/// computed once per island solve) restricted to the kept rows, so an iteration does no
+/// ordering or symbolic analysis of its own; the kept rows change at almost every iteration
+/// where contacts separate and slide, so an ordering per iteration would be the largest
+/// single cost of such a solve (COLAMD takes 17 % of it on FCLIB spheres-in-a-box), and a
+/// left-looking LU without symbolic analysis beats faer's supernodal and simplicial LUs on
+/// systems of this size. `NaN` when the factorisation fails.
+pub(crate) fn sparse_reduced_solve(
+    problem: &Problem,
+    elimination: &Elimination,
+    rt: SparseColMat<usize, f64>,
+    rhs: &[f64],
+    cache: &mut ReducedCache,
+) -> Vec<f64> {
+    let m = rhs.len();
+    if cache.rank.len() != problem.n() {
+        cache.rank = island_rank(problem);
+    }
+    let mut fwd: Vec<usize> = (0..m).collect();
+    fwd.sort_unstable_by_key(|&p| cache.rank[elimination.kept[p]]);
+    let (symbolic, val) = (rt.symbolic(), rt.val());
+    if cache
+        .lu
+        .factorize(symbolic.col_ptr(), symbolic.row_idx(), val, &fwd)
+        .is_err()
+    {
+        return vec![f64::NAN; m];
+    }
+    let mut x = rhs.to_vec();
+    cache.lu.solve_transpose(&mut x);
+    x
+}
+
+/// A fill-reducing ordering of an island, as each row's rank: approximate minimum degree
+/// (faer's AMD) on the pattern of `A` and the friction coupling (symmetrised). The identity
+/// when AMD fails (any order gives the same direction, only with more fill).
+pub(crate) fn island_rank(problem: &Problem) -> Vec<usize> {
+    let n = problem.n();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(problem.nnz() + n);
+    col_ptr.push(0);
+    let mut col = Vec::new();
+    for i in 0..n {
+        col.clear();
+        col.extend(problem.row(i).iter().map(|(j, _)| j));
+        col.push(i);
+        if let Some((k, _)) = problem.friction_of(i) {
+            col.push(k);
+        }
+        col.sort_unstable();
+        col.dedup();
+        row_idx.extend_from_slice(&col);
+        col_ptr.push(row_idx.len());
+    }
+    let nnz = row_idx.len();
+    let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    let mut fwd = vec![0usize; n];
+    let mut inv = vec![0usize; n];
+    let Ok(mut mem) = MemBuffer::try_new(amd::order_scratch::<usize>(n, nnz)) else {
+        return (0..n).collect();
+    };
+    match amd::order(
+        &mut fwd,
+        &mut inv,
+        pattern.as_ref(),
+        Default::default(),
+        MemStack::new(&mut mem),
+    ) {
+        Ok(_) => inv,
+        Err(_) => (0..n).collect(),
+    }
+}
