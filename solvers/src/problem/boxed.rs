@@ -252,6 +252,9 @@ pub struct Problem {
     /// Per row: `Some((normal, mu))` for a friction row.
     friction_of: Vec<Option<(usize, f64)>>,
     factors: Option<Arc<DelassusFactors>>,
+    /// [`Problem::islands`], computed on first use (a problem is immutable, so a solver called
+    /// again on it, or the residual's data scales after a solve, reuse the partition).
+    islands: OnceLock<Vec<Vec<usize>>>,
 }
 
 /// Below this many rows, [`Problem::restrict`] stores a sub-problem densely.
@@ -489,6 +492,7 @@ impl Problem {
             friction,
             friction_of,
             factors: None,
+            islands: OnceLock::new(),
         })
     }
 
@@ -513,6 +517,8 @@ impl Problem {
             });
         }
         self.factors = Some(Arc::new(factors));
+        // The islands of a problem with factors are taken over its bodies.
+        self.islands = OnceLock::new();
         Ok(self)
     }
 

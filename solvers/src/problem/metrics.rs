@@ -331,7 +331,7 @@ pub fn data_scale(problem: &Problem) -> Vec<f64> {
         let largest = island
             .iter()
             .fold(0.0f64, |m, &j| m.max(ratio(b[j].abs(), 1.0, root[j])));
-        for &i in &island {
+        for &i in island {
             scale[i] = ratio(root[i], largest, 1.0);
         }
     }

@@ -696,7 +696,7 @@ fn solve_islands_with(
     let mut f = vec![0.0; n];
     let mut iterations = 0;
     let mut outcome = Outcome::Stopped;
-    for rows in &islands {
+    for rows in islands {
         let sub = if densify {
             problem.restrict_dense(rows)
         } else {

@@ -9,7 +9,12 @@ impl Problem {
     /// `O(nnz(J))`, when the problem carries its factors: rows that share a body are joined,
     /// which joins every pair with `A_ij ≠ 0`). Each group's rows are increasing; groups are
     /// ordered by their first row. A dense `A` with no zero off-diagonal entries is one group.
-    pub fn islands(&self) -> Vec<Vec<usize>> {
+    pub fn islands(&self) -> &[Vec<usize>] {
+        self.islands.get_or_init(|| self.partition())
+    }
+
+    /// The partition of [`Problem::islands`], computed.
+    fn partition(&self) -> Vec<Vec<usize>> {
         let n = self.n();
         let mut parent: Vec<usize> = (0..n).collect();
         fn find(parent: &mut [usize], mut x: usize) -> usize {
