@@ -64,7 +64,7 @@ use crate::builder::PositionCorrection;
 use crate::builder::{self, BodyVelocity, ContactSystem, Material, WarmStartCache};
 use crate::collision::broad_phase::TooManyPairs;
 use crate::collision::toi::{first_impact, ToiSettings};
-use crate::collision::CollisionPipeline;
+use crate::collision::{CollisionPipeline, Contact};
 use crate::integrate;
 use lcpbench_solvers::{ProjectedSor, Solver, Status};
 use report::PhaseClock;
@@ -146,26 +146,11 @@ impl World {
         let mut clock = PhaseClock::start();
         let mut phases = PhaseTimes::default();
         self.apply_events();
-        let (h, gravity) = (self.settings.dt, self.settings.gravity);
-        let (contacts, detection_refused) = match self
-            .pipeline
-            .detect(&self.bodies, self.settings.prediction_distance)
-        {
-            Ok(contacts) => (contacts, None),
-            Err(e) => (Vec::new(), Some(format!("collision detection: {e}"))),
-        };
+        let (contacts, detection_refused) = self.detect();
         phases.collision = clock.lap();
         let timings = self.pipeline.timings();
         (phases.broad_phase, phases.narrow_phase) = (timings.broad_phase, timings.narrow_phase);
-        let free = builder::free_velocities(&self.bodies, &gravity, h);
-        let system = builder::build(
-            &self.bodies,
-            &self.materials,
-            &contacts,
-            free,
-            &self.settings.builder,
-            h,
-        );
+        let system = self.build(&contacts);
         phases.assembly = clock.lap();
         let partition = system.islands();
         phases.islands = clock.lap();
@@ -177,29 +162,8 @@ impl World {
             }
             None => self.solve(&system, &partition),
         };
-        let solve_wall = clock.lap();
-        // The solve phase's shares of assembly and measurement go to those phases.
-        let assembly = solved.assembly_s.min(solve_wall);
-        let measure = solved.measure_s.min(solve_wall - assembly);
-        phases.assembly += assembly;
-        phases.residual += measure;
-        phases.solve = solve_wall - assembly - measure;
-        let pseudo = if refused.is_none() {
-            self.split_impulse_velocities(&system)
-        } else {
-            None
-        };
-        let toi = match self.integrate(&system, &solved.f, pseudo.as_deref()) {
-            Ok(toi) => toi,
-            Err(e) => {
-                solved.status = Status::Unsupported {
-                    reason: format!("continuous collision detection: {e}"),
-                };
-                None
-            }
-        };
-        self.step_index += 1;
-        self.time += h;
+        phases.add_solve_phase(clock.lap(), &solved);
+        let toi = self.advance(&system, &mut solved, refused.is_none());
         phases.integration = clock.lap();
         self.report(&system, &partition, solved, toi, clock, phases)
     }
@@ -247,6 +211,61 @@ impl World {
             return None;
         }
         system.check_delassus_size(&self.bodies).err()
+    }
+
+    /// Contacts at the current positions, or none and the reason when detection is past one of
+    /// its limits.
+    fn detect(&mut self) -> (Vec<Contact>, Option<String>) {
+        match self
+            .pipeline
+            .detect(&self.bodies, self.settings.prediction_distance)
+        {
+            Ok(contacts) => (contacts, None),
+            Err(e) => (Vec::new(), Some(format!("collision detection: {e}"))),
+        }
+    }
+
+    /// The contact system of `contacts` at the free velocities `u* = u + h M⁻¹ f_ext`.
+    fn build(&self, contacts: &[Contact]) -> ContactSystem {
+        let (h, gravity) = (self.settings.dt, self.settings.gravity);
+        let free = builder::free_velocities(&self.bodies, &gravity, h);
+        builder::build(
+            &self.bodies,
+            &self.materials,
+            contacts,
+            free,
+            &self.settings.builder,
+            h,
+        )
+    }
+
+    /// Apply the solved impulses (and the split-impulse correction, unless the step was
+    /// refused) and move the bodies and the clock by one step. Returns the time of impact the
+    /// motion was cut to; a continuous collision detection past its limit makes the step's
+    /// status `Unsupported`.
+    fn advance(
+        &mut self,
+        system: &ContactSystem,
+        solved: &mut Solved,
+        solvable: bool,
+    ) -> Option<f64> {
+        let pseudo = if solvable {
+            self.split_impulse_velocities(system)
+        } else {
+            None
+        };
+        let toi = match self.integrate(system, &solved.f, pseudo.as_deref()) {
+            Ok(toi) => toi,
+            Err(e) => {
+                solved.status = Status::Unsupported {
+                    reason: format!("continuous collision detection: {e}"),
+                };
+                None
+            }
+        };
+        self.step_index += 1;
+        self.time += self.settings.dt;
+        toi
     }
 
     /// Split impulses: pseudo-velocities from a projected Gauss–Seidel solve of the normal rows

@@ -111,6 +111,16 @@ impl PhaseTimes {
         self.integration += other.integration;
     }
 
+    /// Split the solve phase's wall time `solve_wall` of `solved`: its shares of assembling the
+    /// solvers' problems and of measuring residuals go to those phases, the rest is the solve.
+    pub(super) fn add_solve_phase(&mut self, solve_wall: f64, solved: &Solved) {
+        let assembly = solved.assembly_s.min(solve_wall);
+        let measure = solved.measure_s.min(solve_wall - assembly);
+        self.assembly += assembly;
+        self.residual += measure;
+        self.solve = solve_wall - assembly - measure;
+    }
+
     /// Every phase multiplied by `k` (a mean from a sum).
     pub fn scaled(&self, k: f64) -> PhaseTimes {
         PhaseTimes {
