@@ -39,6 +39,70 @@ fn ground() -> RigidBody {
     body(Shape::plane(Vector3::z()).unwrap(), [0.0; 3], true)
 }
 
+/// A field of boxes, spheres and capsules on the ground, two to a column and tilted, so the
+/// candidate pairs include box–plane, box–box, sphere–box and capsule–sphere, well above the
+/// count from which the narrow phase runs on several threads.
+fn mixed_field() -> Vec<RigidBody> {
+    let mut bodies = vec![ground()];
+    for i in 0..12 {
+        for j in 0..12 {
+            let (x, y) = (1.1 * i as f64, 1.1 * j as f64);
+            let tilt = UnitQuaternion::from_euler_angles(0.01 * i as f64, 0.02 * j as f64, 0.1);
+            let mut lower = body(
+                Shape::cuboid(Vector3::new(0.5, 0.5, 0.5)).unwrap(),
+                [x, y, 0.499],
+                false,
+            );
+            lower.orientation = tilt;
+            bodies.push(lower);
+            let upper = match (i + j) % 3 {
+                0 => Shape::sphere(0.4).unwrap(),
+                1 => Shape::capsule(0.2, 0.3).unwrap(),
+                _ => Shape::cuboid(Vector3::new(0.45, 0.45, 0.3)).unwrap(),
+            };
+            bodies.push(body(upper, [x + 0.05, y - 0.03, 1.35], false));
+        }
+    }
+    bodies
+}
+
+/// The narrow phase splits its pairs into chunks on rayon's threads and joins them in pair
+/// order: its contacts (points, normals, gaps and keys, to the bit) and their order must be
+/// those of each pair computed on its own, on the first call and on a later call that reuses
+/// the cached manifolds, and must not depend on the number of threads.
+#[test]
+fn narrow_phase_contacts_do_not_depend_on_threads() {
+    use lcpbench_contact::collision::narrow_phase::NarrowPhase;
+    let mut bodies = mixed_field();
+    let prediction = 0.05;
+    let pairs = candidate_pairs(&bodies).unwrap();
+    assert!(pairs.len() > 600, "{} pairs", pairs.len());
+    let mut whole = NarrowPhase::new();
+    let mut one_thread = NarrowPhase::new();
+    let mut each: Vec<NarrowPhase> = pairs.iter().map(|_| NarrowPhase::new()).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for call in 0..2 {
+        let all = whole.contacts(&bodies, &pairs, prediction).unwrap();
+        let serial = pool.install(|| one_thread.contacts(&bodies, &pairs, prediction).unwrap());
+        let mut by_pair = Vec::new();
+        for (np, pair) in each.iter_mut().zip(&pairs) {
+            by_pair.extend(np.contacts(&bodies, &[*pair], prediction).unwrap());
+        }
+        assert!(all.len() > 400, "call {call}: {} contacts", all.len());
+        assert_eq!(all, by_pair, "call {call}: chunks against pair by pair");
+        assert_eq!(all, serial, "call {call}: two threads against one");
+        // Move every dynamic body a little, so the second call updates cached manifolds.
+        for b in bodies.iter_mut().filter(|b| !b.is_static) {
+            b.position.x += 1e-3;
+            b.position.z -= 2e-4;
+            b.orientation = UnitQuaternion::from_euler_angles(0.003, -0.002, 0.001) * b.orientation;
+        }
+    }
+}
+
 /// Largest relative deviation between two inertia tensors (scaled by the largest entry).
 fn tensor_err(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
     (a - b).abs().max() / b.abs().max()
