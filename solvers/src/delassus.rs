@@ -989,6 +989,26 @@ mod tests {
     }
 
     #[test]
+    fn row_terms_do_not_depend_on_the_thread_count() {
+        // Each row's sums run in a fixed order whatever the chunk it falls in, so the shared
+        // residual is the same to the bit on one thread or several.
+        let fac = contact_factors(12, 150, true, 11);
+        let n = fac.rows();
+        let f: Vec<f64> = (0..n)
+            .map(|i| ((i * 29) % 13) as f64 * 0.37 - 2.0)
+            .collect();
+        let terms = |threads: usize| {
+            let (mut af, mut mag) = (vec![0.0; n], vec![0.0; n]);
+            fac.row_terms(&f, &mut af, &mut mag, None, threads);
+            (af, mag)
+        };
+        let one = terms(1);
+        for threads in [2, 3, 8] {
+            assert_eq!(terms(threads), one, "{threads} threads");
+        }
+    }
+
+    #[test]
     fn blocks_and_compressed_rows_give_the_same_factors() {
         let fac = contact_factors(9, 60, true, 3);
         let again =
