@@ -17,8 +17,10 @@ pub struct BenchArgs {
     /// Scene files to run (glob, e.g. `bench_scenes/tower_*.toml`).
     #[arg(long)]
     pub scenes: Option<String>,
-    /// LCP cases, comma-separated case keys (`spd:n=100:cond=1e4:seed=1`, `file:PATH`, …) or
-    /// `matrix` for the generated families of the report. Default: `matrix` when no `--scenes`.
+    /// LCP cases, comma-separated case keys (`spd:n=100:cond=1e4:seed=1`, `file:PATH`,
+    /// `step:SCENE?step=K` for the LCP a scene's stepper assembles at step K, …) or `matrix` for
+    /// the generated families of the report. Default: `matrix` when no `--scenes`. Cone solvers
+    /// take a friction LCP's cone form.
     #[arg(long, value_delimiter = ',')]
     pub lcps: Vec<String>,
     /// Friction models the `--scenes` run under, comma-separated (none, box, pyramid,

@@ -139,7 +139,7 @@ impl std::str::FromStr for ProblemClass {
 serde_as_text!(ProblemClass);
 
 /// The family a case belongs to, named by the first part of its key (`spd`, `psd`, `pmatrix`,
-/// `murty`, `dup`, `weak`, `zerob`, `infeasible`, `file`, `scene`): the `family` column.
+/// `murty`, `dup`, `weak`, `zerob`, `infeasible`, `file`, `step`, `scene`): the `family` column.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum CaseFamily {
     /// Generated SPD (also the value of a [`RunRecord`](crate::harness::RunRecord) not yet
@@ -162,13 +162,15 @@ pub enum CaseFamily {
     Infeasible,
     /// A problem file.
     File,
+    /// One step's problem of a scene.
+    SceneStep,
     /// A scene.
     Scene,
 }
 
 impl CaseFamily {
     /// Every family, in the order of the case keys' table.
-    pub const ALL: [CaseFamily; 10] = [
+    pub const ALL: [CaseFamily; 11] = [
         CaseFamily::Spd,
         CaseFamily::Psd,
         CaseFamily::PMatrix,
@@ -178,6 +180,7 @@ impl CaseFamily {
         CaseFamily::ZeroB,
         CaseFamily::Infeasible,
         CaseFamily::File,
+        CaseFamily::SceneStep,
         CaseFamily::Scene,
     ];
 
@@ -193,6 +196,7 @@ impl CaseFamily {
             CaseFamily::ZeroB => "zerob",
             CaseFamily::Infeasible => "infeasible",
             CaseFamily::File => "file",
+            CaseFamily::SceneStep => "step",
             CaseFamily::Scene => "scene",
         }
     }
@@ -282,6 +286,15 @@ pub enum Case {
     },
     /// A problem file.
     File(PathBuf),
+    /// The box-friction LCP the stepper assembles at one step of a scene (the earlier steps
+    /// simulated with the scene's own solver and settings), built in the run that solves it:
+    /// the problems of large scenes, too big to keep as files. Cone solvers take its cone form.
+    SceneStep {
+        /// The scene file.
+        path: PathBuf,
+        /// The step (0-based).
+        step: usize,
+    },
     /// A scene file.
     Scene {
         /// The scene file.
@@ -326,6 +339,7 @@ impl fmt::Display for Case {
                 GenFamily::Infeasible => write!(out, "infeasible:n={n}:seed={seed}"),
             },
             Case::File(p) => write!(out, "file:{}", p.display()),
+            Case::SceneStep { path, step } => write!(out, "step:{}?step={step}", path.display()),
             Case::Scene {
                 path,
                 steps,
@@ -361,6 +375,9 @@ impl std::str::FromStr for Case {
         }
         if let Some(rest) = key.strip_prefix("scene:") {
             return parse_scene_key(rest).map_err(err);
+        }
+        if let Some(rest) = key.strip_prefix("step:") {
+            return parse_step_key(rest).map_err(err);
         }
         parse_generated_key(key).map_err(err)
     }
@@ -398,6 +415,20 @@ fn parse_scene_key(rest: &str) -> Result<Case, String> {
         path: PathBuf::from(path),
         steps,
         friction,
+    })
+}
+
+/// `PATH?step=K` of a `step:` key.
+fn parse_step_key(rest: &str) -> Result<Case, String> {
+    let (path, step) = rest
+        .rsplit_once("?step=")
+        .ok_or_else(|| format!("`{rest}` is not PATH?step=K"))?;
+    let step = step
+        .parse::<usize>()
+        .map_err(|_| format!("`{step}` is not a step index (0-based)"))?;
+    Ok(Case::SceneStep {
+        path: PathBuf::from(path),
+        step,
     })
 }
 
@@ -467,7 +498,7 @@ fn generated_family(
         _ => {
             return Err(format!(
                 "unknown kind `{kind}` (known: spd, psd, pmatrix, murty, dup, weak, zerob, \
-                 infeasible, file:PATH, scene:PATH)"
+                 infeasible, file:PATH, step:PATH?step=K, scene:PATH)"
             ))
         }
     })
@@ -487,7 +518,7 @@ impl Case {
                 }
                 GenFamily::Infeasible => ProblemClass::Infeasible,
             },
-            Case::File(_) => ProblemClass::Friction,
+            Case::File(_) | Case::SceneStep { .. } => ProblemClass::Friction,
             Case::Scene { .. } => ProblemClass::Scene,
         }
     }
@@ -519,6 +550,7 @@ impl Case {
                 GenFamily::Infeasible => CaseFamily::Infeasible,
             },
             Case::File(_) => CaseFamily::File,
+            Case::SceneStep { .. } => CaseFamily::SceneStep,
             Case::Scene { .. } => CaseFamily::Scene,
         }
     }
@@ -591,9 +623,16 @@ impl Case {
         }
     }
 
-    /// Short display name: the file stem for scenes and files, the key otherwise.
+    /// Short display name: the file stem for scenes and files (`STEM stepK` for a scene's
+    /// step), the key otherwise.
     pub fn short_name(&self) -> String {
         match self {
+            Case::SceneStep { path, step } => format!(
+                "{} step{step}",
+                path.file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| path.display().to_string())
+            ),
             Case::Scene { path, .. } | Case::File(path) => path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -612,8 +651,36 @@ impl Case {
                     solution: None,
                 })
                 .map_err(|e| e.to_string()),
+            Case::SceneStep { path, step } => scene_step_lcp(path, *step),
             Case::Scene { path, .. } => Err(format!("{} is a scene, not an LCP", path.display())),
         }
+    }
+}
+
+/// The LCP of step `step` of the scene at `path` (see [`Case::SceneStep`]).
+fn scene_step_lcp(path: &std::path::Path, step: usize) -> Result<LoadedLcp, String> {
+    use crate::harness::export::{step_problem, StepProblem};
+    let scene = lcpbench_contact::scene::Scene::load(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut world = scene.world();
+    match step_problem(&mut world, &scene.name, step, || {}).0 {
+        StepProblem::Lcp { problem, .. } => Ok(LoadedLcp {
+            problem,
+            solution: None,
+        }),
+        StepProblem::Cone(_) => Err(format!(
+            "{} step {step}: the scene's friction model is the cone; a scene step case is its \
+             box-friction LCP",
+            path.display()
+        )),
+        StepProblem::NoContacts => Err(format!(
+            "{} step {step} has no contacts, so no problem",
+            path.display()
+        )),
+        StepProblem::Refused(reason) => Err(format!(
+            "{} step {step} was not solved: {reason}",
+            path.display()
+        )),
     }
 }
 
@@ -703,6 +770,7 @@ mod tests {
             "zerob:n=9:seed=1",
             "infeasible:n=9:seed=1",
             "file:reports/lcps/tower.json",
+            "step:bench_scenes/tower_10.toml?step=3",
             "scene:bench_scenes/tower_10.toml",
             "scene:bench_scenes/tower_10.toml?steps=50",
             "scene:bench_scenes/tower_10.toml?friction=cone",
@@ -726,6 +794,31 @@ mod tests {
         assert!("scene:a.toml?steps=5&colour=red".parse::<Case>().is_err());
         assert!("spd:cond=1e3".parse::<Case>().is_err());
         assert!("cube:n=3".parse::<Case>().is_err());
+        assert!("step:a.toml".parse::<Case>().is_err());
+        assert!("step:a.toml?step=-1".parse::<Case>().is_err());
+    }
+
+    #[test]
+    fn a_scene_step_case_is_the_lcp_the_stepper_assembles_at_that_step() {
+        use crate::harness::export::{step_problem, StepProblem};
+        let path = "bench_scenes/tower_5.toml";
+        let lcp = format!("step:{path}?step=2")
+            .parse::<Case>()
+            .unwrap()
+            .load_lcp()
+            .unwrap();
+        let scene = lcpbench_contact::scene::Scene::load(path).unwrap();
+        let mut world = scene.world();
+        let StepProblem::Lcp { problem, .. } = step_problem(&mut world, &scene.name, 2, || {}).0
+        else {
+            panic!("tower_5 step 2 has an LCP");
+        };
+        assert_eq!(lcp.problem.n(), problem.n());
+        assert!(lcp.problem.n() >= 3 * 4, "a tower of 5 has contacts");
+        assert_eq!(lcp.problem.b(), problem.b());
+        let missing = "step:bench_scenes/no_such_scene.toml?step=1".parse::<Case>();
+        let err = missing.unwrap().load_lcp().unwrap_err();
+        assert!(err.contains("no_such_scene"), "{err}");
     }
 
     #[test]

@@ -36,7 +36,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
         Err(e) => return RunOutput::failed(record, RunStatus::Error, e),
     };
     record.n = Some(lcp.problem.n());
-    if let Case::File(_) = case {
+    if let Case::File(_) | Case::SceneStep { .. } = case {
         record.class = Case::class_of_problem(&lcp.problem);
     }
     if let Some(solver) = spec.create_cone() {

@@ -251,21 +251,32 @@ impl CostModel {
                         .or_insert_with(|| job.case.load_lcp().ok().map(|lcp| lcp.problem.n()));
                     rows.map_or(0.0, |n| lcp_seconds(n, iterations, time_s))
                 }
-                Case::Scene { path, steps, .. } => {
-                    let scene = *self.scenes.entry(path.clone()).or_insert_with(|| {
-                        lcpbench_contact::scene::Scene::load(path).ok().map(|s| {
-                            let bodies = s.bodies.iter().filter(|b| !b.is_static).count();
-                            (bodies, s.settings.steps)
-                        })
-                    });
-                    scene.map_or(0.0, |(bodies, own)| {
-                        let steps = steps.map_or(own, |cap| cap.min(own)) as f64;
-                        let bodies = bodies as f64;
-                        let solve = (1.2e-8 * bodies * bodies * iterations).min(time_s);
-                        steps * (2e-5 * bodies + solve)
+                Case::SceneStep { path, step } => {
+                    // The steps before it simulated, then a problem of about
+                    // `ROWS_PER_BODY` rows per dynamic body solved.
+                    const ROWS_PER_BODY: usize = 30;
+                    self.scene(path).map_or(0.0, |(bodies, _)| {
+                        let simulate = (*step as f64 + 1.0) * 2e-5 * bodies as f64;
+                        simulate + lcp_seconds(ROWS_PER_BODY * bodies, iterations, time_s)
                     })
                 }
+                Case::Scene { path, steps, .. } => self.scene(path).map_or(0.0, |(bodies, own)| {
+                    let steps = steps.map_or(own, |cap| cap.min(own)) as f64;
+                    let bodies = bodies as f64;
+                    let solve = (1.2e-8 * bodies * bodies * iterations).min(time_s);
+                    steps * (2e-5 * bodies + solve)
+                }),
             }
+    }
+
+    /// Dynamic bodies and own step count of the scene at `path`, loaded once.
+    fn scene(&mut self, path: &std::path::Path) -> Option<(usize, usize)> {
+        *self.scenes.entry(path.to_path_buf()).or_insert_with(|| {
+            lcpbench_contact::scene::Scene::load(path).ok().map(|s| {
+                let bodies = s.bodies.iter().filter(|b| !b.is_static).count();
+                (bodies, s.settings.steps)
+            })
+        })
     }
 
     /// Expected cost of one run in whole microseconds (integers, so that every machine sums

@@ -14,8 +14,7 @@
 //!   ones warm-started too, × budgets [`SCENE_BUDGETS`] (`realtime`, `loose`, `default`; a
 //!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps,
 //!   large ones [`large_scene_steps`]; and the LCPs exported from the scenes (`file:` cases) ×
-//!   every matrix solver × budgets `default`, `tight`, and their cone form × every cone solver
-//!   × budget `tight` (the cone solvers' performance profiles).
+//!   every matrix solver × budgets `default`, `tight`.
 //! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
 //!   friction models box, pyramid and cone, each with the solvers of [`FRICTION_MODELS`] warm
 //!   started, budget [`FRICTION_BUDGET`], at most [`FRICTION_STEPS`] steps.
@@ -27,6 +26,9 @@
 //! * **FCLIB**: the FCLIB problems of `fclib/` next to the scene files (frictional-contact
 //!   problems from Siconos' test data, read as box-friction LCPs) × every matrix solver, budget
 //!   [`FCLIB_BUDGET`]: time to the relative residual 1e-6.
+//! * **FC3D collection**: the FCLIB files, the exported scene LCPs and steps 1 and 10 of the
+//!   large scenes (`step:` cases, built in the run) in their exact-cone form × every cone
+//!   solver, budget [`FC3D_BUDGET`] (the cone solvers' performance profiles at 1e-4 and 1e-8).
 //!
 //! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
 //! the generated families at 8 rows, two members of the scene scaling family and the smallest
@@ -167,6 +169,21 @@ pub fn fclib_budget() -> NamedBudget {
     custom_budget(FCLIB_BUDGET)
 }
 
+/// Budget of the FC3D collection ([`fc3d_jobs`]): tolerance `1e-8` (the finer level of its
+/// performance profiles), 100,000 iterations and 5 s per solve.
+pub const FC3D_BUDGET: &str = "1e-8:100000:5";
+
+/// [`FC3D_BUDGET`] with its name.
+pub fn fc3d_budget() -> NamedBudget {
+    custom_budget(FC3D_BUDGET)
+}
+
+/// Large scenes whose step problems the FC3D collection leaves out (file stems):
+/// `pyramid_3d_5525` (80,900 contacts, 242,700 rows) has a Delassus matrix `W` of tens of
+/// millions of entries, whose assembly alone would take most of a run's budget and gigabytes
+/// per run.
+pub const FC3D_EXCLUDED_SCENES: [&str; 1] = ["pyramid_3d_5525"];
+
 /// The FCLIB problem files: `fclib/*.hdf5` in the directory of the first scene file.
 pub fn fclib_files(scenes: &[PathBuf]) -> Vec<PathBuf> {
     let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
@@ -278,6 +295,9 @@ pub struct Suite {
     pub tower_budgets: Vec<NamedBudget>,
     /// The FCLIB problem files ([`fclib_files`]).
     pub fclib_cases: Vec<Case>,
+    /// The FC3D collection of the cone solvers ([`fc3d_jobs`]): the FCLIB files, the exported
+    /// scene LCPs and steps of the large scenes, each in its cone form.
+    pub fc3d_cases: Vec<Case>,
 }
 
 /// A preset budget with its name.
@@ -337,6 +357,8 @@ struct Plan {
     scaling_steps: usize,
     /// How many FCLIB files run (smallest first).
     fclib_files: usize,
+    /// The steps of each large scene in the FC3D collection.
+    fc3d_scene_steps: &'static [usize],
 }
 
 const QUICK: Plan = Plan {
@@ -353,6 +375,7 @@ const QUICK: Plan = Plan {
     scaling_scenes: 2,
     scaling_steps: 2,
     fclib_files: 1,
+    fc3d_scene_steps: &[1],
 };
 
 const FULL: Plan = Plan {
@@ -371,6 +394,7 @@ const FULL: Plan = Plan {
     scaling_scenes: usize::MAX,
     scaling_steps: SCALING_STEPS,
     fclib_files: usize::MAX,
+    fc3d_scene_steps: &[1, 10],
 };
 
 /// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
@@ -404,6 +428,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     tower_jobs(&mut suite, scenes, plan.tower_steps);
     scene_scaling_jobs(&mut suite, all_scenes, plan);
     fclib_jobs(&mut suite, all_scenes, plan.fclib_files);
+    fc3d_jobs(&mut suite, &large_scenes, plan.fc3d_scene_steps);
     suite
 }
 
@@ -496,14 +521,6 @@ fn lcp_jobs(suite: &mut Suite) {
     let (matrix, exported) = (suite.matrix_cases.clone(), suite.exported_cases.clone());
     push(suite, &matrix, &solvers, &matrix_budgets);
     push(suite, &exported, &solvers, &matrix_budgets);
-    // The cone form of the same exported steps (each contact's normal and two tangent rows as
-    // one Coulomb cone), for the cone solvers' performance profiles.
-    push(
-        suite,
-        &exported,
-        &cone_solvers(),
-        &[preset(BudgetName::Tight)],
-    );
     let scaling = suite.scaling_cases.clone();
     push(suite, &scaling, &solvers, &[preset(BudgetName::Default)]);
     let omega_specs: Vec<SolverSpec> = suite.omegas.iter().map(|&w| SolverSpec::sor(w)).collect();
@@ -633,6 +650,35 @@ fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf], count: usize) {
     push(suite, &cases, &all_solvers(), &[fclib_budget()]);
 }
 
+/// The FC3D collection × every cone solver (cold), budget [`FC3D_BUDGET`]: the FCLIB files,
+/// the exported scene LCPs, and `steps` of each large scene (those of
+/// [`FC3D_EXCLUDED_SCENES`] left out), each in its exact-cone form (every contact's normal
+/// and two tangent rows as one Coulomb cone); the cone solvers' performance profiles.
+fn fc3d_jobs(suite: &mut Suite, large_scenes: &[Case], steps: &[usize]) {
+    let mut cases = suite.fclib_cases.clone();
+    cases.extend(suite.exported_cases.iter().cloned());
+    for scene in large_scenes {
+        let Case::Scene { path, .. } = scene else {
+            continue;
+        };
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        if FC3D_EXCLUDED_SCENES
+            .iter()
+            .any(|x| stem.as_deref() == Some(*x))
+        {
+            continue;
+        }
+        for &step in steps {
+            cases.push(Case::SceneStep {
+                path: path.clone(),
+                step,
+            });
+        }
+    }
+    suite.fc3d_cases = cases.clone();
+    push(suite, &cases, &cone_solvers(), &[fc3d_budget()]);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -686,6 +732,35 @@ mod tests {
     }
 
     #[test]
+    fn the_fc3d_collection_has_the_fclib_files_exported_steps_and_large_scene_steps() {
+        let scenes = [
+            PathBuf::from("bench_scenes/tower_5.toml"),
+            PathBuf::from("bench_scenes/pyramid_3d_1015.toml"),
+            PathBuf::from("bench_scenes/pyramid_3d_5525.toml"),
+        ];
+        let exported = [PathBuf::from("reports/lcps/tower_5_step30.json")];
+        let s = default_suite(false, &scenes, &exported);
+        let keys: Vec<String> = s.fc3d_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(keys.len(), 5 + 1 + 2, "{keys:?}");
+        assert!(keys.contains(&"file:reports/lcps/tower_5_step30.json".to_string()));
+        for step in [1, 10] {
+            let key = format!("step:bench_scenes/pyramid_3d_1015.toml?step={step}");
+            assert!(keys.contains(&key), "{key} in {keys:?}");
+            assert_eq!(key.parse::<Case>().unwrap().to_string(), key);
+        }
+        assert!(!keys.iter().any(|k| k.contains("pyramid_3d_5525")));
+        let cone_jobs: Vec<&Job> = s
+            .jobs
+            .iter()
+            .filter(|j| j.solver.create_cone().is_some())
+            .collect();
+        assert_eq!(cone_jobs.len(), keys.len() * ConeSolverKind::ALL.len());
+        assert!(cone_jobs
+            .iter()
+            .all(|j| j.budget.name.as_str() == FC3D_BUDGET && s.fc3d_cases.contains(&j.case)));
+    }
+
+    #[test]
     fn the_full_suite_runs_every_matrix_solver_on_the_fclib_files() {
         let scenes = [PathBuf::from("bench_scenes/tower_5.toml")];
         let s = default_suite(false, &scenes, &[]);
@@ -695,7 +770,7 @@ mod tests {
         let jobs = s
             .jobs
             .iter()
-            .filter(|j| s.fclib_cases.contains(&j.case))
+            .filter(|j| s.fclib_cases.contains(&j.case) && j.solver.create_cone().is_none())
             .inspect(|j| assert_eq!(j.budget.name.as_str(), FCLIB_BUDGET))
             .count();
         assert_eq!(jobs, 5 * SolverKind::ALL.len());

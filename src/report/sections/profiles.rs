@@ -27,7 +27,7 @@ impl Section for Profiles {
         let mut figures = Vec::new();
         for (level, label) in [(1e-4, "1e-4"), (1e-8, "1e-8")] {
             let path = ctx.plots_dir.join(format!("profile_{label}.svg"));
-            let series = performance_profile(ctx, &ctx.feasible_cases, &solvers, level);
+            let series = performance_profile(ctx, &ctx.feasible_cases, &solvers, &BUDGET, level);
             profile_plot(
                 &path,
                 format!("Performance profile, time to relative residual {label}"),
@@ -43,11 +43,12 @@ impl Section for Profiles {
 }
 
 /// Dolan–Moré profile: for each solver, the fraction of problems it solves within `τ` times the
-/// best solver's time, over the problems at least one solver solved.
+/// best solver's time, over the problems at least one solver solved (runs of `budget`).
 pub(super) fn performance_profile(
     ctx: &ReportContext,
     cases: &[&Case],
     solvers: &[SolverSpec],
+    budget: &BudgetName,
     level: f64,
 ) -> Vec<Series> {
     let mut ratios: Vec<Vec<f64>> = vec![Vec::new(); solvers.len()];
@@ -55,7 +56,7 @@ pub(super) fn performance_profile(
     for case in cases {
         let times: Vec<Option<f64>> = solvers
             .iter()
-            .map(|s| ctx.get(case, s, &BUDGET).and_then(|r| r.tta(level)))
+            .map(|s| ctx.get(case, s, budget).and_then(|r| r.tta(level)))
             .collect();
         let Some(best) = times.iter().flatten().copied().reduce(f64::min) else {
             continue;
