@@ -98,6 +98,7 @@ fn fixture_suite() -> Suite {
     let fclib = Case::File("bench_scenes/fclib/Box_Stacks-i0122-82-5.hdf5".into());
     let wedged = Case::scene("bench_scenes/wedged.toml", Some(10));
     let large = Case::scene("bench_scenes/tower_40.toml", Some(10));
+    let step: Case = "step:bench_scenes/tower_40.toml?step=1".parse().unwrap();
     let tower = Case::scene("bench_scenes/tower_10_60hz.toml", Some(10));
     let incline = Case::scene_with_friction(
         "bench_scenes/incline_slide.toml",
@@ -115,12 +116,13 @@ fn fixture_suite() -> Suite {
         large_scene_cases: vec![large],
         scene_scaling_cases: Vec::new(),
         friction_cases: vec![incline],
-        exported_cases: vec![exported],
+        exported_cases: vec![exported.clone()],
         history_cases: vec![spd],
         tower_cases: vec![tower],
         tower_solvers: vec![pgs().with_warm()],
         tower_budgets: vec!["1e-6:20:1".parse().unwrap()],
         fclib_cases: vec![fclib],
+        fc3d_cases: vec![exported, step],
     }
 }
 
@@ -139,11 +141,32 @@ fn fixture_rows(suite: &Suite) -> (Vec<RunRecord>, Vec<HistoryRow>) {
         lcp_run(
             &suite.exported_cases[0],
             &SolverSpec::cone(ConeSolverKind::NsgsCone),
-            &tight,
+            &suite::fc3d_budget(),
             6e-4,
         ),
         lcp_run(&suite.fclib_cases[0], &pgs(), &suite::fclib_budget(), 7e-3),
     ];
+    // A large scene's step: 162 contacts; newton-ac stops short of 1e-8.
+    let step = &suite.fc3d_cases[1];
+    let mut nsgs = lcp_run(
+        step,
+        &SolverSpec::cone(ConeSolverKind::NsgsCone),
+        &suite::fc3d_budget(),
+        2e-3,
+    );
+    nsgs.n = Some(486);
+    let mut newton = lcp_run(
+        step,
+        &SolverSpec::cone(ConeSolverKind::NewtonAc),
+        &suite::fc3d_budget(),
+        5.0,
+    );
+    newton.n = Some(486);
+    newton.status = RunStatus::TimeLimit;
+    newton.converged = false;
+    newton.residual_rel = Some(3e-5);
+    newton.set_tta([Some(1.0), None, None, None]);
+    rows.extend([nsgs, newton]);
     let mut no_solution = base_record(infeasible, &lemke, &default);
     no_solution.status = RunStatus::NoSolution;
     rows.push(no_solution);
@@ -235,7 +258,7 @@ fn every_section_renders_from_a_fixture_run() {
         "## Robustness matrix",
         "## Fastest solver per problem",
         "## Time to accuracy",
-        "## Cone solvers on the exported scene steps",
+        "## Cone solvers on the FC3D collection",
         "## Warm start versus cold start",
         "## SOR relaxation sweep",
         "## Scaling",
@@ -280,7 +303,17 @@ fn every_section_renders_from_a_fixture_run() {
     assert!(robust.contains("lemke,–,–,–,–,✓ 1/1 detected"), "{robust}");
     has(out, "fastest", "lemke,25.0 µs,lemke,100.0 µs");
     has(out, "time_to_accuracy", "spd:n=8:cond=1e2:seed=1,lemke,");
-    has(out, "cone_time_to_accuracy", "nsgs-cone,1 of 1");
+    has(out, "cone_time_to_accuracy", "nsgs-cone,2 of 2");
+    has(
+        out,
+        "cone_time_to_accuracy",
+        "newton-ac,1 of 2,1.00 s,0 of 2",
+    );
+    has(
+        out,
+        "cone_problems",
+        "tower_40 step1,large-scene step,162,486,2.00 ms,time_limit (3.0e-5)",
+    );
     has(out, "warm_vs_cold", ",pgs,12,5,");
     has(out, "sor_omega", "1.3,12");
     has(out, "scaling_slopes", "pgs,");
