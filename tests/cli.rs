@@ -41,6 +41,8 @@ fn solvers_lists_every_solver() {
         "enum",
         "nsgs-cone",
         "newton-ac",
+        "newton-fb-cone",
+        "newton-nm-cone",
         "clarabel-socp",
     ] {
         assert!(
@@ -68,6 +70,8 @@ fn solvers_names_each_solver_level() {
         ("body-micro", "body"),
         ("penalty", "body"),
         ("nsgs-cone", "cone"),
+        ("newton-fb-cone", "cone"),
+        ("newton-nm-cone", "cone"),
         ("clarabel-socp", "cone"),
     ] {
         assert_eq!(level(name).as_deref(), Some(want), "{name} in:\n{text}");

@@ -45,7 +45,7 @@ mod test_util;
 pub use problem::{certificate, generate, metrics};
 
 pub use cone::clarabel_socp::ClarabelSocp;
-pub use cone::newton_ac::NewtonAc;
+pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
 pub use cone::nsgs_cone::NsgsCone;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
@@ -217,15 +217,21 @@ pub enum ConeSolverKind {
     NsgsCone,
     /// Global Alart–Curnier semismooth Newton.
     NewtonAc,
+    /// Global semismooth Newton on the second-order-cone Fischer–Burmeister function.
+    NewtonFbCone,
+    /// Global semismooth Newton on the natural map.
+    NewtonNmCone,
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 3] = [
+    pub const ALL: [ConeSolverKind; 5] = [
         ConeSolverKind::NsgsCone,
         ConeSolverKind::NewtonAc,
+        ConeSolverKind::NewtonFbCone,
+        ConeSolverKind::NewtonNmCone,
         ConeSolverKind::ClarabelSocp,
     ];
 
@@ -234,6 +240,8 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => "nsgs-cone",
             ConeSolverKind::NewtonAc => "newton-ac",
+            ConeSolverKind::NewtonFbCone => "newton-fb-cone",
+            ConeSolverKind::NewtonNmCone => "newton-nm-cone",
             ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
@@ -247,16 +255,18 @@ impl ConeSolverKind {
     pub fn problem_classes(self) -> &'static str {
         match self {
             ConeSolverKind::NsgsCone => cone::nsgs_cone::PROBLEM_CLASSES,
-            ConeSolverKind::NewtonAc => cone::newton_ac::PROBLEM_CLASSES,
+            ConeSolverKind::NewtonAc => cone::newton::PROBLEM_CLASSES_AC,
+            ConeSolverKind::NewtonFbCone => cone::newton::PROBLEM_CLASSES_FB,
+            ConeSolverKind::NewtonNmCone => cone::newton::PROBLEM_CLASSES_NM,
             ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
     }
 
     /// True for solvers that iterate from a starting reaction (and so use
-    /// [`Settings::warm_start`]): NSGS-cone and Newton-AC. Clarabel's SOCP starts from its own
-    /// interior point and ignores a warm start.
+    /// [`Settings::warm_start`]): NSGS-cone and the Newton methods. Clarabel's SOCP starts from
+    /// its own interior point and ignores a warm start.
     pub fn is_iterative(self) -> bool {
-        matches!(self, ConeSolverKind::NsgsCone | ConeSolverKind::NewtonAc)
+        !self.is_relaxation()
     }
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
@@ -269,7 +279,9 @@ impl ConeSolverKind {
     pub fn create(self) -> Box<dyn ConeSolver + Send> {
         match self {
             ConeSolverKind::NsgsCone => Box::new(NsgsCone),
-            ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
+            ConeSolverKind::NewtonAc => Box::new(ConeNewton::alart_curnier()),
+            ConeSolverKind::NewtonFbCone => Box::new(ConeNewton::fischer_burmeister()),
+            ConeSolverKind::NewtonNmCone => Box::new(ConeNewton::natural_map()),
             ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }

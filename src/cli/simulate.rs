@@ -17,7 +17,7 @@ pub struct SimulateArgs {
     pub scene: PathBuf,
     /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
     /// body-level one (si, body-micro, penalty), or, for friction model cone, a cone solver
-    /// (nsgs-cone, newton-ac). A solver that does not take the friction model is refused.
+    /// (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone). A solver that does not take the friction model is refused.
     /// `NAME` starts every step cold and `NAME+warm` from the previous step's impulses, as in
     /// `bench` (without `--solver`, the scene's `warm_start` applies).
     #[arg(long, short)]

@@ -21,7 +21,7 @@ pub struct SolveArgs {
     /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content.
     pub problem: PathBuf,
     /// Solver name (see `lcpbench solvers`): an LCP solver, or a cone solver (`nsgs-cone`,
-    /// `newton-ac`, `clarabel-socp`) for a cone file or a box-friction file in (normal, t1, t2)
+    /// `newton-ac`, `newton-fb-cone`, `newton-nm-cone`, `clarabel-socp`) for a cone file or a box-friction file in (normal, t1, t2)
     /// triples.
     #[arg(long, short)]
     pub solver: SolverName,

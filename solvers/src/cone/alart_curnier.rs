@@ -1,6 +1,6 @@
 //! The Alart–Curnier function of one contact and an element of its generalised Jacobian, and
-//! the exact solve of one contact's cone problem (the kernels of [`crate::NsgsCone`] and
-//! [`crate::NewtonAc`]).
+//! the exact solve of one contact's cone problem (the kernels of [`crate::NsgsCone`] and of
+//! [`crate::ConeNewton`] with [`crate::ConeFunction::AlartCurnier`], `newton-ac`).
 //!
 //! For a contact with reaction `r = (r_N, r_T)`, velocity `u`, coefficient `mu` and `ρ > 0`:
 //!
@@ -14,14 +14,8 @@
 //!
 //! Reference: P. Alart, A. Curnier, CMAME 92, 1991; V. Acary, M. Brémond, O. Huber, 2018, §3.
 
+use crate::cone::newton::Linearisation;
 use crate::cone::{contact_natural_map, project_onto_cone};
-
-/// `Φ`, `P = ∂Φ/∂r` and `Q = ∂Φ/∂u` of one contact (3×3, row-major).
-pub(crate) struct Linearisation {
-    pub(crate) phi: [f64; 3],
-    pub(crate) p: [[f64; 3]; 3],
-    pub(crate) q: [[f64; 3]; 3],
-}
 
 /// The Alart–Curnier function of one contact and an element of its generalised Jacobian.
 pub(crate) fn linearise(mu: f64, rho: f64, r: [f64; 3], u: [f64; 3]) -> Linearisation {

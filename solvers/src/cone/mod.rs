@@ -51,12 +51,16 @@
 //! Coulomb friction: formulations and numerical comparisons*, Advanced Topics in Nonsmooth
 //! Dynamics, Springer 2018 (FC3D, FCLIB, the error measure).
 //!
-//! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Alart–Curnier Newton method
-//! ([`crate::NewtonAc`]) and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
+//! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Newton methods on the
+//! Alart–Curnier function, the second-order-cone Fischer–Burmeister function and the natural
+//! map ([`crate::ConeNewton`]: `newton-ac`, `newton-fb-cone`, `newton-nm-cone`) and Anitescu's
+//! SOCP relaxation ([`crate::ClarabelSocp`]).
 
 pub(crate) mod alart_curnier;
 pub(crate) mod clarabel_socp;
-pub(crate) mod newton_ac;
+pub(crate) mod fischer_burmeister;
+pub(crate) mod natural_map;
+pub(crate) mod newton;
 pub(crate) mod nsgs_cone;
 mod problem;
 mod residual;

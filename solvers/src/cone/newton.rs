@@ -1,0 +1,665 @@
+//! Global semismooth Newton on the exact Coulomb cone: one driver for three per-contact
+//! reformulations of Coulomb's law, the Alart–Curnier function ([`crate::cone`]'s
+//! `alart_curnier`, Siconos' `FC3D_NSN_AC`), the Fischer–Burmeister function on the
+//! second-order cone (`fischer_burmeister`, `FC3D_NSN_FB`) and the natural map
+//! (`natural_map`, `FC3D_NSN_NM`).
+//!
+//! Each reformulation gives, contact by contact, `Φ_c(r_c, u_c)` with `Φ_c = 0` exactly where
+//! contact `c` meets Coulomb's law, and an element of its generalised Jacobian
+//! `dΦ_c = P_c dr_c + Q_c du_c`, with `ρ_c = 1 / d_c` (`d_c` the diagonal scale of the normal
+//! row). With `u = W r + q`, one iteration solves
+//!
+//! ```text
+//! (P + Q W + λ I) d = −Φ,     λ = min(10⁻², ‖Φ‖∞ / s)   (s the largest ρ_c ‖q_c‖; 1 if zero)
+//! ```
+//!
+//! — the Levenberg term keeps the system regular where contacts are degenerate and vanishes at
+//! the solution — and takes a non-monotone Armijo step on the merit `θ = ½‖Φ‖²` (`σ = 10⁻⁴`,
+//! halving, at most 40 times; sufficient decrease against the largest `θ` of the last
+//! [`NONMONOTONE_MEMORY`] iterates, Grippo, Lampariello, Lucidi 1986), falling back to the
+//! steepest-descent direction `−(P + Q W)ᵀ Φ` when the Newton direction is not a descent
+//! direction or no step along it passes.
+//!
+//! `P + Q W` has the 3×3 block pattern of `W` (block `(c, e)` is `Q_c W_ce`, plus `P_c` on the
+//! diagonal), fixed for the whole solve. Up to [`ConeNewton::dense_up_to`] rows it is formed
+//! dense and factorised by a partial-pivoting LU; above, it is assembled in compressed columns
+//! on the block pattern of `W` and factorised by faer's sparse LU (COLAMD ordering,
+//! supernodal), the ordering and symbolic analysis computed once per solve and reused by every
+//! iteration. Contacts that `W` does not couple give independent diagonal blocks of the
+//! factorisation, so the sparse LU works island by island without a partition of its own.
+//!
+//! * **Problem class**: FC3D ([`crate::ConeProblem`]), dense or sparse `W`, up to
+//!   [`ConeNewton::max_rows`] rows (default 300,000; above it the solve is `Unsupported`).
+//!   Locally quadratically convergent near a non-degenerate solution; the line search on `θ`
+//!   is not globally convergent for Coulomb friction (Acary, Brémond, Huber 2018 measure these
+//!   methods as fast and less robust than NSGS), so a solve may end `Stalled` at a stationary
+//!   point of `θ`.
+//! * **Cost**: per iteration one LU (dense: `⅔ n³`; sparse: the fill of the block pattern of
+//!   `W`), `O(nnz(W))` for `Q W` and `∇θ`, and `O(n)` per line-search trial. The LU is not
+//!   interruptible: the time budget is checked before each factorisation.
+//! * **Stopping rule**: the cone residual ([`crate::cone`]) of the iterate with each contact
+//!   projected onto its cone is at most the tolerance; that point is returned. A solve that
+//!   ends short of it returns the best such point it measured.
+//! * **Warm start**: uses [`Settings::warm_start`], projected onto the cones.
+//!
+//! References: P. Alart, A. Curnier, CMAME 92, 1991; M. Fukushima, Z.-Q. Luo, P. Tseng, SIAM J.
+//! Optim. 12, 2002; V. Acary, M. Brémond, O. Huber, *On solving contact problems with Coulomb
+//! friction: formulations and numerical comparisons*, 2018; Siconos numerics,
+//! `fc3d_nonsmooth_Newton_solvers.c` (`FC3D_NSN_AC`, `FC3D_NSN_FB`, `FC3D_NSN_NM`).
+
+use crate::cone::{initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver};
+use crate::lcp::newton::MAX_REGULARISATION;
+use crate::linalg::newton_system::{factor_and_solve, EntryKind, SparseJacobian};
+use crate::solver::line_search::{is_descent, Backtracking};
+use crate::solver::{Outcome, Settings, SolveResult};
+use faer::linalg::solvers::Solve;
+use faer::Mat;
+use std::collections::VecDeque;
+
+/// Problem classes handled by the Alart–Curnier variant.
+pub(crate) const PROBLEM_CLASSES_AC: &str =
+    "FC3D cone (exact Coulomb); global Alart–Curnier Newton, LU dense up to 300 rows, sparse on W's block pattern above (up to 300000 rows)";
+/// Problem classes handled by the Fischer–Burmeister variant.
+pub(crate) const PROBLEM_CLASSES_FB: &str =
+    "FC3D cone (exact Coulomb); global Newton on the second-order-cone Fischer–Burmeister function, LU dense up to 300 rows, sparse above";
+/// Problem classes handled by the natural-map variant.
+pub(crate) const PROBLEM_CLASSES_NM: &str =
+    "FC3D cone (exact Coulomb); global Newton on the natural map r − P_K(r − ρû), LU dense up to 300 rows, sparse above";
+
+/// Rows up to which the Newton system is formed dense by default: below it a dense LU costs
+/// less than the sparse ordering and symbolic analysis.
+pub const DENSE_UP_TO: usize = 300;
+/// Largest problem, in rows, the Newton system is formed for by default.
+pub const MAX_ROWS: usize = 300_000;
+/// The non-monotone line search's memory: a step is accepted on sufficient decrease against
+/// the largest merit of the last this many iterates, as in [`crate::Newton`].
+pub const NONMONOTONE_MEMORY: usize = 10;
+
+/// `Φ`, `P = ∂Φ/∂r` and `Q = ∂Φ/∂u` of one contact (3×3, row-major).
+pub(crate) struct Linearisation {
+    pub(crate) phi: [f64; 3],
+    pub(crate) p: [[f64; 3]; 3],
+    pub(crate) q: [[f64; 3]; 3],
+}
+
+/// The per-contact reformulation of Coulomb's law a [`ConeNewton`] works on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConeFunction {
+    /// Alart and Curnier's augmented-Lagrangian function.
+    AlartCurnier,
+    /// The Fischer–Burmeister function on the second-order cone.
+    FischerBurmeister,
+    /// The natural map `r − P_K(r − ρ û)`.
+    NaturalMap,
+}
+
+impl ConeFunction {
+    /// `Φ_c` and an element of its generalised Jacobian at `(r, u)`.
+    pub(crate) fn linearise(self, mu: f64, rho: f64, r: [f64; 3], u: [f64; 3]) -> Linearisation {
+        match self {
+            ConeFunction::AlartCurnier => crate::cone::alart_curnier::linearise(mu, rho, r, u),
+            ConeFunction::FischerBurmeister => {
+                crate::cone::fischer_burmeister::linearise(mu, rho, r, u)
+            }
+            ConeFunction::NaturalMap => crate::cone::natural_map::linearise(mu, rho, r, u),
+        }
+    }
+}
+
+/// Global semismooth Newton on the cone. See the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConeNewton {
+    /// The reformulation. Default [`ConeFunction::AlartCurnier`].
+    pub function: ConeFunction,
+    /// Rows up to which the Newton system is dense; sparse above. Default [`DENSE_UP_TO`].
+    pub dense_up_to: usize,
+    /// Largest number of rows solved. Default [`MAX_ROWS`].
+    pub max_rows: usize,
+}
+
+/// The Alart–Curnier Newton method (`newton-ac`), the name it had before its variants.
+pub type NewtonAc = ConeNewton;
+
+impl Default for ConeNewton {
+    fn default() -> Self {
+        Self::alart_curnier()
+    }
+}
+
+impl ConeNewton {
+    /// The Alart–Curnier variant (`newton-ac`) with default settings.
+    pub fn alart_curnier() -> Self {
+        Self::with(ConeFunction::AlartCurnier)
+    }
+
+    /// The Fischer–Burmeister variant (`newton-fb-cone`) with default settings.
+    pub fn fischer_burmeister() -> Self {
+        Self::with(ConeFunction::FischerBurmeister)
+    }
+
+    /// The natural-map variant (`newton-nm-cone`) with default settings.
+    pub fn natural_map() -> Self {
+        Self::with(ConeFunction::NaturalMap)
+    }
+
+    fn with(function: ConeFunction) -> Self {
+        Self {
+            function,
+            dense_up_to: DENSE_UP_TO,
+            max_rows: MAX_ROWS,
+        }
+    }
+}
+
+#[inline]
+fn take(x: &[f64]) -> [f64; 3] {
+    [x[0], x[1], x[2]]
+}
+
+/// `W` by 3×3 blocks: block row `c` holds `(e, W_ce)` for each contact `e` it couples to
+/// (a block with a nonzero entry, and always the diagonal one), `e` increasing.
+struct BlockRows(Vec<Vec<(usize, [[f64; 3]; 3])>>);
+
+impl BlockRows {
+    fn of(problem: &ConeProblem) -> Self {
+        let w = problem.delassus();
+        let nc = problem.contacts();
+        let mut slot = vec![usize::MAX; nc];
+        let rows = (0..nc)
+            .map(|c| {
+                let mut blocks: Vec<(usize, [[f64; 3]; 3])> = vec![(c, [[0.0; 3]; 3])];
+                slot[c] = 0;
+                for a in 0..3 {
+                    for (j, v) in w.row(3 * c + a).iter() {
+                        if v == 0.0 {
+                            continue;
+                        }
+                        let e = j / 3;
+                        if slot[e] == usize::MAX {
+                            slot[e] = blocks.len();
+                            blocks.push((e, [[0.0; 3]; 3]));
+                        }
+                        blocks[slot[e]].1[a][j % 3] = v;
+                    }
+                }
+                for (e, _) in &blocks {
+                    slot[*e] = usize::MAX;
+                }
+                blocks.sort_unstable_by_key(|b| b.0);
+                blocks
+            })
+            .collect();
+        Self(rows)
+    }
+
+    /// `out = W x`.
+    fn apply(&self, x: &[f64], out: &mut [f64]) {
+        for (c, blocks) in self.0.iter().enumerate() {
+            let mut acc = [0.0; 3];
+            for (e, b) in blocks {
+                let xe = take(&x[3 * e..]);
+                for (a, s) in acc.iter_mut().enumerate() {
+                    *s += b[a][0] * xe[0] + b[a][1] * xe[1] + b[a][2] * xe[2];
+                }
+            }
+            out[3 * c..3 * c + 3].copy_from_slice(&acc);
+        }
+    }
+
+    /// Stored 3×3 blocks.
+    fn blocks(&self) -> usize {
+        self.0.iter().map(Vec::len).sum()
+    }
+}
+
+/// The storage of the Newton matrix.
+enum NewtonMatrix {
+    Dense(Mat<f64>),
+    Sparse(Box<SparseJacobian>),
+}
+
+impl NewtonMatrix {
+    /// Dense `n × n`, or the compressed block pattern of `W` with its ordering and symbolic LU.
+    fn new(blocks: &BlockRows, n: usize, sparse: bool) -> Result<Self, String> {
+        if !sparse {
+            return Ok(Self::Dense(Mat::zeros(n, n)));
+        }
+        let mut entries = Vec::with_capacity(9 * blocks.blocks());
+        for (c, row) in blocks.0.iter().enumerate() {
+            for (e, _) in row {
+                for a in 0..3 {
+                    for b in 0..3 {
+                        entries.push((3 * c + a, 3 * e + b, EntryKind::Fixed(0.0)));
+                    }
+                }
+            }
+        }
+        SparseJacobian::factor_pattern(entries, n, None).map(|j| Self::Sparse(Box::new(j)))
+    }
+
+    /// Set block `(c, e)` (the `k`-th stored block in block-row order).
+    #[inline]
+    fn set(&mut self, k: usize, c: usize, e: usize, block: &[[f64; 3]; 3]) {
+        match self {
+            Self::Dense(h) => {
+                for (a, row) in block.iter().enumerate() {
+                    for (b, v) in row.iter().enumerate() {
+                        h[(3 * c + a, 3 * e + b)] = *v;
+                    }
+                }
+            }
+            Self::Sparse(j) => {
+                for (a, row) in block.iter().enumerate() {
+                    j.values[9 * k + 3 * a..9 * k + 3 * a + 3].copy_from_slice(row);
+                }
+            }
+        }
+    }
+
+    /// The solution of `H x = rhs`; non-finite when the factorisation fails.
+    fn solve(&mut self, rhs: &[f64]) -> Vec<f64> {
+        match self {
+            Self::Dense(h) => {
+                let n = rhs.len();
+                let mut x = Mat::from_fn(n, 1, |i, _| rhs[i]);
+                h.partial_piv_lu().solve_in_place(&mut x);
+                (0..n).map(|i| x[(i, 0)]).collect()
+            }
+            Self::Sparse(j) => factor_and_solve(j, rhs),
+        }
+    }
+}
+
+/// The solve's fixed data and buffers.
+struct Work<'a> {
+    problem: &'a ConeProblem,
+    function: ConeFunction,
+    blocks: BlockRows,
+    rho: Vec<f64>,
+}
+
+impl Work<'_> {
+    /// `Φ(r, u)` into `phi`; returns `θ = ½‖Φ‖²` (infinite when not finite).
+    fn merit(&self, r: &[f64], u: &[f64], phi: &mut [f64]) -> f64 {
+        let mut theta = 0.0;
+        for (c, &mu) in self.problem.mu().iter().enumerate() {
+            let s = 3 * c..3 * c + 3;
+            let l =
+                self.function
+                    .linearise(mu, self.rho[c], take(&r[s.clone()]), take(&u[s.clone()]));
+            phi[s].copy_from_slice(&l.phi);
+            theta += 0.5 * l.phi.iter().map(|v| v * v).sum::<f64>();
+        }
+        if theta.is_finite() {
+            theta
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// `u = W r + q`.
+    fn velocity(&self, r: &[f64], u: &mut [f64]) {
+        self.blocks.apply(r, u);
+        for (ui, qi) in u.iter_mut().zip(self.problem.q()) {
+            *ui += qi;
+        }
+    }
+
+    /// Forms `P + Q W + λI` in `h` at `(r, u)` and returns `∇θ = (P + Q W)ᵀ Φ`.
+    fn assemble(&self, r: &[f64], u: &[f64], lambda: f64, h: &mut NewtonMatrix) -> Vec<f64> {
+        let mut grad = vec![0.0; r.len()];
+        let mut k = 0;
+        for (c, (&mu, row)) in self.problem.mu().iter().zip(&self.blocks.0).enumerate() {
+            let s = 3 * c;
+            let l = self
+                .function
+                .linearise(mu, self.rho[c], take(&r[s..]), take(&u[s..]));
+            for (e, w) in row {
+                let mut block = [[0.0; 3]; 3];
+                for (a, brow) in block.iter_mut().enumerate() {
+                    for (b, v) in brow.iter_mut().enumerate() {
+                        *v = (0..3).map(|m| l.q[a][m] * w[m][b]).sum::<f64>();
+                        if *e == c {
+                            *v += l.p[a][b];
+                        }
+                    }
+                }
+                for b in 0..3 {
+                    grad[3 * e + b] += (0..3).map(|a| block[a][b] * l.phi[a]).sum::<f64>();
+                }
+                if *e == c {
+                    for (a, brow) in block.iter_mut().enumerate() {
+                        brow[a] += lambda;
+                    }
+                }
+                h.set(k, c, *e, &block);
+                k += 1;
+            }
+        }
+        grad
+    }
+
+    /// Each contact of `r` projected onto its cone.
+    fn projected(&self, r: &[f64]) -> Vec<f64> {
+        let mut p = r.to_vec();
+        for (c, &mu) in self.problem.mu().iter().enumerate() {
+            let v = project_onto_cone(mu, take(&r[3 * c..]));
+            p[3 * c..3 * c + 3].copy_from_slice(&v);
+        }
+        p
+    }
+}
+
+/// The iterate, its velocity, `Φ`, merit and the merits of the last iterates.
+struct Iterate {
+    r: Vec<f64>,
+    u: Vec<f64>,
+    phi: Vec<f64>,
+    theta: f64,
+    recent: VecDeque<f64>,
+}
+
+impl ConeSolver for ConeNewton {
+    fn name(&self) -> &'static str {
+        match self.function {
+            ConeFunction::AlartCurnier => "newton-ac",
+            ConeFunction::FischerBurmeister => "newton-fb-cone",
+            ConeFunction::NaturalMap => "newton-nm-cone",
+        }
+    }
+
+    fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {
+        let mut monitor = ConeMonitor::new(problem, settings);
+        let n = problem.n();
+        if n > self.max_rows {
+            let reason = format!(
+                "n = {n} rows: the Newton system is formed only up to n = {}",
+                self.max_rows
+            );
+            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+        }
+        let nc = problem.contacts();
+        let q = problem.q();
+        let work = Work {
+            problem,
+            function: self.function,
+            blocks: BlockRows::of(problem),
+            rho: (0..nc).map(|c| 1.0 / problem.scale_of(c)).collect(),
+        };
+        let scale = (0..nc)
+            .map(|c| work.rho[c] * take(&q[3 * c..]).iter().map(|v| v * v).sum::<f64>().sqrt())
+            .fold(0.0f64, f64::max);
+        let scale = if scale > 0.0 { scale } else { 1.0 };
+        let r = initial_reaction(problem, settings);
+        let mut u = vec![0.0; n];
+        work.velocity(&r, &mut u);
+        let mut phi = vec![0.0; n];
+        let theta = work.merit(&r, &u, &mut phi);
+        let mut it = Iterate {
+            r,
+            u,
+            phi,
+            theta,
+            recent: VecDeque::from([theta]),
+        };
+        // Formed at the first iteration that needs a direction.
+        let mut matrix: Option<NewtonMatrix> = None;
+        let (mut trial_r, mut trial_u, mut trial_phi, mut wd) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
+        let mut iterations = 0;
+        let line_search = Backtracking::newton();
+        let outcome = loop {
+            let rp = work.projected(&it.r);
+            let rel = monitor.residual_of(&rp);
+            if rel <= settings.tolerance {
+                best = (rel, rp);
+                break Outcome::Stopped;
+            }
+            if rel < best.0 {
+                best = (rel, rp);
+            }
+            if iterations >= settings.max_iterations {
+                break Outcome::IterationLimit;
+            }
+            if monitor.out_of_time() {
+                break Outcome::TimeLimit;
+            }
+            let h = match &mut matrix {
+                Some(h) => h,
+                None => match NewtonMatrix::new(&work.blocks, n, n > self.dense_up_to) {
+                    Ok(h) => matrix.insert(h),
+                    Err(reason) => break Outcome::NumericalFailure(reason),
+                },
+            };
+            let phi_inf = it.phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let lambda = (phi_inf / scale).min(MAX_REGULARISATION);
+            let grad = work.assemble(&it.r, &it.u, lambda, h);
+            let rhs: Vec<f64> = it.phi.iter().map(|v| -v).collect();
+            let newton_dir = h.solve(&rhs);
+            iterations += 1;
+            let dnorm = newton_dir.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let slope: f64 = grad.iter().zip(&newton_dir).map(|(g, d)| g * d).sum();
+            let gnorm = grad.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let gradient_dir: Vec<f64> = grad.iter().map(|g| -g).collect();
+            let mut candidates: Vec<(&[f64], f64)> = Vec::with_capacity(2);
+            if is_descent(&newton_dir, slope, gnorm, dnorm) {
+                candidates.push((&newton_dir, slope));
+            }
+            candidates.push((&gradient_dir, -gnorm * gnorm));
+            let reference = it.recent.iter().copied().fold(it.theta, f64::max);
+            let mut accepted = false;
+            for (direction, slope) in candidates {
+                if slope.is_nan() || slope >= 0.0 {
+                    continue;
+                }
+                work.blocks.apply(direction, &mut wd);
+                let step = line_search.armijo(reference, slope, |t| {
+                    for i in 0..n {
+                        trial_r[i] = it.r[i] + t * direction[i];
+                        trial_u[i] = it.u[i] + t * wd[i];
+                    }
+                    work.merit(&trial_r, &trial_u, &mut trial_phi)
+                });
+                if step.is_some() {
+                    std::mem::swap(&mut it.r, &mut trial_r);
+                    accepted = true;
+                    break;
+                }
+            }
+            if !accepted {
+                monitor.record(iterations, &it.r);
+                break Outcome::Stalled(format!(
+                    "the line search found no decrease of the merit at iteration {iterations} \
+                     (a stationary point that is not a solution)"
+                ));
+            }
+            work.velocity(&it.r, &mut it.u);
+            it.theta = work.merit(&it.r, &it.u, &mut it.phi);
+            it.recent.push_back(it.theta);
+            if it.recent.len() > NONMONOTONE_MEMORY {
+                it.recent.pop_front();
+            }
+            monitor.record(iterations, &it.r);
+            if it.r.iter().any(|v| !v.is_finite()) {
+                break Outcome::NumericalFailure(format!(
+                    "non-finite iterate at iteration {iterations}"
+                ));
+            }
+        };
+        let r = if best.1.is_empty() { it.r } else { best.1 };
+        monitor.finish(r, iterations, outcome)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    fn apply3(w: &[[f64; 3]; 3], r: [f64; 3], q: [f64; 3]) -> [f64; 3] {
+        let mut u = q;
+        for (a, ua) in u.iter_mut().enumerate() {
+            *ua += w[a][0] * r[0] + w[a][1] * r[1] + w[a][2] * r[2];
+        }
+        u
+    }
+
+    /// `P + Q W` of `linearise` matches central finite differences of `Φ(r, W r + q)` at points
+    /// where `Φ` is differentiable (taking off, sticking, sliding, in the polar cone), and its
+    /// `P` and `Q` separately match differences in `r` and in `u`.
+    pub(crate) fn assert_jacobian_matches_finite_differences(
+        linearise: fn(f64, f64, [f64; 3], [f64; 3]) -> Linearisation,
+    ) {
+        let w = [[2.0, 0.3, -0.1], [0.3, 1.5, 0.2], [-0.1, 0.2, 1.2]];
+        let (mu, rho) = (0.4, 0.5);
+        let points = [
+            ([0.7, -0.1, 0.05], [-1.0, 0.8, -0.6]),
+            ([0.7, 0.2, -0.1], [-1.4, -0.5, 0.3]),
+            ([0.3, 0.05, 0.02], [-0.5, 0.1, 0.0]),
+            ([0.2, 0.6, 0.3], [0.4, -0.3, 0.2]),
+            ([-0.5, 0.1, 0.2], [1.0, 0.2, -0.1]),
+        ];
+        let h = 1e-7;
+        for (r, q) in points {
+            let u = apply3(&w, r, q);
+            let l = linearise(mu, rho, r, u);
+            for b in 0..3 {
+                let (mut rp, mut rm, mut up, mut um) = (r, r, u, u);
+                rp[b] += h;
+                rm[b] -= h;
+                up[b] += h;
+                um[b] -= h;
+                let (lp, lm) = (linearise(mu, rho, rp, u), linearise(mu, rho, rm, u));
+                let (vp, vm) = (linearise(mu, rho, r, up), linearise(mu, rho, r, um));
+                for a in 0..3 {
+                    let dr = (lp.phi[a] - lm.phi[a]) / (2.0 * h);
+                    let du = (vp.phi[a] - vm.phi[a]) / (2.0 * h);
+                    assert!(
+                        (dr - l.p[a][b]).abs() < 1e-6,
+                        "P ({a},{b}) at r {r:?}: {dr} vs {}",
+                        l.p[a][b]
+                    );
+                    assert!(
+                        (du - l.q[a][b]).abs() < 1e-6,
+                        "Q ({a},{b}) at r {r:?}: {du} vs {}",
+                        l.q[a][b]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Random coupled contacts `W = J Jᵀ + 10⁻³ I` (a block band), stored sparse.
+    fn banded(contacts: usize, seed: u64) -> ConeProblem {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let n = 3 * contacts;
+        let dofs = 3 * contacts + 6;
+        let mut j = Mat::<f64>::zeros(n, dofs);
+        for i in 0..n {
+            let c = i / 3;
+            for k in 3 * c..(3 * c + 9).min(dofs) {
+                j[(i, k)] = rng.random_range(-1.0..1.0);
+            }
+        }
+        let w = &j * j.transpose();
+        let mut triplets = Vec::new();
+        for r in 0..n {
+            for c in 0..n {
+                let v = w[(r, c)] + if r == c { 1e-3 } else { 0.0 };
+                if v != 0.0 {
+                    triplets.push((r, c, v));
+                }
+            }
+        }
+        let q = (0..n)
+            .map(|i| {
+                if i % 3 == 0 {
+                    rng.random_range(-1.0..0.2)
+                } else {
+                    rng.random_range(-0.5..0.5)
+                }
+            })
+            .collect();
+        let mu = (0..contacts).map(|_| rng.random_range(0.2..0.9)).collect();
+        ConeProblem::new_sparse(
+            crate::problem::sparse_from_triplets(n, &triplets).unwrap(),
+            q,
+            mu,
+        )
+        .unwrap()
+    }
+
+    /// The dense and the sparse Newton systems give the same iterates: each path forced by the
+    /// size switch, the same reactions to 1e-10 for every reformulation.
+    #[test]
+    fn dense_and_sparse_systems_agree() {
+        let settings = Settings {
+            tolerance: 1e-12,
+            max_iterations: 200,
+            ..Settings::default()
+        };
+        let mut compared = 0;
+        for seed in 0..4 {
+            let p = banded(12, seed);
+            for function in [
+                ConeFunction::AlartCurnier,
+                ConeFunction::FischerBurmeister,
+                ConeFunction::NaturalMap,
+            ] {
+                let solve = |dense_up_to| {
+                    ConeNewton {
+                        function,
+                        dense_up_to,
+                        ..ConeNewton::default()
+                    }
+                    .solve_cone(&p, &settings)
+                };
+                let (dense, sparse) = (solve(usize::MAX), solve(0));
+                assert_eq!(dense.status, sparse.status, "{function:?} seed {seed}");
+                if !dense.status.is_converged() {
+                    continue;
+                }
+                compared += 1;
+                for (x, y) in dense.f.iter().zip(&sparse.f) {
+                    assert!(
+                        (x - y).abs() <= 1e-10,
+                        "{function:?} seed {seed}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+        assert!(compared >= 8, "only {compared} converged pairs");
+    }
+
+    #[test]
+    fn a_zero_time_budget_ends_time_limit() {
+        let p = banded(10, 1);
+        let settings = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        for mut s in [
+            ConeNewton::alart_curnier(),
+            ConeNewton::fischer_burmeister(),
+            ConeNewton::natural_map(),
+        ] {
+            for dense_up_to in [0, usize::MAX] {
+                s.dense_up_to = dense_up_to;
+                let r = s.solve_cone(&p, &settings);
+                assert_eq!(r.status.name(), "time_limit", "{}", s.name());
+            }
+        }
+    }
+
+    #[test]
+    fn too_large_is_unsupported() {
+        let p = banded(4, 2);
+        let mut s = ConeNewton {
+            max_rows: 6,
+            ..ConeNewton::default()
+        };
+        let r = s.solve_cone(&p, &Settings::default());
+        assert_eq!(r.status.name(), "unsupported");
+    }
+}
