@@ -44,9 +44,9 @@ mod test_util;
 
 pub use problem::{certificate, generate, metrics};
 
-pub use cone::clarabel_socp::ClarabelSocp;
+pub use cone::clarabel_socp::{delassus_asymmetry, ClarabelSocp, SYMMETRISE_WITHIN};
 pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
-pub use cone::nsgs_cone::NsgsCone;
+pub use cone::nsgs_cone::{NsgsCone, NsgsConeSettings};
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
@@ -278,7 +278,7 @@ impl ConeSolverKind {
     /// A solver of this kind with default parameters.
     pub fn create(self) -> Box<dyn ConeSolver + Send> {
         match self {
-            ConeSolverKind::NsgsCone => Box::new(NsgsCone),
+            ConeSolverKind::NsgsCone => Box::new(NsgsCone::default()),
             ConeSolverKind::NewtonAc => Box::new(ConeNewton::alart_curnier()),
             ConeSolverKind::NewtonFbCone => Box::new(ConeNewton::fischer_burmeister()),
             ConeSolverKind::NewtonNmCone => Box::new(ConeNewton::natural_map()),

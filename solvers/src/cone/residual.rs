@@ -51,6 +51,22 @@ fn relative(e: f64, s: f64) -> f64 {
     }
 }
 
+/// The relative cone residual `e_c / s_c` of one contact (see [`crate::cone`]) from its
+/// reaction `r_c`, velocity `u_c`, the magnitudes `t` of the terms of `u_c`
+/// (`|q_i| + Σ_j |W_ij r_j|`) and its diagonal scale `d_c`.
+#[inline]
+pub(crate) fn contact_relative_error(
+    mu: f64,
+    d: f64,
+    rc: [f64; 3],
+    uc: [f64; 3],
+    t: [f64; 3],
+) -> f64 {
+    let e = contact_natural_map(mu, 1.0 / d, rc, uc);
+    let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
+    relative(e, s)
+}
+
 /// The cone residuals of `r` (see the module doc), computing `u = W r + q`.
 pub fn cone_residuals(problem: &ConeProblem, r: &[f64]) -> Residuals {
     let mut u = vec![0.0; problem.n()];
@@ -100,14 +116,11 @@ fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) 
         u[i] = uc[a];
     }
     let rc = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-    let d = problem.scale_of(c);
-    let e = contact_natural_map(mu, 1.0 / d, rc, uc);
-    let s = norm3([t[0] + mu * t[1].hypot(t[2]), t[1], t[2]]) / d;
     let uh = de_saxce(mu, uc);
     let p = project_onto_cone(mu, rc);
     Residuals {
         natural_map: contact_natural_map(mu, 1.0, rc, uc),
-        natural_map_rel: relative(e, s),
+        natural_map_rel: contact_relative_error(mu, problem.scale_of(c), rc, uc, t),
         complementarity_gap: (rc[0] * uh[0] + rc[1] * uh[1] + rc[2] * uh[2]).abs(),
         bound_violation: norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]),
     }

@@ -366,8 +366,9 @@ pub(crate) fn upper_triangle(a_hat: &SparseColMat<usize, f64>) -> CscMatrix<f64>
 /// runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InteriorPoint {
-    /// Relative tolerance (of the matrix's largest entry) under which `A` (or `W`) counts as
-    /// symmetric. Default `1e-10`.
+    /// Relative tolerance (of the matrix's largest entry) under which `A` counts as symmetric
+    /// for [`crate::ClarabelQp`]. Default `1e-10`. ([`crate::ClarabelSocp`] accepts `W` within
+    /// [`crate::SYMMETRISE_WITHIN`] instead and solves its symmetric part.)
     pub symmetry_tolerance: f64,
     /// The matrix counts as positive semidefinite when its scaled form `Â` shifted by
     /// `psd_tolerance · ‖Â‖_F` has a Cholesky factorisation. Default `1e-10`.
