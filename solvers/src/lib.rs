@@ -45,6 +45,8 @@ mod test_util;
 pub use problem::{certificate, generate, metrics};
 
 pub use cone::clarabel_socp::ClarabelSocp;
+pub use cone::extragradient::ExtragradientCone;
+pub use cone::fixed_point_projection::FixedPointProjectionCone;
 pub use cone::newton_ac::NewtonAc;
 pub use cone::nsgs_cone::NsgsCone;
 pub use cone::{
@@ -217,15 +219,21 @@ pub enum ConeSolverKind {
     NsgsCone,
     /// Global Alart–Curnier semismooth Newton.
     NewtonAc,
+    /// Extragradient (Khobotov) projection method on De Saxcé's map, self-adaptive step.
+    ExtragradientCone,
+    /// Fixed-point projection on De Saxcé's map, self-adaptive step.
+    FixedPointProjectionCone,
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 3] = [
+    pub const ALL: [ConeSolverKind; 5] = [
         ConeSolverKind::NsgsCone,
         ConeSolverKind::NewtonAc,
+        ConeSolverKind::ExtragradientCone,
+        ConeSolverKind::FixedPointProjectionCone,
         ConeSolverKind::ClarabelSocp,
     ];
 
@@ -234,6 +242,8 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => "nsgs-cone",
             ConeSolverKind::NewtonAc => "newton-ac",
+            ConeSolverKind::ExtragradientCone => "eg-cone",
+            ConeSolverKind::FixedPointProjectionCone => "fpp-cone",
             ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
@@ -248,15 +258,19 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => cone::nsgs_cone::PROBLEM_CLASSES,
             ConeSolverKind::NewtonAc => cone::newton_ac::PROBLEM_CLASSES,
+            ConeSolverKind::ExtragradientCone => cone::extragradient::PROBLEM_CLASSES,
+            ConeSolverKind::FixedPointProjectionCone => {
+                cone::fixed_point_projection::PROBLEM_CLASSES
+            }
             ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
     }
 
     /// True for solvers that iterate from a starting reaction (and so use
-    /// [`Settings::warm_start`]): NSGS-cone and Newton-AC. Clarabel's SOCP starts from its own
-    /// interior point and ignores a warm start.
+    /// [`Settings::warm_start`]): every cone solver but Clarabel's SOCP, which starts from its
+    /// own interior point and ignores a warm start.
     pub fn is_iterative(self) -> bool {
-        matches!(self, ConeSolverKind::NsgsCone | ConeSolverKind::NewtonAc)
+        !matches!(self, ConeSolverKind::ClarabelSocp)
     }
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
@@ -270,6 +284,8 @@ impl ConeSolverKind {
         match self {
             ConeSolverKind::NsgsCone => Box::new(NsgsCone),
             ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
+            ConeSolverKind::ExtragradientCone => Box::new(ExtragradientCone),
+            ConeSolverKind::FixedPointProjectionCone => Box::new(FixedPointProjectionCone),
             ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }

@@ -52,13 +52,18 @@
 //! Dynamics, Springer 2018 (FC3D, FCLIB, the error measure).
 //!
 //! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Alart–Curnier Newton method
-//! ([`crate::NewtonAc`]) and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
+//! ([`crate::NewtonAc`]), the projection methods on De Saxcé's map (extragradient,
+//! [`crate::ExtragradientCone`]; fixed-point projection, [`crate::FixedPointProjectionCone`])
+//! and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
 
 pub(crate) mod alart_curnier;
 pub(crate) mod clarabel_socp;
+pub(crate) mod extragradient;
+pub(crate) mod fixed_point_projection;
 pub(crate) mod newton_ac;
 pub(crate) mod nsgs_cone;
 mod problem;
+pub(crate) mod projected_step;
 mod residual;
 
 pub use problem::*;
