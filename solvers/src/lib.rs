@@ -44,6 +44,7 @@ mod test_util;
 
 pub use problem::{certificate, generate, metrics};
 
+pub use cone::admm::AdmmCone;
 pub use cone::clarabel_socp::ClarabelSocp;
 pub use cone::extragradient::ExtragradientCone;
 pub use cone::fixed_point_projection::FixedPointProjectionCone;
@@ -223,17 +224,20 @@ pub enum ConeSolverKind {
     ExtragradientCone,
     /// Fixed-point projection on De Saxcé's map, self-adaptive step.
     FixedPointProjectionCone,
+    /// Accelerated ADMM with the De Saxcé term refreshed every iteration.
+    AdmmCone,
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 5] = [
+    pub const ALL: [ConeSolverKind; 6] = [
         ConeSolverKind::NsgsCone,
         ConeSolverKind::NewtonAc,
         ConeSolverKind::ExtragradientCone,
         ConeSolverKind::FixedPointProjectionCone,
+        ConeSolverKind::AdmmCone,
         ConeSolverKind::ClarabelSocp,
     ];
 
@@ -244,6 +248,7 @@ impl ConeSolverKind {
             ConeSolverKind::NewtonAc => "newton-ac",
             ConeSolverKind::ExtragradientCone => "eg-cone",
             ConeSolverKind::FixedPointProjectionCone => "fpp-cone",
+            ConeSolverKind::AdmmCone => "admm-cone",
             ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
@@ -262,6 +267,7 @@ impl ConeSolverKind {
             ConeSolverKind::FixedPointProjectionCone => {
                 cone::fixed_point_projection::PROBLEM_CLASSES
             }
+            ConeSolverKind::AdmmCone => cone::admm::PROBLEM_CLASSES,
             ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
     }
@@ -286,6 +292,7 @@ impl ConeSolverKind {
             ConeSolverKind::NewtonAc => Box::new(NewtonAc::default()),
             ConeSolverKind::ExtragradientCone => Box::new(ExtragradientCone),
             ConeSolverKind::FixedPointProjectionCone => Box::new(FixedPointProjectionCone),
+            ConeSolverKind::AdmmCone => Box::new(AdmmCone::default()),
             ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }

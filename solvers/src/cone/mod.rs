@@ -53,9 +53,10 @@
 //!
 //! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Alart–Curnier Newton method
 //! ([`crate::NewtonAc`]), the projection methods on De Saxcé's map (extragradient,
-//! [`crate::ExtragradientCone`]; fixed-point projection, [`crate::FixedPointProjectionCone`])
-//! and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
+//! [`crate::ExtragradientCone`]; fixed-point projection, [`crate::FixedPointProjectionCone`]),
+//! ADMM ([`crate::AdmmCone`]) and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
 
+pub(crate) mod admm;
 pub(crate) mod alart_curnier;
 pub(crate) mod clarabel_socp;
 pub(crate) mod extragradient;
