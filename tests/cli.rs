@@ -41,6 +41,9 @@ fn solvers_lists_every_solver() {
         "enum",
         "nsgs-cone",
         "newton-ac",
+        "eg-cone",
+        "fpp-cone",
+        "admm-cone",
         "clarabel-socp",
     ] {
         assert!(

@@ -49,7 +49,8 @@ impl From<ConeSolverKind> for ContactSolver {
 
 impl ContactSolver {
     /// The solver of this name with default parameters: the matrix solvers' names, then `si`,
-    /// `body-micro`, `penalty`, then the cone solvers `nsgs-cone`, `newton-ac`, `clarabel-socp`.
+    /// `body-micro`, `penalty`, then the cone solvers (`nsgs-cone`, `newton-ac`, `eg-cone`, `fpp-cone`,
+    /// `clarabel-socp`).
     pub fn from_name(name: &str) -> Option<Self> {
         SolverKind::from_name(name)
             .map(Self::from)

@@ -108,9 +108,9 @@ impl Factors {
         }
         let n = problem.n();
         let mut triplets = Vec::with_capacity(w.nnz() + n);
-        for i in 0..n {
+        for (i, &pi) in p.iter().enumerate() {
             triplets.extend(w.row(i).iter().map(|(j, v)| Triplet::new(i, j, v)));
-            triplets.push(Triplet::new(i, i, p[i]));
+            triplets.push(Triplet::new(i, i, pi));
         }
         let a = SparseColMat::try_new_from_triplets(n, n, &triplets)
             .map_err(|e| format!("assembling W + ρD: {e:?}"))?;
@@ -192,10 +192,10 @@ impl ConeSolver for AdmmCone {
             }
             factors.solve_in_place(&mut rhs);
             // z-update and multiplier, keeping the previous z in z_hat for the dual residual.
-            for c in 0..problem.contacts() {
+            for (c, &m) in mu.iter().enumerate() {
                 let s = 3 * c;
                 let v = [0, 1, 2].map(|a| rhs[(s + a, 0)] + xi_hat[s + a]);
-                x.r[s..s + 3].copy_from_slice(&project_onto_cone(mu[c], v));
+                x.r[s..s + 3].copy_from_slice(&project_onto_cone(m, v));
             }
             for i in 0..n {
                 xi[i] = xi_hat[i] + rhs[(i, 0)] - x.r[i];
