@@ -44,6 +44,7 @@ fn solvers_lists_every_solver() {
         "eg-cone",
         "fpp-cone",
         "admm-cone",
+        "prox-cone",
         "clarabel-socp",
     ] {
         assert!(

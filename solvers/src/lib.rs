@@ -50,6 +50,7 @@ pub use cone::extragradient::ExtragradientCone;
 pub use cone::fixed_point_projection::FixedPointProjectionCone;
 pub use cone::newton_ac::NewtonAc;
 pub use cone::nsgs_cone::NsgsCone;
+pub use cone::proximal::ProxCone;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
@@ -226,18 +227,21 @@ pub enum ConeSolverKind {
     FixedPointProjectionCone,
     /// Accelerated ADMM with the De Saxcé term refreshed every iteration.
     AdmmCone,
+    /// Proximal point, each regularised problem solved by NSGS over contacts.
+    ProxCone,
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 6] = [
+    pub const ALL: [ConeSolverKind; 7] = [
         ConeSolverKind::NsgsCone,
         ConeSolverKind::NewtonAc,
         ConeSolverKind::ExtragradientCone,
         ConeSolverKind::FixedPointProjectionCone,
         ConeSolverKind::AdmmCone,
+        ConeSolverKind::ProxCone,
         ConeSolverKind::ClarabelSocp,
     ];
 
@@ -249,6 +253,7 @@ impl ConeSolverKind {
             ConeSolverKind::ExtragradientCone => "eg-cone",
             ConeSolverKind::FixedPointProjectionCone => "fpp-cone",
             ConeSolverKind::AdmmCone => "admm-cone",
+            ConeSolverKind::ProxCone => "prox-cone",
             ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
@@ -268,6 +273,7 @@ impl ConeSolverKind {
                 cone::fixed_point_projection::PROBLEM_CLASSES
             }
             ConeSolverKind::AdmmCone => cone::admm::PROBLEM_CLASSES,
+            ConeSolverKind::ProxCone => cone::proximal::PROBLEM_CLASSES,
             ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
     }
@@ -293,6 +299,7 @@ impl ConeSolverKind {
             ConeSolverKind::ExtragradientCone => Box::new(ExtragradientCone),
             ConeSolverKind::FixedPointProjectionCone => Box::new(FixedPointProjectionCone),
             ConeSolverKind::AdmmCone => Box::new(AdmmCone::default()),
+            ConeSolverKind::ProxCone => Box::new(ProxCone::default()),
             ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }

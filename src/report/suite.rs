@@ -744,6 +744,7 @@ mod tests {
                 "eg-cone+warm",
                 "fpp-cone+warm",
                 "admm-cone+warm",
+                "prox-cone+warm",
                 "clarabel-socp"
             ]
         );

@@ -54,7 +54,8 @@
 //! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Alart–Curnier Newton method
 //! ([`crate::NewtonAc`]), the projection methods on De Saxcé's map (extragradient,
 //! [`crate::ExtragradientCone`]; fixed-point projection, [`crate::FixedPointProjectionCone`]),
-//! ADMM ([`crate::AdmmCone`]) and Anitescu's SOCP relaxation ([`crate::ClarabelSocp`]).
+//! ADMM ([`crate::AdmmCone`]), the proximal point method ([`crate::ProxCone`]) and Anitescu's
+//! SOCP relaxation ([`crate::ClarabelSocp`]).
 
 pub(crate) mod admm;
 pub(crate) mod alart_curnier;
@@ -65,6 +66,7 @@ pub(crate) mod newton_ac;
 pub(crate) mod nsgs_cone;
 mod problem;
 pub(crate) mod projected_step;
+pub(crate) mod proximal;
 mod residual;
 
 pub use problem::*;
