@@ -43,6 +43,10 @@ fn solvers_lists_every_solver() {
         "newton-ac",
         "newton-fb-cone",
         "newton-nm-cone",
+        "eg-cone",
+        "fpp-cone",
+        "admm-cone",
+        "prox-cone",
         "clarabel-socp",
     ] {
         assert!(

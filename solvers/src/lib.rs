@@ -44,9 +44,13 @@ mod test_util;
 
 pub use problem::{certificate, generate, metrics};
 
+pub use cone::admm::AdmmCone;
 pub use cone::clarabel_socp::{delassus_asymmetry, ClarabelSocp, SYMMETRISE_WITHIN};
+pub use cone::extragradient::ExtragradientCone;
+pub use cone::fixed_point_projection::FixedPointProjectionCone;
 pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
 pub use cone::nsgs_cone::{NsgsCone, NsgsConeSettings};
+pub use cone::proximal::ProxCone;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
     ConeSolver,
@@ -221,17 +225,29 @@ pub enum ConeSolverKind {
     NewtonFbCone,
     /// Global semismooth Newton on the natural map.
     NewtonNmCone,
+    /// Extragradient (Khobotov) projection method on De Saxcé's map, self-adaptive step.
+    ExtragradientCone,
+    /// Fixed-point projection on De Saxcé's map, self-adaptive step.
+    FixedPointProjectionCone,
+    /// Accelerated ADMM with the De Saxcé term refreshed every iteration.
+    AdmmCone,
+    /// Proximal point, each regularised problem solved by NSGS over contacts.
+    ProxCone,
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     ClarabelSocp,
 }
 
 impl ConeSolverKind {
     /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 5] = [
+    pub const ALL: [ConeSolverKind; 9] = [
         ConeSolverKind::NsgsCone,
         ConeSolverKind::NewtonAc,
         ConeSolverKind::NewtonFbCone,
         ConeSolverKind::NewtonNmCone,
+        ConeSolverKind::ExtragradientCone,
+        ConeSolverKind::FixedPointProjectionCone,
+        ConeSolverKind::AdmmCone,
+        ConeSolverKind::ProxCone,
         ConeSolverKind::ClarabelSocp,
     ];
 
@@ -242,6 +258,10 @@ impl ConeSolverKind {
             ConeSolverKind::NewtonAc => "newton-ac",
             ConeSolverKind::NewtonFbCone => "newton-fb-cone",
             ConeSolverKind::NewtonNmCone => "newton-nm-cone",
+            ConeSolverKind::ExtragradientCone => "eg-cone",
+            ConeSolverKind::FixedPointProjectionCone => "fpp-cone",
+            ConeSolverKind::AdmmCone => "admm-cone",
+            ConeSolverKind::ProxCone => "prox-cone",
             ConeSolverKind::ClarabelSocp => "clarabel-socp",
         }
     }
@@ -258,15 +278,21 @@ impl ConeSolverKind {
             ConeSolverKind::NewtonAc => cone::newton::PROBLEM_CLASSES_AC,
             ConeSolverKind::NewtonFbCone => cone::newton::PROBLEM_CLASSES_FB,
             ConeSolverKind::NewtonNmCone => cone::newton::PROBLEM_CLASSES_NM,
+            ConeSolverKind::ExtragradientCone => cone::extragradient::PROBLEM_CLASSES,
+            ConeSolverKind::FixedPointProjectionCone => {
+                cone::fixed_point_projection::PROBLEM_CLASSES
+            }
+            ConeSolverKind::AdmmCone => cone::admm::PROBLEM_CLASSES,
+            ConeSolverKind::ProxCone => cone::proximal::PROBLEM_CLASSES,
             ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
         }
     }
 
     /// True for solvers that iterate from a starting reaction (and so use
-    /// [`Settings::warm_start`]): NSGS-cone and the Newton methods. Clarabel's SOCP starts from
-    /// its own interior point and ignores a warm start.
+    /// [`Settings::warm_start`]): every cone solver but Clarabel's SOCP, which starts from its
+    /// own interior point and ignores a warm start.
     pub fn is_iterative(self) -> bool {
-        !self.is_relaxation()
+        !matches!(self, ConeSolverKind::ClarabelSocp)
     }
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
@@ -282,6 +308,10 @@ impl ConeSolverKind {
             ConeSolverKind::NewtonAc => Box::new(ConeNewton::alart_curnier()),
             ConeSolverKind::NewtonFbCone => Box::new(ConeNewton::fischer_burmeister()),
             ConeSolverKind::NewtonNmCone => Box::new(ConeNewton::natural_map()),
+            ConeSolverKind::ExtragradientCone => Box::new(ExtragradientCone),
+            ConeSolverKind::FixedPointProjectionCone => Box::new(FixedPointProjectionCone),
+            ConeSolverKind::AdmmCone => Box::new(AdmmCone::default()),
+            ConeSolverKind::ProxCone => Box::new(ProxCone::default()),
             ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
         }
     }

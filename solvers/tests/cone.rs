@@ -28,10 +28,12 @@ fn incline(alpha: f64, phi: f64) -> ConeProblem {
     ConeProblem::new(w, q, vec![MU]).unwrap()
 }
 
+/// A tight tolerance, and a cap that leaves room for the first-order methods (`eg-cone`,
+/// `fpp-cone`, `admm-cone`, `prox-cone`: a few hundred iterations at 1e-12 on these problems).
 fn tight() -> Settings {
     Settings {
         tolerance: 1e-12,
-        max_iterations: 100,
+        max_iterations: 5000,
         ..Settings::default()
     }
 }
@@ -745,4 +747,110 @@ fn nsgs_cone_agrees_with_newton_ac() {
         agreed += 1;
     }
     assert!(agreed >= 6, "only {agreed} of 10 compared");
+}
+
+/// The first-order and splitting methods: the projections on De Saxcé's map, ADMM and the
+/// proximal point method.
+const FIRST_ORDER_SOLVERS: [ConeSolverKind; 4] = [
+    ConeSolverKind::ExtragradientCone,
+    ConeSolverKind::FixedPointProjectionCone,
+    ConeSolverKind::AdmmCone,
+    ConeSolverKind::ProxCone,
+];
+
+/// On fixed-seed random problems, each first-order method finds the reactions NSGS-cone and
+/// Newton-AC find (where both converge; these problems have one solution each as far as all
+/// four solvers see), with dense and sparse `W` alike.
+#[test]
+fn first_order_methods_agree_with_nsgs_and_newton() {
+    let settings = Settings {
+        tolerance: 1e-10,
+        max_iterations: 20_000,
+        ..Settings::default()
+    };
+    let mut compared = 0;
+    for seed in 0..6u64 {
+        let contacts = 2 + seed as usize % 3;
+        let (w, q, mu) = random_contacts(contacts, 6 * contacts, 500 + seed);
+        let dense = ConeProblem::new(w.clone(), q.clone(), mu.clone()).unwrap();
+        let triplets: Vec<_> = (0..w.nrows())
+            .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
+            .map(|(i, j)| (i, j, w[(i, j)]))
+            .collect();
+        let sparse = ConeProblem::new_sparse(
+            sparse_from_triplets(w.nrows(), &triplets).unwrap(),
+            q.clone(),
+            mu.clone(),
+        )
+        .unwrap();
+        let references: Vec<SolveResult> = [ConeSolverKind::NsgsCone, ConeSolverKind::NewtonAc]
+            .iter()
+            .map(|k| k.create().solve_cone(&dense, &settings))
+            .filter(|r| r.status.is_converged())
+            .collect();
+        for kind in FIRST_ORDER_SOLVERS {
+            for (form, p) in [("dense", &dense), ("sparse", &sparse)] {
+                let r = kind.create().solve_cone(p, &settings);
+                assert_eq!(
+                    r.status,
+                    Status::Converged,
+                    "{} {form} seed {seed}",
+                    kind.name()
+                );
+                assert!(independent_residual(&w, &q, &mu, &r.f) <= settings.tolerance);
+                for reference in &references {
+                    let scale = reference.f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    for (x, y) in r.f.iter().zip(&reference.f) {
+                        assert!(
+                            (x - y).abs() <= 1e-6 * scale,
+                            "{} {form} seed {seed}: {:?} vs {:?}",
+                            kind.name(),
+                            r.f,
+                            reference.f
+                        );
+                    }
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert!(compared >= 40, "only {compared} comparisons");
+}
+
+/// Every solver that takes a warm start ends within two iterations when started from a solution,
+/// and a time budget of zero ends a cold solve `time_limit` without an iteration's answer being
+/// claimed.
+#[test]
+fn iterative_cone_solvers_warm_start_and_respect_the_budget() {
+    let settings = Settings {
+        tolerance: 1e-9,
+        max_iterations: 20_000,
+        ..Settings::default()
+    };
+    for seed in 0..3u64 {
+        let (w, q, mu) = random_contacts(3, 18, 700 + seed);
+        let p = ConeProblem::new(w, q, mu).unwrap();
+        let solution = ConeSolverKind::NewtonAc.create().solve_cone(&p, &settings);
+        assert_eq!(solution.status, Status::Converged, "seed {seed}");
+        for kind in ConeSolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
+            let warm = Settings {
+                warm_start: Some(solution.f.clone()),
+                ..settings.clone()
+            };
+            let r = kind.create().solve_cone(&p, &warm);
+            assert_eq!(r.status, Status::Converged, "{} seed {seed}", kind.name());
+            assert!(
+                r.iterations <= 2,
+                "{}: {} iterations",
+                kind.name(),
+                r.iterations
+            );
+            let spent = Settings {
+                time_budget: Some(std::time::Duration::ZERO),
+                ..settings.clone()
+            };
+            let r = kind.create().solve_cone(&p, &spent);
+            assert_eq!(r.status, Status::TimeLimit, "{} seed {seed}", kind.name());
+        }
+    }
 }

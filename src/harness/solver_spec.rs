@@ -23,7 +23,8 @@ pub struct SolverSpecError {
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
 /// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
 /// of `lcpbench-solvers`, the body-level solvers of `lcpbench-contact` (`si`, `body-micro`,
-/// `penalty`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`, `newton-fb-cone`, `newton-nm-cone`, `clarabel-socp`:
+/// `penalty`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`, `newton-fb-cone`,
+/// `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`, `clarabel-socp`:
 /// scenes with friction model `cone`, and LCP cases whose rows are (normal, tangent, tangent)
 /// triples, solved as the cone). See [`catalogue`](crate::harness::catalogue::catalogue) for every
 /// name with its level.

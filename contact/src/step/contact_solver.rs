@@ -49,7 +49,8 @@ impl From<ConeSolverKind> for ContactSolver {
 
 impl ContactSolver {
     /// The solver of this name with default parameters: the matrix solvers' names, then `si`,
-    /// `body-micro`, `penalty`, then the cone solvers `nsgs-cone`, `newton-ac`, `newton-fb-cone`, `newton-nm-cone`, `clarabel-socp`.
+    /// `body-micro`, `penalty`, then the cone solvers (`nsgs-cone`, `newton-ac`, `newton-fb-cone`,
+    /// `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`, `clarabel-socp`).
     pub fn from_name(name: &str) -> Option<Self> {
         SolverKind::from_name(name)
             .map(Self::from)

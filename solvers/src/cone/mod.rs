@@ -53,16 +53,24 @@
 //!
 //! Solvers: NSGS over contacts ([`crate::NsgsCone`]), the global Newton methods on the
 //! Alart–Curnier function, the second-order-cone Fischer–Burmeister function and the natural
-//! map ([`crate::ConeNewton`]: `newton-ac`, `newton-fb-cone`, `newton-nm-cone`) and Anitescu's
+//! map ([`crate::ConeNewton`]: `newton-ac`, `newton-fb-cone`, `newton-nm-cone`), the projection
+//! methods on De Saxcé's map (extragradient, [`crate::ExtragradientCone`]; fixed-point
+//! projection, [`crate::FixedPointProjectionCone`]), ADMM ([`crate::AdmmCone`]), the proximal
+//! point method ([`crate::ProxCone`]) and Anitescu's
 //! SOCP relaxation ([`crate::ClarabelSocp`]).
 
+pub(crate) mod admm;
 pub(crate) mod alart_curnier;
 pub(crate) mod clarabel_socp;
+pub(crate) mod extragradient;
 pub(crate) mod fischer_burmeister;
+pub(crate) mod fixed_point_projection;
 pub(crate) mod natural_map;
 pub(crate) mod newton;
 pub(crate) mod nsgs_cone;
 mod problem;
+pub(crate) mod projected_step;
+pub(crate) mod proximal;
 mod residual;
 
 pub use problem::*;

@@ -19,8 +19,8 @@ pub struct Settings {
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
     /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
-    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and the cone
-    /// solvers NSGS-cone and Newton-AC; enumeration uses it only to order its first guesses of
+    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and every cone
+    /// solver but Clarabel's SOCP (projected onto the cones); enumeration uses it only to order its first guesses of
     /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
     /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
     /// and cone solvers only. Default `None` (zero).
