@@ -6,8 +6,9 @@
 
 use faer::Mat;
 use lcpbench_solvers::{
-    delassus_asymmetry, sparse_from_triplets, ConeProblem, ConeSolver, ConeSolverKind, Dantzig,
-    NewtonAc, NsgsCone, NsgsConeSettings, Settings, SolveResult, Solver, Status, SYMMETRISE_WITHIN,
+    delassus_asymmetry, sparse_from_triplets, ClarabelSocp, ConeProblem, ConeSolver,
+    ConeSolverKind, Dantzig, NewtonAc, NsgsCone, NsgsConeSettings, Settings, SolveResult, Solver,
+    Status, SYMMETRISE_WITHIN,
 };
 use rand::{Rng, SeedableRng};
 
@@ -437,6 +438,26 @@ fn relaxation_lifts_off_a_sliding_contact() {
         r.status
     );
     assert!(r.residuals.natural_map_rel > 1e-2);
+}
+
+/// A `W` whose Cholesky factor is larger than the interior point may factorise is refused
+/// before any numerical work, naming the factor's size; the same problem under the default cap
+/// is solved.
+#[test]
+fn relaxation_refuses_a_factor_above_its_cap() {
+    let p = incline(0.3, 0.0);
+    let mut capped = ClarabelSocp::default();
+    capped.ipm.max_factor_entries = 2;
+    let r = capped.solve_cone(&p, &tight());
+    assert!(
+        matches!(&r.status, Status::Unsupported { reason }
+            if reason.contains("Cholesky factor of W would hold") && reason.contains("above the 2 ")),
+        "{}",
+        r.status
+    );
+    assert_eq!(r.iterations, 0);
+    let r = ClarabelSocp::default().solve_cone(&p, &tight());
+    assert_eq!(r.status, Status::Converged);
 }
 
 #[test]

@@ -67,7 +67,8 @@ use crate::cone::{
     ConeMonitor, ConeProblem, ConeSolver,
 };
 use crate::lcp::clarabel_qp::{
-    is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, InteriorPoint, IpmLimits, IpmRun,
+    cholesky_fill, is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, InteriorPoint,
+    IpmLimits, IpmRun,
 };
 use crate::solver::{Outcome, Settings, SolveResult};
 use clarabel::algebra::CscMatrix;
@@ -235,7 +236,18 @@ impl ClarabelSocp {
                  relaxation is a convex program only for symmetric PSD W"
             ));
         }
-        if !is_psd(&scaled_symmetric_part(w, e), self.ipm.psd_tolerance) {
+        let scaled = scaled_symmetric_part(w, e);
+        let fill = cholesky_fill(&scaled);
+        if fill.is_none_or(|f| f > self.ipm.max_factor_entries) {
+            return Some(format!(
+                "the Cholesky factor of W would hold {} entries (symbolic analysis, AMD ordering), \
+                 above the {} an interior-point iteration is allowed to factorise: a factorisation \
+                 cannot be interrupted, so the solve would overrun its time budget",
+                fill.map_or("too many".to_owned(), |f| f.to_string()),
+                self.ipm.max_factor_entries
+            ));
+        }
+        if !is_psd(&scaled, self.ipm.psd_tolerance) {
             return Some(format!(
                 "W is indefinite (Cholesky of the scaled W + {:.0e}·‖W‖_F·I failed); the relaxation is not convex",
                 self.ipm.psd_tolerance
