@@ -6,7 +6,7 @@ use clap::Args;
 use lcpbench::harness::export::{step_problem, StepProblem};
 use lcpbench_contact::scene::LoadOptions;
 use lcpbench_solvers::{
-    cone_problem_to_json, problem_to_json, write_problem, ConeProblem, Problem,
+    cone_problem_to_json, problem_to_json, write_fclib_local, write_problem, ConeProblem, Problem,
 };
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -24,7 +24,8 @@ pub struct ExportArgs {
     #[arg(long, short)]
     pub solver: Option<String>,
     /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K, or
-    /// cone (writes the step's cone problem, which `lcpbench solve` reads too).
+    /// cone (writes the step's cone problem, which `lcpbench solve` reads too: cone JSON with
+    /// `W` dense, or local FCLIB with `W` sparse when the output ends in `.hdf5` or `.h5`).
     #[arg(long)]
     pub friction_model: Option<String>,
     /// Solver tolerance for the steps before `--step` (overrides the scene's).
@@ -109,10 +110,31 @@ fn write_problem_with_warm_start(problem: &Problem, warm_start: &[f64], path: &P
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Write the cone problem of `lcpbench export` (friction model `cone`).
+/// Write the cone problem of `lcpbench export` (friction model `cone`): a local FCLIB file with
+/// `W` sparse when the output ends in `.hdf5` or `.h5`, the cone JSON (`W` dense) otherwise.
 fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
-    std::fs::write(&args.output, cone_problem_to_json(cone))
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    let fclib = args
+        .output
+        .extension()
+        .is_some_and(|e| e == "hdf5" || e == "h5");
+    if fclib {
+        let d = cone.delassus();
+        let triplets: Vec<_> = (0..cone.n())
+            .flat_map(|i| {
+                d.row(i)
+                    .iter()
+                    .filter(|&(_, v)| v != 0.0)
+                    .map(move |(j, v)| faer::sparse::Triplet::new(i, j, v))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let w = faer::sparse::SparseColMat::try_new_from_triplets(cone.n(), cone.n(), &triplets)
+            .map_err(|e| anyhow::anyhow!("cannot assemble W: {e:?}"))?;
+        write_fclib_local(&args.output, 3, &w, cone.q(), cone.mu())?;
+    } else {
+        std::fs::write(&args.output, cone_problem_to_json(cone))
+            .with_context(|| format!("cannot write {}", args.output.display()))?;
+    }
     println!(
         "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
         args.output.display(),

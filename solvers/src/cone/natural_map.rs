@@ -69,11 +69,11 @@ pub(crate) fn linearise(mu: f64, rho: f64, r: [f64; 3], u: [f64; 3]) -> Linearis
         p: [[0.0; 3]; 3],
         q: [[0.0; 3]; 3],
     };
-    for a in 0..3 {
+    for (a, jrow) in jk.iter().enumerate() {
         for b in 0..3 {
             let id = if a == b { 1.0 } else { 0.0 };
-            lin.p[a][b] = id - jk[a][b];
-            lin.q[a][b] = rho * (0..3).map(|k| jk[a][k] * d[k][b]).sum::<f64>();
+            lin.p[a][b] = id - jrow[b];
+            lin.q[a][b] = rho * (0..3).map(|k| jrow[k] * d[k][b]).sum::<f64>();
         }
     }
     lin
