@@ -6,22 +6,36 @@
 //! ```
 //!
 //! `W` is `3n_c × 3n_c` (rows per contact: normal, tangent 1, tangent 2), `q` its free velocity,
-//! `mu` one coefficient per contact. A file is a cone problem when it has a `mu` key.
+//! `mu` one coefficient per contact. A file is a cone problem when it has a `mu` key. `W` takes
+//! the forms of the LCP format's `A` (an array of rows, or `{"n", "triplets"}` or
+//! `{"n", "row_ptr", "col_idx", "values"}`, see [`crate::io`]); [`cone_problem_to_json`] writes
+//! the smaller of rows and compressed rows, so a large scene's sparse `W` stays sparse.
 
 use crate::cone::ConeProblem;
-use crate::io::ProblemFileError;
+use crate::io::{csr_triplets, matrix_out, MatrixField, MatrixOut, ProblemFileError};
+use crate::problem::sparse_from_triplets;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-#[derive(Deserialize, Serialize)]
+#[derive(Deserialize)]
 struct ConeFile {
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     name: Option<String>,
     #[serde(rename = "W")]
-    w: Vec<Vec<f64>>,
+    w: MatrixField,
     q: Vec<f64>,
     mu: Vec<f64>,
+}
+
+#[derive(Serialize)]
+struct ConeFileOut<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    name: Option<&'a str>,
+    #[serde(rename = "W")]
+    w: MatrixOut,
+    q: &'a [f64],
+    mu: &'a [f64],
 }
 
 /// True when the JSON text is an object with a `mu` key (a cone problem file).
@@ -45,32 +59,57 @@ pub fn parse_cone_problem(text: &str, path: &Path) -> Result<ConeProblem, Proble
         field: field.to_owned(),
         message,
     };
-    let n = file.w.len();
-    if let Some((i, row)) = file.w.iter().enumerate().find(|(_, r)| r.len() != n) {
-        return Err(field(
-            "W",
-            format!("row {i} has {} entries, but W has {n} rows", row.len()),
-        ));
+    let n = file.q.len();
+    let sparse_size = |size: usize| {
+        if size == n {
+            Ok(())
+        } else {
+            Err(field("W.n", format!("is {size}, but q has {n} entries")))
+        }
+    };
+    let p = match file.w {
+        MatrixField::Dense(rows) => {
+            let rows_n = rows.len();
+            if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != rows_n) {
+                return Err(field(
+                    "W",
+                    format!("row {i} has {} entries, but W has {rows_n} rows", row.len()),
+                ));
+            }
+            let w = Mat::from_fn(rows_n, rows_n, |i, j| rows[i][j]);
+            ConeProblem::new(w, file.q, file.mu)
+        }
+        MatrixField::Triplets { n: size, triplets } => {
+            sparse_size(size)?;
+            let w = sparse_from_triplets(size, &triplets).map_err(|e| field("W", e.to_string()))?;
+            ConeProblem::new_sparse(w, file.q, file.mu)
+        }
+        MatrixField::Csr {
+            n: size,
+            row_ptr,
+            col_idx,
+            values,
+        } => {
+            sparse_size(size)?;
+            let triplets = csr_triplets(path, size, &row_ptr, &col_idx, &values)?;
+            let w = sparse_from_triplets(size, &triplets).map_err(|e| field("W", e.to_string()))?;
+            ConeProblem::new_sparse(w, file.q, file.mu)
+        }
     }
-    let w = Mat::from_fn(n, n, |i, j| file.w[i][j]);
-    let p = ConeProblem::new(w, file.q, file.mu).map_err(|e| field("W/q/mu", e.to_string()))?;
+    .map_err(|e| field("W/q/mu", e.to_string()))?;
     Ok(match file.name {
         Some(name) => p.with_name(name),
         None => p,
     })
 }
 
-/// Serialise a cone problem to JSON text.
+/// Serialise a cone problem to JSON text (`W` as rows or compressed rows, whichever is smaller).
 pub fn cone_problem_to_json(problem: &ConeProblem) -> String {
-    let d = problem.delassus();
-    let n = problem.n();
-    let file = ConeFile {
-        name: problem.name().map(str::to_owned),
-        w: (0..n)
-            .map(|i| (0..n).map(|j| d.entry(i, j)).collect())
-            .collect(),
-        q: problem.q().to_vec(),
-        mu: problem.mu().to_vec(),
+    let file = ConeFileOut {
+        name: problem.name(),
+        w: matrix_out(problem.delassus()),
+        q: problem.q(),
+        mu: problem.mu(),
     };
     serde_json::to_string(&file).expect("a validated problem serialises")
 }
@@ -97,6 +136,42 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "c.json: field `W/q/mu`: contact 0: mu = -1 must be finite and >= 0"
+        );
+    }
+
+    /// Two contacts coupled in one entry pair: W is written as compressed rows (smaller than
+    /// its 36 dense numbers) and reads back entry for entry; triplets read the same; a sparse
+    /// size that disagrees with q is named.
+    #[test]
+    fn sparse_w_round_trips_sparse() {
+        let mut w = Mat::from_fn(6, 6, |i, j| if i == j { 2.0 } else { 0.0 });
+        w[(0, 3)] = 0.5;
+        w[(3, 0)] = 0.5;
+        let triplets: Vec<(usize, usize, f64)> = (0..6)
+            .flat_map(|i| (0..6).map(move |j| (i, j)))
+            .filter(|&(i, j)| w[(i, j)] != 0.0)
+            .map(|(i, j)| (i, j, w[(i, j)]))
+            .collect();
+        let sparse = sparse_from_triplets(6, &triplets).unwrap();
+        let q = vec![-1.0, 0.1, 0.0, -2.0, 0.0, 0.3];
+        let p = ConeProblem::new_sparse(sparse, q.clone(), vec![0.5, 0.3]).unwrap();
+        let text = cone_problem_to_json(&p);
+        assert!(text.contains("row_ptr"), "{text}");
+        let back = parse_cone_problem(&text, Path::new("s.json")).unwrap();
+        for i in 0..6 {
+            for j in 0..6 {
+                assert_eq!(back.delassus().entry(i, j), w[(i, j)], "({i},{j})");
+            }
+        }
+        assert_eq!(back.q(), &q[..]);
+        let t = r#"{"W":{"n":6,"triplets":[[0,0,2],[1,1,2],[2,2,2],[3,3,2],[4,4,2],[5,5,2],[0,3,0.5],[3,0,0.5]]},"q":[-1,0.1,0,-2,0,0.3],"mu":[0.5,0.3]}"#;
+        let from_triplets = parse_cone_problem(t, Path::new("t.json")).unwrap();
+        assert_eq!(from_triplets.delassus().entry(0, 3), 0.5);
+        let bad = r#"{"W":{"n":3,"triplets":[[0,0,1]]},"q":[-1,0,0,-1,0,0],"mu":[0.5,0.5]}"#;
+        let e = parse_cone_problem(bad, Path::new("b.json")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "b.json: field `W.n`: is 3, but q has 6 entries"
         );
     }
 }

@@ -168,7 +168,7 @@ impl ProblemFormat {
 }
 
 /// The sparse forms of `A` in a file, or its rows.
-enum MatrixField {
+pub(crate) enum MatrixField {
     Dense(Vec<Vec<f64>>),
     Triplets {
         n: usize,
@@ -260,7 +260,7 @@ struct ProblemFile {
 /// How `A` is written: rows, or compressed sparse rows.
 #[derive(Serialize)]
 #[serde(untagged)]
-enum MatrixOut {
+pub(crate) enum MatrixOut {
     Dense(Vec<Vec<f64>>),
     Csr {
         n: usize,
@@ -306,7 +306,7 @@ fn bounds(
 }
 
 /// Check a compressed-row `A` and turn it into triplets.
-fn csr_triplets(
+pub(crate) fn csr_triplets(
     path: &Path,
     n: usize,
     row_ptr: &[usize],
@@ -511,7 +511,7 @@ fn sparse_encoding_len(problem: &Problem) -> usize {
 }
 
 /// `A` in the smaller of the two written forms.
-fn matrix_out(problem: &Problem) -> MatrixOut {
+pub(crate) fn matrix_out(problem: &Problem) -> MatrixOut {
     let n = problem.n();
     if n * n <= sparse_encoding_len(problem) {
         return MatrixOut::Dense(
