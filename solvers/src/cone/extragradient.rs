@@ -33,11 +33,10 @@
 //! V. Acary, M. Brémond, O. Huber, 2018; Siconos' `FC3D_ExtraGradient`
 //! (`fc3d_ExtraGradient.c`, its variable-step rule).
 
-use crate::cone::fixed_point_projection::check;
 use crate::cone::projected_step::{
-    inverse_scales, lipschitz_sides, projected_step, AdaptiveStep, Point, MAX_SHRINKS,
+    backtracked_projection, check, inverse_scales, projected_step, AdaptiveStep, Point,
 };
-use crate::cone::{initial_reaction, ConeMonitor, ConeProblem, ConeSolver};
+use crate::cone::{ConeMonitor, ConeProblem, ConeSolver};
 use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAGNATION_WINDOW};
 
 /// Problem classes handled.
@@ -57,31 +56,20 @@ impl ConeSolver for ExtragradientCone {
         let mut monitor = ConeMonitor::new(problem, settings);
         let (n, tol) = (problem.n(), settings.tolerance);
         let inv_d = inverse_scales(problem);
-        let mut x = Point::zeros(n);
-        x.r = initial_reaction(problem, settings);
-        x.evaluate(problem);
+        let mut x = Point::start(problem, settings);
         let (mut predictor, mut corrector) = (Point::zeros(n), Point::zeros(n));
         let mut step = AdaptiveStep::new();
         let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let mut iterations = 0;
-        let outcome = 'solve: loop {
+        let outcome = loop {
             if let Some(outcome) = check(&x, tol, iterations, settings, &monitor, &step) {
                 break outcome;
             }
-            let mut used = (step.rho, (0.0, 0.0));
-            for k in 0..MAX_SHRINKS {
-                if k > 0 && monitor.out_of_time() {
-                    break 'solve Outcome::TimeLimit;
-                }
-                let rho = step.trial(k);
-                projected_step(problem, &inv_d, rho, &x.r, &x.u_hat, &mut predictor.r);
-                predictor.evaluate(problem);
-                let sides = lipschitz_sides(&inv_d, &predictor, &x);
-                used = (rho, sides);
-                if AdaptiveStep::passes(rho, sides) || predictor.residual() <= tol {
-                    break;
-                }
-            }
+            let Some(used) =
+                backtracked_projection(problem, &inv_d, &x, &step, tol, &monitor, &mut predictor)
+            else {
+                break Outcome::TimeLimit;
+            };
             iterations += 1;
             if predictor.residual() <= tol {
                 std::mem::swap(&mut x, &mut predictor);

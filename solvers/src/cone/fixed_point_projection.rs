@@ -32,9 +32,9 @@
 //! inequalities and certain optimization problems*, USSR Comput. Math. Math. Phys. 27, 1987.
 
 use crate::cone::projected_step::{
-    inverse_scales, lipschitz_sides, projected_step, AdaptiveStep, Point, MAX_SHRINKS, MIN_STEP,
+    backtracked_projection, check, inverse_scales, AdaptiveStep, Point,
 };
-use crate::cone::{initial_reaction, ConeMonitor, ConeProblem, ConeSolver};
+use crate::cone::{ConeMonitor, ConeProblem, ConeSolver};
 use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAGNATION_WINDOW};
 
 /// Problem classes handled.
@@ -54,31 +54,20 @@ impl ConeSolver for FixedPointProjectionCone {
         let mut monitor = ConeMonitor::new(problem, settings);
         let (n, tol) = (problem.n(), settings.tolerance);
         let inv_d = inverse_scales(problem);
-        let mut x = Point::zeros(n);
-        x.r = initial_reaction(problem, settings);
-        x.evaluate(problem);
+        let mut x = Point::start(problem, settings);
         let mut trial = Point::zeros(n);
         let mut step = AdaptiveStep::new();
         let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
         let mut iterations = 0;
-        let outcome = 'solve: loop {
+        let outcome = loop {
             if let Some(outcome) = check(&x, tol, iterations, settings, &monitor, &step) {
                 break outcome;
             }
-            let mut used = (step.rho, (0.0, 0.0));
-            for k in 0..MAX_SHRINKS {
-                if k > 0 && monitor.out_of_time() {
-                    break 'solve Outcome::TimeLimit;
-                }
-                let rho = step.trial(k);
-                projected_step(problem, &inv_d, rho, &x.r, &x.u_hat, &mut trial.r);
-                trial.evaluate(problem);
-                let sides = lipschitz_sides(&inv_d, &trial, &x);
-                used = (rho, sides);
-                if AdaptiveStep::passes(rho, sides) || trial.residual() <= tol {
-                    break;
-                }
-            }
+            let Some(used) =
+                backtracked_projection(problem, &inv_d, &x, &step, tol, &monitor, &mut trial)
+            else {
+                break Outcome::TimeLimit;
+            };
             step.update(used.0, used.1, trial.residual() < x.residual());
             std::mem::swap(&mut x, &mut trial);
             iterations += 1;
@@ -89,38 +78,4 @@ impl ConeSolver for FixedPointProjectionCone {
         };
         monitor.finish(x.r, iterations, outcome)
     }
-}
-
-/// The checks made before every iteration of the projection methods: tolerance, a non-finite
-/// iterate, the iteration cap, the time budget and a vanishing step, in that order.
-pub(crate) fn check(
-    x: &Point,
-    tol: f64,
-    iterations: usize,
-    settings: &Settings,
-    monitor: &ConeMonitor<'_>,
-    step: &AdaptiveStep,
-) -> Option<Outcome> {
-    if x.residual() <= tol {
-        return Some(Outcome::Stopped);
-    }
-    if !(x.r.iter().chain(&x.u).all(|v| v.is_finite())) {
-        return Some(Outcome::NumericalFailure(format!(
-            "non-finite reaction or velocity after iteration {iterations}"
-        )));
-    }
-    if iterations >= settings.max_iterations {
-        return Some(Outcome::IterationLimit);
-    }
-    if monitor.out_of_time() {
-        return Some(Outcome::TimeLimit);
-    }
-    if step.rho < MIN_STEP {
-        return Some(Outcome::Stalled(format!(
-            "the step ρ = {:.3e} (in units of 1/d_c) fell below {MIN_STEP:e} after iteration \
-             {iterations}: the Lipschitz test keeps failing",
-            step.rho
-        )));
-    }
-    None
 }

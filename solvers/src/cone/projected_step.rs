@@ -25,8 +25,12 @@
 //! `fc3d_FixedPointProjection.c` (`tau = 0.6`, `L = 0.9`, `Lmin = 0.3`, `taumin = 0.7`,
 //! `ls_itermax = 10`, starting `rho = 1`), which use the same rule without the preconditioner.
 
-use crate::cone::{cone_residuals_and_velocity, de_saxce, project_onto_cone, ConeProblem};
+use crate::cone::{
+    cone_residuals_and_velocity, de_saxce, initial_reaction, project_onto_cone, ConeMonitor,
+    ConeProblem,
+};
 use crate::problem::metrics::Residuals;
+use crate::solver::{Outcome, Settings};
 
 /// Factor applied to `ρ` when the Lipschitz test fails (Siconos' `tau`).
 pub(crate) const SHRINK: f64 = 0.6;
@@ -66,6 +70,13 @@ impl Point {
     }
 
     /// Measure `u`, `û` and the residuals at the current `r` (one pass over `W`).
+    pub(crate) fn start(problem: &ConeProblem, settings: &Settings) -> Self {
+        let mut x = Self::zeros(problem.n());
+        x.r = initial_reaction(problem, settings);
+        x.evaluate(problem);
+        x
+    }
+
     pub(crate) fn evaluate(&mut self, problem: &ConeProblem) {
         self.residuals = cone_residuals_and_velocity(problem, &self.r, &mut self.u);
         for (c, &mu) in problem.mu().iter().enumerate() {
@@ -163,4 +174,68 @@ impl AdaptiveStep {
             rho
         };
     }
+}
+
+/// The projection step of both methods from `x`: `trial.r = P_K(x.r − ρ û(x.r) / d)`, `ρ` shrunk
+/// from the current step until the Lipschitz test passes, the trial meets `tol`, or
+/// [`MAX_SHRINKS`] trials are spent. Returns the `ρ` used and the test's two sides, or `None`
+/// when the time budget ran out between trials.
+pub(crate) fn backtracked_projection(
+    problem: &ConeProblem,
+    inv_d: &[f64],
+    x: &Point,
+    step: &AdaptiveStep,
+    tol: f64,
+    monitor: &ConeMonitor<'_>,
+    trial: &mut Point,
+) -> Option<(f64, (f64, f64))> {
+    let mut used = (step.rho, (0.0, 0.0));
+    for k in 0..MAX_SHRINKS {
+        if k > 0 && monitor.out_of_time() {
+            return None;
+        }
+        let rho = step.trial(k);
+        projected_step(problem, inv_d, rho, &x.r, &x.u_hat, &mut trial.r);
+        trial.evaluate(problem);
+        let sides = lipschitz_sides(inv_d, trial, x);
+        used = (rho, sides);
+        if AdaptiveStep::passes(rho, sides) || trial.residual() <= tol {
+            break;
+        }
+    }
+    Some(used)
+}
+
+/// The checks made before every iteration of the projection methods: tolerance, a non-finite
+/// iterate, the iteration cap, the time budget and a vanishing step, in that order.
+pub(crate) fn check(
+    x: &Point,
+    tol: f64,
+    iterations: usize,
+    settings: &Settings,
+    monitor: &ConeMonitor<'_>,
+    step: &AdaptiveStep,
+) -> Option<Outcome> {
+    if x.residual() <= tol {
+        return Some(Outcome::Stopped);
+    }
+    if !(x.r.iter().chain(&x.u).all(|v| v.is_finite())) {
+        return Some(Outcome::NumericalFailure(format!(
+            "non-finite reaction or velocity after iteration {iterations}"
+        )));
+    }
+    if iterations >= settings.max_iterations {
+        return Some(Outcome::IterationLimit);
+    }
+    if monitor.out_of_time() {
+        return Some(Outcome::TimeLimit);
+    }
+    if step.rho < MIN_STEP {
+        return Some(Outcome::Stalled(format!(
+            "the step ρ = {:.3e} (in units of 1/d_c) fell below {MIN_STEP:e} after iteration \
+             {iterations}: the Lipschitz test keeps failing",
+            step.rho
+        )));
+    }
+    None
 }
