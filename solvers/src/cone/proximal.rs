@@ -43,7 +43,7 @@
 
 use crate::cone::alart_curnier::ContactBlock;
 use crate::cone::projected_step::Point;
-use crate::cone::{contact_natural_map, initial_reaction, ConeMonitor, ConeProblem, ConeSolver};
+use crate::cone::{contact_natural_map, ConeMonitor, ConeProblem, ConeSolver};
 use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAGNATION_WINDOW};
 
 /// Problem classes handled.
@@ -74,7 +74,8 @@ impl Default for ProxCone {
     }
 }
 
-/// Above this `α` the regularised problem no longer moves `r`: the solve stops `Stalled`.
+/// Largest `α`: beyond it the regularised problem leaves `r` where it is, so the solve stops
+/// `Stalled`.
 const MAX_REGULARISATION: f64 = 1e12;
 /// Factor applied to `α` after an inner solve that missed its tolerance (Siconos).
 const FAILED_INNER_GROWTH: f64 = 10.0;
@@ -91,16 +92,14 @@ impl ConeSolver for ProxCone {
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {
         let mut monitor = ConeMonitor::new(problem, settings);
-        let (n, tol) = (problem.n(), settings.tolerance);
+        let tol = settings.tolerance;
         let (w, q, mu) = (problem.delassus(), problem.q(), problem.mu());
         let d: Vec<f64> = (0..problem.contacts())
             .map(|c| problem.scale_of(c))
             .collect();
         let blocks: Vec<[[f64; 3]; 3]> =
             (0..problem.contacts()).map(|c| problem.block(c)).collect();
-        let mut x = Point::zeros(n);
-        x.r = initial_reaction(problem, settings);
-        x.evaluate(problem);
+        let mut x = Point::start(problem, settings);
         let mut anchor = x.r.clone();
         let mut alpha = self.sigma * x.residual().powf(self.nu);
         let mut stagnation = Stagnation::new(FIRST_ORDER_STAGNATION_WINDOW);
@@ -122,6 +121,19 @@ impl ConeSolver for ProxCone {
                 ));
             }
             anchor.copy_from_slice(&x.r);
+            // Each contact's regularised block `W_cc + α d_c I`, factored once for the sweeps of
+            // this outer iteration.
+            let regularised: Vec<ContactBlock> = blocks
+                .iter()
+                .zip(&d)
+                .map(|(wcc, &dc)| {
+                    let mut wreg = *wcc;
+                    for (k, row) in wreg.iter_mut().enumerate() {
+                        row[k] += alpha * dc;
+                    }
+                    ContactBlock::new(wreg)
+                })
+                .collect();
             let inner_tol = (e / self.inner_ratio).max(tol);
             let mut inner_met = false;
             for _ in 0..self.inner_sweeps {
@@ -132,12 +144,12 @@ impl ConeSolver for ProxCone {
                     break 'solve Outcome::TimeLimit;
                 }
                 let mut inner_error = 0.0f64;
-                for (c, (&m, wcc)) in mu.iter().zip(&blocks).enumerate() {
+                for (c, ((&m, wcc), block)) in mu.iter().zip(&blocks).zip(&regularised).enumerate()
+                {
                     let s = 3 * c;
                     let a = alpha * d[c];
                     let rc = [x.r[s], x.r[s + 1], x.r[s + 2]];
                     let (mut uc, mut qc, mut t) = ([0.0; 3], [0.0; 3], [0.0; 3]);
-                    let mut wreg = *wcc;
                     for k in 0..3 {
                         let i = s + k;
                         let (wr, magnitude) = w.row(i).dot_and_magnitude(&x.r);
@@ -146,10 +158,9 @@ impl ConeSolver for ProxCone {
                         t[k] = magnitude + (a * rc[k]).abs() + shift.abs();
                         let own: f64 = (0..3).map(|b| wcc[k][b] * rc[b]).sum();
                         qc[k] = wr - own + shift;
-                        wreg[k][k] += a;
                     }
                     // The regularised contact's relative natural map, before its update.
-                    let dc = wreg[0][0];
+                    let dc = block.w()[0][0];
                     let err = contact_natural_map(m, 1.0 / dc, rc, uc);
                     let scale = norm3([t[0] + m * t[1].hypot(t[2]), t[1], t[2]]) / dc;
                     if err > 0.0 {
@@ -159,7 +170,7 @@ impl ConeSolver for ProxCone {
                             f64::INFINITY
                         });
                     }
-                    let next = ContactBlock::new(wreg).solve(m, qc, rc);
+                    let next = block.solve(m, qc, rc);
                     x.r[s..s + 3].copy_from_slice(&next);
                 }
                 sweeps += 1;
