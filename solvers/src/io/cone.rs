@@ -12,9 +12,8 @@
 //! the smaller of rows and compressed rows, so a large scene's sparse `W` stays sparse.
 
 use crate::cone::ConeProblem;
-use crate::io::{csr_triplets, matrix_out, MatrixField, MatrixOut, ProblemFileError};
+use crate::io::{matrix_data, matrix_out, MatrixData, MatrixField, MatrixOut, ProblemFileError};
 use crate::problem::sparse_from_triplets;
-use faer::Mat;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -60,39 +59,10 @@ pub fn parse_cone_problem(text: &str, path: &Path) -> Result<ConeProblem, Proble
         message,
     };
     let n = file.q.len();
-    let sparse_size = |size: usize| {
-        if size == n {
-            Ok(())
-        } else {
-            Err(field("W.n", format!("is {size}, but q has {n} entries")))
-        }
-    };
-    let p = match file.w {
-        MatrixField::Dense(rows) => {
-            let rows_n = rows.len();
-            if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != rows_n) {
-                return Err(field(
-                    "W",
-                    format!("row {i} has {} entries, but W has {rows_n} rows", row.len()),
-                ));
-            }
-            let w = Mat::from_fn(rows_n, rows_n, |i, j| rows[i][j]);
-            ConeProblem::new(w, file.q, file.mu)
-        }
-        MatrixField::Triplets { n: size, triplets } => {
-            sparse_size(size)?;
-            let w = sparse_from_triplets(size, &triplets).map_err(|e| field("W", e.to_string()))?;
-            ConeProblem::new_sparse(w, file.q, file.mu)
-        }
-        MatrixField::Csr {
-            n: size,
-            row_ptr,
-            col_idx,
-            values,
-        } => {
-            sparse_size(size)?;
-            let triplets = csr_triplets(path, size, &row_ptr, &col_idx, &values)?;
-            let w = sparse_from_triplets(size, &triplets).map_err(|e| field("W", e.to_string()))?;
+    let p = match matrix_data(path, file.w, "W", "q", n)? {
+        MatrixData::Dense(w) => ConeProblem::new(w, file.q, file.mu),
+        MatrixData::Triplets(triplets) => {
+            let w = sparse_from_triplets(n, &triplets).map_err(|e| field("W", e.to_string()))?;
             ConeProblem::new_sparse(w, file.q, file.mu)
         }
     }
@@ -117,6 +87,7 @@ pub fn cone_problem_to_json(problem: &ConeProblem) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::Mat;
 
     #[test]
     fn round_trip_and_errors() {

@@ -398,41 +398,10 @@ pub fn parse_problem(text: &str, path: &Path) -> Result<Problem, ProblemFileErro
         .map(|(row, normal, mu)| FrictionRow { row, normal, mu })
         .collect();
     let invalid = ProblemFileError::invalid(path);
-    let sparse = |size: usize, triplets: &[(usize, usize, f64)]| {
-        if size != n {
-            return Err(ProblemFileError::field(
-                path,
-                "A.n",
-                format!("is {size}, but b has {n} entries"),
-            ));
-        }
-        sparse_from_triplets(size, triplets).map_err(&invalid)
-    };
-    let problem = match file.a {
-        MatrixField::Dense(rows) => {
-            let rows_n = rows.len();
-            if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != rows_n) {
-                return Err(ProblemFileError::field(
-                    path,
-                    "A",
-                    format!("row {i} has {} entries, but A has {rows_n} rows", row.len()),
-                ));
-            }
-            let a = Mat::from_fn(rows_n, rows_n, |i, j| rows[i][j]);
-            Problem::boxed(a, file.b, lo, hi, friction).map_err(&invalid)?
-        }
-        MatrixField::Triplets { n: size, triplets } => {
-            let a = sparse(size, &triplets)?;
-            Problem::boxed_sparse(a, file.b, lo, hi, friction).map_err(&invalid)?
-        }
-        MatrixField::Csr {
-            n: size,
-            row_ptr,
-            col_idx,
-            values,
-        } => {
-            let triplets = csr_triplets(path, size, &row_ptr, &col_idx, &values)?;
-            let a = sparse(size, &triplets)?;
+    let problem = match matrix_data(path, file.a, "A", "b", n)? {
+        MatrixData::Dense(a) => Problem::boxed(a, file.b, lo, hi, friction).map_err(&invalid)?,
+        MatrixData::Triplets(triplets) => {
+            let a = sparse_from_triplets(n, &triplets).map_err(&invalid)?;
             Problem::boxed_sparse(a, file.b, lo, hi, friction).map_err(&invalid)?
         }
     };
@@ -508,6 +477,67 @@ fn sparse_encoding_len(problem: &Problem) -> usize {
         })
         .sum();
     2 * nnz + n + 1
+}
+
+/// A matrix read from a file: dense, or the triplets of a sparse one.
+pub(crate) enum MatrixData {
+    Dense(Mat<f64>),
+    Triplets(Vec<(usize, usize, f64)>),
+}
+
+/// The matrix field `name` of a file at `path`, checked to be square and, when sparse, of size
+/// `n` (the length of the vector field `vector`); compressed rows are checked and read as
+/// triplets.
+pub(crate) fn matrix_data(
+    path: &Path,
+    field: MatrixField,
+    name: &str,
+    vector: &str,
+    n: usize,
+) -> Result<MatrixData, ProblemFileError> {
+    let sized = |size: usize| {
+        if size == n {
+            Ok(())
+        } else {
+            Err(ProblemFileError::field(
+                path,
+                &format!("{name}.n"),
+                format!("is {size}, but {vector} has {n} entries"),
+            ))
+        }
+    };
+    match field {
+        MatrixField::Dense(rows) => {
+            let rows_n = rows.len();
+            if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != rows_n) {
+                return Err(ProblemFileError::field(
+                    path,
+                    name,
+                    format!(
+                        "row {i} has {} entries, but {name} has {rows_n} rows",
+                        row.len()
+                    ),
+                ));
+            }
+            Ok(MatrixData::Dense(Mat::from_fn(rows_n, rows_n, |i, j| {
+                rows[i][j]
+            })))
+        }
+        MatrixField::Triplets { n: size, triplets } => {
+            sized(size)?;
+            Ok(MatrixData::Triplets(triplets))
+        }
+        MatrixField::Csr {
+            n: size,
+            row_ptr,
+            col_idx,
+            values,
+        } => {
+            let triplets = csr_triplets(path, size, &row_ptr, &col_idx, &values)?;
+            sized(size)?;
+            Ok(MatrixData::Triplets(triplets))
+        }
+    }
 }
 
 /// `A` in the smaller of the two written forms.
