@@ -6,7 +6,7 @@
 
 use faer::Mat;
 use lcpbench_solvers::{
-    delassus_asymmetry, sparse_from_triplets, ClarabelSocp, ConeProblem, ConeSolver,
+    delassus_asymmetry, sparse_from_triplets, AdmmCone, ClarabelSocp, ConeProblem, ConeSolver,
     ConeSolverKind, Dantzig, NewtonAc, NsgsCone, NsgsConeSettings, Settings, SolveResult, Solver,
     Status, SYMMETRISE_WITHIN,
 };
@@ -872,6 +872,53 @@ fn iterative_cone_solvers_warm_start_and_respect_the_budget() {
             };
             let r = kind.create().solve_cone(&p, &spent);
             assert_eq!(r.status, Status::TimeLimit, "{} seed {seed}", kind.name());
+        }
+    }
+}
+
+/// A factorisation no budget can interrupt is refused before it starts: `admm-cone` and
+/// `newton-ac` on a sparse `W` whose LU is estimated above their caps end `unsupported` with
+/// the estimate and the cap in the reason, and solve the same problem under the default caps.
+#[test]
+fn factorising_cone_solvers_refuse_a_factor_above_their_cap() {
+    let (w, q, mu) = random_contacts(120, 40, 77);
+    let triplets: Vec<_> = (0..w.nrows())
+        .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
+        .map(|(i, j)| (i, j, w[(i, j)]))
+        .collect();
+    let p = ConeProblem::new_sparse(
+        sparse_from_triplets(w.nrows(), &triplets).unwrap(),
+        q.clone(),
+        mu.clone(),
+    )
+    .unwrap();
+    let settings = Settings {
+        tolerance: 1e-8,
+        max_iterations: 2_000,
+        ..Settings::default()
+    };
+    let capped: [Box<dyn ConeSolver>; 2] = [
+        Box::new(AdmmCone {
+            max_factor_entries: 1_000,
+            ..AdmmCone::default()
+        }),
+        Box::new(NewtonAc {
+            max_factor_entries: 1_000,
+            ..NewtonAc::default()
+        }),
+    ];
+    for mut s in capped {
+        let r = s.solve_cone(&p, &settings);
+        assert_eq!(r.status.name(), "unsupported", "{}", s.name());
+        let reason = format!("{:?}", r.status);
+        assert!(reason.contains("above the 1000"), "{}: {reason}", s.name());
+        assert_eq!(r.iterations, 0);
+    }
+    for kind in [ConeSolverKind::AdmmCone, ConeSolverKind::NewtonAc] {
+        let r = kind.create().solve_cone(&p, &settings);
+        assert_ne!(r.status.name(), "unsupported", "{}", kind.name());
+        if r.status.is_converged() {
+            assert!(independent_residual(&w, &q, &mu, &r.f) <= settings.tolerance);
         }
     }
 }

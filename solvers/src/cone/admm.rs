@@ -40,7 +40,11 @@
 //! * **Stopping rule**: the cone residual ([`crate::cone`]) of `z` is at most the tolerance.
 //!   `Stalled` when it has not reached a new low by 1 % in
 //!   [`crate::FIRST_ORDER_STAGNATION_WINDOW`] iterations; `NumericalFailure` when the
-//!   factorisation fails or an iterate is not finite; the time budget is checked every iteration.
+//!   factorisation fails or an iterate is not finite; the time budget is checked every
+//!   iteration, and a refactorisation is not started when the first one's length would carry
+//!   the solve past it. A sparse LU estimated above [`AdmmCone::max_factor_entries`] entries
+//!   (symbolic Cholesky analysis of `W`'s pattern) is refused before any numerical work, as
+//!   `Unsupported`: it cannot be interrupted by the budget.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the cones, as `z`, with the
 //!   multiplier `ξ = −P⁻¹ û(z)` that makes a solution a fixed point of the iteration.
 //!
@@ -50,8 +54,10 @@
 //! alternating direction optimization methods*, SIAM J. Imaging Sci. 7, 2014; S. Boyd et al.,
 //! *Distributed optimization and statistical learning via ADMM*, 2011 (§3.4.1).
 
+use crate::cone::newton::MAX_FACTOR_ENTRIES;
 use crate::cone::projected_step::Point;
 use crate::cone::{initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver};
+use crate::linalg::cholesky_fill;
 use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAGNATION_WINDOW};
 use faer::linalg::solvers::{PartialPivLu, SolveCore};
 use faer::sparse::linalg::solvers::Lu;
@@ -60,7 +66,7 @@ use faer::{Conj, Mat};
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "FC3D cone (exact Coulomb); accelerated ADMM with the De Saxcé term refreshed, W + ρD factored once (dense or sparse LU)";
+    "FC3D cone (exact Coulomb); accelerated ADMM with the De Saxcé term refreshed, W + ρD factored once (dense, or sparse LU up to an estimated 20 million entries)";
 
 /// ADMM on the cone. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,6 +78,10 @@ pub struct AdmmCone {
     /// Adapt `ρ` by residual balancing (refactoring `W + ρ D` at each change). Default `false`
     /// (Siconos' default is a constant `ρ`).
     pub residual_balancing: bool,
+    /// Largest sparse LU of `W + ρD`, in entries of `L` and `U` as estimated before any
+    /// numerical work; a larger one makes the solve `Unsupported`. Default
+    /// [`crate::cone::newton::MAX_FACTOR_ENTRIES`].
+    pub max_factor_entries: usize,
 }
 
 impl Default for AdmmCone {
@@ -80,6 +90,7 @@ impl Default for AdmmCone {
             penalty: 1.0,
             restart_eta: 0.999,
             residual_balancing: false,
+            max_factor_entries: MAX_FACTOR_ENTRIES,
         }
     }
 }
@@ -95,9 +106,18 @@ enum Factors {
     Sparse(Lu<usize, f64>),
 }
 
+/// Why `W + P` was not factored.
+enum Refusal {
+    /// Its sparse LU would exceed the entry limit.
+    TooMuchFill(String),
+    /// The assembly or the factorisation failed.
+    Failed(String),
+}
+
 impl Factors {
-    /// Factor `W + diag(p)`.
-    fn new(problem: &ConeProblem, p: &[f64]) -> Result<Self, String> {
+    /// Factor `W + diag(p)`, refusing a sparse LU estimated above `max_entries` entries
+    /// (about twice the entries of the Cholesky factor of `W`'s pattern, less the diagonal).
+    fn new(problem: &ConeProblem, p: &[f64], max_entries: usize) -> Result<Self, Refusal> {
         let w = problem.delassus();
         if let Some(dense) = w.dense() {
             let mut a = dense.clone();
@@ -113,10 +133,19 @@ impl Factors {
             triplets.push(Triplet::new(i, i, pi));
         }
         let a = SparseColMat::try_new_from_triplets(n, n, &triplets)
-            .map_err(|e| format!("assembling W + ρD: {e:?}"))?;
+            .map_err(|e| Refusal::Failed(format!("assembling W + ρD: {e:?}")))?;
+        let estimate =
+            cholesky_fill(a.symbolic()).map_or(usize::MAX, |f| (2 * f).saturating_sub(n));
+        if estimate > max_entries {
+            return Err(Refusal::TooMuchFill(format!(
+                "the sparse LU of W + ρD ({n} rows) would hold about {estimate} entries \
+                 (symbolic analysis, AMD ordering), above the {max_entries} allowed: a \
+                 factorisation cannot be interrupted, so the solve would overrun its time budget"
+            )));
+        }
         a.sp_lu()
             .map(Factors::Sparse)
-            .map_err(|e| format!("the sparse LU of W + ρD failed: {e:?}"))
+            .map_err(|e| Refusal::Failed(format!("the sparse LU of W + ρD failed: {e:?}")))
     }
 
     fn solve_in_place(&self, x: &mut Mat<f64>) {
@@ -151,10 +180,17 @@ impl ConeSolver for AdmmCone {
         let d: Vec<f64> = (0..n).map(|i| problem.scale_of(i / 3)).collect();
         let mut rho = self.penalty;
         let mut penalty: Vec<f64> = d.iter().map(|di| rho * di).collect();
-        let mut factors = match Factors::new(problem, &penalty) {
+        let factor_start = monitor.elapsed();
+        let mut factors = match Factors::new(problem, &penalty, self.max_factor_entries) {
             Ok(f) => f,
-            Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::NumericalFailure(reason)),
+            Err(Refusal::TooMuchFill(reason)) => {
+                return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason))
+            }
+            Err(Refusal::Failed(reason)) => {
+                return monitor.finish(Vec::new(), 0, Outcome::NumericalFailure(reason))
+            }
         };
+        let factor_time = monitor.elapsed().saturating_sub(factor_start);
         // z and its velocity, De Saxcé velocity and cone residual.
         let mut x = Point::zeros(n);
         x.r = initial_reaction(problem, settings);
@@ -236,9 +272,15 @@ impl ConeSolver for AdmmCone {
                     for (p, di) in penalty.iter_mut().zip(&d) {
                         *p = rho * di;
                     }
-                    factors = match Factors::new(problem, &penalty) {
+                    // A refactorisation cannot be interrupted: it is not started when the first
+                    // one says it would end past the budget.
+                    if monitor.cannot_fit(factor_time) {
+                        break Outcome::TimeLimit;
+                    }
+                    factors = match Factors::new(problem, &penalty, usize::MAX) {
                         Ok(f) => f,
-                        Err(reason) => break Outcome::NumericalFailure(reason),
+                        Err(Refusal::TooMuchFill(reason)) => break Outcome::Unsupported(reason),
+                        Err(Refusal::Failed(reason)) => break Outcome::NumericalFailure(reason),
                     };
                 }
             }

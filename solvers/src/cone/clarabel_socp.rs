@@ -67,9 +67,9 @@ use crate::cone::{
     ConeMonitor, ConeProblem, ConeSolver,
 };
 use crate::lcp::clarabel_qp::{
-    cholesky_fill, is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, InteriorPoint,
-    IpmLimits, IpmRun,
+    is_psd, run_clarabel, scaled_symmetric_part, upper_triangle, InteriorPoint, IpmLimits, IpmRun,
 };
+use crate::linalg::cholesky_fill;
 use crate::solver::{Outcome, Settings, SolveResult};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{SolverStatus, SupportedConeT};
@@ -237,7 +237,7 @@ impl ClarabelSocp {
             ));
         }
         let scaled = scaled_symmetric_part(w, e);
-        let fill = cholesky_fill(&scaled);
+        let fill = cholesky_fill(scaled.symbolic());
         if fill.is_none_or(|f| f > self.ipm.max_factor_entries) {
             return Some(format!(
                 "the Cholesky factor of W would hold {} entries (symbolic analysis, AMD ordering), \

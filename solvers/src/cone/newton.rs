@@ -36,7 +36,12 @@
 //!   point of `θ`.
 //! * **Cost**: per iteration one LU (dense: `⅔ n³`; sparse: the fill of the block pattern of
 //!   `W`), `O(nnz(W))` for `Q W` and `∇θ`, and `O(n)` per line-search trial. The LU is not
-//!   interruptible: the time budget is checked before each factorisation.
+//!   interruptible, so the solve never starts one it cannot finish: the sparse LU's size is
+//!   estimated by a symbolic Cholesky analysis of `W`'s block pattern before any numerical
+//!   work, and a system above [`ConeNewton::max_factor_entries`] (default
+//!   [`MAX_FACTOR_ENTRIES`]) makes the solve `Unsupported`; the time budget is checked before
+//!   each iteration, which is not started when the last one's length would carry it past the
+//!   budget (`TimeLimit`).
 //! * **Stopping rule**: the cone residual ([`crate::cone`]) of the iterate with each contact
 //!   projected onto its cone is at most the tolerance; that point is returned. A solve that
 //!   ends short of it returns the best such point it measured.
@@ -50,6 +55,7 @@
 use crate::cone::{initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver};
 use crate::lcp::newton::MAX_REGULARISATION;
 use crate::linalg::newton_system::{factor_and_solve, EntryKind, SparseJacobian};
+use crate::linalg::symmetric_fill;
 use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{Outcome, Settings, SolveResult};
 use faer::linalg::solvers::Solve;
@@ -58,19 +64,27 @@ use std::collections::VecDeque;
 
 /// Problem classes handled by the Alart–Curnier variant.
 pub(crate) const PROBLEM_CLASSES_AC: &str =
-    "FC3D cone (exact Coulomb); global Alart–Curnier Newton, LU dense up to 300 rows, sparse on W's block pattern above (up to 300000 rows)";
+    "FC3D cone (exact Coulomb); global Alart–Curnier Newton, LU dense up to 300 rows, sparse on W's block pattern above (up to 300000 rows and an LU estimated at 20 million entries)";
 /// Problem classes handled by the Fischer–Burmeister variant.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
-    "FC3D cone (exact Coulomb); global Newton on the second-order-cone Fischer–Burmeister function, LU dense up to 300 rows, sparse above";
+    "FC3D cone (exact Coulomb); global Newton on the second-order-cone Fischer–Burmeister function, LU dense up to 300 rows, sparse above (up to an LU estimated at 20 million entries)";
 /// Problem classes handled by the natural-map variant.
 pub(crate) const PROBLEM_CLASSES_NM: &str =
-    "FC3D cone (exact Coulomb); global Newton on the natural map r − P_K(r − ρû), LU dense up to 300 rows, sparse above";
+    "FC3D cone (exact Coulomb); global Newton on the natural map r − P_K(r − ρû), LU dense up to 300 rows, sparse above (up to an LU estimated at 20 million entries)";
 
 /// Rows up to which the Newton system is formed dense by default: below it a dense LU costs
 /// less than the sparse ordering and symbolic analysis.
 pub const DENSE_UP_TO: usize = 300;
 /// Largest problem, in rows, the Newton system is formed for by default.
 pub const MAX_ROWS: usize = 300_000;
+/// Largest sparse LU a solve factorises, in entries of `L` and `U` estimated before any
+/// numerical work ([`crate::linalg::cholesky_fill`]): a factorisation cannot be interrupted,
+/// so one that would take longer than a budget of seconds is refused instead of started. On a
+/// 2-core x86-64 machine faer's supernodal LU of the Newton system took 19 ms at an estimate
+/// of 0.4 million entries (a 105-box wall), 0.5 s at 6 million (a 3,500-contact sphere pile),
+/// 15 s at 100 million (a 13,900-contact box pyramid) and 88 s at 330 million (a 30,000-contact
+/// pile): the limit stands at about 2 s there.
+pub const MAX_FACTOR_ENTRIES: usize = 20_000_000;
 /// The non-monotone line search's memory: a step is accepted on sufficient decrease against
 /// the largest merit of the last this many iterates, as in [`crate::Newton`].
 pub const NONMONOTONE_MEMORY: usize = 10;
@@ -115,6 +129,10 @@ pub struct ConeNewton {
     pub dense_up_to: usize,
     /// Largest number of rows solved. Default [`MAX_ROWS`].
     pub max_rows: usize,
+    /// Largest LU of the sparse Newton system, in entries of `L` and `U` as estimated before
+    /// any numerical work; a larger one makes the solve `Unsupported`. Default
+    /// [`MAX_FACTOR_ENTRIES`].
+    pub max_factor_entries: usize,
 }
 
 /// The Alart–Curnier Newton method (`newton-ac`), the name it had before its variants.
@@ -147,6 +165,7 @@ impl ConeNewton {
             function,
             dense_up_to: DENSE_UP_TO,
             max_rows: MAX_ROWS,
+            max_factor_entries: MAX_FACTOR_ENTRIES,
         }
     }
 }
@@ -219,10 +238,25 @@ enum NewtonMatrix {
 }
 
 impl NewtonMatrix {
-    /// Dense `n × n`, or the compressed block pattern of `W` with its ordering and symbolic LU.
-    fn new(blocks: &BlockRows, n: usize, sparse: bool) -> Result<Self, String> {
+    /// Dense `n × n`, or the compressed block pattern of `W` with its ordering and symbolic LU,
+    /// refused when its LU is estimated to hold more than `max_entries` entries.
+    fn new(
+        blocks: &BlockRows,
+        n: usize,
+        sparse: bool,
+        max_entries: usize,
+    ) -> Result<Self, Refusal> {
         if !sparse {
             return Ok(Self::Dense(Mat::zeros(n, n)));
+        }
+        let estimate = lu_estimate(blocks);
+        if estimate > max_entries {
+            return Err(Refusal::TooMuchFill(format!(
+                "the LU of the sparse Newton system ({n} rows) would hold about {estimate} \
+                 entries (symbolic analysis of W's block pattern, AMD ordering), above the \
+                 {max_entries} a Newton iteration is allowed to factorise: a factorisation \
+                 cannot be interrupted, so the solve would overrun its time budget"
+            )));
         }
         let mut entries = Vec::with_capacity(9 * blocks.blocks());
         for (c, row) in blocks.0.iter().enumerate() {
@@ -234,7 +268,9 @@ impl NewtonMatrix {
                 }
             }
         }
-        SparseJacobian::factor_pattern(entries, n, None).map(|j| Self::Sparse(Box::new(j)))
+        SparseJacobian::factor_pattern(entries, n, None)
+            .map(|j| Self::Sparse(Box::new(j)))
+            .map_err(Refusal::Failed)
     }
 
     /// Set block `(c, e)` (the `k`-th stored block in block-row order).
@@ -268,6 +304,36 @@ impl NewtonMatrix {
             Self::Sparse(j) => factor_and_solve(j, rhs),
         }
     }
+}
+
+/// Why no Newton matrix was formed.
+enum Refusal {
+    /// Its LU would exceed the entry limit.
+    TooMuchFill(String),
+    /// The pattern or its symbolic analysis failed.
+    Failed(String),
+}
+
+/// Entries of `L` and `U` for the Newton matrix on `W`'s block pattern, estimated from the
+/// symbolic Cholesky factor of the contacts' coupling graph ([`symmetric_fill`]): each block of
+/// that factor is nine scalar entries (six for a diagonal block's lower triangle), and an LU
+/// holds about twice a Cholesky factor's entries less the diagonal. `usize::MAX` when the
+/// analysis fails.
+fn lu_estimate(blocks: &BlockRows) -> usize {
+    let nc = blocks.0.len();
+    let pairs: Vec<(usize, usize)> = blocks
+        .0
+        .iter()
+        .enumerate()
+        .flat_map(|(c, row)| {
+            row.iter()
+                .filter(move |(e, _)| *e < c)
+                .map(move |(e, _)| (c, *e))
+        })
+        .collect();
+    symmetric_fill(nc, &pairs).map_or(usize::MAX, |f| {
+        (2 * (6 * nc + 9 * (f - nc))).saturating_sub(3 * nc)
+    })
 }
 
 /// The solve's fixed data and buffers.
@@ -408,6 +474,9 @@ impl ConeSolver for ConeNewton {
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
         let mut iterations = 0;
+        // The length of the last iteration: one is not started when it would overrun the
+        // budget (its factorisation cannot be interrupted).
+        let mut last_iteration = std::time::Duration::ZERO;
         let line_search = Backtracking::newton();
         let outcome = loop {
             let rp = work.projected(&it.r);
@@ -422,14 +491,21 @@ impl ConeSolver for ConeNewton {
             if iterations >= settings.max_iterations {
                 break Outcome::IterationLimit;
             }
-            if monitor.out_of_time() {
+            if monitor.out_of_time() || monitor.cannot_fit(last_iteration) {
                 break Outcome::TimeLimit;
             }
+            let iteration_start = monitor.elapsed();
             let h = match &mut matrix {
                 Some(h) => h,
-                None => match NewtonMatrix::new(&work.blocks, n, n > self.dense_up_to) {
+                None => match NewtonMatrix::new(
+                    &work.blocks,
+                    n,
+                    n > self.dense_up_to,
+                    self.max_factor_entries,
+                ) {
                     Ok(h) => matrix.insert(h),
-                    Err(reason) => break Outcome::NumericalFailure(reason),
+                    Err(Refusal::TooMuchFill(reason)) => break Outcome::Unsupported(reason),
+                    Err(Refusal::Failed(reason)) => break Outcome::NumericalFailure(reason),
                 },
             };
             let phi_inf = it.phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -480,6 +556,7 @@ impl ConeSolver for ConeNewton {
             if it.recent.len() > NONMONOTONE_MEMORY {
                 it.recent.pop_front();
             }
+            last_iteration = monitor.elapsed().saturating_sub(iteration_start);
             monitor.record(iterations, &it.r);
             if it.r.iter().any(|v| !v.is_finite()) {
                 break Outcome::NumericalFailure(format!(
@@ -630,6 +707,54 @@ pub(crate) mod tests {
             }
         }
         assert!(compared >= 8, "only {compared} converged pairs");
+    }
+
+    /// The LU estimate is exact at the two ends: uncoupled contacts (3×3 diagonal blocks, nine
+    /// entries each) and contacts all coupled (a full `3nc × 3nc` LU, `(3nc)²` entries).
+    #[test]
+    fn lu_estimate_is_exact_for_uncoupled_and_fully_coupled_contacts() {
+        let nc = 7;
+        let block = [[1.0; 3]; 3];
+        let uncoupled = BlockRows((0..nc).map(|c| vec![(c, block)]).collect());
+        assert_eq!(lu_estimate(&uncoupled), 9 * nc);
+        let coupled = BlockRows(
+            (0..nc)
+                .map(|c| {
+                    let mut row = vec![(c, block)];
+                    row.extend((0..nc).filter(|&e| e != c).map(|e| (e, block)));
+                    row
+                })
+                .collect(),
+        );
+        assert_eq!(lu_estimate(&coupled), 9 * nc * nc);
+    }
+
+    /// A sparse system whose LU is estimated above the cap is refused before any factorisation,
+    /// as `unsupported` with the estimate in the reason; the dense system is not capped.
+    #[test]
+    fn a_factorisation_above_the_fill_cap_is_unsupported() {
+        let p = banded(16, 7);
+        let mut s = ConeNewton {
+            dense_up_to: 0,
+            max_factor_entries: 100,
+            ..ConeNewton::default()
+        };
+        let r = s.solve_cone(&p, &Settings::default());
+        assert_eq!(r.status.name(), "unsupported");
+        let reason = format!("{:?}", r.status);
+        assert!(
+            reason.contains("above the 100 a Newton iteration"),
+            "{reason}"
+        );
+        s.dense_up_to = usize::MAX;
+        let settings = Settings {
+            tolerance: 1e-10,
+            max_iterations: 200,
+            ..Settings::default()
+        };
+        let r = s.solve_cone(&p, &settings);
+        assert_ne!(r.status.name(), "unsupported", "{:?}", r.status);
+        assert!(r.iterations > 0);
     }
 
     #[test]

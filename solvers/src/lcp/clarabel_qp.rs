@@ -314,21 +314,6 @@ pub(crate) fn is_psd(a_hat: &SparseColMat<usize, f64>, psd_tolerance: f64) -> bo
         .is_ok()
 }
 
-/// Entries of the Cholesky factor of the symmetric `a_hat` (its lower triangle under faer's
-/// approximate-minimum-degree ordering), from the symbolic analysis alone: `O(nnz)` work, no
-/// numerical factorisation. `None` when the analysis fails (out of memory).
-pub(crate) fn cholesky_fill(a_hat: &SparseColMat<usize, f64>) -> Option<usize> {
-    use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymmetricOrdering};
-    factorize_symbolic_cholesky(
-        a_hat.symbolic(),
-        faer::Side::Lower,
-        SymmetricOrdering::Amd,
-        Default::default(),
-    )
-    .ok()
-    .map(|symbolic| symbolic.len_val())
-}
-
 /// The principal block of `Â` on `rows` (increasing), plus `shift · I`.
 fn shifted_block(
     a_hat: &SparseColMat<usize, f64>,
@@ -398,7 +383,7 @@ pub struct InteriorPoint {
     /// Cap on interior-point iterations, whatever `Settings::max_iterations` says (Clarabel's
     /// own default). Default `200`.
     pub max_ipm_iterations: u32,
-    /// Largest Cholesky factor of the scaled matrix, in entries ([`cholesky_fill`], a symbolic
+    /// Largest Cholesky factor of the scaled matrix, in entries ([`crate::linalg::cholesky_fill`], a symbolic
     /// analysis before any numerical work), for which [`crate::ClarabelSocp`] runs. Every
     /// interior-point iteration factorises a KKT matrix whose factor holds at least as many, and
     /// neither that factorisation nor the semidefiniteness test can be interrupted, so above it

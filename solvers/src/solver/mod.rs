@@ -408,6 +408,15 @@ impl<'a, P: Measured> Monitor<'a, P> {
             .is_some_and(|budget| self.elapsed() >= budget)
     }
 
+    /// True when a step taking `next` would end past the time budget: solvers whose steps
+    /// cannot be interrupted (a factorisation) do not start one their last step says cannot
+    /// finish in time.
+    pub(crate) fn cannot_fit(&self, next: Duration) -> bool {
+        self.settings
+            .time_budget
+            .is_some_and(|budget| self.elapsed() + next > budget)
+    }
+
     /// Record the shared residual of `f` after `iteration`, if history is on.
     pub(crate) fn record(&mut self, iteration: usize, f: &[f64]) {
         if !self.settings.record_history {
