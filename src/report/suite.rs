@@ -160,6 +160,17 @@ pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
     crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
 }
 
+/// Scenes whose steps only the FC3D collection takes: `fc3d/*.toml` in the directory of the
+/// first scene file (a 385-box pyramid, 4,960 contacts at rest: the collection's 5,000-contact
+/// problem, which the scene sections leave out to keep the suite's length).
+pub fn fc3d_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
+        return Vec::new();
+    };
+    let pattern = dir.join("fc3d").join("*.toml");
+    crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+}
+
 /// Budget of the FCLIB problems: tolerance `1e-6` (the accuracy the FCLIB comparison asks for),
 /// 100,000 iterations and 20 s (the slowest Gauss–Seidel runs take a few seconds).
 pub const FCLIB_BUDGET: &str = "1e-6:100000:20";
@@ -359,6 +370,8 @@ struct Plan {
     fclib_files: usize,
     /// The steps of each large scene in the FC3D collection.
     fc3d_scene_steps: &'static [usize],
+    /// Whether the FC3D collection takes the steps of the scenes of [`fc3d_scenes`].
+    fc3d_only_scenes: bool,
 }
 
 const QUICK: Plan = Plan {
@@ -376,6 +389,7 @@ const QUICK: Plan = Plan {
     scaling_steps: 2,
     fclib_files: 1,
     fc3d_scene_steps: &[1],
+    fc3d_only_scenes: false,
 };
 
 const FULL: Plan = Plan {
@@ -395,6 +409,7 @@ const FULL: Plan = Plan {
     scaling_steps: SCALING_STEPS,
     fclib_files: usize::MAX,
     fc3d_scene_steps: &[1, 10],
+    fc3d_only_scenes: true,
 };
 
 /// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
@@ -428,7 +443,12 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     tower_jobs(&mut suite, scenes, plan.tower_steps);
     scene_scaling_jobs(&mut suite, all_scenes, plan);
     fclib_jobs(&mut suite, all_scenes, plan.fclib_files);
-    fc3d_jobs(&mut suite, &large_scenes, plan.fc3d_scene_steps);
+    let fc3d_only = if plan.fc3d_only_scenes {
+        fc3d_scenes(all_scenes)
+    } else {
+        Vec::new()
+    };
+    fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
     suite
 }
 
@@ -652,15 +672,17 @@ fn fclib_jobs(suite: &mut Suite, scenes: &[PathBuf], count: usize) {
 
 /// The FC3D collection × every cone solver (cold), budget [`FC3D_BUDGET`]: the FCLIB files,
 /// the exported scene LCPs, and `steps` of each large scene (those of
-/// [`FC3D_EXCLUDED_SCENES`] left out), each in its exact-cone form (every contact's normal
-/// and two tangent rows as one Coulomb cone); the cone solvers' performance profiles.
-fn fc3d_jobs(suite: &mut Suite, large_scenes: &[Case], steps: &[usize]) {
+/// [`FC3D_EXCLUDED_SCENES`] left out) and of each scene of `fc3d_only`, each in its exact-cone
+/// form (every contact's normal and two tangent rows as one Coulomb cone); the cone solvers'
+/// performance profiles.
+fn fc3d_jobs(suite: &mut Suite, large_scenes: &[Case], fc3d_only: &[PathBuf], steps: &[usize]) {
     let mut cases = suite.fclib_cases.clone();
     cases.extend(suite.exported_cases.iter().cloned());
-    for scene in large_scenes {
-        let Case::Scene { path, .. } = scene else {
-            continue;
-        };
+    let large = large_scenes.iter().filter_map(|scene| match scene {
+        Case::Scene { path, .. } => Some(path),
+        _ => None,
+    });
+    for path in large.chain(fc3d_only) {
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         if FC3D_EXCLUDED_SCENES
             .iter()
@@ -741,10 +763,15 @@ mod tests {
         let exported = [PathBuf::from("reports/lcps/tower_5_step30.json")];
         let s = default_suite(false, &scenes, &exported);
         let keys: Vec<String> = s.fc3d_cases.iter().map(|c| c.to_string()).collect();
-        assert_eq!(keys.len(), 5 + 1 + 2, "{keys:?}");
+        // Five FCLIB files, one exported step, two steps of each of pyramid_3d_1015 and
+        // fc3d/pyramid_3d_385.
+        assert_eq!(keys.len(), 5 + 1 + 2 + 2, "{keys:?}");
         assert!(keys.contains(&"file:reports/lcps/tower_5_step30.json".to_string()));
-        for step in [1, 10] {
-            let key = format!("step:bench_scenes/pyramid_3d_1015.toml?step={step}");
+        for (scene, step) in ["pyramid_3d_1015", "fc3d/pyramid_3d_385"]
+            .iter()
+            .flat_map(|s| [(s, 1), (s, 10)])
+        {
+            let key = format!("step:bench_scenes/{scene}.toml?step={step}");
             assert!(keys.contains(&key), "{key} in {keys:?}");
             assert_eq!(key.parse::<Case>().unwrap().to_string(), key);
         }

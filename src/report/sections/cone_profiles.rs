@@ -36,7 +36,8 @@ impl Section for ConeProfiles {
             "## Cone solvers on the FC3D collection\n\nThe exact Coulomb cone problems (FC3D) of \
              the collection, each contact's normal and two tangent rows as one cone: the FCLIB \
              files of `bench_scenes/fclib/`, the exported scene LCPs above, and steps 1 and 10 of \
-             the large scenes (built in the run from the scene's own solver and settings; \
+             the large scenes and of the scenes of `bench_scenes/fc3d/` (a 385-box pyramid, 4,960 \
+             contacts at rest; built in the run from the scene's own solver and settings; \
              `pyramid_3d_5525` is left out: its Delassus matrix has tens of millions of entries). \
              Every cone solver, cold start, budget `{FC3D_BUDGET}`; times are solver time to the \
              relative cone residual.\n\n\
