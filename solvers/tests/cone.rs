@@ -235,6 +235,21 @@ fn random_contacts(contacts: usize, dofs: usize, seed: u64) -> (Mat<f64>, Vec<f6
     (w, q, mu)
 }
 
+/// The problem `(W, q, mu)` with `W`'s nonzero entries stored sparse.
+fn stored_sparse(w: &Mat<f64>, q: &[f64], mu: &[f64]) -> ConeProblem {
+    let triplets: Vec<_> = (0..w.nrows())
+        .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
+        .map(|(i, j)| (i, j, w[(i, j)]))
+        .filter(|t| t.2 != 0.0)
+        .collect();
+    ConeProblem::new_sparse(
+        sparse_from_triplets(w.nrows(), &triplets).unwrap(),
+        q.to_vec(),
+        mu.to_vec(),
+    )
+    .unwrap()
+}
+
 #[test]
 fn every_converged_cone_solve_meets_the_independent_residual() {
     let settings = Settings {
@@ -390,17 +405,7 @@ fn relaxation_is_exact_where_contacts_stick_or_take_off() {
             }
         }
         // The same problem with W stored sparse: the same answer.
-        let triplets: Vec<_> = (0..w.nrows())
-            .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
-            .map(|(i, j)| (i, j, w[(i, j)]))
-            .filter(|t| t.2 != 0.0)
-            .collect();
-        let sparse = ConeProblem::new_sparse(
-            sparse_from_triplets(w.nrows(), &triplets).unwrap(),
-            q.clone(),
-            mu.clone(),
-        )
-        .unwrap();
+        let sparse = stored_sparse(&w, &q, &mu);
         let s = socp.create().solve_cone(&sparse, &tight());
         assert_eq!(s.status, Status::Converged, "sparse seed {seed}");
         for (x, y) in s.f.iter().zip(&r.f) {
@@ -794,16 +799,7 @@ fn first_order_methods_agree_with_nsgs_and_newton() {
         let contacts = 2 + seed as usize % 3;
         let (w, q, mu) = random_contacts(contacts, 6 * contacts, 500 + seed);
         let dense = ConeProblem::new(w.clone(), q.clone(), mu.clone()).unwrap();
-        let triplets: Vec<_> = (0..w.nrows())
-            .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
-            .map(|(i, j)| (i, j, w[(i, j)]))
-            .collect();
-        let sparse = ConeProblem::new_sparse(
-            sparse_from_triplets(w.nrows(), &triplets).unwrap(),
-            q.clone(),
-            mu.clone(),
-        )
-        .unwrap();
+        let sparse = stored_sparse(&w, &q, &mu);
         let references: Vec<SolveResult> = [ConeSolverKind::NsgsCone, ConeSolverKind::NewtonAc]
             .iter()
             .map(|k| k.create().solve_cone(&dense, &settings))
@@ -882,16 +878,7 @@ fn iterative_cone_solvers_warm_start_and_respect_the_budget() {
 #[test]
 fn factorising_cone_solvers_refuse_a_factor_above_their_cap() {
     let (w, q, mu) = random_contacts(120, 40, 77);
-    let triplets: Vec<_> = (0..w.nrows())
-        .flat_map(|i| (0..w.ncols()).map(move |j| (i, j)))
-        .map(|(i, j)| (i, j, w[(i, j)]))
-        .collect();
-    let p = ConeProblem::new_sparse(
-        sparse_from_triplets(w.nrows(), &triplets).unwrap(),
-        q.clone(),
-        mu.clone(),
-    )
-    .unwrap();
+    let p = stored_sparse(&w, &q, &mu);
     let settings = Settings {
         tolerance: 1e-8,
         max_iterations: 2_000,
