@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
-use lcpbench::harness::isolate::write_protocol;
+use lcpbench::harness::isolate::{mark_child, write_protocol};
 use lcpbench::harness::run::run_in_process;
 use lcpbench::harness::{BudgetName, Case, Fault, NamedBudget, SolverSpec};
 
@@ -29,6 +29,7 @@ pub struct BenchOneArgs {
 
 /// Run `lcpbench bench-one` (the child side of the isolation).
 pub fn run(args: BenchOneArgs) -> Result<()> {
+    mark_child();
     if let Some(fault) = &args.fault {
         let fault = Fault::from_name(fault)
             .with_context(|| format!("--fault must be panic, hang or abort, got `{fault}`"))?;

@@ -2,7 +2,10 @@
 //! subcommand), which prints its row and history on stdout in a small CSV-based protocol. A
 //! child that panics, aborts, exits with an error or produces no row becomes a failure row; one
 //! that outlives [`Budget::kill_after`](crate::harness::budget::Budget::kill_after) is killed and
-//! recorded as `timeout`.
+//! recorded as `timeout`. An LCP or cone run's child writes [`READY_MARKER`] on stderr when
+//! its problem is built and the solve starts ([`signal_ready`]); the kill limit then counts
+//! from that moment, so building a large scene step (simulating its earlier steps, assembling
+//! `W`) does not eat into the time its solve is given.
 //!
 //! The protocol (stdout of the child):
 //!
@@ -22,13 +25,36 @@ use crate::harness::machine::Machine;
 use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
 use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::HistoryPoint;
-use std::io::{Read, Write};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Name of the hidden subcommand the child runs.
 pub const CHILD_SUBCOMMAND: &str = "bench-one";
+
+/// The stderr line of a child whose problem is built and whose solve starts now.
+pub const READY_MARKER: &str = "#ready";
+
+/// Set in the child process: [`signal_ready`] writes the marker only there.
+static IS_CHILD: AtomicBool = AtomicBool::new(false);
+
+/// Mark this process as an isolated child (the `bench-one` subcommand).
+pub fn mark_child() {
+    IS_CHILD.store(true, Ordering::Relaxed);
+}
+
+/// In a child, tell the parent that the problem is built and the solve starts: its kill limit
+/// counts from here. Does nothing in any other process.
+pub fn signal_ready() {
+    if IS_CHILD.load(Ordering::Relaxed) {
+        let mut err = std::io::stderr().lock();
+        let _ = writeln!(err, "{READY_MARKER}");
+        let _ = err.flush();
+    }
+}
 
 /// Write a run's output in the child protocol.
 pub fn write_protocol(out: &mut impl Write, output: &RunOutput) -> std::io::Result<()> {
@@ -172,39 +198,59 @@ fn run_child(exe: &Path, case: &Case, spec: &SolverSpec, budget: &NamedBudget) -
 }
 
 /// Wait for `child` until `limit` after `start` (then kill it), draining its stdout and stderr
-/// on threads so a chatty child never blocks on a full pipe. Returns the exit status (`None`
-/// when it was killed or could not be waited for) and the two outputs.
+/// on threads so a chatty child never blocks on a full pipe. A [`READY_MARKER`] line on stderr
+/// before that moment moves the limit to `limit` after the marker (the line is not kept).
+/// Returns the exit status (`None` when it was killed or could not be waited for) and the two
+/// outputs.
 fn wait_with_limit(
     child: &mut std::process::Child,
     start: Instant,
     limit: Duration,
 ) -> (Option<std::process::ExitStatus>, String, String) {
-    let drain = |pipe: Option<Box<dyn Read + Send>>| {
-        std::thread::spawn(move || {
-            let mut s = String::new();
-            if let Some(mut pipe) = pipe {
-                let _ = pipe.read_to_string(&mut s);
+    let ready: Arc<Mutex<Option<Instant>>> = Arc::new(Mutex::new(None));
+    let stdout = child.stdout.take();
+    let out_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        if let Some(mut pipe) = stdout {
+            let _ = pipe.read_to_string(&mut s);
+        }
+        s
+    });
+    let stderr = child.stderr.take();
+    let seen = Arc::clone(&ready);
+    let err_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        let Some(pipe) = stderr else {
+            return s;
+        };
+        let mut reader = BufReader::new(pipe);
+        let mut line = String::new();
+        while matches!(reader.read_line(&mut line), Ok(n) if n > 0) {
+            if line.trim_end() == READY_MARKER {
+                if let Ok(mut at) = seen.lock() {
+                    at.get_or_insert_with(Instant::now);
+                }
+            } else {
+                s.push_str(&line);
             }
-            s
-        })
+            line.clear();
+        }
+        s
+    });
+    let deadline = || {
+        let from = ready
+            .lock()
+            .ok()
+            .and_then(|at| *at)
+            .filter(|at| at.saturating_duration_since(start) < limit)
+            .unwrap_or(start);
+        from.checked_add(limit)
     };
-    let out_thread = drain(
-        child
-            .stdout
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
-    let err_thread = drain(
-        child
-            .stderr
-            .take()
-            .map(|p| Box::new(p) as Box<dyn Read + Send>),
-    );
     let mut poll = Duration::from_millis(1);
     let exit = loop {
         match child.try_wait() {
             Ok(Some(status)) => break Some(status),
-            Ok(None) if start.elapsed() >= limit => {
+            Ok(None) if deadline().is_some_and(|d| Instant::now() >= d) => {
                 let _ = child.kill();
                 let _ = child.wait();
                 break None;
@@ -229,6 +275,33 @@ fn wait_with_limit(
 mod tests {
     use super::*;
     use crate::harness::run::run_in_process;
+
+    /// A child that says it is ready gets the limit again from that moment; the same child
+    /// without the marker is killed at the limit; the marker is not kept in its stderr.
+    #[cfg(unix)]
+    #[test]
+    fn the_ready_marker_restarts_the_kill_limit() {
+        let run = |marker: &str| {
+            let script = format!("sleep 0.4; {marker} echo before >&2; sleep 0.4; echo finished");
+            let mut child = Command::new("sh")
+                .args(["-c", &script])
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap();
+            wait_with_limit(&mut child, Instant::now(), Duration::from_millis(600))
+        };
+        let (exit, out, err) = run(&format!("echo '{READY_MARKER}' >&2;"));
+        assert!(
+            exit.is_some_and(|e| e.success()),
+            "killed despite the marker"
+        );
+        assert_eq!(out, "finished\n");
+        assert_eq!(err, "before\n");
+        let (exit, out, _) = run("");
+        assert!(exit.is_none(), "not killed without the marker");
+        assert_eq!(out, "");
+    }
 
     #[test]
     fn protocol_round_trips_infinite_residuals() {

@@ -50,6 +50,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     if spec.warm() {
         settings.warm_start = Some(warm_start_for(&lcp));
     }
+    crate::harness::isolate::signal_ready();
     let result = solver.solve(&lcp.problem, &settings);
     fill_from_result(&mut record, &result);
     if let (Some(star), Case::Generated { family, .. }) = (&lcp.solution, case) {
@@ -97,6 +98,7 @@ fn run_cone_lcp(
     if spec.warm() {
         settings.warm_start = Some(warm_start_for(lcp));
     }
+    crate::harness::isolate::signal_ready();
     let result = solver.solve_cone(&problem, &settings);
     fill_from_result(&mut record, &result);
     RunOutput {
