@@ -29,7 +29,7 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 /// Name of the hidden subcommand the child runs.
@@ -207,7 +207,7 @@ fn wait_with_limit(
     start: Instant,
     limit: Duration,
 ) -> (Option<std::process::ExitStatus>, String, String) {
-    let ready: Arc<Mutex<Option<Instant>>> = Arc::new(Mutex::new(None));
+    let ready: Arc<OnceLock<Instant>> = Arc::new(OnceLock::new());
     let stdout = child.stdout.take();
     let out_thread = std::thread::spawn(move || {
         let mut s = String::new();
@@ -223,15 +223,15 @@ fn wait_with_limit(
         let Some(pipe) = stderr else {
             return s;
         };
+        // Bytes, not lines of text: a child writing invalid UTF-8 is still drained to the end.
         let mut reader = BufReader::new(pipe);
-        let mut line = String::new();
-        while matches!(reader.read_line(&mut line), Ok(n) if n > 0) {
-            if line.trim_end() == READY_MARKER {
-                if let Ok(mut at) = seen.lock() {
-                    at.get_or_insert_with(Instant::now);
-                }
+        let mut line = Vec::new();
+        while matches!(reader.read_until(b'\n', &mut line), Ok(n) if n > 0) {
+            let text = String::from_utf8_lossy(&line);
+            if text.trim_end() == READY_MARKER {
+                seen.get_or_init(Instant::now);
             } else {
-                s.push_str(&line);
+                s.push_str(&text);
             }
             line.clear();
         }
@@ -239,9 +239,8 @@ fn wait_with_limit(
     });
     let deadline = || {
         let from = ready
-            .lock()
-            .ok()
-            .and_then(|at| *at)
+            .get()
+            .copied()
             .filter(|at| at.saturating_duration_since(start) < limit)
             .unwrap_or(start);
         from.checked_add(limit)

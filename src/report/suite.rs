@@ -151,24 +151,25 @@ pub const TOWER_BUDGETS: [&str; 2] = ["1e-6:20:1", "1e-6:50:1"];
 /// Steps of each run of the scene scaling family.
 pub const SCALING_STEPS: usize = 10;
 
-/// The scene scaling family: `scaling/*.toml` in the directory of the first scene file.
-pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+/// The files matching `pattern` in the folder `sub` of the first scene file's directory.
+fn files_beside(scenes: &[PathBuf], sub: &str, pattern: &str) -> Vec<PathBuf> {
     let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
         return Vec::new();
     };
-    let pattern = dir.join("scaling").join("*.toml");
+    let pattern = dir.join(sub).join(pattern);
     crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+}
+
+/// The scene scaling family: `scaling/*.toml` in the directory of the first scene file.
+pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    files_beside(scenes, "scaling", "*.toml")
 }
 
 /// Scenes whose steps only the FC3D collection takes: `fc3d/*.toml` in the directory of the
 /// first scene file (a 385-box pyramid, 4,960 contacts at rest: the collection's 5,000-contact
 /// problem, which the scene sections leave out to keep the suite's length).
 pub fn fc3d_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
-    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
-        return Vec::new();
-    };
-    let pattern = dir.join("fc3d").join("*.toml");
-    crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+    files_beside(scenes, "fc3d", "*.toml")
 }
 
 /// Budget of the FCLIB problems: tolerance `1e-6` (the accuracy the FCLIB comparison asks for),
@@ -197,11 +198,7 @@ pub const FC3D_EXCLUDED_SCENES: [&str; 1] = ["pyramid_3d_5525"];
 
 /// The FCLIB problem files: `fclib/*.hdf5` in the directory of the first scene file.
 pub fn fclib_files(scenes: &[PathBuf]) -> Vec<PathBuf> {
-    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
-        return Vec::new();
-    };
-    let pattern = dir.join("fclib").join("*.hdf5");
-    crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
+    files_beside(scenes, "fclib", "*.hdf5")
 }
 
 /// Scenes of the friction-model comparison (by file stem): a slide on an incline, boxes

@@ -116,8 +116,9 @@ enum Refusal {
 
 impl Factors {
     /// Factor `W + diag(p)`, refusing a sparse LU estimated above `max_entries` entries
-    /// (about twice the entries of the Cholesky factor of `W`'s pattern, less the diagonal).
-    fn new(problem: &ConeProblem, p: &[f64], max_entries: usize) -> Result<Self, Refusal> {
+    /// (about twice the entries of the Cholesky factor of `W`'s pattern, less the diagonal);
+    /// `None` skips the estimate (a refactorisation on a pattern already accepted).
+    fn new(problem: &ConeProblem, p: &[f64], max_entries: Option<usize>) -> Result<Self, Refusal> {
         let w = problem.delassus();
         if let Some(dense) = w.dense() {
             let mut a = dense.clone();
@@ -134,14 +135,17 @@ impl Factors {
         }
         let a = SparseColMat::try_new_from_triplets(n, n, &triplets)
             .map_err(|e| Refusal::Failed(format!("assembling W + ρD: {e:?}")))?;
-        let estimate =
-            cholesky_fill(a.symbolic()).map_or(usize::MAX, |f| (2 * f).saturating_sub(n));
-        if estimate > max_entries {
-            return Err(Refusal::TooMuchFill(format!(
-                "the sparse LU of W + ρD ({n} rows) would hold about {estimate} entries \
-                 (symbolic analysis, AMD ordering), above the {max_entries} allowed: a \
-                 factorisation cannot be interrupted, so the solve would overrun its time budget"
-            )));
+        if let Some(max_entries) = max_entries {
+            let estimate =
+                cholesky_fill(a.symbolic()).map_or(usize::MAX, |f| (2 * f).saturating_sub(n));
+            if estimate > max_entries {
+                return Err(Refusal::TooMuchFill(format!(
+                    "the sparse LU of W + ρD ({n} rows) would hold about {estimate} entries \
+                     (symbolic analysis, AMD ordering), above the {max_entries} allowed: a \
+                     factorisation cannot be interrupted, so the solve would overrun its time \
+                     budget"
+                )));
+            }
         }
         a.sp_lu()
             .map(Factors::Sparse)
@@ -181,7 +185,7 @@ impl ConeSolver for AdmmCone {
         let mut rho = self.penalty;
         let mut penalty: Vec<f64> = d.iter().map(|di| rho * di).collect();
         let factor_start = monitor.elapsed();
-        let mut factors = match Factors::new(problem, &penalty, self.max_factor_entries) {
+        let mut factors = match Factors::new(problem, &penalty, Some(self.max_factor_entries)) {
             Ok(f) => f,
             Err(Refusal::TooMuchFill(reason)) => {
                 return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason))
@@ -277,7 +281,7 @@ impl ConeSolver for AdmmCone {
                     if monitor.cannot_fit(factor_time) {
                         break Outcome::TimeLimit;
                     }
-                    factors = match Factors::new(problem, &penalty, usize::MAX) {
+                    factors = match Factors::new(problem, &penalty, None) {
                         Ok(f) => f,
                         Err(Refusal::TooMuchFill(reason)) => break Outcome::Unsupported(reason),
                         Err(Refusal::Failed(reason)) => break Outcome::NumericalFailure(reason),

@@ -383,8 +383,8 @@ pub struct InteriorPoint {
     /// Cap on interior-point iterations, whatever `Settings::max_iterations` says (Clarabel's
     /// own default). Default `200`.
     pub max_ipm_iterations: u32,
-    /// Largest Cholesky factor of the scaled matrix, in entries ([`crate::linalg::cholesky_fill`], a symbolic
-    /// analysis before any numerical work), for which [`crate::ClarabelSocp`] runs. Every
+    /// Largest Cholesky factor of the scaled matrix, in entries
+    /// ([`crate::linalg::cholesky_fill`], a symbolic analysis before any numerical work), for which [`crate::ClarabelSocp`] runs. Every
     /// interior-point iteration factorises a KKT matrix whose factor holds at least as many, and
     /// neither that factorisation nor the semidefiniteness test can be interrupted, so above it
     /// a solve would overrun any time budget. Default `5·10⁶` (40 MB of factor; the step of
