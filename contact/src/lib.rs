@@ -18,6 +18,7 @@ pub mod shape;
 pub mod body_solvers;
 pub mod builder;
 pub mod integrate;
+pub mod joint;
 pub mod scene;
 pub mod step;
 
@@ -30,5 +31,6 @@ pub use builder::{
     BuilderParams, ContactSystem, DelassusForm, DelassusOperator, FrictionModel, Material,
     PositionCorrection,
 };
+pub use joint::{Joint, JointKind};
 pub use scene::{Scene, SceneError, SceneMetrics};
 pub use step::{ContactSolver, SimSettings, StepReport, World};

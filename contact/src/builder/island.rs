@@ -1,17 +1,19 @@
-//! The partition of a step's contacts into islands: groups that share no dynamic body, so
-//! that their rows of `A` do not couple and each can be solved on its own.
+//! The partition of a step's contacts and joints into islands: groups that share no dynamic
+//! body, so that their rows of `A` do not couple and each can be solved on its own.
 
 use super::ContactSystem;
 
-/// An independent group of contacts: no dynamic body is shared with another island, so its
-/// rows of `A` couple to no other island's rows ([`ContactSystem::islands`]).
+/// An independent group of contacts and joints: no dynamic body is shared with another island,
+/// so its rows of `A` couple to no other island's rows ([`ContactSystem::islands`]).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Island {
     /// Contact indices, increasing.
     pub contacts: Vec<usize>,
+    /// Indices into [`ContactSystem::joints`], increasing.
+    pub joints: Vec<usize>,
     /// Rows of those contacts, increasing.
     pub rows: Vec<usize>,
-    /// Dynamic bodies the contacts touch, in first-seen order.
+    /// Dynamic bodies the contacts and joints touch, in first-seen order.
     pub bodies: Vec<usize>,
 }
 
@@ -33,18 +35,22 @@ impl Partition {
         self.islands.len()
     }
 
-    /// True when there are no contacts.
+    /// True when there are no contacts and no joints.
     pub fn is_empty(&self) -> bool {
         self.islands.is_empty()
     }
 }
 
 impl ContactSystem {
-    /// touch (a static body joins no group). Islands are ordered by their first contact; the
-    /// contacts, rows and bodies of each are increasing, first-seen and increasing respectively.
+    /// The islands of the step: contacts and joints joined when they touch a common dynamic
+    /// body (a static body joins no group). Islands are ordered by their first contact (or
+    /// joint, after every island that has a contact); the contacts and joints of each are
+    /// increasing, its rows are the contacts' rows then the joints' rows (increasing), its
+    /// bodies in first-seen order.
     pub fn islands(&self) -> Partition {
-        let nc = self.contacts.len();
-        let mut parent: Vec<usize> = (0..nc).collect();
+        let (nc, nj) = (self.contacts.len(), self.joints.len());
+        // Union–find over the constraints: contacts 0..nc, then joints nc..nc+nj.
+        let mut parent: Vec<usize> = (0..nc + nj).collect();
         fn find(parent: &mut [usize], mut x: usize) -> usize {
             while parent[x] != x {
                 parent[x] = parent[parent[x]];
@@ -52,33 +58,45 @@ impl ContactSystem {
             }
             x
         }
-        let mut first_contact = vec![usize::MAX; self.inv_mass.len()];
-        for (c, info) in self.info.iter().enumerate() {
-            for blk in &self.rows[info.normal_row].blocks {
-                let other = first_contact[blk.body];
+        let first_row = |u: usize| {
+            if u < nc {
+                self.info[u].normal_row
+            } else {
+                self.joints[u - nc].rows.start
+            }
+        };
+        let mut first_constraint = vec![usize::MAX; self.inv_mass.len()];
+        for u in 0..nc + nj {
+            for blk in &self.rows[first_row(u)].blocks {
+                let other = first_constraint[blk.body];
                 if other == usize::MAX {
-                    first_contact[blk.body] = c;
+                    first_constraint[blk.body] = u;
                 } else {
-                    let (ra, rb) = (find(&mut parent, c), find(&mut parent, other));
+                    let (ra, rb) = (find(&mut parent, u), find(&mut parent, other));
                     if ra != rb {
                         parent[ra.max(rb)] = ra.min(rb);
                     }
                 }
             }
         }
-        let mut island_of = vec![usize::MAX; nc];
+        let mut island_of = vec![usize::MAX; nc + nj];
         let mut islands: Vec<Island> = Vec::new();
         let mut body_seen = vec![false; self.inv_mass.len()];
-        for c in 0..nc {
-            let r = find(&mut parent, c);
+        for u in 0..nc + nj {
+            let r = find(&mut parent, u);
             if island_of[r] == usize::MAX {
                 island_of[r] = islands.len();
                 islands.push(Island::default());
             }
             let island = &mut islands[island_of[r]];
-            island.contacts.push(c);
-            island.rows.extend(self.contact_rows(c));
-            for blk in &self.rows[self.info[c].normal_row].blocks {
+            if u < nc {
+                island.contacts.push(u);
+                island.rows.extend(self.contact_rows(u));
+            } else {
+                island.joints.push(u - nc);
+                island.rows.extend(self.joints[u - nc].rows.clone());
+            }
+            for blk in &self.rows[first_row(u)].blocks {
                 if !body_seen[blk.body] {
                     body_seen[blk.body] = true;
                     island.bodies.push(blk.body);

@@ -75,6 +75,7 @@ pub use warm_start::{ContactImpulse, KeyHasher, WarmStartCache};
 
 use crate::body::RigidBody;
 use crate::collision::Contact;
+use crate::joint::Joint;
 use lcpbench_solvers::FrictionRow;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
@@ -107,6 +108,22 @@ pub enum RowKind {
         /// Contact index.
         contact: usize,
     },
+    /// Equality row `index` of joint `joint` (bounds `(−∞, ∞)`, [`crate::joint`]).
+    Joint {
+        /// Joint index (in the world's joint list).
+        joint: usize,
+        /// Which of the joint's rows.
+        index: usize,
+    },
+}
+
+/// The rows of one joint in a [`ContactSystem`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct JointRows {
+    /// Joint index (in the world's joint list).
+    pub joint: usize,
+    /// Its equality rows, contiguous, after every contact's rows.
+    pub rows: std::ops::Range<usize>,
 }
 
 /// One side of a Jacobian row: a dynamic body and its 6 entries `[linear; angular]`.
@@ -291,6 +308,9 @@ pub struct ContactSystem {
     pub hi: Vec<f64>,
     /// Box-friction rows.
     pub friction: Vec<FrictionRow>,
+    /// The joints with rows in the system (joints between two static sides have none), their
+    /// equality rows after the contacts' rows.
+    pub joints: Vec<JointRows>,
     /// Time step.
     pub h: f64,
     /// Closing speeds below this get no restitution, m/s (from
@@ -313,16 +333,29 @@ impl ContactSystem {
             .collect()
     }
 
-    /// True when the system has no friction rows. Its normal rows always have `lo = 0`,
-    /// `hi = ∞`, so this is the test for a standard LCP; the bounds are not inspected.
+    /// True when the system has no friction and no joint rows. Its normal rows always have
+    /// `lo = 0`, `hi = ∞`, so this is the test for a standard LCP; the bounds are not inspected.
     pub fn is_standard(&self) -> bool {
-        self.friction.is_empty()
+        self.friction.is_empty() && self.joints.is_empty()
     }
 
     /// The rows of contact `c` (normal, friction, slack), contiguous.
     pub fn contact_rows(&self, c: usize) -> std::ops::Range<usize> {
-        let end = self.info.get(c + 1).map_or(self.n(), |i| i.normal_row);
+        let end = self
+            .info
+            .get(c + 1)
+            .map_or(self.joint_rows_start(), |i| i.normal_row);
         self.info[c].normal_row..end
+    }
+
+    /// The first joint row: every row before it belongs to a contact.
+    pub fn joint_rows_start(&self) -> usize {
+        self.joints.first().map_or(self.n(), |j| j.rows.start)
+    }
+
+    /// Number of joint (equality) rows.
+    pub fn joint_row_count(&self) -> usize {
+        self.n() - self.joint_rows_start()
     }
 
     /// Velocity change `M⁻¹ Jᵀ f` of every body.
@@ -402,11 +435,24 @@ pub fn free_velocities(bodies: &[RigidBody], gravity: &Vector3<f64>, h: f64) -> 
 }
 
 /// Build the contact system of one step from the contacts, the bodies at the start of the step
-/// and their free velocities `u*`.
+/// and their free velocities `u*` (no joints: [`build_with_joints`]).
 pub fn build(
     bodies: &[RigidBody],
     materials: &[Material],
     contacts: &[Contact],
+    free_velocity: Vec<BodyVelocity>,
+    params: &BuilderParams,
+    h: f64,
+) -> ContactSystem {
+    build_with_joints(bodies, materials, contacts, &[], free_velocity, params, h)
+}
+
+/// [`build`] with the equality rows of `joints` after the contacts' rows.
+pub fn build_with_joints(
+    bodies: &[RigidBody],
+    materials: &[Material],
+    contacts: &[Contact],
+    joints: &[Joint],
     free_velocity: Vec<BodyVelocity>,
     params: &BuilderParams,
     h: f64,
@@ -424,6 +470,7 @@ pub fn build(
         lo: Vec::new(),
         hi: Vec::new(),
         friction: Vec::new(),
+        joints: Vec::new(),
         h,
         restitution_threshold: params.restitution_threshold,
     };
@@ -436,7 +483,60 @@ pub fn build(
         let restitution = ma.restitution.max(mb.restitution);
         add_contact(&mut sys, c, ct, pair, mu, restitution, params);
     }
+    for (k, joint) in joints.iter().enumerate() {
+        add_joint(&mut sys, k, joint, bodies, params);
+    }
     sys
+}
+
+/// Joint `k`'s equality rows: one per scalar constraint, bounds `(−∞, ∞)`, the position error
+/// in the bias (Baumgarte) or the position bias (split impulses), without slop. A joint whose
+/// two sides are static (or the world) has no rows.
+fn add_joint(
+    sys: &mut ContactSystem,
+    k: usize,
+    joint: &Joint,
+    bodies: &[RigidBody],
+    params: &BuilderParams,
+) {
+    let dynamic = joint.bodies.map(|s| s.filter(|&b| !bodies[b].is_static));
+    if dynamic.iter().all(Option::is_none) {
+        return;
+    }
+    let start = sys.rows.len();
+    for (index, c) in joint.constraints(bodies).into_iter().enumerate() {
+        let mut blocks = RowBlocks::EMPTY;
+        for (side, &(linear, angular)) in dynamic.iter().zip(&c.sides) {
+            if let Some(body) = *side {
+                blocks.push(JacobianBlock {
+                    body,
+                    linear,
+                    angular,
+                });
+            }
+        }
+        let i = sys.rows.len();
+        sys.rows.push(JacobianRow {
+            kind: RowKind::Joint { joint: k, index },
+            blocks,
+        });
+        let rate = sys.operator().row_dot(i, &sys.free_velocity);
+        let term = params.baumgarte / sys.h * c.error;
+        let (bias, position_bias) = match params.position_correction {
+            PositionCorrection::None => (0.0, 0.0),
+            PositionCorrection::Baumgarte => (term, 0.0),
+            PositionCorrection::Split => (0.0, term),
+        };
+        sys.free_rate.push(rate);
+        sys.bias.push(bias);
+        sys.position_bias.push(position_bias);
+        sys.lo.push(f64::NEG_INFINITY);
+        sys.hi.push(f64::INFINITY);
+    }
+    sys.joints.push(JointRows {
+        joint: k,
+        rows: start..sys.rows.len(),
+    });
 }
 
 /// The Jacobian row of `ct` along `dir` (from body a to body b), with a block per dynamic body.

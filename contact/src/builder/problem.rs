@@ -132,6 +132,18 @@ impl ContactSystem {
         contacts: &[usize],
         q: Vec<f64>,
     ) -> Result<ConeProblem, ConeError> {
+        if let Some(&i) = subset
+            .rows
+            .iter()
+            .find(|&&i| matches!(self.rows[i].kind, RowKind::Joint { .. }))
+        {
+            return Err(ConeError::NotContactTriples {
+                row: subset.local_row[i],
+                reason: "the problem has joint (equality) rows, which the FC3D cone problem \
+                         has no place for: use a matrix solver or `si` on scenes with joints"
+                    .into(),
+            });
+        }
         for &c in contacts {
             let info = &self.info[c];
             let triple = info.slack_row.is_none()
@@ -192,11 +204,18 @@ impl ContactSystem {
         }
     }
 
-    /// The normal rows only, with `b = J u + position_bias` for a split-impulse position solve
-    /// given velocities `u`: `(A_nn, b_p, normal row indices)`.
+    /// The normal and joint rows only, with `b = J u + position_bias` for a split-impulse
+    /// position solve given velocities `u`: `(A of those rows, b_p, their row indices)`. `None`
+    /// when no contact penetrates past the slop and no joint has an error.
     pub fn position_problem(&self, u: &[BodyVelocity]) -> Option<(Problem, Vec<usize>)> {
-        let normals: Vec<usize> = self.info.iter().map(|c| c.normal_row).collect();
-        if normals.iter().all(|&i| self.position_bias[i] >= 0.0) {
+        let normals: Vec<usize> = self
+            .info
+            .iter()
+            .map(|c| c.normal_row)
+            .chain(self.joint_rows_start()..self.n())
+            .collect();
+        let joint_error = (self.joint_rows_start()..self.n()).any(|i| self.position_bias[i] != 0.0);
+        if !joint_error && normals.iter().all(|&i| self.position_bias[i] >= 0.0) {
             return None;
         }
         let op = self.operator();

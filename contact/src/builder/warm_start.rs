@@ -16,10 +16,12 @@ pub struct ContactImpulse {
     pub tangent: Vector3<f64>,
 }
 
-/// Impulses of the previous step, by [`Contact::key`](crate::collision::Contact::key).
+/// Impulses of the previous step, by [`Contact::key`](crate::collision::Contact::key), and each
+/// joint's row impulses by joint index.
 #[derive(Debug, Clone, Default)]
 pub struct WarmStartCache {
     map: HashMap<u64, ContactImpulse, BuildHasherDefault<KeyHasher>>,
+    joints: HashMap<usize, [f64; 6]>,
 }
 
 /// The hasher of [`WarmStartCache`]: a contact key is already a well-mixed 64-bit hash
@@ -56,6 +58,14 @@ impl WarmStartCache {
         for (c, contact) in system.contacts.iter().enumerate() {
             self.map.insert(contact.key, system.contact_impulse(c, f));
         }
+        self.joints.clear();
+        for j in &system.joints {
+            let mut rows = [0.0; 6];
+            for (r, i) in rows.iter_mut().zip(j.rows.clone()) {
+                *r = f[i];
+            }
+            self.joints.insert(j.joint, rows);
+        }
     }
 
     /// Number of contacts stored.
@@ -71,12 +81,14 @@ impl WarmStartCache {
     /// Forget everything.
     pub fn clear(&mut self) {
         self.map.clear();
+        self.joints.clear();
     }
 }
 
 impl ContactSystem {
     /// A warm start from the cache: normal and tangential impulses of contacts seen last step
-    /// (pyramid directions: the positive parts of the projections; slack rows zero).
+    /// (pyramid directions: the positive parts of the projections; slack rows zero) and the
+    /// row impulses of each joint.
     pub fn warm_start(&self, cache: &WarmStartCache) -> Vec<f64> {
         let mut f = vec![0.0; self.n()];
         for (c, contact) in self.contacts.iter().enumerate() {
@@ -90,6 +102,13 @@ impl ContactSystem {
             for (j, r) in info.friction_rows.clone().enumerate() {
                 let p = self.friction_direction(c, j).dot(&imp.tangent);
                 f[r] = if pyramid { 2.0 * p.max(0.0) / k } else { p };
+            }
+        }
+        for j in &self.joints {
+            if let Some(rows) = cache.joints.get(&j.joint) {
+                for (i, &v) in j.rows.clone().zip(rows) {
+                    f[i] = v;
+                }
             }
         }
         f

@@ -24,6 +24,8 @@ pub(super) struct SceneFile {
     #[serde(default)]
     pub(super) events: Vec<EventFile>,
     #[serde(default)]
+    pub(super) joints: Vec<JointFile>,
+    #[serde(default)]
     pub(super) metrics: SceneMetrics,
 }
 
@@ -58,6 +60,13 @@ pub struct SceneMetrics {
     pub at_rest: Option<bool>,
     /// Direction of the push (for the displacement of a pushed body).
     pub push_direction: Option<[f64; 3]>,
+    /// Body whose sag (drop below its initial height) the joint metrics report: the end mass
+    /// of a hanging chain, the load of a bridge.
+    pub sag_body: Option<String>,
+    /// Joint error the scene should stay within, m (checked against the run's largest).
+    pub max_joint_drift: Option<f64>,
+    /// Period of a pendulum scene, s (analytic, for small swings).
+    pub expected_period: Option<f64>,
     /// Informational: height a body is dropped from, m.
     pub drop_height: Option<f64>,
     /// Informational: slope of the incline, degrees.
@@ -210,6 +219,27 @@ pub(super) struct BodyFile {
     pub(super) is_static: bool,
     pub(super) material: Option<String>,
     pub(super) repeat: Option<RepeatFile>,
+}
+
+/// A `[[joints]]` table: its kind, the two bodies (`"world"` for a fixed point in space), the
+/// world anchor at the initial poses (`anchors` for a distance joint, one per body), the hinge
+/// axis and an optional rod length.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct JointFile {
+    #[serde(default)]
+    pub(super) name: Option<String>,
+    #[serde(rename = "type")]
+    pub(super) kind: String,
+    pub(super) bodies: [String; 2],
+    #[serde(default)]
+    pub(super) anchor: Option<[f64; 3]>,
+    #[serde(default)]
+    pub(super) anchors: Option<[[f64; 3]; 2]>,
+    #[serde(default)]
+    pub(super) axis: Option<[f64; 3]>,
+    #[serde(default)]
+    pub(super) length: Option<f64>,
 }
 
 #[derive(Deserialize)]

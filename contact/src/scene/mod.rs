@@ -16,18 +16,22 @@
 mod bodies;
 mod events;
 mod file;
+mod joints;
 mod settings;
 
 pub use file::{OneOrMany, SceneMetrics};
+pub use joints::{MAX_JOINTS, WORLD};
 pub use settings::tolerance;
 
 use crate::body::RigidBody;
 use crate::body_solvers::Penalty;
 use crate::builder::{FrictionModel, Material};
+use crate::joint::Joint;
 use crate::step::{ContactSolver, Event, SimSettings, World};
 use bodies::{check_initial_overlap, convert_bodies, convert_materials, count_bodies, MeshFiles};
 use events::convert_events;
 use file::{key_at, line_column, table_context, SceneFile};
+use joints::convert_joints;
 use settings::convert_settings;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -167,6 +171,8 @@ pub struct Scene {
     pub groups: Vec<String>,
     /// Events.
     pub events: Vec<Event>,
+    /// Joints (`[[joints]]`), at the bodies' initial poses.
+    pub joints: Vec<Joint>,
     /// The penalty parameters of `[settings]` (`penalty_*`), used whenever the scene runs the
     /// `penalty` solver ([`Scene::solver_from_name`]).
     pub penalty: Penalty,
@@ -249,6 +255,7 @@ impl Scene {
                 "the scene has no bodies (add at least one [[bodies]] table)".into(),
             ));
         }
+        let joints = convert_joints(&file.joints, &bodies).map_err(|(f, m)| invalid(f, m))?;
         check_initial_overlap(&bodies, &groups, &file.bodies, settings.prediction_distance)
             .map_err(|(f, m)| invalid(f, m))?;
         let name = file.name.unwrap_or_else(|| {
@@ -264,6 +271,7 @@ impl Scene {
             bodies,
             groups,
             events,
+            joints,
             penalty,
             metrics: file.metrics,
         })
@@ -290,6 +298,7 @@ impl Scene {
         );
         world.groups = self.groups.clone();
         world.events = self.events.clone();
+        world.joints = self.joints.clone();
         world
     }
 }

@@ -110,6 +110,27 @@ impl ContactSolver {
         }
     }
 
+    /// `Ok` when this solver takes joint (equality) rows with the contacts; otherwise why not.
+    /// Matrix solvers take the step's mixed LCP (each solver says itself, as `Unsupported`,
+    /// when it cannot solve free rows); of the body-level solvers only sequential impulses
+    /// applies joints (as engines do); the FC3D cone problem has no place for them.
+    pub fn supports_joints(&self) -> Result<(), String> {
+        match self {
+            ContactSolver::Matrix(_) => Ok(()),
+            ContactSolver::Body(s) if s.kind() == BodySolverKind::SequentialImpulses => Ok(()),
+            ContactSolver::Body(s) => Err(format!(
+                "body-level solver `{}` resolves contacts only, not joints: use `si` or a matrix \
+                 solver on scenes with joints",
+                s.name()
+            )),
+            ContactSolver::Cone(s) => Err(format!(
+                "cone solver `{}` solves the FC3D contact problem, which has no joint rows: use a \
+                 matrix solver or `si` (friction_model \"box\") on scenes with joints",
+                s.name()
+            )),
+        }
+    }
+
     /// Comma-separated names of the cone solvers.
     pub fn cone_names() -> String {
         ConeSolverKind::ALL

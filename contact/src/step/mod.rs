@@ -3,9 +3,10 @@
 //! One step of size `h`, in [`World::step`]:
 //!
 //! 1. **detect** contacts at the current positions (with a prediction distance, so resting and
-//!    approaching contacts are in the problem before they touch);
-//! 2. **build** the contact system at the free velocity `u* = u + h M⁻¹ f_ext`
-//!    ([`builder::build`]);
+//!    approaching contacts are in the problem before they touch; bodies joined by a joint do
+//!    not collide with each other);
+//! 2. **build** the contact system at the free velocity `u* = u + h M⁻¹ f_ext`, the joints'
+//!    equality rows after the contacts' ([`builder::build_with_joints`]);
 //! 3. **solve** it for the impulse `f` with the chosen solver (a matrix solver on
 //!    `A = J M⁻¹ Jᵀ`, a body-level solver on the matrix-free operator, or, for the friction
 //!    model `cone`, a cone solver on the FC3D problem `W = A`, `q = b`); islands are solved
@@ -56,7 +57,7 @@ mod settings;
 mod solve;
 
 pub use contact_solver::ContactSolver;
-pub use report::{ContactRecord, PhaseTimes, StepReport};
+pub use report::{ContactRecord, JointRecord, PhaseTimes, StepReport};
 pub use settings::SimSettings;
 
 use crate::body::RigidBody;
@@ -66,6 +67,7 @@ use crate::collision::broad_phase::TooManyPairs;
 use crate::collision::toi::{first_impact, ToiSettings};
 use crate::collision::{CollisionPipeline, Contact};
 use crate::integrate;
+use crate::joint::Joint;
 use lcpbench_solvers::{ProjectedSor, Solver, Status};
 use report::PhaseClock;
 use serde::Serialize;
@@ -92,6 +94,8 @@ pub struct World {
     pub settings: SimSettings,
     /// Scheduled events.
     pub events: Vec<Event>,
+    /// Joints between the bodies ([`crate::joint`]), solved with the contacts.
+    pub joints: Vec<Joint>,
     /// Collision detection with its manifold cache.
     pub pipeline: CollisionPipeline,
     /// Impulses of the last step, by contact key.
@@ -116,6 +120,7 @@ impl World {
             materials,
             settings,
             events: Vec::new(),
+            joints: Vec::new(),
             pipeline: CollisionPipeline::new(),
             warm: WarmStartCache::default(),
             step_index: 0,
@@ -192,6 +197,12 @@ impl World {
             self.bodies.retain(|_| *it.next().unwrap_or(&true));
             let mut it = keep.iter();
             self.groups.retain(|_| *it.next().unwrap_or(&true));
+            // A joint goes with either of its bodies; the others follow the new numbering.
+            self.joints = self
+                .joints
+                .iter()
+                .filter_map(|j| j.renumbered(&keep))
+                .collect();
         }
         // Body indices changed: cached manifolds and contact keys no longer match.
         self.pipeline.clear();
@@ -220,7 +231,23 @@ impl World {
             .pipeline
             .detect(&self.bodies, self.settings.prediction_distance)
         {
-            Ok(contacts) => (contacts, None),
+            Ok(contacts) if self.joints.is_empty() => (contacts, None),
+            Ok(mut contacts) => {
+                // Bodies joined by a joint do not collide with each other (as in ODE, Bullet
+                // and Rapier): their shapes meet at the joint by design.
+                let joined: std::collections::HashSet<(usize, usize)> = self
+                    .joints
+                    .iter()
+                    .filter_map(|j| match j.bodies {
+                        [Some(a), Some(b)] => Some((a.min(b), a.max(b))),
+                        _ => None,
+                    })
+                    .collect();
+                contacts.retain(|c| {
+                    !joined.contains(&(c.body_a.min(c.body_b), c.body_a.max(c.body_b)))
+                });
+                (contacts, None)
+            }
             Err(e) => (Vec::new(), Some(format!("collision detection: {e}"))),
         }
     }
@@ -229,10 +256,11 @@ impl World {
     fn build(&self, contacts: &[Contact]) -> ContactSystem {
         let (h, gravity) = (self.settings.dt, self.settings.gravity);
         let free = builder::free_velocities(&self.bodies, &gravity, h);
-        builder::build(
+        builder::build_with_joints(
             &self.bodies,
             &self.materials,
             contacts,
+            &self.joints,
             free,
             &self.settings.builder,
             h,

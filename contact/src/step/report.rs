@@ -6,6 +6,7 @@ use super::solve::Solved;
 use super::World;
 use crate::builder::{ContactSystem, Partition};
 use crate::integrate;
+use crate::joint::{joint_errors, JointError, JointKind};
 use lcpbench_solvers::{ConeProblem, HistoryPoint, Problem, Residuals, Status};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -43,6 +44,22 @@ pub struct ContactRecord {
     /// Complementarity of the normal row, `min(f_n, w_n / A_nn)` in impulse units: zero when
     /// `0 <= f_n ⟂ w_n >= 0` holds, non-zero when it is violated.
     pub complementarity: f64,
+}
+
+/// A joint at the end of a step, for recording and drawing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointRecord {
+    /// Joint name.
+    pub name: Arc<str>,
+    /// Kind (`ball`, `hinge`, `fixed`, `distance`).
+    pub kind: &'static str,
+    /// World anchor of each side at the step's end.
+    pub anchors: [[f64; 3]; 2],
+    /// Its error at the step's end ([`Joint::error`](crate::joint::Joint::error)).
+    pub error: JointError,
+    /// Magnitude of the linear impulse of its rows on side b this step, N·s (the rows along
+    /// the world axes, or the distance row; 0 when the joint had no rows).
+    pub impulse: f64,
 }
 
 /// Wall time of the phases of one step, seconds. The phases follow one another and are read off
@@ -215,6 +232,20 @@ pub struct StepReport {
     pub time_of_impact: Option<f64>,
     /// Contacts with their impulses.
     pub contact_records: Vec<ContactRecord>,
+    /// Joints of the world.
+    pub joints: usize,
+    /// Equality rows of the joints in the step's problem.
+    pub joint_rows: usize,
+    /// Largest joint error at the step's end, m: the anchors' separation (ball, hinge, fixed)
+    /// or the distance error (distance) ([`Joint::error`](crate::joint::Joint::error)).
+    pub joint_drift_max: f64,
+    /// Mean of the same over the joints, m.
+    pub joint_drift_mean: f64,
+    /// Largest angular joint error at the step's end (hinge axes, fixed orientation), rad.
+    pub joint_angle_max: f64,
+    /// Joints with their anchors and impulses.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub joint_records: Vec<JointRecord>,
     /// The solver's convergence history, when
     /// [`SimSettings::record_history`](super::SimSettings::record_history) is set and the solver
     /// records one (matrix solvers).
@@ -288,6 +319,32 @@ impl World {
             .collect()
     }
 
+    /// Per joint: world anchors, error and the linear impulse of its rows.
+    fn joint_records(&self, system: &ContactSystem, f: &[f64]) -> Vec<JointRecord> {
+        let mut impulse = vec![0.0; self.joints.len()];
+        if f.len() == system.n() {
+            for j in &system.joints {
+                let linear = match self.joints[j.joint].kind {
+                    JointKind::Distance => 1,
+                    _ => 3,
+                };
+                let rows = j.rows.clone().take(linear);
+                impulse[j.joint] = rows.map(|i| f[i] * f[i]).sum::<f64>().sqrt();
+            }
+        }
+        self.joints
+            .iter()
+            .zip(impulse)
+            .map(|(j, impulse)| JointRecord {
+                name: Arc::from(j.name.as_str()),
+                kind: j.kind.name(),
+                anchors: [0, 1].map(|k| j.world_anchor(&self.bodies, k).coords.into()),
+                error: j.error(&self.bodies),
+                impulse,
+            })
+            .collect()
+    }
+
     pub(super) fn report(
         &self,
         system: &ContactSystem,
@@ -316,6 +373,9 @@ impl World {
         }
         let f = &solved.f;
         let contact_records = self.contact_records(system, f);
+        let (joint_drift_max, joint_drift_mean, joint_angle_max) =
+            joint_errors(&self.joints, &self.bodies);
+        let joint_records = self.joint_records(system, f);
         let friction_cone_violation = if f.len() == system.n() {
             system.friction_cone_violation(f)
         } else {
@@ -345,6 +405,12 @@ impl World {
             angular_momentum: ang.into(),
             friction_cone_violation,
             contact_records,
+            joints: self.joints.len(),
+            joint_rows: system.joint_row_count(),
+            joint_drift_max,
+            joint_drift_mean,
+            joint_angle_max,
+            joint_records,
             history: solved.history,
             time_of_impact,
             problem: if self.settings.keep_problem {

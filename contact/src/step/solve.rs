@@ -280,7 +280,14 @@ impl World {
             return Solved::empty();
         }
         let model = self.settings.builder.friction_model;
-        let mut solved = if let Err(reason) = self.settings.solver.supports(model) {
+        let supported = self.settings.solver.supports(model).and_then(|()| {
+            if system.joints.is_empty() {
+                Ok(())
+            } else {
+                self.settings.solver.supports_joints()
+            }
+        });
+        let mut solved = if let Err(reason) = supported {
             self.warm.clear();
             Solved::unsupported(n, reason)
         } else {
