@@ -3,6 +3,7 @@
 use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use lcpbench_contact::joint::{JointMetrics, JointSummary};
 use lcpbench_contact::scene::{LoadOptions, Scene};
 use lcpbench_contact::step::{PhaseTimes, StepReport, World};
 use serde_json::json;
@@ -16,7 +17,7 @@ pub struct SimulateArgs {
     /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
     /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
-    /// body-level one (si, body-micro, penalty), or, for friction model cone, a cone solver
+    /// body-level one (si, body-micro, avg, penalty; on scenes with joints only si), or, for friction model cone, a cone solver
     /// (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone). A solver that does not take the friction model is refused.
     /// `NAME` starts every step cold and `NAME+warm` from the previous step's impulses, as in
     /// `bench` (without `--solver`, the scene's `warm_start` applies).
@@ -292,6 +293,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     recorder.push(lcpbench::view::header(&scene.name, &world).to_string())?;
     let mut totals = SimTotals::new(&world);
     let top = TopBody::of(&scene, &world);
+    let mut joints = JointMetrics::new(&world, scene.metrics.sag_body.as_deref());
     let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
         bar.inc(1);
@@ -301,6 +303,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             recorder.push(lcpbench::view::recording::step_line(&report, &world).to_string())?;
         }
         totals.observe(&report);
+        joints.observe(&report, &world);
     }
     bar.finish_and_clear();
     recorder.finish(&args)?;
@@ -310,6 +313,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         world: &world,
         steps,
         top,
+        joints: joints.summary(),
     };
     if args.json {
         print_json(&run, &totals)
@@ -326,6 +330,8 @@ struct SimRun<'a> {
     steps: usize,
     /// Sag and lateral drift of the top body.
     top: (Option<f64>, Option<f64>),
+    /// Joint drift and the sag body's drop.
+    joints: JointSummary,
 }
 
 fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
@@ -369,6 +375,13 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "final_energy": t.last_energy,
         "sag": run.top.0,
         "lateral_drift": run.top.1,
+        "joints": run.joints.joints,
+        "joint_drift_max": run.joints.drift_max,
+        "joint_drift_mean": run.joints.drift_mean,
+        "joint_angle_max": run.joints.angle_max,
+        "sag_body_max": run.joints.sag_max,
+        "sag_body_final": run.joints.sag_final,
+        "energy_drift": t.last_energy - t.energy0,
     });
     println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
@@ -441,6 +454,19 @@ fn print_text(run: &SimRun, t: &SimTotals) {
     println!("max penetration   {:.3e} m", t.max_pen);
     if let (Some(sag), Some(drift)) = run.top {
         println!("top body          sag {sag:.3e} m, lateral drift {drift:.3e} m");
+    }
+    let j = &run.joints;
+    if j.joints > 0 {
+        println!(
+            "joint drift       max {:.3e} m, mean {:.3e} m, max angle {:.3e} rad ({} joints)",
+            j.drift_max, j.drift_mean, j.angle_max, j.joints
+        );
+    }
+    if let (Some(max), Some(last)) = (j.sag_max, j.sag_final) {
+        println!(
+            "sag of {:<11} max {max:.3e} m, final {last:.3e} m",
+            run.scene.metrics.sag_body.as_deref().unwrap_or("")
+        );
     }
     println!("cone violation    {:.3e} N s", t.max_cone);
     println!(

@@ -10,7 +10,9 @@
 //! * [`Stability`]: energy and momentum drift, largest speed, non-finite steps, lift-off at
 //!   sliding contacts, and the blow-up test;
 //! * [`Rest`]: creep speed, kinetic energy at rest and the support error of resting scenes;
-//! * [`Trajectory`]: the analytic checks of the scene's `[metrics]` table.
+//! * [`Trajectory`]: the analytic checks of the scene's `[metrics]` table;
+//! * [`JointMetrics`]: joint drift (largest and mean joint error) and the drop of the scene's
+//!   `sag_body`, on scenes with joints.
 //!
 //! A run *blows up* when, after a step, the state of a dynamic body is non-finite (position or
 //! momenta) or the total energy is, or the largest body speed exceeds `50 + 10 v₀` m/s (`v₀` the
@@ -31,6 +33,8 @@
 //! | `removed_at_step`           | largest body speed after that step (a removed body must not launch the rest) |
 //! | `stick_bodies`              | names of bodies that must not creep (creep speed = their largest speed in the last tenth of the run) |
 //! | `at_rest = true`            | marks a scene that should come to rest                          |
+//! | `sag_body = "name"`         | largest drop of that body below its starting height (`sag_body` column) |
+//! | `max_joint_drift`           | the joint error the scene should stay within (the report compares `joint_drift_max` with it) |
 //! | `push_direction = [x, y, z]` | angle in degrees between the first dynamic body's displacement and this direction (the sliding-direction error of a pushed body: the box model's anisotropy) |
 //!
 //! For resting scenes the row also gets the creep speed (largest speed, of every dynamic body or
@@ -40,6 +44,7 @@
 
 use crate::harness::record::{RunRecord, RunStatus};
 use lcpbench_contact::body::RigidBody;
+use lcpbench_contact::joint::JointMetrics;
 use lcpbench_contact::step::{PhaseTimes, StepReport, World};
 use lcpbench_contact::SceneMetrics;
 use lcpbench_solvers::Status;
@@ -656,6 +661,7 @@ pub struct SceneMetricsAccumulator {
     stability: Stability,
     rest: Rest,
     trajectory: Trajectory,
+    joints: JointMetrics,
 }
 
 impl SceneMetricsAccumulator {
@@ -669,6 +675,7 @@ impl SceneMetricsAccumulator {
             stability: Stability::new(world, &frame),
             rest: Rest::new(world, &frame, &expect, n_steps),
             trajectory: Trajectory::new(world, &frame, &expect, n_steps),
+            joints: JointMetrics::new(world, expect.sag_body.as_deref()),
             expect,
         }
     }
@@ -682,6 +689,7 @@ impl SceneMetricsAccumulator {
         self.stability.observe(report, world, speed);
         self.rest.observe(k, report, world, speed);
         self.trajectory.observe(k, world, &self.frame, speed);
+        self.joints.observe(report, world);
         !self.stability.blow_up
     }
 
@@ -700,6 +708,13 @@ impl SceneMetricsAccumulator {
         self.rest.finish(world, last, &self.frame, r);
         self.trajectory
             .finish(world, last, &self.frame, &self.expect, r);
+        let j = self.joints.summary();
+        if j.joints > 0 {
+            r.joint_drift_max = Some(j.drift_max);
+            r.joint_drift_mean = Some(j.drift_mean);
+            r.joint_angle_max = Some(j.angle_max);
+        }
+        r.sag_body = j.sag_max;
         self.status(time, r);
     }
 

@@ -184,6 +184,15 @@ pub struct RunRecord {
     pub cpu_model: Option<String>,
     /// Logical cores available on that machine.
     pub cores: Option<usize>,
+    /// Scene with joints: largest joint error over joints and steps, metres (anchor separation,
+    /// or distance error; [`lcpbench_contact::joint::Joint::error`]).
+    pub joint_drift_max: Option<f64>,
+    /// Scene with joints: mean over steps of the mean joint error, metres.
+    pub joint_drift_mean: Option<f64>,
+    /// Scene with joints: largest angular joint error (hinge axes, fixed orientation), rad.
+    pub joint_angle_max: Option<f64>,
+    /// Scene naming a `sag_body`: its largest drop below its starting height, metres.
+    pub sag_body: Option<f64>,
 }
 
 impl RunRecord {

@@ -30,6 +30,12 @@
 //!   large scenes (`step:` cases, built in the run) in their exact-cone form × every cone
 //!   solver, budget [`FC3D_BUDGET`] (the cone solvers' performance profiles at 1e-4 and 1e-8).
 //!
+//! * **joints**: the scenes of `joints/` next to the scene files (20-link chains with end
+//!   masses 1, 1e3 and 1e6 links, a plank bridge, a ragdoll, a pendulum cradle) × every scene
+//!   solver, cold and the iterative ones warm-started, × budgets [`SCENE_BUDGETS`], and the
+//!   warm-started iterative solvers under [`JOINT_ITERATION_BUDGETS`] (10, 20 and 50
+//!   iterations per step): joint drift, sag and cost.
+//!
 //! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
 //! the generated families at 8 rows, two members of the scene scaling family and the smallest
 //! FCLIB file.
@@ -147,6 +153,18 @@ pub const TOWER_SCENES: [&str; 2] = ["tower_10_60hz.toml", "tower_40_60hz.toml"]
 /// Budgets of the low-budget tower comparison: tolerance 1e-6, 20 and 50 iterations per step,
 /// 1 s per step.
 pub const TOWER_BUDGETS: [&str; 2] = ["1e-6:20:1", "1e-6:50:1"];
+
+/// Budgets of the joint scenes' low-iteration comparison: tolerance 1e-6, 10, 20 and 50
+/// iterations per step, 1 s per step.
+pub const JOINT_ITERATION_BUDGETS: [&str; 3] = ["1e-6:10:1", "1e-6:20:1", "1e-6:50:1"];
+
+/// The joint scenes of the quick suite (file stems).
+pub const QUICK_JOINT_SCENES: [&str; 1] = ["chain_20_1e3"];
+
+/// The scenes with joints: `joints/*.toml` in the directory of the first scene file.
+pub fn joint_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    files_beside(scenes, "joints", "*.toml")
+}
 
 /// Steps of each run of the scene scaling family.
 pub const SCALING_STEPS: usize = 10;
@@ -306,6 +324,14 @@ pub struct Suite {
     /// The FC3D collection of the cone solvers ([`fc3d_jobs`]): the FCLIB files, the exported
     /// scene LCPs and steps of the large scenes, each in its cone form.
     pub fc3d_cases: Vec<Case>,
+    /// The scenes with joints ([`joint_scenes`]).
+    pub joint_cases: Vec<Case>,
+    /// The solvers of the joint scenes under [`SCENE_BUDGETS`]: every scene solver, cold, and
+    /// the iterative ones warm-started.
+    pub joint_solvers: Vec<SolverSpec>,
+    /// The budgets of the joint scenes: [`SCENE_BUDGETS`], then [`JOINT_ITERATION_BUDGETS`]
+    /// (warm-started iterative solvers only).
+    pub joint_budgets: Vec<NamedBudget>,
 }
 
 /// A preset budget with its name.
@@ -446,7 +472,35 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
         Vec::new()
     };
     fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
+    joint_jobs(&mut suite, all_scenes, quick, plan.scene_steps);
     suite
+}
+
+/// The scenes of [`joint_scenes`] (the quick suite: those of [`QUICK_JOINT_SCENES`], for
+/// `quick_steps` steps) × every scene solver, cold and warm, × [`SCENE_BUDGETS`], and the
+/// warm-started iterative solvers × [`JOINT_ITERATION_BUDGETS`].
+fn joint_jobs(suite: &mut Suite, scenes: &[PathBuf], quick: bool, quick_steps: usize) {
+    suite.joint_cases = joint_scenes(scenes)
+        .iter()
+        .filter(|p| {
+            !quick
+                || p.file_stem()
+                    .is_some_and(|s| QUICK_JOINT_SCENES.iter().any(|q| s == *q))
+        })
+        .map(|p| Case::scene(p, quick.then_some(quick_steps)))
+        .collect();
+    let mut solvers = scene_solvers();
+    solvers.extend(warm_scene_solvers());
+    let presets: Vec<NamedBudget> = SCENE_BUDGETS.into_iter().map(preset).collect();
+    let iterations: Vec<NamedBudget> = JOINT_ITERATION_BUDGETS
+        .into_iter()
+        .map(custom_budget)
+        .collect();
+    let cases = suite.joint_cases.clone();
+    push(suite, &cases, &solvers, &presets);
+    push(suite, &cases, &warm_scene_solvers(), &iterations);
+    suite.joint_solvers = solvers;
+    suite.joint_budgets = presets.into_iter().chain(iterations).collect();
 }
 
 /// The generated problems: the matrix, the histories, the scaling family, the omega sweep and

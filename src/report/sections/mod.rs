@@ -11,6 +11,7 @@ mod convergence;
 mod fastest;
 mod fclib;
 mod friction;
+mod joints;
 mod large_scenes;
 mod overview;
 mod pipeline;
@@ -41,6 +42,7 @@ const SECTIONS: &[&dyn Section] = &[
     &large_scenes::LargeScenes,
     &pipeline::Pipeline,
     &towers::Towers,
+    &joints::Joints,
     &friction::FrictionModels,
     &robustness::Robustness,
     &fastest::Fastest,
