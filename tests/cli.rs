@@ -73,6 +73,7 @@ fn solvers_names_each_solver_level() {
         ("si", "body"),
         ("body-micro", "body"),
         ("penalty", "body"),
+        ("avg", "body"),
         ("nsgs-cone", "cone"),
         ("newton-fb-cone", "cone"),
         ("newton-nm-cone", "cone"),

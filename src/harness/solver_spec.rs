@@ -23,10 +23,10 @@ pub struct SolverSpecError {
 /// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
 /// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
 /// of `lcpbench-solvers`, the body-level solvers of `lcpbench-contact` (`si`, `body-micro`,
-/// `penalty`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`, `newton-fb-cone`,
-/// `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`, `clarabel-socp`:
-/// scenes with friction model `cone`, and LCP cases whose rows are (normal, tangent, tangent)
-/// triples, solved as the cone). See [`catalogue`](crate::harness::catalogue::catalogue) for every
+/// `penalty`, `avg`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`,
+/// `newton-fb-cone`, `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`,
+/// `clarabel-socp`: scenes with friction model `cone`, and LCP cases whose rows are (normal,
+/// tangent, tangent) triples, solved as the cone). See [`catalogue`](crate::harness::catalogue::catalogue) for every
 /// name with its level.
 ///
 /// `warm`: warm start (iterative solvers only): from a nearby solution for LCP cases, from the
@@ -47,7 +47,7 @@ pub enum SolverSpec {
     Body {
         /// Which solver.
         kind: BodySolverKind,
-        /// Warm start (`si`, `body-micro`).
+        /// Warm start (`si`, `body-micro`, `avg`).
         warm: bool,
     },
     /// A solver of the exact Coulomb cone.
@@ -278,7 +278,7 @@ impl std::str::FromStr for SolverSpec {
             (None, Some(cone)) => Self::cone(cone),
             (None, None) => Self::plain(name.parse().map_err(|e: String| {
                 err(format!(
-                    "{e}; body-level solvers: si, body-micro, penalty; cone solvers: {}",
+                    "{e}; body-level solvers: si, body-micro, penalty, avg; cone solvers: {}",
                     ContactSolver::cone_names()
                 ))
             })?),

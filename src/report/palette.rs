@@ -32,6 +32,7 @@ pub fn palette_slot(name: &str) -> Option<usize> {
             BodySolverKind::SequentialImpulses => 6,
             BodySolverKind::MicroImpulses => 7,
             BodySolverKind::Penalty => 8,
+            BodySolverKind::AveragedImpulse => 15,
         });
     }
     Some(match SolverKind::from_name(name)? {
@@ -86,6 +87,7 @@ mod tests {
             "nncg",
             "nsgs",
             "enum",
+            "avg",
         ];
         for (i, name) in fixed.iter().enumerate() {
             assert_eq!(colour(name), PALETTE[i], "{name}");

@@ -1,7 +1,7 @@
 //! Contact solvers that work on bodies directly (matrix-free), selectable by name like the
 //! matrix solvers of `lcpbench-solvers`.
 //!
-//! All three read the step's [`ContactSystem`] through its [`DelassusOperator`] (apply `J`,
+//! All four read the step's [`ContactSystem`] through its [`DelassusOperator`] (apply `J`,
 //! `M⁻¹`, `Jᵀ` per body; cost per contact visit `O(1)`), never forming `A`. They support the
 //! frictionless and box friction models (the pyramid model is an LCP formulation for the matrix
 //! solvers) and return one impulse per row of the system, so the shared residual of the step's
@@ -29,18 +29,25 @@
 //!   use the velocities at the start of the step (one Jacobi pass). It ignores restitution and
 //!   position correction (its spring does both) and does not solve the LCP: its shared residual
 //!   is reported honestly and is large.
+//! * **`avg`, averaged impulses** (module [`averaged_impulse`]): each body pair's contacts
+//!   replaced by one contact at their averaged point along their averaged normal, solved by
+//!   `si`'s sweeps, the pair impulse returned as equal shares on the pair's contacts. Exact
+//!   only for a convex contact region with one normal whose averaged point is where the
+//!   support is: a box on two separated supports or under an off-centre load tilts, a body in a
+//!   non-convex mesh is pushed along a normal no face has.
 //!
 //! Each is a type implementing [`BodySolver`] ([`SequentialImpulses`], [`MicroImpulses`],
-//! [`Penalty`]). They take the shared [`Settings`] of `lcpbench-solvers` (`tolerance` is both
-//! their own stopping scale, a sweep's largest impulse change against `tolerance` times the
-//! impulse scale, and the shared residual's tolerance; `max_iterations` caps sweeps; `time_budget` ends the sweeps `time_limit` when it is spent, checked after each sweep; the warm
-//! start is `Settings::warm_start`), and [`BodySolver::solve`] decides the status with the same
-//! rule as every matrix solver ([`lcpbench_solvers::decide`]) from the shared residual of the
-//! step's LCP, when that LCP is given to measure on. The bounce threshold is the builder's
-//! ([`ContactSystem::restitution_threshold`]). `si` and `body-micro` never spin: when a sweep's
-//! largest impulse change, relative to the impulse scale, has made no new low (1 % below the
-//! best) in [`FIRST_ORDER_STAGNATION_WINDOW`] sweeps, they stop `Stalled`
-//! ([`lcpbench_solvers::Stagnation`]).
+//! [`Penalty`], [`AveragedImpulse`]). They take the shared [`Settings`] of `lcpbench-solvers`
+//! (`tolerance` is both their own stopping scale, a sweep's largest impulse change against
+//! `tolerance` times the impulse scale, and the shared residual's tolerance; `max_iterations`
+//! caps sweeps; `time_budget` ends the sweeps `time_limit` when it is spent, checked after each
+//! sweep; the warm start is `Settings::warm_start`), and [`BodySolver::solve`] decides the
+//! status with the same rule as every matrix solver ([`lcpbench_solvers::decide`]) from the
+//! shared residual of the step's LCP, when that LCP is given to measure on. The bounce
+//! threshold is the builder's ([`ContactSystem::restitution_threshold`]). `si`, `body-micro`
+//! and `avg` never spin: when a sweep's largest impulse change, relative to the impulse scale,
+//! has made no new low (1 % below the best) in [`FIRST_ORDER_STAGNATION_WINDOW`] sweeps, they
+//! stop `Stalled` ([`lcpbench_solvers::Stagnation`]).
 
 use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
 use lcpbench_solvers::{
@@ -49,6 +56,10 @@ use lcpbench_solvers::{
 };
 use nalgebra::{Matrix2, Vector2};
 use std::time::Instant;
+
+pub mod averaged_impulse;
+
+pub use averaged_impulse::AveragedImpulse;
 
 /// A body-level solver (the catalogue of names; [`BodySolverKind::create`] makes the solver).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -59,14 +70,17 @@ pub enum BodySolverKind {
     MicroImpulses,
     /// Spring–damper penalty forces.
     Penalty,
+    /// One averaged impulse per body pair.
+    AveragedImpulse,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 3] = [
+    pub const ALL: [BodySolverKind; 4] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
+        BodySolverKind::AveragedImpulse,
     ];
 
     /// Name used on the command line and in scene files.
@@ -75,6 +89,7 @@ impl BodySolverKind {
             BodySolverKind::SequentialImpulses => "si",
             BodySolverKind::MicroImpulses => "body-micro",
             BodySolverKind::Penalty => "penalty",
+            BodySolverKind::AveragedImpulse => "avg",
         }
     }
 
@@ -92,11 +107,15 @@ impl BodySolverKind {
             BodySolverKind::Penalty => {
                 "spring-damper penalty forces: one Jacobi pass, does not solve the LCP"
             }
+            BodySolverKind::AveragedImpulse => {
+                "averaged impulses: one contact per body pair at the averaged point and normal, \
+                 swept as si"
+            }
         }
     }
 
-    /// True for the solvers that sweep until a stopping rule (`si`, `body-micro`); `penalty`
-    /// takes one pass.
+    /// True for the solvers that sweep until a stopping rule (`si`, `body-micro`, `avg`);
+    /// `penalty` takes one pass.
     pub fn is_iterative(self) -> bool {
         !matches!(self, BodySolverKind::Penalty)
     }
@@ -117,6 +136,12 @@ impl BodySolverKind {
                 "scenes only; frictionless and box friction (no pyramid, no cone); spring-damper \
                  baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
             }
+            BodySolverKind::AveragedImpulse => {
+                "scenes only; frictionless and box friction (no pyramid, no cone); one impulse per \
+                 body pair at the averaged point along the averaged normal, swept as si, \
+                 warm-startable; exact only for convex single-normal contact regions: separated \
+                 supports, off-centre loads and non-convex meshes tilt or sink"
+            }
         }
     }
 
@@ -131,6 +156,7 @@ impl BodySolverKind {
             BodySolverKind::SequentialImpulses => Box::new(SequentialImpulses),
             BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
             BodySolverKind::Penalty => Box::new(Penalty::default()),
+            BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
         }
     }
 }
@@ -186,7 +212,7 @@ pub trait BodySolver: dyn_clone::DynClone {
     /// The solver's own loop on the step's system; `settings.warm_start` is the warm start.
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep;
 
-    /// Short name (`si`, `body-micro`, `penalty`).
+    /// Short name (`si`, `body-micro`, `penalty`, `avg`).
     fn name(&self) -> &'static str {
         self.kind().name()
     }
