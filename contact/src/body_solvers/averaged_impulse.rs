@@ -22,14 +22,14 @@
 //! The averaged contacts are solved exactly as `si` solves contacts: the system is rewritten
 //! with each pair's first contact standing for the averaged contact (its rows carry the
 //! averaged Jacobian rows, the pair's other contacts get empty rows, rows that belong to no
-//! contact are kept) and given to `si`'s sweeps. So the sweeps go Gauss–Seidel over pairs
-//! (sequential restitution sweeps, then projected Gauss–Seidel on accumulated pair impulses),
-//! and the stopping rule, the `Stalled` rule on stagnation, the time budget and the warm start
-//! are `si`'s. The lever arms `p̄ − x` of the averaged rows come from the system alone: each
-//! row of a contact has `angular = (p − x) × linear` on a body, and the centre of mass `x` is
-//! the least-squares solution of those equations (of least norm: when every row of the pair
-//! shares one direction, the part of `x` along it is undetermined and does not enter the
-//! averaged rows).
+//! contact are kept as they are) and given to `si`'s sweeps. So the sweeps go Gauss–Seidel
+//! over pairs (sequential restitution sweeps, then projected Gauss–Seidel on accumulated pair
+//! impulses), and the stopping rule, the `Stalled` rule on stagnation, the time budget and the
+//! warm start are `si`'s. The lever arms `p̄ − x` of the averaged rows come from the system
+//! alone: each row of a contact has `angular = (p − x) × linear` on a body, and the centre of
+//! mass `x` is the least-squares solution of those equations (of least norm: when every row of
+//! the pair shares one direction, the part of `x` along it is undetermined and does not enter
+//! the averaged rows).
 //!
 //! The answer is returned per row of the step's system, so that the shared residual of the
 //! step's LCP measures it: each contact of the pair gets an equal share `λ_n / k` on its normal
@@ -46,8 +46,8 @@
 //! dynamic body of a pair; a sweep is `O(1)` per pair (one normal and two tangent rows on at
 //! most two bodies). It takes the frictionless and box friction models, as `si`; the pyramid
 //! and the cone are refused before a step reaches it (friction rows of any other layout are
-//! left without impulse here). A pair whose normals cancel (`‖Σ n_c‖ ≤ 1e-9 k`) has no averaged
-//! normal and gets no impulse.
+//! left without impulse here), and so are steps with joints (`avg` resolves contacts only). A
+//! pair whose normals cancel (`‖Σ n_c‖ ≤ 1e-9 k`) has no averaged normal and gets no impulse.
 //!
 //! # Failure modes
 //!
@@ -71,10 +71,10 @@
 //!   tilts (`bench_scenes/avg_nonconvex.toml`); the shares then shorten the net normal
 //!   impulse too (above).
 //!
-//! Reference: B. Mirtich, *Impulse-based dynamic simulation of rigid body systems*, PhD
-//! thesis, UC Berkeley 1996, ch. 3 (the colliding contacts of a pair); D. Baraff, *Fast contact
-//! force computation for nonpenetrating rigid bodies*, SIGGRAPH 1994 (the simultaneous
-//! answer it approximates).
+//! References: B. Mirtich, *Impulse-based dynamic simulation of rigid body systems*, PhD
+//! thesis, UC Berkeley 1996 (the sequential alternative); D. Baraff, *Fast contact force
+//! computation for nonpenetrating rigid bodies*, SIGGRAPH 1994 (the simultaneous answer it
+//! approximates).
 
 use super::{sequential_impulses, BodySolver, BodySolverKind, BodySweep};
 use crate::builder::{tangent_basis, ContactSystem, JacobianBlock, RowBlocks};
@@ -231,6 +231,75 @@ fn average_pair(system: &ContactSystem, members: &[usize], out: &mut ContactSyst
     } else {
         &[n]
     };
+    let lead = &system.info[members[0]];
+    let normal_row = lead.normal_row;
+    let friction_rows = if friction {
+        lead.friction_rows.clone()
+    } else {
+        normal_row + 1..normal_row + 1
+    };
+    let rows = averaged_rows(system, members, offset, directions);
+    for (i, blocks) in std::iter::once(normal_row)
+        .chain(friction_rows.clone())
+        .zip(rows)
+    {
+        out.rows[i].blocks = blocks;
+        out.free_rate[i] = out.operator().row_dot(i, &system.free_velocity);
+    }
+    let dist = members
+        .iter()
+        .map(|&c| system.contacts[c].dist)
+        .fold(f64::INFINITY, f64::min);
+    let restitution = members
+        .iter()
+        .map(|&c| system.info[c].restitution)
+        .fold(0.0, f64::max);
+    let vn = out.free_rate[normal_row];
+    let closes = dist <= 0.0 || dist + system.h * vn <= 0.0;
+    let bouncing = restitution > 0.0 && closes && vn < -system.restitution_threshold;
+    out.bias[normal_row] = if bouncing {
+        restitution * vn
+    } else {
+        mean(members, |c| {
+            let info = &system.info[c];
+            if info.bouncing {
+                0.0
+            } else {
+                system.bias[info.normal_row]
+            }
+        })
+    };
+    out.position_bias[normal_row] =
+        mean(members, |c| system.position_bias[system.info[c].normal_row]);
+    out.contacts.push(crate::collision::Contact {
+        point: first.point + offset,
+        normal: n,
+        dist,
+        ..first
+    });
+    out.info.push(crate::builder::ContactInfo {
+        normal_row,
+        friction_rows,
+        slack_row: None,
+        slack_scale: out.operator().diagonal(normal_row),
+        mu: mean(members, |c| system.info[c].mu),
+        restitution,
+        bouncing,
+        tangents,
+    });
+    true
+}
+
+/// The Jacobian rows of the averaged contact of `members`, one per direction (the normal, then
+/// the tangents), at the averaged point `first point + offset`: on body a `[−d, −(p̄ − x_a) × d]`,
+/// on body b `[d, (p̄ − x_b) × d]`, for the dynamic ones.
+fn averaged_rows(
+    system: &ContactSystem,
+    members: &[usize],
+    offset: Vector3<f64>,
+    directions: &[Vector3<f64>],
+) -> [RowBlocks; 3] {
+    let first = system.contacts[members[0]];
     let mut rows = [RowBlocks::EMPTY; 3];
     for (body, sign) in [(first.body_a, -1.0), (first.body_b, 1.0)] {
         let Some(centre) = centre_of_mass(system, members, body, first.point.coords) else {
@@ -246,63 +315,12 @@ fn average_pair(system: &ContactSystem, members: &[usize], out: &mut ContactSyst
             });
         }
     }
+    rows
+}
 
-    let lead = &system.info[members[0]];
-    let normal_row = lead.normal_row;
-    let friction_rows = if friction {
-        lead.friction_rows.clone()
-    } else {
-        normal_row + 1..normal_row + 1
-    };
-    for (i, blocks) in std::iter::once(normal_row)
-        .chain(friction_rows.clone())
-        .zip(rows)
-    {
-        out.rows[i].blocks = blocks;
-        out.free_rate[i] = out.operator().row_dot(i, &system.free_velocity);
-    }
-    let vn = out.free_rate[normal_row];
-    let dist = members
-        .iter()
-        .map(|&c| system.contacts[c].dist)
-        .fold(f64::INFINITY, f64::min);
-    let restitution = members
-        .iter()
-        .map(|&c| system.info[c].restitution)
-        .fold(0.0, f64::max);
-    let closes = dist <= 0.0 || dist + system.h * vn <= 0.0;
-    let bouncing = restitution > 0.0 && closes && vn < -system.restitution_threshold;
-    let mean = |v: &dyn Fn(usize) -> f64| members.iter().map(|&c| v(c)).sum::<f64>() / k;
-    out.bias[normal_row] = if bouncing {
-        restitution * vn
-    } else {
-        mean(&|c| {
-            let info = &system.info[c];
-            if info.bouncing {
-                0.0
-            } else {
-                system.bias[info.normal_row]
-            }
-        })
-    };
-    out.position_bias[normal_row] = mean(&|c| system.position_bias[system.info[c].normal_row]);
-    out.contacts.push(crate::collision::Contact {
-        point: first.point + offset,
-        normal: n,
-        dist,
-        ..first
-    });
-    out.info.push(crate::builder::ContactInfo {
-        normal_row,
-        friction_rows,
-        slack_row: None,
-        slack_scale: out.operator().diagonal(normal_row),
-        mu: mean(&|c| system.info[c].mu),
-        restitution,
-        bouncing,
-        tangents,
-    });
-    true
+/// The mean of `value` over the pair's contacts.
+fn mean(members: &[usize], value: impl Fn(usize) -> f64) -> f64 {
+    members.iter().map(|&c| value(c)).sum::<f64>() / members.len() as f64
 }
 
 /// The centre of mass `x` of `body`, relative to `origin`, from the pair's Jacobian rows; `None`
