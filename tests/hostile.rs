@@ -586,6 +586,14 @@ fn recordings_that_do_not_fit_their_header_are_refused() {
             "line 2: step 0: a contact names body \"ghost\"",
         ),
         (
+            "joint anchor not a number",
+            format!("{}\n{}\n", header("", ball), step("ball", "")).replace(
+                "\"contact_records\": []",
+                r#""contact_records": [], "joint_records": [{"name": "j", "kind": "ball", "anchors": [[0, 0, 1], [0, null, 1]], "error": {"linear": 0, "angular": 0}, "impulse": 0}]"#,
+            ),
+            "line 2: step 0: joint_records[0] (\"j\"): anchors[1] must be 3 finite numbers",
+        ),
+        (
             "10,001 bodies",
             format!("{}\n{}\n", header("", &many.join(", ")), step("b0", "")),
             "line 1: bodies: 10001 bodies, beyond the limit of 10000",

@@ -7,7 +7,7 @@
 //! [`StepReport`](lcpbench_contact::StepReport) with the body states after the step.
 
 use super::ViewError;
-use lcpbench_contact::{Shape, StepReport, World};
+use lcpbench_contact::{JointKind, Shape, StepReport, World};
 use serde::Deserialize;
 use serde_json::{json, Map, Value};
 use std::collections::HashMap;
@@ -177,6 +177,46 @@ pub struct ContactLine {
     pub complementarity: f64,
 }
 
+/// A joint's error in a step line ([`JointError`](lcpbench_contact::joint::JointError)).
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+pub struct JointErrorLine {
+    /// Anchor separation (ball, hinge, fixed) or length error (distance), m.
+    #[serde(deserialize_with = "number_or_null")]
+    pub linear: f64,
+    /// Angle between the hinge axes or away from the rest orientation (fixed), rad.
+    #[serde(default, deserialize_with = "number_or_null")]
+    pub angular: f64,
+}
+
+/// A joint in a step line ([`JointRecord`](lcpbench_contact::step::JointRecord)).
+#[derive(Debug, Clone, Deserialize)]
+pub struct JointLine {
+    /// Name.
+    pub name: String,
+    /// Kind, as scene files name it (`ball`, `hinge`, `fixed`, `distance`).
+    pub kind: String,
+    /// World anchor of each side at the step's end.
+    #[serde(deserialize_with = "anchors_or_null")]
+    pub anchors: [[f64; 3]; 2],
+    /// Error at the step's end.
+    pub error: JointErrorLine,
+    /// Magnitude of the linear impulse of its rows on side b, N·s.
+    #[serde(default, deserialize_with = "number_or_null")]
+    pub impulse: f64,
+}
+
+/// A number that may have been written as `null` (serde_json writes NaN and ±∞ so), read as
+/// NaN for [`check_step`] to refuse by name.
+fn number_or_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// Two points whose coordinates may have been written as `null` ([`number_or_null`]).
+fn anchors_or_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[[f64; 3]; 2], D::Error> {
+    let read = <[[Option<f64>; 3]; 2]>::deserialize(d)?;
+    Ok(read.map(|p| p.map(|x| x.unwrap_or(f64::NAN))))
+}
+
 /// One step line.
 #[derive(Debug, Clone, Deserialize)]
 pub struct StepLine {
@@ -201,6 +241,24 @@ pub struct StepLine {
     pub potential_energy: f64,
     /// Contacts.
     pub contact_records: Vec<ContactLine>,
+    /// Joints of the world (recordings without joints: 0).
+    #[serde(default)]
+    pub joints: usize,
+    /// Equality rows of the joints in the step's problem.
+    #[serde(default)]
+    pub joint_rows: usize,
+    /// Largest joint error at the step's end, m.
+    #[serde(default, deserialize_with = "number_or_null")]
+    pub joint_drift_max: f64,
+    /// Mean joint error at the step's end, m.
+    #[serde(default, deserialize_with = "number_or_null")]
+    pub joint_drift_mean: f64,
+    /// Largest angular joint error at the step's end, rad.
+    #[serde(default, deserialize_with = "number_or_null")]
+    pub joint_angle_max: f64,
+    /// Joints with their anchors, errors and impulses (absent when the world has none).
+    #[serde(default)]
+    pub joint_records: Vec<JointLine>,
     /// Convergence history (objects with `iteration`, `residual`, `time_s`, and whatever else
     /// the solver recorded, such as an active set).
     #[serde(default)]
@@ -221,6 +279,11 @@ pub struct Recording {
 }
 
 impl Recording {
+    /// Whether any step recorded a joint (its page then draws joints and plots their drift).
+    pub fn has_joints(&self) -> bool {
+        self.steps.iter().any(|s| !s.joint_records.is_empty())
+    }
+
     /// Read a recording file (a regular file of at most [`MAX_RECORDING_BYTES`]).
     pub fn read(path: &Path) -> Result<Self, ViewError> {
         lcpbench_solvers::io::input::check_input_file(path, MAX_RECORDING_BYTES)
@@ -411,8 +474,8 @@ fn check_shape(shape: &Value) -> Result<(), String> {
     }
 }
 
-/// A step line that fits its header and follows `previous`: steps increase, and every body and
-/// contact names a body of the header.
+/// A step line that fits its header and follows `previous`: steps increase, every body and
+/// contact names a body of the header, and its joints are drawable ([`check_joints`]).
 pub fn check_step(
     step: &StepLine,
     previous: Option<&StepLine>,
@@ -447,6 +510,54 @@ pub fn check_step(
             "step {}: a contact names body \"{name}\", which is not in the header",
             step.step
         ));
+    }
+    check_joints(step).map_err(|m| format!("step {}: {m}", step.step))
+}
+
+/// A step's joint figures and records: known kinds, finite anchors, errors and impulses that
+/// are finite and not negative.
+fn check_joints(step: &StepLine) -> Result<(), String> {
+    let figures = [
+        ("joint_drift_max", step.joint_drift_max),
+        ("joint_drift_mean", step.joint_drift_mean),
+        ("joint_angle_max", step.joint_angle_max),
+    ];
+    if let Some((key, x)) = figures.iter().find(|(_, x)| !(x.is_finite() && *x >= 0.0)) {
+        return Err(format!("{key} must be finite and not negative, got {x}"));
+    }
+    for (k, j) in step.joint_records.iter().enumerate() {
+        let at = || format!("joint_records[{k}] (\"{}\")", j.name);
+        if JointKind::from_name(&j.kind).is_none() {
+            let known: Vec<&str> = JointKind::ALL.iter().map(|k| k.name()).collect();
+            return Err(format!(
+                "{}: unknown joint kind \"{}\" (known: {})",
+                at(),
+                j.kind,
+                known.join(", ")
+            ));
+        }
+        if let Some(side) = j
+            .anchors
+            .iter()
+            .position(|p| !p.iter().all(|x| x.is_finite()))
+        {
+            return Err(format!(
+                "{}: anchors[{side}] must be 3 finite numbers, got {:?}",
+                at(),
+                j.anchors[side]
+            ));
+        }
+        let values = [
+            ("error.linear", j.error.linear),
+            ("error.angular", j.error.angular),
+            ("impulse", j.impulse),
+        ];
+        if let Some((key, x)) = values.iter().find(|(_, x)| !(x.is_finite() && *x >= 0.0)) {
+            return Err(format!(
+                "{}: {key} must be finite and not negative, got {x}",
+                at()
+            ));
+        }
     }
     Ok(())
 }
@@ -498,9 +609,14 @@ fn norm(v: [f64; 3]) -> f64 {
 /// impulse (3), relative velocity (3), gap, `mu`, `w_n`, complementarity, status code.
 pub const CONTACT_FIELDS: usize = 20;
 
+/// Numbers per joint in a frame: anchor a (3), anchor b (3), linear error, angular error,
+/// impulse, kind code (the index of the kind in [`JointKind::ALL`]).
+pub const JOINT_FIELDS: usize = 10;
+
 /// The step's frame: poses (`[x, y, z, qw, qx, qy, qz]` per body in `ids`), contacts
-/// ([`CONTACT_FIELDS`] numbers each) and the thinned convergence history.
-fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine) -> Value {
+/// ([`CONTACT_FIELDS`] numbers each), joints ([`JOINT_FIELDS`] numbers each, only in runs
+/// that have joints) and the thinned convergence history.
+fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine, joints: bool) -> Value {
     let all = s.bodies.len() == rec.header.bodies.len()
         && s.bodies
             .iter()
@@ -527,12 +643,30 @@ fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine) -> Value {
         contacts.push(contact_status(c, rec.header.tolerance, f_scale) as u8 as f32);
     }
     let mut out = json!({ "step": s.step, "pose": pose, "contacts": contacts });
+    if joints {
+        out["joints"] = json!(joints_json(&s.joint_records));
+    }
     if !all {
         let ids: Vec<f32> = s.bodies.iter().map(|b| id(&b.name)).collect();
         out["ids"] = json!(ids);
     }
     if !s.history.is_empty() {
         out["history"] = history_json(&s.history);
+    }
+    out
+}
+
+/// A frame's joints: [`JOINT_FIELDS`] numbers each.
+fn joints_json(joints: &[JointLine]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(JOINT_FIELDS * joints.len());
+    for j in joints {
+        let kind = JointKind::ALL
+            .iter()
+            .position(|k| k.name() == j.kind)
+            .map_or(-1.0, |k| k as f32);
+        out.extend(j.anchors.iter().flatten().map(|&x| x as f32));
+        out.extend([j.error.linear, j.error.angular, j.impulse].map(|x| x as f32));
+        out.push(kind);
     }
     out
 }
@@ -602,7 +736,7 @@ fn series(rec: &Recording) -> Value {
                 .unwrap_or("?")
         })
         .collect();
-    json!({
+    let mut out = json!({
         "step": s.iter().map(|l| l.step).collect::<Vec<_>>(),
         "time": s.iter().map(|l| l.time).collect::<Vec<_>>(),
         "residual": residual,
@@ -612,7 +746,11 @@ fn series(rec: &Recording) -> Value {
         "penetration": s.iter().map(|l| l.max_penetration).collect::<Vec<_>>(),
         "contacts": s.iter().map(|l| l.contact_records.len()).collect::<Vec<_>>(),
         "status": status,
-    })
+    });
+    if rec.has_joints() {
+        out["joint_drift"] = json!(s.iter().map(|l| l.joint_drift_max).collect::<Vec<_>>());
+    }
+    out
 }
 
 /// The page data of one run: header, series, and frames decimated so that the whole takes at
@@ -628,10 +766,11 @@ pub fn run_data(rec: &Recording, label: &str, bytes: usize) -> Value {
         .collect();
     let mut data = run_header(rec, label);
     let frame_bytes = bytes.saturating_sub(data.to_string().len()).max(10_000);
+    let joints = rec.has_joints();
     let frames: Vec<String> = rec
         .steps
         .iter()
-        .map(|s| frame(rec, &index, s).to_string())
+        .map(|s| frame(rec, &index, s, joints).to_string())
         .collect();
     let total: usize = frames.iter().map(|f| f.len() + 1).sum();
     // Room for the extra last frame kept after the stride.
@@ -729,6 +868,114 @@ mod tests {
         // Outside the friction cone.
         assert_eq!(s(contact(1.0, 0.9, 0.3, 0.0)), ContactStatus::Violated);
         assert_eq!(s(contact(-0.1, 0.0, 0.0, -0.1)), ContactStatus::Violated);
+    }
+
+    /// The header and `steps` step lines of `scene` (a file of `bench_scenes/`) run with
+    /// dantzig, each step's report edited by `edit` before it is written; and the reports.
+    fn record(
+        scene: &str,
+        steps: usize,
+        edit: impl Fn(&mut StepReport),
+    ) -> (Vec<String>, Vec<StepReport>) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("bench_scenes")
+            .join(scene);
+        let scene = lcpbench_contact::Scene::load(&path).unwrap();
+        let mut world = scene.world();
+        world.set_solver(lcpbench_contact::ContactSolver::from_name("dantzig").unwrap());
+        let mut lines = vec![header(&scene.name, &world).to_string()];
+        let mut reports = Vec::new();
+        for _ in 0..steps {
+            let mut report = world.step();
+            edit(&mut report);
+            lines.push(step_line(&report, &world).to_string());
+            reports.push(report);
+        }
+        (lines, reports)
+    }
+
+    fn read(lines: &[String]) -> Result<Recording, ViewError> {
+        Recording::from_lines(Path::new("r.jsonl"), lines.iter().cloned().map(Ok))
+    }
+
+    #[test]
+    fn joints_are_read_back_and_sent_to_the_page_with_their_anchors() {
+        let (lines, reports) = record("joints/chain_20_1e3.toml", 3, |_| {});
+        let rec = read(&lines).unwrap();
+        assert!(rec.has_joints());
+        let data = run_data(&rec, "dantzig", 10_000_000);
+        let frames = data["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 3);
+        for ((frame, report), line) in frames.iter().zip(&reports).zip(&rec.steps) {
+            assert_eq!(line.joints, report.joints);
+            assert_eq!(line.joint_drift_max, report.joint_drift_max);
+            let joints = frame["joints"].as_array().unwrap();
+            assert!(report.joints > 0 && report.joint_records.len() == report.joints);
+            assert_eq!(joints.len(), JOINT_FIELDS * report.joint_records.len());
+            for (j, r) in joints.chunks(JOINT_FIELDS).zip(&report.joint_records) {
+                let sent: Vec<f32> = j.iter().map(|x| x.as_f64().unwrap() as f32).collect();
+                let anchors: Vec<f32> = r.anchors.iter().flatten().map(|&x| x as f32).collect();
+                assert_eq!(sent[..6], anchors[..], "joint {}", r.name);
+                assert_eq!(sent[6], r.error.linear as f32);
+                assert_eq!(sent[7], r.error.angular as f32);
+                assert_eq!(sent[8], r.impulse as f32);
+                assert_eq!(sent[9], 0.0, "a ball joint");
+            }
+        }
+        let drift = data["series"]["joint_drift"].as_array().unwrap();
+        assert_eq!(drift[2].as_f64(), Some(reports[2].joint_drift_max));
+    }
+
+    #[test]
+    fn pages_of_runs_without_joints_carry_no_joint_data() {
+        let (lines, _) = record("box_on_ground.toml", 3, |_| {});
+        let rec = read(&lines).unwrap();
+        assert!(!rec.has_joints());
+        let data = run_data(&rec, "dantzig", 10_000_000);
+        for frame in data["frames"].as_array().unwrap() {
+            assert!(frame.get("joints").is_none(), "{frame}");
+        }
+        assert!(data["series"].get("joint_drift").is_none());
+        // A line written before joints were recorded reads the same.
+        let mut old: Value = serde_json::from_str(&lines[1]).unwrap();
+        let fields = old.as_object_mut().unwrap();
+        fields.retain(|k, _| !k.starts_with("joint"));
+        let old = [lines[0].clone(), old.to_string()];
+        assert_eq!(read(&old).unwrap().steps[0].joint_drift_max, 0.0);
+    }
+
+    #[test]
+    fn bad_joint_records_are_refused_naming_the_line() {
+        let refused = |edit: fn(&mut StepReport)| {
+            let (lines, _) = record("joints/chain_20_1e3.toml", 2, |r| {
+                if r.step == 1 {
+                    edit(r)
+                }
+            });
+            read(&lines).unwrap_err().to_string()
+        };
+        // serde_json writes a NaN as `null`.
+        let e = refused(|r| r.joint_records[4].anchors[1][2] = f64::NAN);
+        assert!(
+            e.contains("r.jsonl: line 3: step 1: joint_records[4] (\"")
+                && e.contains("anchors[1] must be 3 finite numbers"),
+            "{e}"
+        );
+        let e = refused(|r| r.joint_records[0].kind = "slider");
+        assert!(
+            e.contains("line 3: ") && e.contains("unknown joint kind \"slider\""),
+            "{e}"
+        );
+        let e = refused(|r| r.joint_records[0].error.linear = -1.0);
+        assert!(
+            e.contains("error.linear must be finite and not negative, got -1"),
+            "{e}"
+        );
+        let e = refused(|r| r.joint_drift_max = f64::INFINITY);
+        assert!(
+            e.contains("line 3: step 1: joint_drift_max must be finite"),
+            "{e}"
+        );
     }
 
     #[test]
