@@ -1,5 +1,6 @@
 //! Generated pages opened in headless Chromium: they load without errors, draw something, move
-//! with the timeline, and draw as many contact markers as the recording has contacts.
+//! with the timeline, and draw as many contact markers as the recording has contacts (and two
+//! markers per joint).
 //!
 //! Needs Debian's `chromium` (`apt-get install chromium`); without it each test says so and
 //! returns. `LCPBENCH_CHROMIUM` names another binary.
@@ -243,6 +244,49 @@ fn tower_replay_loads_draws_and_shows_the_recorded_contacts() {
         saturated(&region) > 500,
         "no coloured bodies in the 3-D view"
     );
+}
+
+/// The recording's joint count at `step`.
+fn recorded_joints(recording: &Path, step: usize) -> usize {
+    let text = std::fs::read_to_string(recording).unwrap();
+    let line = text
+        .lines()
+        .skip(1)
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .find(|v| v["step"] == step)
+        .expect("the step is recorded");
+    line["joint_records"].as_array().map_or(0, Vec::len)
+}
+
+#[test]
+fn joint_replay_draws_both_anchors_of_each_joint_and_hides_them_on_request() {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("chain.html");
+    let rec = dir.path().join("chain.jsonl");
+    lcpbench(&[
+        "simulate",
+        "bench_scenes/joints/chain_20_1e3.toml",
+        "--solver",
+        "dantzig",
+        "--steps",
+        "10",
+        "--record",
+        rec.to_str().unwrap(),
+        "--html",
+        page.to_str().unwrap(),
+    ]);
+    let joints = recorded_joints(&rec, 5);
+    assert!(joints > 0, "the chain has joints");
+    let state = page_state(&browser, &page, "#step=5");
+    assert_no_errors(&state);
+    assert_eq!(state.get("joints"), joints.to_string());
+    assert_eq!(state.get("joint-markers"), (2 * joints).to_string());
+    // The joints toggle, off from the URL: the joints are still counted, none drawn.
+    let state = page_state(&browser, &page, "#step=5&hide=joints");
+    assert_no_errors(&state);
+    assert_eq!(state.get("joints"), joints.to_string());
+    assert_eq!(state.get("joint-markers"), "0");
 }
 
 #[test]

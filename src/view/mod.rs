@@ -1,7 +1,8 @@
 //! Interactive, self-contained HTML pages of recordings and solves (`lcpbench view`).
 //!
 //! A *replay page* draws a recorded simulation in 3-D with three.js (bodies from their shapes,
-//! contact points, normals and impulse vectors coloured by contact status), a timeline with
+//! contact points, normals and impulse vectors coloured by contact status, and joints as a
+//! marker at each anchor joined by their drift, coloured by their error), a timeline with
 //! per-step plots (uPlot), the selected step's convergence history and its contact table; two
 //! recordings of the same scene are shown side by side, synchronised. A *solve page* shows every
 //! solver on one problem: convergence histories and the final `f` and `w` per row.
@@ -12,8 +13,9 @@
 //! says so.
 //!
 //! Test hooks: `window.lcpbenchState` and the element `#lcpbench-state` (attributes
-//! `data-ready`, `data-step`, `data-markers`, `data-expected-markers`), errors collected into
-//! `#lcpbench-errors`, and the URL hash `#step=N` selecting a step at load.
+//! `data-ready`, `data-step`, `data-markers`, `data-joints`, `data-joint-markers`), errors
+//! collected into `#lcpbench-errors`, and the URL hash: `#step=N` selects a step at load,
+//! `hide=joints,normals` (after a `&`) starts with those layers' toggles off.
 
 pub mod recording;
 pub mod solve;

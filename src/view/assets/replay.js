@@ -1,5 +1,7 @@
 // The replay page: recorded runs in 3-D (three.js), a timeline, per-step plots, the selected
 // step's convergence history and contact table. Two runs are shown side by side, synchronised.
+// Joints, when the runs have them, are drawn as a diamond at each anchor joined by a segment
+// (the drift, or a distance joint's rod), coloured by their error.
 'use strict';
 const RUNS = DATA.runs;
 const STATUS = [
@@ -9,12 +11,29 @@ const STATUS = [
   { name: 'complementarity violated', color: '#e03131' },
 ];
 const CF = 20; // numbers per contact in a frame (see recording.rs)
+const JF = 10; // numbers per joint in a frame (see recording.rs)
+const JOINT_KINDS = ['ball', 'hinge', 'fixed', 'distance'];
+// Joint colours by error: linear (m) and angular (rad) against the same bounds.
+const JOINT_LEVELS = [
+  { bound: 1e-3, name: 'joint error < 1 mm, 1 mrad', color: '#2f9e44' },
+  { bound: 1e-2, name: '< 1 cm, 10 mrad', color: '#f08c00' },
+  { bound: Infinity, name: 'above', color: '#e03131' },
+];
+const HAS_JOINTS = RUNS.some((r) => r.frames.some((f) => f.joints));
 const Z_UP = new THREE.Vector3(0, 0, 1);
 
 // ---- timeline: index into the longest run's per-step series ----------------------------------
 const NSTEPS = Math.max(...RUNS.map((r) => r.series.step.length));
 const ui = { index: 0, playing: false, speed: 1, selected: -1, detailRun: 0,
-  showNormals: true, showImpulses: true, showContacts: true };
+  showNormals: true, showImpulses: true, showContacts: true, showJoints: true };
+// `#hide=joints,normals` starts with those layers off (as their toggles would).
+const hashHide = /hide=([a-z,]+)/.exec(location.hash);
+if (hashHide) {
+  for (const layer of hashHide[1].split(',')) {
+    const key = 'show' + layer.charAt(0).toUpperCase() + layer.slice(1);
+    if (key in ui) ui[key] = false;
+  }
+}
 
 /** The frame a run draws at timeline index i: the last frame at or before that step. */
 function frameAt(run, i) {
@@ -79,6 +98,13 @@ function makeGeometry(g, planeSize) {
   }
 }
 
+/** Index into JOINT_LEVELS of a joint's linear (m) and angular (rad) error. */
+function jointLevel(linear, angular) {
+  const worst = Math.max(linear, angular);
+  const level = JOINT_LEVELS.findIndex((l) => worst < l.bound);
+  return level < 0 ? JOINT_LEVELS.length - 1 : level;
+}
+
 function bodyColor(k, isStatic) {
   if (isStatic) return new THREE.Color('#b8bec6');
   return new THREE.Color().setHSL((k * 0.618034) % 1, 0.55, 0.58);
@@ -105,6 +131,7 @@ class RunView {
     container.append(this.label, this.stats);
     this.buildBodies(bounds);
     this.buildContacts(bounds);
+    this.buildJoints();
   }
 
   buildBodies(bounds) {
@@ -184,6 +211,25 @@ class RunView {
     this.impulses = lines();
   }
 
+  buildJoints() {
+    const most = Math.max(1, ...this.run.frames.map((f) => (f.joints ? f.joints.length / JF : 0)));
+    // A sphere of 4 × 2 segments: an octahedron (the vendored three.js has no OctahedronGeometry).
+    const geo = new THREE.SphereGeometry(this.markerRadius * 1.4, 4, 2);
+    this.jointMarkers = new THREE.InstancedMesh(geo, new THREE.MeshBasicMaterial({ depthTest: false, transparent: true }), 2 * most);
+    this.jointMarkers.renderOrder = 2;
+    this.jointMarkers.count = 0;
+    this.jointMarkers.frustumCulled = false;
+    this.scene.add(this.jointMarkers);
+    const lines = new THREE.BufferGeometry();
+    lines.setAttribute('position', new THREE.BufferAttribute(new Float32Array(6 * most), 3).setUsage(THREE.DynamicDrawUsage));
+    lines.setAttribute('color', new THREE.BufferAttribute(new Float32Array(6 * most), 3).setUsage(THREE.DynamicDrawUsage));
+    lines.setDrawRange(0, 0);
+    this.jointLinks = new THREE.LineSegments(lines, new THREE.LineBasicMaterial({ vertexColors: true, depthTest: false, transparent: true }));
+    this.jointLinks.renderOrder = 1;
+    this.jointLinks.frustumCulled = false;
+    this.scene.add(this.jointLinks);
+  }
+
   show(frame) {
     const run = this.run;
     const m = new THREE.Matrix4(), q = new THREE.Quaternion(), p = new THREE.Vector3(), one = new THREE.Vector3(1, 1, 1);
@@ -207,6 +253,35 @@ class RunView {
     this.slot.forEach((s, body) => { if (s && !shown.has(body)) s[0].setMatrixAt(s[1], m); });
     for (const mesh of this.meshes) mesh.instanceMatrix.needsUpdate = true;
     this.showContacts(frame);
+    this.showJoints(frame);
+    this.stats.textContent = `step ${frame.step} · ${this.contactCount} contacts` +
+      (frame.joints ? ` · ${this.jointCount} joints` : '');
+  }
+
+  showJoints(frame) {
+    const j = frame.joints || [];
+    const count = j.length / JF;
+    const m = new THREE.Matrix4(), color = new THREE.Color();
+    const lp = this.jointLinks.geometry.attributes.position.array, lc = this.jointLinks.geometry.attributes.color.array;
+    for (let k = 0; k < count; k++) {
+      const o = JF * k;
+      color.set(JOINT_LEVELS[jointLevel(j[o + 6], j[o + 7])].color);
+      for (let side = 0; side < 2; side++) {
+        m.makeTranslation(j[o + 3 * side], j[o + 3 * side + 1], j[o + 3 * side + 2]);
+        this.jointMarkers.setMatrixAt(2 * k + side, m);
+        this.jointMarkers.setColorAt(2 * k + side, color);
+      }
+      lp.set(j.slice(o, o + 6), 6 * k);
+      lc.set([color.r, color.g, color.b, color.r, color.g, color.b], 6 * k);
+    }
+    this.jointMarkers.count = ui.showJoints ? 2 * count : 0;
+    this.jointMarkers.instanceMatrix.needsUpdate = true;
+    if (this.jointMarkers.instanceColor) this.jointMarkers.instanceColor.needsUpdate = true;
+    const links = this.jointLinks.geometry;
+    links.setDrawRange(0, ui.showJoints ? 2 * count : 0);
+    links.attributes.position.needsUpdate = true;
+    links.attributes.color.needsUpdate = true;
+    this.jointCount = count;
   }
 
   showContacts(frame) {
@@ -245,7 +320,6 @@ class RunView {
     this.selectedMarker.visible = this.index === ui.detailRun && sel >= 0 && sel < count;
     if (this.selectedMarker.visible) this.selectedMarker.position.set(c[CF * sel + 2], c[CF * sel + 3], c[CF * sel + 4]);
     this.contactCount = count;
-    this.stats.textContent = `step ${frame.step} · ${count} contacts`;
   }
 
   resize(width, height) {
@@ -297,7 +371,8 @@ const stepLabel = el('span', { class: 'muted' });
 const playButton = el('button', { title: 'play / pause (space)', text: '▶' });
 const button = (text, title, f) => el('button', { title, text, onclick: f });
 const toggle = (label, key) => el('label', {}, [
-  el('input', { type: 'checkbox', checked: '', onchange: (e) => { ui[key] = e.target.checked; update(false); } }), ' ' + label]);
+  el('input', Object.assign({ type: 'checkbox', onchange: (e) => { ui[key] = e.target.checked; update(false); } }, ui[key] ? { checked: '' } : {})),
+  ' ' + label]);
 const speed = el('select', { onchange: (e) => { ui.speed = Number(e.target.value); } },
   [1, 2, 5, 10].map((s) => el('option', { value: String(s), text: s + '×' })));
 APP.append(el('div', { class: 'controls' }, [
@@ -308,9 +383,14 @@ APP.append(el('div', { class: 'controls' }, [
   button('»', 'last step', () => setIndex(NSTEPS - 1)),
   slider, stepLabel, speed,
   toggle('contacts', 'showContacts'), toggle('normals', 'showNormals'), toggle('impulses', 'showImpulses'),
-]));
-APP.append(el('div', { class: 'legend muted' }, STATUS.map((s) => el('span', {}, [el('i', { style: 'background:' + s.color }), s.name]))
+].concat(HAS_JOINTS ? [toggle('joints', 'showJoints')] : [])));
+const legendItem = (color, name, shape) => el('span', {}, [el('i', { class: shape || '', style: 'background:' + color }), name]);
+APP.append(el('div', { class: 'legend muted' }, STATUS.map((s) => legendItem(s.color, s.name))
   .concat([el('span', {}, ['impulse arrows scaled by magnitude (longest = largest impulse of the run); blue: normals'])])));
+if (HAS_JOINTS) {
+  APP.append(el('div', { class: 'legend muted' }, JOINT_LEVELS.map((l) => legendItem(l.color, l.name, 'diamond'))
+    .concat([el('span', {}, ['joints: a diamond at each anchor, joined by the drift between them (a distance joint: its rod)'])])));
+}
 slider.addEventListener('input', () => setIndex(Number(slider.value)));
 playButton.addEventListener('click', () => setPlaying(!ui.playing));
 document.addEventListener('keydown', (e) => {
@@ -333,9 +413,9 @@ const METRICS = [
   ['energy (J)', 'energy', false, 1],
   ['max penetration (m)', 'penetration', false, 1],
   ['contacts', 'contacts', false, 1],
-];
+].concat(HAS_JOINTS ? [['joint drift (max, m)', 'joint_drift', true, 1]] : []);
 const plots = METRICS.map(([title, key, log, scale]) => linePlot(plotsEl, title,
-  xs, RUNS.map((r) => ({ label: r.label, values: pad(r.series[key].map((v) => (v === null ? null : v * scale))) })),
+  xs, RUNS.map((r) => ({ label: r.label, values: pad((r.series[key] || []).map((v) => (v === null ? null : v * scale))) })),
   { log, marker: () => ui.index, onPick: (i) => { setPlaying(false); setIndex(i); }, xLabel: 'step', legend: RUNS.length > 1 }));
 
 // Detail of the selected step.
@@ -410,7 +490,25 @@ function renderContacts() {
     children.push(el('p', { class: 'muted', text: 'Click a contact (in the table or the 3-D view) for its details.' }));
   }
   children.push(el('table', {}, [el('thead', {}, [el('tr', {}, head.map((h) => el('th', { text: h })))]), el('tbody', {}, rows)]));
+  if (f.joints) children.push(el('p', {}, [el('b', { text: `Joints at step ${f.step}` }), ' ' + jointSummary(f.joints)]));
   contactPanel.replaceChildren(...children);
+}
+
+/** A frame's joints in one line: how many of each kind, their largest errors and impulse. */
+function jointSummary(j) {
+  const count = j.length / JF;
+  const kinds = new Map();
+  let linear = 0, angular = 0, impulse = 0;
+  for (let o = 0; o < j.length; o += JF) {
+    const kind = JOINT_KINDS[j[o + 9]] || '?';
+    kinds.set(kind, (kinds.get(kind) || 0) + 1);
+    linear = Math.max(linear, j[o + 6]);
+    angular = Math.max(angular, j[o + 7]);
+    impulse = Math.max(impulse, j[o + 8]);
+  }
+  if (count === 0) return 'none';
+  return [...kinds].map(([k, n]) => `${n} ${k}`).join(', ') +
+    ` · largest error ${fmt(linear)} m, ${fmt(angular)} rad · largest impulse ${fmt(impulse)} N·s`;
 }
 
 // Picking contacts in the 3-D view (a click, not a drag).
@@ -462,6 +560,8 @@ function update(details) {
   const state = { ready: true, step: stepNumber(i), index: i, runs: RUNS.length, selected: ui.selected };
   views.forEach((v, k) => {
     state[k === 0 ? 'markers' : 'markers' + k] = v.markers.count;
+    state[k === 0 ? 'joints' : 'joints' + k] = v.jointCount;
+    state[k === 0 ? 'jointMarkers' : 'jointMarkers' + k] = v.jointMarkers.count;
     state[k === 0 ? 'frameStep' : 'frameStep' + k] = frameAt(v.run, i).step;
   });
   publishState(state);
