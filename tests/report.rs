@@ -100,6 +100,9 @@ fn fixture_suite() -> Suite {
     let large = Case::scene("bench_scenes/tower_40.toml", Some(10));
     let step: Case = "step:bench_scenes/tower_40.toml?step=1".parse().unwrap();
     let tower = Case::scene("bench_scenes/tower_10_60hz.toml", Some(10));
+    let chain = Case::scene("bench_scenes/joints/chain_20_1e3.toml", Some(10));
+    let heavy_chain = Case::scene("bench_scenes/joints/chain_20_1e6.toml", Some(10));
+    let cradle = Case::scene("bench_scenes/joints/pendulum_cradle.toml", Some(10));
     let incline = Case::scene_with_friction(
         "bench_scenes/incline_slide.toml",
         Some(10),
@@ -123,6 +126,12 @@ fn fixture_suite() -> Suite {
         tower_budgets: vec!["1e-6:20:1".parse().unwrap()],
         fclib_cases: vec![fclib],
         fc3d_cases: vec![exported, step],
+        joint_cases: vec![chain, heavy_chain, cradle],
+        joint_solvers: vec![SolverSpec::plain(SolverKind::Lemke), pgs().with_warm()],
+        joint_budgets: vec![
+            preset(BudgetName::Realtime),
+            "1e-6:20:1".parse().unwrap(),
+        ],
     }
 }
 
@@ -209,6 +218,23 @@ fn fixture_rows(suite: &Suite) -> (Vec<RunRecord>, Vec<HistoryRow>) {
     sliding.analytic_metric = "acceleration".into();
     sliding.analytic_error = Some(0.25);
     rows.push(sliding);
+    // Joints: lemke holds both chains at round-off in 0.1 ms per step; warm PGS at 20
+    // iterations stretches them.
+    let lemke_joint = SolverSpec::plain(SolverKind::Lemke);
+    let realtime = preset(BudgetName::Realtime);
+    let twenty = &suite.joint_budgets[1];
+    for (k, case) in suite.joint_cases.iter().enumerate() {
+        let mut exact = scene_run(case, &lemke_joint, &realtime, 10, 1e-4);
+        exact.joint_drift_max = Some(2e-15);
+        exact.joint_drift_mean = Some(1e-16);
+        exact.sag_body = Some(0.0);
+        rows.push(exact);
+        let mut stretched = scene_run(case, &pgs().with_warm(), twenty, 2, 3e-4);
+        stretched.joint_drift_max = Some(0.02 * (k + 1) as f64);
+        stretched.joint_drift_mean = Some(0.01);
+        stretched.sag_body = Some(0.3);
+        rows.push(stretched);
+    }
 
     let history = (1..=4)
         .map(|i| HistoryRow {
@@ -254,6 +280,9 @@ fn every_section_renders_from_a_fixture_run() {
         "## Pipeline",
         "## Towers at 60 Hz, low budgets",
         "### tower_10_60hz",
+        "## Joints",
+        "### Hanging chains",
+        "### pendulum_cradle",
         "## Friction models",
         "## Robustness matrix",
         "## Fastest solver per problem",
@@ -296,6 +325,22 @@ fn every_section_renders_from_a_fixture_run() {
         towers.contains("pgs+warm,2.5e-1,5.0e-1,1.00 ms,2 of 10"),
         "{towers}"
     );
+    let chains = read(out, "joints_chains");
+    assert!(
+        chains.contains("lemke,realtime,2.0e-15,0,100.0 µs,2.0e-15,0,100.0 µs"),
+        "{chains}"
+    );
+    assert!(chains.contains("pgs+warm,1e-6:20:1,2.0e-2,3.0e-1"), "{chains}");
+    let md_joints = md.split("## Joints").nth(1).unwrap_or_default();
+    assert!(
+        md_joints.contains("chain_20_1e3: drift below 1 mm at ≤ 1 ms of solver time per step**: lemke (realtime)"),
+        "{md_joints}"
+    );
+    assert!(
+        md_joints.contains("chain_20_1e6: drift below 1 cm**: held by lemke (realtime"),
+        "{md_joints}"
+    );
+    has(out, "joints_pendulum_cradle", "pgs+warm,1e-6:20:1,6.0e-2,1.0e-2,3.0e-1");
     let friction = read(out, "friction_models");
     assert!(friction.contains("box,pgs+warm,2.5e-1"), "{friction}");
     let robust = read(out, "robustness");

@@ -14,8 +14,11 @@
 //!   chain: Newton's cradle ends at `(0, …, 0, v)`, Smith et al. 2012); then a *contact phase*
 //!   of projected Gauss–Seidel sweeps on the accumulated impulse (accumulated clamping: the total
 //!   normal impulse stays `>= 0`, the friction impulse within `±mu f_n`), warm-started from the
-//!   previous step's contact-phase impulses. Failure mode: slow convergence on stiff stacks and
-//!   mass ratios (it is Gauss–Seidel).
+//!   previous step's contact-phase impulses. Joint rows are swept first in each sweep, as
+//!   engines do (Box2D, Bullet), with no clamp (they are equalities) and warm-started from the
+//!   joint's impulses of the previous step; the other body-level solvers resolve contacts only
+//!   and are `Unsupported` on a step with joints. Failure mode: slow convergence on stiff
+//!   stacks, mass ratios and long chains of joints (it is Gauss–Seidel).
 //! * **`body-micro`, micro-impulses** (Mirtich 1996): every closing contact is a collision,
 //!   resolved alone with a non-negative impulse (Newton's law above the bounce threshold, else
 //!   the velocity target of the bias) and Coulomb friction clamped to the circular cone of that
@@ -124,21 +127,22 @@ impl BodySolverKind {
     pub fn problem_classes(self) -> &'static str {
         match self {
             BodySolverKind::SequentialImpulses => {
-                "scenes only; frictionless and box friction (no pyramid, no cone); sequential \
-                 restitution then projected Gauss-Seidel on accumulated impulses, warm-startable; \
-                 slow on stiff stacks and mass ratios"
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 sequential restitution then projected Gauss-Seidel on accumulated impulses (joint \
+                 rows first, unclamped), warm-startable; slow on stiff stacks, mass ratios and \
+                 long chains"
             }
             BodySolverKind::MicroImpulses => {
-                "scenes only; frictionless and box friction (no pyramid, no cone); Mirtich \
-                 micro-impulses, never takes an impulse back: resting contacts creep and jitter"
+                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
+                 Mirtich micro-impulses, never takes an impulse back: resting contacts creep and jitter"
             }
             BodySolverKind::Penalty => {
-                "scenes only; frictionless and box friction (no pyramid, no cone); spring-damper \
-                 baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
+                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
+                 spring-damper baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
             }
             BodySolverKind::AveragedImpulse => {
-                "scenes only; frictionless and box friction (no pyramid, no cone); one impulse per \
-                 body pair at the averaged point along the averaged normal, swept as si, \
+                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; one \
+                 impulse per body pair at the averaged point along the averaged normal, swept as si, \
                  warm-startable; exact only for convex single-normal contact regions: separated \
                  supports, off-centre loads and non-convex meshes tilt or sink"
             }
@@ -475,6 +479,11 @@ fn sequential_impulses(system: &ContactSystem, warm: &[f64], settings: &Settings
                 lambda[r] = warm[r].clamp(-c, c);
             }
         }
+        for j in &system.joints {
+            for r in j.rows.clone() {
+                lambda[r] = warm[r];
+            }
+        }
         op.add_response(&lambda, &mut u);
     }
     let scale_b = (0..n)
@@ -488,6 +497,16 @@ fn sequential_impulses(system: &ContactSystem, warm: &[f64], settings: &Settings
     while iterations < settings.max_iterations {
         iterations += 1;
         let mut max_change: f64 = 0.0;
+        // Joints first, as engines order them: equality rows, no clamping.
+        for r in system.joint_rows_start()..n {
+            let w = op.row_dot(r, &u) + bias[r];
+            let d = -w / k[r];
+            if d.is_finite() && d != 0.0 {
+                op.apply_row(r, d, &mut u);
+                lambda[r] += d;
+                max_change = max_change.max(d.abs());
+            }
+        }
         for info in &system.info {
             let i = info.normal_row;
             let w = op.row_dot(i, &u) + bias[i];
