@@ -100,6 +100,7 @@ fn fixture_suite() -> Suite {
     let large = Case::scene("bench_scenes/tower_40.toml", Some(10));
     let step: Case = "step:bench_scenes/tower_40.toml?step=1".parse().unwrap();
     let tower = Case::scene("bench_scenes/tower_10_60hz.toml", Some(10));
+    let supports = Case::scene("bench_scenes/avg_two_supports.toml", Some(10));
     let chain = Case::scene("bench_scenes/joints/chain_20_1e3.toml", Some(10));
     let heavy_chain = Case::scene("bench_scenes/joints/chain_20_1e6.toml", Some(10));
     let cradle = Case::scene("bench_scenes/joints/pendulum_cradle.toml", Some(10));
@@ -115,7 +116,7 @@ fn fixture_suite() -> Suite {
         omega_cases: vec![spd.clone()],
         omegas: vec![1.3],
         warm_cases: vec![spd.clone()],
-        scene_cases: vec![wedged, large.clone(), tower.clone()],
+        scene_cases: vec![wedged, large.clone(), tower.clone(), supports],
         large_scene_cases: vec![large],
         scene_scaling_cases: Vec::new(),
         friction_cases: vec![incline],
@@ -128,10 +129,7 @@ fn fixture_suite() -> Suite {
         fc3d_cases: vec![exported, step],
         joint_cases: vec![chain, heavy_chain, cradle],
         joint_solvers: vec![SolverSpec::plain(SolverKind::Lemke), pgs().with_warm()],
-        joint_budgets: vec![
-            preset(BudgetName::Realtime),
-            "1e-6:20:1".parse().unwrap(),
-        ],
+        joint_budgets: vec![preset(BudgetName::Realtime), "1e-6:20:1".parse().unwrap()],
     }
 }
 
@@ -218,6 +216,27 @@ fn fixture_rows(suite: &Suite) -> (Vec<RunRecord>, Vec<HistoryRow>) {
     sliding.analytic_metric = "acceleration".into();
     sliding.analytic_error = Some(0.25);
     rows.push(sliding);
+    // The averaged-impulse baseline tilts the plank on two supports; the LCP holds it.
+    let supports = &suite.scene_cases[3];
+    let mut tilted = scene_run(
+        supports,
+        &SolverSpec::body(BodySolverKind::AveragedImpulse),
+        &default,
+        2,
+        1e-4,
+    );
+    tilted.analytic_error = Some(0.014);
+    tilted.penetration_max = Some(0.038);
+    rows.push(tilted);
+    let mut level = scene_run(
+        supports,
+        &SolverSpec::plain(SolverKind::Lemke),
+        &default,
+        10,
+        1e-4,
+    );
+    level.analytic_error = Some(1e-12);
+    rows.push(level);
     // Joints: lemke holds both chains at round-off in 0.1 ms per step; warm PGS at 20
     // iterations stretches them.
     let lemke_joint = SolverSpec::plain(SolverKind::Lemke);
@@ -281,6 +300,7 @@ fn every_section_renders_from_a_fixture_run() {
         "## Towers at 60 Hz, low budgets",
         "### tower_10_60hz",
         "## Joints",
+        "## Averaged impulses",
         "### Hanging chains",
         "### pendulum_cradle",
         "## Friction models",
@@ -330,17 +350,32 @@ fn every_section_renders_from_a_fixture_run() {
         chains.contains("lemke,realtime,2.0e-15,0,100.0 µs,2.0e-15,0,100.0 µs"),
         "{chains}"
     );
-    assert!(chains.contains("pgs+warm,1e-6:20:1,2.0e-2,3.0e-1"), "{chains}");
+    assert!(
+        chains.contains("pgs+warm,1e-6:20:1,2.0e-2,3.0e-1"),
+        "{chains}"
+    );
     let md_joints = md.split("## Joints").nth(1).unwrap_or_default();
     assert!(
-        md_joints.contains("chain_20_1e3: drift below 1 mm at ≤ 1 ms of solver time per step**: lemke (realtime)"),
+        md_joints.contains(
+            "chain_20_1e3: drift below 1 mm at ≤ 1 ms of solver time per step**: lemke (realtime)"
+        ),
         "{md_joints}"
     );
     assert!(
         md_joints.contains("chain_20_1e6: drift below 1 cm**: held by lemke (realtime"),
         "{md_joints}"
     );
-    has(out, "joints_pendulum_cradle", "pgs+warm,1e-6:20:1,6.0e-2,1.0e-2,3.0e-1");
+    has(
+        out,
+        "joints_pendulum_cradle",
+        "pgs+warm,1e-6:20:1,6.0e-2,1.0e-2,3.0e-1",
+    );
+    has(
+        out,
+        "averaged_impulse",
+        "avg_two_supports,avg,1.4e-2,3.8e-2",
+    );
+    has(out, "averaged_impulse", "avg_two_supports,lemke,1.0e-12");
     let friction = read(out, "friction_models");
     assert!(friction.contains("box,pgs+warm,2.5e-1"), "{friction}");
     let robust = read(out, "robustness");

@@ -5,6 +5,7 @@
 //! one line in [`SECTIONS`]. After the sections comes the gallery of every figure they
 //! returned, in their order.
 
+mod averaged_impulse;
 mod budgets;
 mod cone_profiles;
 mod convergence;
@@ -43,6 +44,7 @@ const SECTIONS: &[&dyn Section] = &[
     &pipeline::Pipeline,
     &towers::Towers,
     &joints::Joints,
+    &averaged_impulse::AveragedImpulse,
     &friction::FrictionModels,
     &robustness::Robustness,
     &fastest::Fastest,
