@@ -73,6 +73,75 @@ fn long_runs_are_decimated_under_the_size_bound() {
     assert!(frames.iter().any(|f| f["history"]["res"].is_array()));
 }
 
+/// A joint scene's frames carry their joints (10 numbers each) and still fit the size bound; a
+/// contact-only scene's carry none.
+#[test]
+fn joint_runs_are_decimated_under_the_size_bound_with_their_joints() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("chain.jsonl");
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/joints/chain_20_1e3.toml",
+        "--solver",
+        "dantzig",
+        "--steps",
+        "300",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let max = 750_000;
+    let page = dir.path().join("chain.html");
+    let o = lcpbench(&[
+        "view",
+        rec.to_str().unwrap(),
+        "-o",
+        page.to_str().unwrap(),
+        "--max-bytes",
+        &max.to_string(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = std::fs::read_to_string(page).unwrap();
+    assert!(
+        html.len() <= max,
+        "{} bytes over the bound {max}",
+        html.len()
+    );
+    let run = &page_data(&html)["runs"][0];
+    assert!(run["stride"].as_u64().unwrap() > 1, "no decimation");
+    let joints = std::fs::read_to_string(&rec)
+        .unwrap()
+        .lines()
+        .nth(1)
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["joints"].clone())
+        .unwrap();
+    let joints = joints.as_u64().unwrap() as usize;
+    assert!(joints > 0);
+    for frame in run["frames"].as_array().unwrap() {
+        assert_eq!(frame["joints"].as_array().unwrap().len(), 10 * joints);
+    }
+    assert_eq!(run["series"]["joint_drift"].as_array().unwrap().len(), 300);
+
+    let page = dir.path().join("box.html");
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--steps",
+        "5",
+        "--html",
+        page.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let data = page_data(&std::fs::read_to_string(page).unwrap());
+    let run = &data["runs"][0];
+    assert!(run["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|f| f.get("joints").is_none()));
+    assert!(run["series"].get("joint_drift").is_none());
+}
+
 #[test]
 fn problem_page_holds_every_solver_and_case_keys_work() {
     let dir = tempfile::tempdir().unwrap();
