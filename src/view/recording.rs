@@ -642,18 +642,40 @@ fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine, joints: bo
         contacts.extend([c.dist, c.mu, c.normal_rate, c.complementarity].map(|x| x as f32));
         contacts.push(contact_status(c, rec.header.tolerance, f_scale) as u8 as f32);
     }
-    let mut out = json!({ "step": s.step, "pose": pose, "contacts": contacts });
+    let mut out = json!({
+        "step": s.step,
+        "pose": page_numbers(&pose),
+        "contacts": page_numbers(&contacts),
+    });
     if joints {
-        out["joints"] = json!(joints_json(&s.joint_records));
+        out["joints"] = page_numbers(&joints_json(&s.joint_records));
     }
     if !all {
         let ids: Vec<f32> = s.bodies.iter().map(|b| id(&b.name)).collect();
-        out["ids"] = json!(ids);
+        out["ids"] = page_numbers(&ids);
     }
     if !s.history.is_empty() {
         out["history"] = history_json(&s.history);
     }
     out
+}
+
+/// Numbers as a page gets them: whole numbers without a fraction, others as the shortest
+/// decimal that reads back as the same `f32` (an `f32` widened to `f64` prints with up to 17
+/// digits), non-finite ones as `null`.
+fn page_numbers(values: &[f32]) -> Value {
+    let number = |x: f32| {
+        if x.fract() == 0.0 && x.abs() < 1e9 {
+            return json!(x as i64);
+        }
+        // `f32`'s `Display` is its shortest round-trip decimal.
+        x.to_string()
+            .parse::<f64>()
+            .ok()
+            .and_then(serde_json::Number::from_f64)
+            .map_or(Value::Null, Value::Number)
+    };
+    Value::Array(values.iter().map(|&x| number(x)).collect())
 }
 
 /// A frame's joints: [`JOINT_FIELDS`] numbers each.
@@ -976,6 +998,17 @@ mod tests {
             e.contains("line 3: step 1: joint_drift_max must be finite"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn page_numbers_are_short_and_read_back_as_the_same_f32() {
+        let values = [0.1f32, 5.959_888e-6, -3.0, 2.0, 1e-30, 123_456.79, f32::NAN];
+        let text = page_numbers(&values).to_string();
+        assert_eq!(text, "[0.1,5.959888e-6,-3,2,1e-30,123456.79,null]");
+        let back: Vec<Option<f64>> = serde_json::from_str(&text).unwrap();
+        for (x, y) in values.iter().zip(back).take(6) {
+            assert_eq!(y.map(|y| y as f32), Some(*x));
+        }
     }
 
     #[test]
