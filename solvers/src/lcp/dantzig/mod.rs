@@ -27,7 +27,8 @@
 //!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
 //!   `−1e-6 · A_ii` proves `A` is neither and gives `Unsupported`; a ray on a matrix that is not
 //!   symmetric PSD (checked by an eigenvalue decomposition, only then) proves nothing and gives
-//!   `Stalled`, as in Lemke ([`crate::lcp::ray`]).
+//!   `Stalled`, as in Lemke ([`crate::lcp::ray`]), and so does a ray whose direction `d` does not
+//!   have `A d = 0` to round-off (a pivot below `pivot_tol` that is not zero).
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
@@ -63,11 +64,12 @@
 //!   the solve ends in `NumericalFailure` (raise `pivot_tol`); within that, `f_C` is clipped to
 //!   its box.
 //! * **Failure modes**: a drive that no ratio test blocks is a ray and gives `NoSolution` (for PSD
-//!   `A` it proves that no solution exists); the pivot cap ([`Settings::max_iterations`] counts
-//!   drive steps) gives `IterationLimit`; the time budget gives `TimeLimit`; a breakdown of the
-//!   factorisation update or a non-finite direction gives `NumericalFailure`. There is no
-//!   anti-cycling rule: on degenerate problems ties are broken in a fixed order (the row being
-//!   added first, then rows leaving `C`, then rows joining it), and the pivot cap ends a cycle.
+//!   `A`, with `A d = 0` along it, it proves that no solution exists; otherwise `Stalled`); the
+//!   pivot cap ([`Settings::max_iterations`] counts drive steps) gives `IterationLimit`; the time
+//!   budget gives `TimeLimit`; a breakdown of the factorisation update or a non-finite direction
+//!   gives `NumericalFailure`. There is no anti-cycling rule: on degenerate problems ties are
+//!   broken in a fixed order (the row being added first, then rows leaving `C`, then rows joining
+//!   it), and the pivot cap ends a cycle.
 //! * **Warm start**: ignored; every pass starts from `f = mid(lo, hi, 0)`.
 //! * **Scaling and size**: the problem is split into independent islands ([`Problem::islands`]),
 //!   each densified (up to [`DENSE_LIMIT`] rows; a larger island gives `Unsupported`) and
@@ -275,6 +277,13 @@ const RATE_ZERO: f64 = 1e-11;
 /// A pivot below `−NEGATIVE_PIVOT_TOL · A_ii` proves that `A` is not PSD (nor a P-matrix);
 /// smaller negative pivots are round-off on a zero pivot (rank-deficient `A`).
 const NEGATIVE_PIVOT_TOL: f64 = 1e-6;
+
+/// An unblocked drive `d` proves that no solution exists only when `A d = 0`: row by row,
+/// `|(A d)_j|` at most `RAY_ROUND_OFF` times the magnitude `Σ_k |A_jk d_k|` of its terms (about
+/// 4500 machine epsilons: the round-off of a drive of a moderately conditioned clamped set). A
+/// drive that is unblocked because its row's pivot is positive but below `pivot_tol` (a contact
+/// on a light link between links `1e7` times heavier) has `A d ≠ 0` and proves nothing.
+const RAY_ROUND_OFF: f64 = 1e-12;
 
 /// Largest disagreement, relative to the size of `f`, between the clamped impulses tracked by
 /// the drives and those recomputed from the factorisation after each row.
@@ -540,7 +549,7 @@ impl<'a> Pass<'a> {
             *pivots += 1;
             self.direction(i, &mut drive, *pivots)?;
             let Some((s, event)) = self.ratio_test(i, &drive, &ignored) else {
-                return Err(ray(self.problem, i, *pivots));
+                return Err(ray(self.problem, i, *pivots, &drive));
             };
             self.step(i, s, &drive);
             if self.record {
@@ -785,11 +794,21 @@ impl<'a> Pass<'a> {
     }
 }
 
-/// An unblocked drive: a proof that no solution exists when `A` is symmetric positive
-/// semidefinite, otherwise `Stalled` ([`crate::lcp::ray`]; a P-matrix problem always has a
-/// solution, so it never ends here).
-fn ray(problem: &Problem, i: usize, pivots: usize) -> Outcome {
+/// An unblocked drive of row `i`: a proof that no solution exists when its direction `d`
+/// (`d_i = ±1`, `d_C = Δf_C`) has `A d = 0` to round-off ([`RAY_ROUND_OFF`]) and `A` is
+/// symmetric positive semidefinite, otherwise `Stalled` ([`crate::lcp::ray`]; a P-matrix
+/// problem always has a solution, so it never ends here). With `A d = 0`, `dᵀb = dᵀw < 0` at
+/// the current point, while every solution would have `dᵀw >= 0` (the drive's sign conditions);
+/// with `A d ≠ 0` (a pivot below `pivot_tol` but not zero) the drive would have ended at
+/// `w_i = 0` after a long step.
+fn ray(problem: &Problem, i: usize, pivots: usize, drive: &Drive) -> Outcome {
     let what = format!("ray: the drive of row {i} at pivot {pivots} is not blocked");
+    if let Some((j, ad, terms)) = drive_not_null(problem, i, drive) {
+        return Outcome::Stalled(format!(
+            "{what}, but A d is not 0 along it (row {j}: {ad:.3e} of terms {terms:.3e}): its \
+             pivot is below pivot_tol without being zero, so this proves nothing"
+        ));
+    }
     let psd =
         problem.is_symmetric(1e-12) && is_psd(problem.to_dense().as_ref(), problem.max_abs_entry());
     ray_outcome(
@@ -798,6 +817,22 @@ fn ray(problem: &Problem, i: usize, pivots: usize) -> Outcome {
         "A is PSD, so there is no solution",
         "A is not symmetric positive semidefinite, so this proves nothing",
     )
+}
+
+/// The first row `j` where `|(A d)_j| > RAY_ROUND_OFF · Σ_k |A_jk d_k|` for the direction `d`
+/// of the drive of row `i`, with both numbers; `None` when `A d = 0` to round-off.
+fn drive_not_null(problem: &Problem, i: usize, drive: &Drive) -> Option<(usize, f64, f64)> {
+    (0..problem.n()).find_map(|j| {
+        let row = problem.dense_row(j);
+        let mut sum = row[i] * drive.dir;
+        let mut terms = sum.abs();
+        for (&c, &v) in drive.rows.iter().zip(&drive.dx_c) {
+            let t = row[c] * v;
+            sum += t;
+            terms += t.abs();
+        }
+        (sum.abs() > RAY_ROUND_OFF * terms).then_some((j, sum.abs(), terms))
+    })
 }
 
 fn negative_pivot(i: usize, pivot: f64) -> Outcome {
