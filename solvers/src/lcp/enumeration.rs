@@ -21,6 +21,19 @@
 //!   boxed LCP with friction rows, up to [`MAX_BASES`] complementary bases: a standard LCP up to
 //!   `n = 15`; a row with two finite bounds or a friction row counts three states, a row with one
 //!   finite bound two, a free or fixed row one. Larger problems are `Unsupported`.
+//! * **Free (equality) rows** (`lo = −∞`, `hi = +∞`, a joint's `w_i = 0`) have only the interior
+//!   state, the same in every basis (Siconos' `mlcp_enum` keeps the equations of an MLCP's free
+//!   part in every system it solves). Their equations are therefore solved once, not once per
+//!   basis: the free rows are eliminated through the Schur complement of `A_FF`
+//!   ([`crate::lcp::free_rows`]), the bases of the other rows are enumerated on
+//!   `M = A_CC − A_CF A_FF⁻¹ A_FC`, and the free impulses are recovered from the best candidate
+//!   (whose basis is re-solved on `A` itself when it misses the tolerance, so the complement's
+//!   round-off does not stay in the answer).
+//!   Redundant joints make every basis of the whole problem singular (their rows of `A` are
+//!   dependent); the elimination keeps a regular block of them and drops the dependent rows
+//!   when their rows of `M` vanish (consistent joints), so the bases stay regular. When a
+//!   dependent free row stays (inconsistent joints, or an `A` that is not semidefinite), its
+//!   bases are singular and the search ends `Stalled`, never `NoSolution`.
 //! * **Cost**: `O(n³)` per basis (a small Gaussian elimination), at most `2ⁿ` bases for the
 //!   standard LCP: about 30 ms for an exhaustive search at `n = 15`. [`Settings::max_iterations`]
 //!   counts bases (the default `10 000` is exhaustive up to `n = 13`; raise it for `n = 14, 15`).
@@ -37,8 +50,9 @@
 //! [`crate::lcp::local`].
 //!
 //! References: K. G. Murty, *Linear Complementarity, Linear and Nonlinear Programming*, 1988;
-//! V. Acary, O. Bonnefon et al., Siconos numerics, `lcp_enum.c`.
+//! V. Acary, O. Bonnefon et al., Siconos numerics, `lcp_enum.c` and `mlcp_enum.c`.
 
+use crate::lcp::free_rows::{polish_on_basis, FreeRows};
 use crate::lcp::local::{basis_count, enumerate, LocalBound, LocalLcp, Workspace};
 use crate::problem::metrics::impulse_scale;
 use crate::problem::Problem;
@@ -48,7 +62,7 @@ use crate::solver::{
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "any LCP or boxed LCP with friction rows, per island up to 32768 complementary bases (standard LCP n <= 15); complete";
+    "any LCP or boxed LCP with friction rows; free (equality) rows have only the interior state, eliminated first (Schur complement of A_FF, redundant ones dropped); per island up to 32768 complementary bases (standard LCP n <= 15); complete";
 
 /// Largest number of complementary bases the solver enumerates (`2¹⁵`).
 pub const MAX_BASES: usize = 1 << 15;
@@ -74,9 +88,12 @@ impl Solver for Enumeration {
 const ISLAND_ROWS: usize = 64;
 
 impl Enumeration {
-    /// One island.
-    fn solve_dense(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
-        let mut monitor = Monitor::new(problem, settings);
+    /// One island: its free rows eliminated ([`FreeRows`]), the bases of the other rows
+    /// enumerated, the free impulses recovered.
+    fn solve_dense(&mut self, island: &Problem, settings: &Settings) -> SolveResult {
+        let mut monitor = Monitor::new(island, settings);
+        let free = FreeRows::of(island);
+        let problem = free.rows(island);
         let n = problem.n();
         let bounds: Vec<LocalBound> = (0..n)
             .map(|i| match problem.friction_of(i) {
@@ -114,7 +131,7 @@ impl Enumeration {
             bounds: &bounds,
             d: &d,
         };
-        let f0 = initial_impulse(problem, settings);
+        let f0 = free.restrict(&initial_impulse(island, settings));
         let mut ws = Workspace::default();
         lcp.residual_and_guess(&f0, &mut ws);
         let guess = std::mem::take(&mut ws.guess);
@@ -159,6 +176,11 @@ impl Enumeration {
                 result.tried, result.singular
             )),
         };
+        let outcome = free.annotate(outcome);
+        let mut f = free.expand(f);
+        if matches!(outcome, Outcome::Stopped | Outcome::Stalled(_)) && free.eliminated() {
+            polish_on_basis(island, &mut f, settings.tolerance, &mut monitor);
+        }
         monitor.record(result.tried, &f);
         monitor.finish(f, result.tried, outcome)
     }

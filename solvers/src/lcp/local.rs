@@ -107,6 +107,13 @@ pub(crate) struct Workspace {
     pub best: Vec<f64>,
 }
 
+impl Workspace {
+    /// The solution of the last [`LocalLcp::solve_basis`] that returned true.
+    pub(crate) fn basis_solution(&self) -> &[f64] {
+        &self.x
+    }
+}
+
 impl LocalLcp<'_> {
     /// Local residual `max_i |x_i − mid(lo_i, hi_i, x_i − w_i / d_i)|` of `x`, and in
     /// `ws.guess` the basis `x` suggests: the state of `x_i − w_i / d_i` against the bounds at
@@ -153,7 +160,7 @@ impl LocalLcp<'_> {
     }
 
     /// Solve the system of basis `states` into `ws.x`; false when it is singular.
-    fn solve_basis(&self, states: &[RowState], ws: &mut Workspace) -> bool {
+    pub(crate) fn solve_basis(&self, states: &[RowState], ws: &mut Workspace) -> bool {
         let m = self.m;
         ws.sys.clear();
         ws.sys.resize(m * m, 0.0);

@@ -1,7 +1,9 @@
-//! Linear algebra the solvers share: a sparse LU with a reusable symbolic analysis, and the
-//! fill estimate that guards the factorisations no budget can interrupt.
+//! Linear algebra the solvers share: a sparse LU with a reusable symbolic analysis, a dense LU
+//! with diagonal pivoting that reveals the rank, and the fill estimate that guards the
+//! factorisations no budget can interrupt.
 
 pub(crate) mod newton_system;
+pub(crate) mod pivoted_lu;
 pub(crate) mod sparse_lu;
 
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymmetricOrdering};

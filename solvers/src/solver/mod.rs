@@ -202,47 +202,21 @@ impl Outcome {
     }
 }
 
-/// Solve the symmetrically equilibrated problem `S A S`, `s_i = 1/√d_i` (see
-/// [`Problem::scaled_symmetric`]) and map the impulse back, so that a solver whose internal
-/// tolerances are absolute sees rows and columns of comparable size. The status is decided on
-/// `problem` itself; the inner history (in the same, scale-invariant residual) is kept. When the
-/// diagonal already spans less than [`EQUILIBRATE_ABOVE`], the problem is solved as it is (the
-/// copy would cost more than it gains on small problems).
-pub(crate) fn solve_equilibrated(
-    problem: &Problem,
-    settings: &Settings,
-    inner: impl FnOnce(&Problem, &Settings) -> SolveResult,
-) -> SolveResult {
+/// The symmetric equilibration `s_i = 1/√d_i` of `problem` (`d` its
+/// [diagonal scale](Problem::diagonal_scale); the scaled problem `S A S` is
+/// [`Problem::scaled_symmetric`]), so that a solver whose internal tolerances are absolute sees
+/// rows and columns of comparable size. `None` when the diagonal already spans less than
+/// [`EQUILIBRATE_ABOVE`]: the problem is then solved as it is (the copy would cost more than it
+/// gains on small problems).
+pub(crate) fn equilibration(problem: &Problem) -> Option<Vec<f64>> {
     let d = problem.diagonal_scale();
     let (dmin, dmax) = d.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| {
         (lo.min(v), hi.max(v))
     });
-    if dmax <= EQUILIBRATE_ABOVE * dmin {
-        return inner(problem, settings);
-    }
-    let mut monitor = Monitor::new(problem, settings);
-    let s: Vec<f64> = d.iter().map(|d| 1.0 / d.sqrt()).collect();
-    let scaled = problem.scaled_symmetric(&s);
-    let inner_settings = Settings {
-        warm_start: settings
-            .warm_start
-            .as_ref()
-            .filter(|ws| ws.len() == s.len())
-            .map(|ws| ws.iter().zip(&s).map(|(v, si)| v / si).collect()),
-        ..settings.clone()
-    };
-    let r = inner(&scaled, &inner_settings);
-    monitor.history = r.history;
-    monitor.active_sets = r.active_sets;
-    let f = if r.f.len() == s.len() {
-        r.f.iter().zip(&s).map(|(v, si)| v * si).collect()
-    } else {
-        r.f
-    };
-    monitor.finish(f, r.iterations, Outcome::of(r.status))
+    (dmax > EQUILIBRATE_ABOVE * dmin).then(|| d.iter().map(|d| 1.0 / d.sqrt()).collect())
 }
 
-/// Spread of the diagonal `max d / min d` above which [`solve_equilibrated`] scales.
+/// Spread of the diagonal `max d / min d` above which [`equilibration`] scales.
 pub(crate) const EQUILIBRATE_ABOVE: f64 = 100.0;
 
 /// A problem class whose results a [`Monitor`] judges: its shared residual (the only status

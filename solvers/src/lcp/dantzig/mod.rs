@@ -23,12 +23,31 @@
 //! (Bennett) update of the trailing block when a row leaves `C`.
 //!
 //! * **Problem class**: standard and boxed LCP (any bounds, infinite allowed) with friction rows,
-//!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant
-//!   contacts) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
+//!   for symmetric positive semidefinite `A` (including rank-deficient `A` from redundant contacts
+//!   and joints) and for non-symmetric P-matrices (the LU needs no symmetry). A pivot below
 //!   `−1e-6 · A_ii` proves `A` is neither and gives `Unsupported`; a ray on a matrix that is not
 //!   symmetric PSD (checked by an eigenvalue decomposition, only then) proves nothing and gives
 //!   `Stalled`, as in Lemke ([`crate::lcp::ray`]), and so does a ray whose direction `d` does not
 //!   have `A d = 0` to round-off (a pivot below `pivot_tol` that is not zero).
+//! * **Free (equality) rows** (`lo = −∞`, `hi = +∞`: a joint's `w_i = 0`) are always in the
+//!   clamped set, as ODE's `dLCP` puts its `nub` unbounded rows there and factors them before
+//!   any other row. Here that factorisation is the elimination of [`crate::lcp::free_rows`]: the
+//!   free rows' block `A_FF` (equilibrated, diagonal pivoting) is factored once, and the pivoting
+//!   runs on the other rows' Schur complement `M = A_CC − A_CF A_FF⁻¹ A_FC` (what the clamped set
+//!   sees of them once the free rows are in it), equilibrated by its own diagonal. The pivot
+//!   tests and the dependent set `D` then act on the contacts' mobility given the joints: a
+//!   contact on a light link pinned between links `1e9` times heavier has a Schur complement
+//!   of the order of `1e-9` of its `A_ii`, which a test relative to `A_ii` would take for a
+//!   redundant row. The free impulses are recovered after, and the basis found is re-solved on `A`
+//!   itself when the result misses the tolerance (at most 600 rows), so the complement's
+//!   round-off does not stay in the answer. Redundant joints (a singular `A_FF`) keep a regular
+//!   block of free rows in the clamped set and drop the others; a dependent free row that stays
+//!   (inconsistent joints) is added before every other row, joins `C` or `D` and never leaves
+//!   (no ratio test fires without a finite bound), and its drive is a ray, which for PSD `A` is
+//!   a proof that there is no solution (the range of `A_FC` lies in that of `A_FF`, so no
+//!   contact impulse can repair it). A negative pivot of the Schur complement of a PSD `A` is
+//!   round-off of the elimination and gives `NumericalFailure`, not `Unsupported`. The reason
+//!   of a status other than `converged` ends with what was done with the free rows.
 //! * **Friction rows**: non-friction rows are added first, then friction rows, whose bounds
 //!   `±mu f_k` are taken, as in ODE, from the normal impulse `f_k` when the row is added. Since
 //!   the normals still move after that, the solve is repeated with the friction bounds frozen at
@@ -72,26 +91,29 @@
 //!   it), and the pivot cap ends a cycle.
 //! * **Warm start**: ignored; every pass starts from `f = mid(lo, hi, 0)`.
 //! * **Scaling and size**: the problem is split into independent islands ([`Problem::islands`]),
-//!   each densified (up to [`DENSE_LIMIT`] rows; a larger island gives `Unsupported`) and
-//!   equilibrated symmetrically when its diagonal spans more than a factor 100 (`S A S`,
-//!   `s_i = 1/√A_ii`, friction coefficients rescaled to
+//!   each densified (up to [`DENSE_LIMIT`] rows; a larger island gives `Unsupported`), its free
+//!   rows eliminated, and the rest equilibrated symmetrically when its diagonal spans more than
+//!   a factor 100 (`S A S`, `s_i = 1/√A_ii`, friction coefficients rescaled to
 //!   keep their meaning), so the pivot and round-off tolerances below act on rows of comparable
-//!   size whatever the units of the data. The pivot count and the active sets refer to the
-//!   equilibrated island.
+//!   size whatever the units of the data. The history is the island's shared residual at each
+//!   pivot, and the active sets are the island's rows (the clamped rows and the eliminated
+//!   free rows); the choice of the best impulse between passes uses the island's residual too.
 //!
 //! References: D. Baraff, *Fast contact force computation for nonpenetrating rigid bodies*,
-//! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`); Cottle–Pang–Stone 1992,
-//! §4.2 (principal pivoting); Murty 1988, ch. 4.
+//! SIGGRAPH 1994; R. Smith, Open Dynamics Engine, `lcp.cpp` (`dSolveLCP`, and `dLCP`, whose
+//! first `nub` unbounded rows are always clamped); Cottle–Pang–Stone 1992, §4.2 (principal
+//! pivoting); Murty 1988, ch. 4.
 
 mod clamped_lu;
 mod coupled;
 
+use crate::lcp::free_rows::{polish_on_basis, FreeRows};
 use crate::lcp::lemke::Lemke;
 use crate::lcp::ray::{is_psd, ray_outcome};
 use crate::problem::metrics::{impulse_scale, residuals};
 use crate::problem::Problem;
 use crate::solver::{
-    solve_by_islands, solve_equilibrated, Monitor, Outcome, Settings, SolveResult, Solver, Status,
+    equilibration, solve_by_islands, Monitor, Outcome, Settings, SolveResult, Solver, Status,
 };
 use clamped_lu::ClampedLu;
 use coupled::Coupled;
@@ -101,7 +123,7 @@ pub const DENSE_LIMIT: usize = 3000;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows (bound fixed point); PSD (also rank-deficient) or P-matrix A; dense per island up to 3000 rows";
+    "LCP, boxed LCP, friction rows (bound fixed point), free (equality) rows always clamped (factored first and eliminated, as ODE's dLCP nub; redundant ones dropped); PSD (also rank-deficient) or P-matrix A; dense per island up to 3000 rows";
 
 /// Dantzig-style principal pivoting. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
@@ -135,37 +157,120 @@ impl Solver for Dantzig {
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         let this = self.clone();
         solve_by_islands(problem, settings, DENSE_LIMIT, |island, settings| {
-            solve_equilibrated(island, settings, |scaled, settings| {
-                this.solve_island(scaled, settings)
-            })
+            this.solve_mixed(island, settings)
         })
     }
 }
 
+/// Where the pivoting reports: the island's monitor, and the maps from the pivoted problem (the
+/// island with its free rows eliminated, equilibrated) back to the island's impulses and rows,
+/// so that the history, the active sets and the choice of the best impulse all use the island's
+/// shared residual.
+struct Recorder<'m, 'a> {
+    island: &'a Problem,
+    monitor: &'m mut Monitor<'a>,
+    impulse: &'m dyn Fn(&[f64]) -> Vec<f64>,
+    rows: &'m dyn Fn(Vec<usize>) -> Vec<usize>,
+}
+
+impl Recorder<'_, '_> {
+    /// The island's shared relative residual at the pivoted problem's impulse `x`.
+    fn residual(&self, x: &[f64]) -> f64 {
+        residuals(self.island, &(self.impulse)(x)).natural_map_rel
+    }
+
+    /// Record the island's residual at `x` after `pivots` and the clamped rows `clamped`.
+    fn record(&mut self, pivots: usize, x: &[f64], clamped: Vec<usize>) {
+        self.monitor.record(pivots, &(self.impulse)(x));
+        self.monitor
+            .record_active_set(pivots, || (self.rows)(clamped));
+    }
+}
+
 impl Dantzig {
-    /// One dense island, already equilibrated.
-    fn solve_island(&self, problem: &Problem, settings: &Settings) -> SolveResult {
-        let mut monitor = Monitor::new(problem, settings);
+    /// One dense island: its free rows eliminated (they stay clamped: [`FreeRows`]), the other
+    /// rows equilibrated when their diagonal spans more than
+    /// [`EQUILIBRATE_ABOVE`](crate::solver::EQUILIBRATE_ABOVE), pivoted, and
+    /// the impulse mapped back.
+    fn solve_mixed(&self, island: &Problem, settings: &Settings) -> SolveResult {
+        let mut monitor = Monitor::new(island, settings);
+        let free = FreeRows::of(island);
+        let rows = free.rows(island);
+        let s = equilibration(rows);
+        let scaled = s.as_ref().map(|s| rows.scaled_symmetric(s));
+        let pivoted = scaled.as_ref().unwrap_or(rows);
+        let impulse = |x: &[f64]| -> Vec<f64> {
+            let f = match &s {
+                Some(s) if s.len() == x.len() => x.iter().zip(s).map(|(v, si)| v * si).collect(),
+                _ => x.to_vec(),
+            };
+            free.expand(f)
+        };
+        let original_rows = |r: Vec<usize>| free.original_rows(r);
+        let mut recorder = Recorder {
+            island,
+            monitor: &mut monitor,
+            impulse: &impulse,
+            rows: &original_rows,
+        };
+        let (x, pivots, outcome) = self.solve_island(pivoted, settings, &mut recorder);
+        let outcome = free.annotate(self.negative_pivot_of_elimination(outcome, island, &free));
+        let mut f = impulse(&x);
+        if matches!(outcome, Outcome::Stopped | Outcome::Stalled(_)) && free.eliminated() {
+            polish_on_basis(island, &mut f, settings.tolerance, &mut monitor);
+        }
+        monitor.finish(f, pivots, outcome)
+    }
+
+    /// A negative pivot (`Unsupported`) met on the Schur complement of the free rows of a
+    /// positive semidefinite `A` is round-off of the elimination, not a property of the
+    /// problem: `NumericalFailure`. Every other outcome is returned as it is.
+    fn negative_pivot_of_elimination(
+        &self,
+        outcome: Outcome,
+        island: &Problem,
+        free: &FreeRows,
+    ) -> Outcome {
+        match outcome {
+            Outcome::Unsupported(reason)
+                if free.eliminated() && self.pivot_tol.is_finite() && self.pivot_tol > 0.0 =>
+            {
+                let a = island.to_dense();
+                if island.is_symmetric(1e-12) && is_psd(a.as_ref(), island.max_abs_entry()) {
+                    Outcome::NumericalFailure(format!(
+                        "{reason} in the Schur complement of the free rows; A is positive \
+                         semidefinite, so the elimination lost that to round-off (A is too \
+                         ill-conditioned)"
+                    ))
+                } else {
+                    Outcome::Unsupported(reason)
+                }
+            }
+            outcome => outcome,
+        }
+    }
+
+    /// The pivoting on one dense problem (reduced and equilibrated): the impulse, the pivot
+    /// count and the outcome.
+    fn solve_island(
+        &self,
+        problem: &Problem,
+        settings: &Settings,
+        rec: &mut Recorder<'_, '_>,
+    ) -> (Vec<f64>, usize, Outcome) {
         if !(self.pivot_tol.is_finite() && self.pivot_tol > 0.0) {
             let reason = format!("pivot_tol = {} must be finite and > 0", self.pivot_tol);
-            return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
+            return (Vec::new(), 0, Outcome::Unsupported(reason));
         }
         let mut pivots = 0;
         let tol = settings.tolerance;
         let passes = self.friction_passes.max(1);
         let first = passes.min(PASSES_BEFORE_ACTIVE_SET);
-        let (f, mut outcome) = self.fixed_point(
-            problem,
-            None,
-            first,
-            settings,
-            &mut monitor,
-            &mut pivots,
-            true,
-        );
-        let mut best = (residuals(problem, &f).natural_map_rel, f);
+        let (f, mut outcome) =
+            self.fixed_point(problem, None, first, settings, rec, &mut pivots, true);
+        let mut best = (rec.residual(&f), f);
         if problem.friction().is_empty() || outcome != Outcome::Stopped || best.0 <= tol {
-            return monitor.finish(best.1, pivots, outcome);
+            return (best.1, pivots, outcome);
         }
         // Active-set refinement of the friction bounds.
         let mut current = best.1.clone();
@@ -183,12 +288,12 @@ impl Dantzig {
                 None,
                 passes,
                 settings,
-                &mut monitor,
+                rec,
                 &mut pivots,
                 false,
             );
             let mut f = reduced.expand(&g);
-            let mut r = residuals(problem, &f).natural_map_rel;
+            let mut r = rec.residual(&f);
             if !matches!(
                 o,
                 Outcome::Stopped | Outcome::IterationLimit | Outcome::TimeLimit
@@ -201,7 +306,7 @@ impl Dantzig {
                     max_iterations: remaining.min(LEMKE_PIVOTS_PER_ROW * problem.n()),
                     time_budget: settings
                         .time_budget
-                        .map(|b| b.saturating_sub(monitor.elapsed())),
+                        .map(|b| b.saturating_sub(rec.monitor.elapsed())),
                     warm_start: None,
                     record_history: false,
                     tolerance: settings.tolerance,
@@ -217,7 +322,7 @@ impl Dantzig {
                     _ => o,
                 };
                 let fl = reduced.expand(&lemke.f);
-                let rl = residuals(problem, &fl).natural_map_rel;
+                let rl = rec.residual(&fl);
                 if rl < r {
                     (f, r) = (fl, rl);
                 }
@@ -245,17 +350,17 @@ impl Dantzig {
                 Some(normals),
                 passes - first,
                 settings,
-                &mut monitor,
+                rec,
                 &mut pivots,
                 true,
             );
-            let r = residuals(problem, &f).natural_map_rel;
+            let r = rec.residual(&f);
             if r < best.0 {
                 best = (r, f);
             }
             outcome = o;
         }
-        monitor.finish(best.1, pivots, outcome)
+        (best.1, pivots, outcome)
     }
 }
 
@@ -306,14 +411,22 @@ impl Dantzig {
         mut frozen: Option<Vec<f64>>,
         passes: usize,
         settings: &Settings,
-        monitor: &mut Monitor<'_>,
+        rec: &mut Recorder<'_, '_>,
         pivots: &mut usize,
         record: bool,
     ) -> (Vec<f64>, Outcome) {
         let n = problem.n();
-        // Normal (and plain) rows first, then friction rows, each in index order.
+        // Free rows the elimination left first (they join the clamped set before anything
+        // else, as the eliminated ones have), then normal (and other bounded) rows, then
+        // friction rows, each in index order.
+        let is_free = |i: usize| {
+            problem.friction_of(i).is_none()
+                && problem.lo()[i] == f64::NEG_INFINITY
+                && problem.hi()[i] == f64::INFINITY
+        };
         let order: Vec<usize> = (0..n)
-            .filter(|&i| problem.friction_of(i).is_none())
+            .filter(|&i| is_free(i))
+            .chain((0..n).filter(|&i| problem.friction_of(i).is_none() && !is_free(i)))
             .chain(problem.friction().iter().map(|fr| fr.row))
             .collect();
         let d = problem.diagonal_scale();
@@ -337,7 +450,7 @@ impl Dantzig {
                 None => {
                     let mut pass = Pass::new(problem, self.pivot_tol, &d, scale);
                     pass.record = record;
-                    if let Err(o) = pass.run(&order[..split], pivots, settings, monitor) {
+                    if let Err(o) = pass.run(&order[..split], pivots, settings, rec) {
                         return (pass.x, o);
                     }
                     base = Some(pass.clone());
@@ -345,7 +458,7 @@ impl Dantzig {
                 }
             };
             pass.frozen = frozen.clone();
-            let result = pass.run(&order[split..], pivots, settings, monitor);
+            let result = pass.run(&order[split..], pivots, settings, rec);
             f = pass.x;
             if let Err(o) = result {
                 return (f, o);
@@ -485,7 +598,7 @@ impl<'a> Pass<'a> {
         order: &[usize],
         pivots: &mut usize,
         settings: &Settings,
-        monitor: &mut Monitor<'_>,
+        rec: &mut Recorder<'_, '_>,
     ) -> Result<(), Outcome> {
         for &i in order {
             if let Some((k, mu)) = self.problem.friction_of(i) {
@@ -496,7 +609,7 @@ impl<'a> Pass<'a> {
                 self.hi[i] = c;
                 self.x[i] = 0.0;
             }
-            self.add_row(i, pivots, settings, monitor)?;
+            self.add_row(i, pivots, settings, rec)?;
             self.refresh()?;
         }
         Ok(())
@@ -523,7 +636,7 @@ impl<'a> Pass<'a> {
         i: usize,
         pivots: &mut usize,
         settings: &Settings,
-        monitor: &mut Monitor<'_>,
+        rec: &mut Recorder<'_, '_>,
     ) -> Result<(), Outcome> {
         let n = self.problem.n();
         self.w[i] = crate::problem::dot(self.problem.dense_row(i), &self.x) + self.problem.b()[i];
@@ -543,7 +656,7 @@ impl<'a> Pass<'a> {
             if *pivots >= settings.max_iterations {
                 return Err(Outcome::IterationLimit);
             }
-            if monitor.out_of_time() {
+            if rec.monitor.out_of_time() {
                 return Err(Outcome::TimeLimit);
             }
             *pivots += 1;
@@ -552,13 +665,10 @@ impl<'a> Pass<'a> {
                 return Err(ray(self.problem, i, *pivots, &drive));
             };
             self.step(i, s, &drive);
-            if self.record {
-                monitor.record(*pivots, &self.x);
-                monitor.record_active_set(*pivots, || {
-                    let mut rows = self.lu.rows.clone();
-                    rows.sort_unstable();
-                    rows
-                });
+            if self.record && settings.record_history {
+                let mut clamped = self.lu.rows.clone();
+                clamped.sort_unstable();
+                rec.record(*pivots, &self.x, clamped);
             }
             if self.apply(i, event, &drive, &mut ignored, *pivots)? {
                 return Ok(());

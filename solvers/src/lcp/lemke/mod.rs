@@ -15,7 +15,8 @@
 //! `z0`'s row, `z0` leaves.
 //!
 //! * **Problem class**: the standard LCP; boxed problems with fixed bounds through the reduction
-//!   below. Lemke *processes* copositive-plus matrices (symmetric positive semidefinite, positive
+//!   below; mixed problems with free (equality) rows through their elimination (below). Lemke
+//!   *processes* copositive-plus matrices (symmetric positive semidefinite, positive
 //!   definite, non-symmetric P-matrices…): it either finds a solution or ends in a ray, and for
 //!   a copositive-plus `M` a ray proves that no solution exists (Cottle–Pang–Stone, Thm 4.4.13).
 //!   On other matrices a ray proves nothing: it is reported as `NoSolution` only when the reduced
@@ -30,8 +31,32 @@
 //!   both finite: `f_i = lo_i + x` and a slack `y`, with `x ⟂ w_i + y` and
 //!   `y ⟂ (hi_i − lo_i) − x` (the `[[A, I], [−I, 0]]` augmentation);
 //!   both infinite (free): `f_i = x⁺ − x⁻` with `x⁺ ⟂ w_i` and `x⁻ ⟂ −w_i`, which together force
-//!   `w_i = 0`. Every block keeps `M` positive semidefinite when `A` is, so the guarantee above
-//!   carries over. The standard LCP maps to itself (`M = A`, `q = b`).
+//!   `w_i = 0` (only for the free rows the elimination below leaves). Every block keeps `M`
+//!   positive semidefinite when `A` is, so the guarantee above carries over. The standard LCP
+//!   maps to itself (`M = A`, `q = b`).
+//! * **Free (equality) rows** (a joint's `lo = −∞`, `hi = +∞`, `w_i = 0`) are *eliminated* before
+//!   the reduction ([`crate::lcp::free_rows`]): with `F` the free rows and `C` the others,
+//!   `f_F = −A_FF⁻¹ (b_F + A_FC f_C)`, and Lemke pivots on the reduction of
+//!   `M = A_CC − A_CF A_FF⁻¹ A_FC`, `q = b_C − A_CF A_FF⁻¹ b_F`, the Schur complement of the
+//!   equilibrated `A_FF` (LU with diagonal pivoting and a relative pivot test, `1e-8`); `f_F` is
+//!   recovered after, and refined. When the
+//!   impulse misses the tolerance, the basis it suggests is re-solved on `A` itself (islands of at
+//!   most 600 rows), so that the complement's round-off, a sizeable share of the small entries of
+//!   contacts held by joints with large mass ratios, does not stay in the answer. A Schur
+//!   complement of a positive semidefinite `A` is positive semidefinite (of a P-matrix, a
+//!   P-matrix), and the mixed and the reduced problems have the same solutions, so the ray
+//!   reasoning above holds for the reduced `M` (the test after a ray runs on that `M`). When `A_FF`
+//!   is singular (redundant joints: a closed loop, a repeated joint, a weld beside a hinge), a
+//!   regular block of the free rows is eliminated and the dependent rows, whose rows of `M` then
+//!   vanish, are dropped with `f_i = 0` when their `q_i` is 0 (consistent joints); a dependent row
+//!   that does not vanish, or has `q_i ≠ 0` (inconsistent joints), stays in the reduced problem and
+//!   is split into `x⁺ − x⁻`, as is every free row when no pivot of `A_FF` passes the test.
+//!   Splitting every free row instead would double them in the tableau and pivot on the dependent
+//!   rows of a singular `A_FF` (measured: on a welded chain with a `1e6` mass ratio it ends in a
+//!   round-off ray, which the test above takes for a proof that the solvable problem has no
+//!   solution). The reason of a status other than `converged` ends with what was done (rows
+//!   eliminated, dropped, kept free). A free row that friction rows name as their normal is neither
+//!   eliminated nor accepted (its friction rows need a normal on `[0, ∞)`).
 //! * **Sliding reduction** (friction row `i` on normal row `k`, bounds `±mu f_k`): `f_i = x⁺ − x⁻`
 //!   and a sliding speed `λ >= 0`, with `x⁺ ⟂ w_i + λ`, `x⁻ ⟂ −w_i + λ` and
 //!   `λ ⟂ mu f_k − x⁺ − x⁻`: the per-row form of the Anitescu–Potra LCP (for each friction row
@@ -49,11 +74,12 @@
 //!   `b_t ≈ 1e-18`) can come out wrong in their own row's scale; when the impulse misses the
 //!   tolerance, up to five projected Gauss–Seidel sweeps polish it, kept only if the shared
 //!   residual falls.
-//! * **Cost**: revised form with an explicit `B⁻¹`: `O(m²)` per pivot (`m` the size of the
-//!   reduced LCP), plus an `O(m³)` refactorisation of the basis every `max(50, m)` pivots and at
-//!   the end (followed by iterative refinement; skipped at the end when the basic solution
-//!   already meets the tolerance in the shared residual, one `O(m²)` pass). The number of pivots is usually a
-//!   small multiple of `m`, but is `2ⁿ` on Murty's example (below).
+//! * **Cost**: the elimination of free rows, once: `O(|F|³ + |F|² |C| + |F| |C|²)`. Revised form
+//!   with an explicit `B⁻¹`: `O(m²)` per pivot (`m` the size of the reduced LCP), plus an `O(m³)`
+//!   refactorisation of the basis every `max(50, m)` pivots and at the end (followed by iterative
+//!   refinement; skipped at the end when the basic solution already meets the tolerance in the
+//!   shared residual, one `O(m²)` pass). The number of pivots is usually a small multiple of `m`,
+//!   but is `2ⁿ` on Murty's example (below).
 //! * **Failure modes**: ray termination (`NoSolution` or `Stalled` as above, reason
 //!   `ray termination at pivot k …`);
 //!   pivot cap ([`Settings::max_iterations`] counts pivots, the first `z0` pivot included) gives
@@ -134,11 +160,14 @@
 //!
 //! References: C. E. Lemke, *Bimatrix equilibrium points and mathematical programming*,
 //! Management Science 11, 1965; R. W. Cottle, J.-S. Pang, R. E. Stone, *The Linear
-//! Complementarity Problem*, 1992, §4.4; K. G. Murty, *Linear Complementarity, Linear and
-//! Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the exponential example).
+//! Complementarity Problem*, 1992, §4.4 (and the mixed LCP); K. G. Murty, *Linear
+//! Complementarity, Linear and Nonlinear Programming*, 1988, ch. 2 (and ch. 6 for the
+//! exponential example); Siconos numerics, the MLCP solvers (`mlcp_enum`, `mlcp_simplex`), for
+//! the mixed problem with a free part.
 
 mod reduction;
 
+use crate::lcp::free_rows::polish_on_basis;
 use crate::lcp::ray::{is_psd, ray_outcome};
 use crate::problem::metrics::residuals;
 use crate::problem::Problem;
@@ -151,14 +180,15 @@ pub const DENSE_LIMIT: usize = 1500;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP with fixed bounds and box-friction rows (reduced to an LCP; friction rows by the sliding reduction, on normals with bounds [0, inf)); processes PSD and P-matrix A; dense per island up to 1500 rows";
+    "LCP, boxed LCP with fixed bounds and box-friction rows (reduced to an LCP; friction rows by the sliding reduction, on normals with bounds [0, inf)); free (equality) rows eliminated through the Schur complement of A_FF (redundant ones dropped, split into x+ - x- only when A_FF has no regular block); processes PSD and P-matrix A; dense per island up to 1500 rows";
 
 /// Lemke's complementary pivoting method. See the module documentation.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Lemke {
     /// Covering vector `d > 0` of the standard LCP that Lemke pivots on. Its length must be that
-    /// LCP's size: `n` for a standard problem; for a boxed problem `n` plus one per row with both
-    /// bounds finite and one per free row (see the reduction in the module doc). Default `None`:
+    /// LCP's size: `n` for a standard problem; for a boxed problem the rows left after the
+    /// elimination of free rows, plus one per row with both bounds finite, one per free row
+    /// left and two per friction row (see the reductions in the module doc). Default `None`:
     /// all ones.
     pub covering: Option<Vec<f64>>,
 }
@@ -183,16 +213,10 @@ impl Solver for Lemke {
     }
 }
 
-/// Lemke on one island: equilibrate, reduce, pivot, map back.
+/// Lemke on one island: eliminate the free rows, equilibrate, reduce, pivot, map back.
 fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>) -> SolveResult {
     let mut monitor = Monitor::new(problem, settings);
-    // Equilibration `A' = S A S` with `s_i = 1/√d_i`, so the pivots do not depend on how rows
-    // and columns are scaled (a problem scaled over many decades would otherwise mislead the
-    // ratio tests into a false ray).
-    let s: Vec<f64> = (0..problem.n())
-        .map(|i| 1.0 / problem.diagonal_scale_of(i).sqrt())
-        .collect();
-    let reduction = match Reduction::new(problem, s) {
+    let reduction = match Reduction::new(problem) {
         Ok(r) => r,
         Err(reason) => return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason)),
     };
@@ -222,6 +246,10 @@ fn solve_island(problem: &Problem, settings: &Settings, covering: Option<&[f64]>
     if outcome == Outcome::Stopped && !problem.friction().is_empty() {
         polish_friction_rows(problem, &mut f, settings.tolerance, &mut monitor);
     }
+    if outcome == Outcome::Stopped && reduction.free.eliminated() {
+        polish_on_basis(problem, &mut f, settings.tolerance, &mut monitor);
+    }
+    let outcome = reduction.free.annotate(outcome);
     monitor.finish(f, pivots, outcome)
 }
 

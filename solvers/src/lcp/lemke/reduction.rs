@@ -1,8 +1,10 @@
 //! The reduction of a boxed problem with friction rows to the standard LCP `w' = M z + q` that
 //! Lemke's method pivots on, and the map back to impulses (see the module documentation of
-//! [`crate::lcp::lemke`]).
+//! [`crate::lcp::lemke`]). Free rows are eliminated first when they can be
+//! ([`crate::lcp::free_rows`]); the reduction then works on the problem of the other rows.
 
 use super::Var;
+use crate::lcp::free_rows::FreeRows;
 use crate::problem::Problem;
 
 /// The standard LCP `w' = M z + q` that a boxed problem reduces to, scaled so that
@@ -26,6 +28,9 @@ pub(super) struct Reduction {
     pub(super) scale: Vec<f64>,
     /// Friction rows reduced by sliding speeds (their `M` is never copositive-plus).
     pub(super) sliding_rows: usize,
+    /// The free rows: eliminated (the rows above are then those of the reduced problem, and
+    /// [`Reduction::impulse`] recovers the free impulses), split, or none.
+    pub(super) free: FreeRows,
 }
 
 /// The LCP variables of a boxed problem's rows (the reductions of the module documentation),
@@ -44,9 +49,9 @@ pub(super) struct Variables {
 }
 
 impl Variables {
-    /// The variables of every row; `Err` when a friction row's normal does not have the
-    /// bounds `[0, ∞)` the sliding reduction needs.
-    pub(super) fn of(problem: &Problem, scale: &[f64]) -> Result<Self, String> {
+    /// The variables of every row (a problem whose friction rows passed
+    /// [`check_friction_normals`]).
+    pub(super) fn of(problem: &Problem, scale: &[f64]) -> Self {
         let n = problem.n();
         let (lo, hi) = (problem.lo(), problem.hi());
         let mut out = Variables {
@@ -72,13 +77,6 @@ impl Variables {
                 *first = vars.len();
             }
             if let Some((k, mu)) = problem.friction_of(i) {
-                if lo[k] != 0.0 || hi[k] != f64::INFINITY || problem.friction_of(k).is_some() {
-                    return Err(format!(
-                        "friction row {i}'s normal row {k} has bounds [{}, {}]: the friction \
-                         reduction needs a normal row with bounds [0, ∞)",
-                        lo[k], hi[k]
-                    ));
-                }
                 sliding.push((vars.len(), i, k, mu));
                 vars.push((i, 1.0));
                 vars.push((i, -1.0));
@@ -104,7 +102,7 @@ impl Variables {
                 }
             }
         }
-        Ok(out)
+        out
     }
 
     /// The number of LCP variables: the row variables, one slack per box row and one sliding
@@ -171,6 +169,23 @@ impl Variables {
     }
 }
 
+/// `Err` naming the first friction row whose normal does not have the bounds `[0, ∞)` the
+/// sliding reduction needs.
+fn check_friction_normals(problem: &Problem) -> Result<(), String> {
+    let (lo, hi) = (problem.lo(), problem.hi());
+    for fr in problem.friction() {
+        let (i, k) = (fr.row, fr.normal);
+        if lo[k] != 0.0 || hi[k] != f64::INFINITY {
+            return Err(format!(
+                "friction row {i}'s normal row {k} has bounds [{}, {}]: the friction reduction \
+                 needs a normal row with bounds [0, ∞)",
+                lo[k], hi[k]
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// `max|v|` (1 for a zero `v`), for finite `v`.
 pub(super) fn max_abs(v: &[f64]) -> f64 {
     // Four running maxima: one would be a chain of dependent comparisons.
@@ -199,9 +214,20 @@ pub(super) fn max_abs(v: &[f64]) -> f64 {
 }
 
 impl Reduction {
-    pub(super) fn new(problem: &Problem, scale: Vec<f64>) -> Result<Self, String> {
-        let variables = Variables::of(problem, &scale)?;
-        let (mut mat, mut q) = variables.lcp(problem, &scale);
+    /// The LCP of `problem`: its free rows eliminated when `A_FF` allows it, each (remaining)
+    /// row equilibrated by `s_i = 1/√d_i` (so the pivots do not depend on how rows and columns
+    /// are scaled: a problem scaled over many decades would otherwise mislead the ratio tests
+    /// into a false ray), then reduced as the module documentation says. `Err` when a friction
+    /// row's normal does not have the bounds `[0, ∞)`, or the constant term overflows.
+    pub(super) fn new(problem: &Problem) -> Result<Self, String> {
+        check_friction_normals(problem)?;
+        let free = FreeRows::of(problem);
+        let rows = free.rows(problem);
+        let scale: Vec<f64> = (0..rows.n())
+            .map(|i| 1.0 / rows.diagonal_scale_of(i).sqrt())
+            .collect();
+        let variables = Variables::of(rows, &scale);
+        let (mut mat, mut q) = variables.lcp(rows, &scale);
         if let Some(i) = q.iter().position(|v| !v.is_finite()) {
             return Err(format!(
                 "the reduced LCP has a non-finite constant term q[{i}] (bounds too large)"
@@ -225,10 +251,11 @@ impl Reduction {
             c,
             var_row,
             scale,
+            free,
         })
     }
 
-    /// `f = c + S T z`.
+    /// `f = c + S T z`, and the free impulses recovered from it when they were eliminated.
     pub(super) fn impulse(&self, z: &[f64]) -> Vec<f64> {
         let mut f = self.c.clone();
         if z.len() == self.var_row.len() {
@@ -238,10 +265,11 @@ impl Reduction {
                 }
             }
         }
-        f
+        self.free.expand(f)
     }
 
-    /// Original rows whose variables are basic in `z` (the active set).
+    /// Original rows whose variables are basic in `z` (the active set); eliminated free rows
+    /// always count.
     pub(super) fn active_rows(&self, basis: &[Var]) -> Vec<usize> {
         let mut rows: Vec<usize> = basis
             .iter()
@@ -252,6 +280,6 @@ impl Reduction {
             .collect();
         rows.sort_unstable();
         rows.dedup();
-        rows
+        self.free.original_rows(rows)
     }
 }
