@@ -10,8 +10,11 @@
 //! ```
 //!
 //! where a friction row `i` takes the bounds `±mu f_k` of its normal row `k`. The standard LCP
-//! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`. Every solver implements [`Solver`],
-//! and every result's [`Status`] is decided by the one shared residual in [`metrics`].
+//! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`; a *free* row (`lo = −∞`, `hi = ∞`,
+//! so `w_i = 0` with `f_i` of either sign) is a joint's equality constraint, and a problem with
+//! free rows is a mixed LCP. Every solver implements [`Solver`] (each one's treatment of free
+//! rows is in [`SolverKind::problem_classes`]), and every result's [`Status`] is decided by the
+//! one shared residual in [`metrics`].
 //!
 //! The exact Coulomb cone (FC3D, De Saxcé's form) is a separate class, [`ConeProblem`], with its
 //! own solvers ([`ConeSolver`], [`ConeSolverKind`]) whose statuses are decided by the cone
@@ -155,8 +158,8 @@ impl SolverKind {
     /// The problem classes the solver handles, in one line.
     pub fn problem_classes(self) -> &'static str {
         match self {
-            SolverKind::Pgs => "LCP, boxed LCP, friction rows; converges for SPD A",
-            SolverKind::Sor => "as PGS, with relaxation omega in (0, 2) (default 1.3)",
+            SolverKind::Pgs => lcp::pgs::PROBLEM_CLASSES_PGS,
+            SolverKind::Sor => lcp::pgs::PROBLEM_CLASSES_SOR,
             SolverKind::Lemke => lcp::lemke::PROBLEM_CLASSES,
             SolverKind::Dantzig => lcp::dantzig::PROBLEM_CLASSES,
             SolverKind::Clarabel => lcp::clarabel_qp::PROBLEM_CLASSES,

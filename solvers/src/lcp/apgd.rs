@@ -19,6 +19,9 @@
 //! * **Problem class**: standard and boxed LCP with friction rows for symmetric `A` (checked;
 //!   non-symmetric `A` has no objective and is `Unsupported`). `O(1/k²)` convergence of the
 //!   objective for SPD and PSD `A` with fixed bounds; with friction rows a heuristic fixed point.
+//!   Free (equality) rows are unconstrained variables of the objective (`Π` leaves them as they
+//!   are); the step `1/L` is set by the stiffest direction, so joints with large mass ratios
+//!   (ill-conditioned `A`) slow the method down, and it then ends at the cap or stalls.
 //! * **Cost**: two to three products with `A` per iteration (the gradient, the objective at the
 //!   trial point, and the shared residual), `O(n²)` each on the dense `A`.
 //! * **Returns** the iterate with the smallest shared residual seen (the method is not monotone).
@@ -42,7 +45,7 @@ use crate::solver::{
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows (PGS projection); symmetric A only; O(1/k^2) for SPD/PSD";
+    "LCP, boxed LCP, friction rows (PGS projection), free (equality) rows unprojected; symmetric A only; O(1/k^2) for SPD/PSD";
 
 /// Doublings of the Lipschitz estimate in one iteration before the step is taken as it is: `2⁶⁰`
 /// (about `10¹⁸`) covers any estimate from a unit trial step to the stiffest Delassus matrix in

@@ -13,6 +13,12 @@
 //!
 //! * **Problem class**: symmetric (to a relative `symmetry_tolerance`, default `1e-10`) positive
 //!   semidefinite `A`: SPD, and PSD rank-deficient (redundant contacts); standard and boxed LCP.
+//!   A free (equality) row (`lo = −∞`, `hi = +∞`) has no constraint row at all: its impulse is an
+//!   unconstrained variable of the QP, whose stationarity is `w_i = 0`. Redundant joints (a
+//!   singular `A_FF`) leave the QP's minimisers non-unique, which the interior point handles as it
+//!   handles redundant contacts; inconsistent ones make the QP unbounded below, a proof that
+//!   there is no solution. A problem of free rows only has no constraint and is handed to
+//!   Clarabel as it is.
 //!   Non-symmetric `A` and indefinite `A` are refused as `Unsupported` before Clarabel runs. The
 //!   semidefiniteness check is one sparse Cholesky factorisation (faer) of the diagonally scaled matrix
 //!   `Â = E A E` (`E` below) shifted by `psd_tolerance · ‖Â‖_F`; it accepts `A` whose smallest
@@ -91,7 +97,7 @@ use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point, sparse P); friction rows as a convex relaxation";
+    "LCP and boxed LCP with symmetric PSD A (convex QP, interior point, sparse P); free (equality) rows as unconstrained variables; friction rows as a convex relaxation";
 
 /// The LCP as a convex QP, solved by Clarabel. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]

@@ -14,7 +14,12 @@
 //!   `s_i = mid(−mu f_k, mu f_k, f_i − w_i / A_ii) − f_i`. As the normal impulse grows the cone
 //!   widens and the row can become eligible again.
 //! * **Other rows** (`lo_i < 0`, e.g. bilateral or motor rows): as friction rows, clamped to
-//!   `[lo_i, hi_i]`.
+//!   `[lo_i, hi_i]`. A free (equality) row of a joint (`lo = −∞`, `hi = +∞`) takes
+//!   `s_i = −w_i / A_ii` of either sign, so it pulls as well as pushes (a hanging pendulum's
+//!   rod pulls with a negative impulse) and can be taken back: on free rows alone the method is
+//!   the greedy coordinate descent (Gauss–Southwell) of `½ fᵀA f + bᵀf`, which converges for
+//!   SPD `A`. Only the normal-type rows keep the never-pull rule, and with it their
+//!   over-shoot, which joints coupled to contacts make more likely.
 //!
 //! How it differs from PGS by design: PGS visits every row in a fixed order and may *decrease*
 //! an impulse that has become too large; micro-impulses choose the most violated row greedily
@@ -27,9 +32,10 @@
 //! diagonal, e.g. an M-matrix) an impulse on one row only lowers the others' `w`, so no row ever
 //! over-shoots and the impulses increase monotonically towards the least solution.
 //!
-//! * **Problem class**: standard LCP, boxed LCP, friction rows, any `A` with a positive diagonal;
-//!   converges (exactly, in finitely many impulses) on diagonal `A`, in the limit on M-matrices;
-//!   otherwise it is a physically motivated heuristic that may stall. It never pulls on contacts.
+//! * **Problem class**: standard LCP, boxed LCP, friction rows, free (equality) rows, any `A`
+//!   with a positive diagonal; converges (exactly, in finitely many impulses) on diagonal `A`, in
+//!   the limit on M-matrices and on free rows alone; otherwise it is a physically motivated
+//!   heuristic that may stall. It never pulls on contacts.
 //! * **Failure modes**: over-shoot on coupled rows (`Stalled`, above); on a problem with no
 //!   solution the pushes never end (`IterationLimit`); on non-symmetric `A` with a large skew part
 //!   (not a Delassus matrix) one push can drive other rows ever deeper, and the impulses may grow
@@ -74,7 +80,7 @@ use faer::Mat;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows; exact on decoupled rows, never pulls, may over-shoot (stall) on coupled contacts";
+    "LCP, boxed LCP, friction rows, free (equality) rows pushed and pulled; exact on decoupled rows, never pulls on contacts, may over-shoot (stall) on coupled contacts";
 
 /// Sequential micro-impulses (Mirtich 1996). See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]

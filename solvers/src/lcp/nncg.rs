@@ -15,7 +15,8 @@
 //!
 //! * **Problem class**: standard and boxed LCP with friction rows, as PGS (converges for SPD `A`
 //!   in practice, with fewer sweeps than PGS on ill-conditioned problems; no proof — the method
-//!   restarts to plain PGS whenever `β > 1`).
+//!   restarts to plain PGS whenever `β > 1`). Free (equality) rows are swept unclamped, as in
+//!   PGS, and `Π` leaves them as they are.
 //! * **Cost**: one PGS sweep (`O(n²)` on the dense `A`) plus `O(n)` per iteration, and the shared
 //!   residual for the stopping rule.
 //! * **Returns** the iterate with the smallest shared residual seen.
@@ -37,7 +38,7 @@ use crate::solver::{
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows (PGS sweeps with conjugate directions); SPD A in practice";
+    "LCP, boxed LCP, friction rows, free (equality) rows unclamped (PGS sweeps with conjugate directions); SPD A in practice";
 
 /// One projected Gauss–Seidel sweep in place. Rows with a zero entry in `diag` (tiny diagonals,
 /// [`usable_diagonal`]) are left alone, as in PGS.

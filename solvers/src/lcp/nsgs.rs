@@ -21,6 +21,12 @@
 //!   Moreau's NSGS on the box-friction model, a fixed point without a general convergence proof
 //!   (measured: converges on resting stacks where PGS creeps, because each contact's normal and
 //!   friction impulses are balanced together).
+//! * **Free (equality) rows**: the blocks are built from the friction list alone, so a joint's
+//!   free row (which no friction row names) is a block of one, solved exactly by the unclamped
+//!   update `f_i − w_i / A_ii`: Gauss–Seidel on the joints, whose rate falls with the
+//!   conditioning of `A` (chains with large mass ratios). A free row that friction rows do name
+//!   is the normal of their block and takes the single state `w_i = 0` in its enumeration;
+//!   their bounds `±mu · max(f_i, 0)` then read its impulse as the box model says.
 //! * **Cost**: per sweep one pass over the stored entries of `A` for the `q_B` (`O(nnz)`), `O(1)`
 //!   small systems per contact (each block's `A_BB`, diagonal scales and bounds are extracted
 //!   once per solve; the enumeration's buffers are reused across blocks), and the shared
@@ -53,7 +59,7 @@ use crate::solver::{
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES: &str =
-    "LCP, boxed LCP, friction rows (each contact's normal + tangents solved exactly per sweep); SPD A";
+    "LCP, boxed LCP, friction rows (each contact's normal + tangents solved exactly per sweep), free (equality) rows as exact blocks of one; SPD A";
 
 /// The shared residual is measured after a sweep whose rows were all within this many times the
 /// tolerance at the running iterate: that measure is taken as each block starts, mid-sweep, and

@@ -10,6 +10,12 @@
 //!   (redundant contacts) the impulses converge in `w` but may drift along the null space; on
 //!   non-symmetric `A` there is no guarantee. With friction rows it is a fixed-point iteration on
 //!   a non-symmetric problem and may stall.
+//! * **Free (equality) rows** (`lo = −∞`, `hi = +∞`, a joint's `w_i = 0`): the update is not
+//!   clamped, `f_i ← f_i − ω w_i / A_ii` with either sign, so on them the sweep is plain
+//!   Gauss–Seidel (SOR), which converges for SPD `A` and for consistent redundant joints (PSD
+//!   `A`). Its rate is that of Gauss–Seidel on `A`: chains of joints with large mass ratios
+//!   (`1e6`) make `A` badly conditioned, and the sweeps then end at the iteration cap or the
+//!   stagnation rule, never `converged` short of the tolerance.
 //! * **Cost**: one pass over the stored entries of `A` per sweep: `O(nnz)` on a sparse `A`,
 //!   `O(n²)` on a dense one.
 //! * **Zero or tiny diagonals**: a row with `A_ii <= 1e-12 · max|A|` is never divided by. It is
@@ -36,6 +42,13 @@
 //!
 //! Reference: K. Erleben, *Numerical methods for linear complementarity problems in physics-based
 //! animation*, SIGGRAPH course notes 2013, §4; Cottle–Pang–Stone 1992, §5.2.
+
+/// Problem classes handled by PGS.
+pub(crate) const PROBLEM_CLASSES_PGS: &str =
+    "LCP, boxed LCP, friction rows, free (equality) rows updated unclamped (Gauss-Seidel on them); converges for SPD A (slowly at large mass ratios)";
+/// Problem classes handled by SOR.
+pub(crate) const PROBLEM_CLASSES_SOR: &str =
+    "as PGS (free rows unclamped), with relaxation omega in (0, 2) (default 1.3)";
 
 use crate::delassus::DelassusFactors;
 use crate::problem::diagonal::skipped_rows;

@@ -56,7 +56,10 @@
 //!   P-matrix families is a relative residual of `1e-10` in well under 30 iterations. Friction
 //!   rows are linearised *directly* (the coupling entry `γ_i`) or, with
 //!   [`FrictionHandling::FixedPoint`], with their bounds frozen at the current normals in each
-//!   linearisation (a fixed point on the bounds; slower, but no coupling entries).
+//!   linearisation (a fixed point on the bounds; slower, but no coupling entries). Free
+//!   (equality) rows of joints (`lo = −∞`, `hi = +∞`) have `Φ_i = F_i` in both reformulations,
+//!   a row of `D⁻¹A` in `H` that is never eliminated; redundant joints (singular `A_FF`) leave
+//!   `H` singular, which the regularisation `μ I` covers as it does for redundant contacts.
 //! * **Cost**: one LU per iteration (dense: `⅔ n³`; sparse: the fill of the ordering, about
 //!   40 ms for the 4,800-row island of `pyramid_20` in body-space form, 1 ms for a 40-box
 //!   tower's 480 rows in the Delassus form; on the kept rows only when rows are eliminated:
@@ -114,10 +117,10 @@ use std::collections::VecDeque;
 
 /// Problem classes handled.
 pub(crate) const PROBLEM_CLASSES_FB: &str =
-    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; globally convergent for P-matrices";
+    "LCP, boxed LCP, friction rows (directly), free (equality) rows as Phi_i = w_i / d_i; any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; globally convergent for P-matrices";
 /// Problem classes handled by the min-map variant.
 pub(crate) const PROBLEM_CLASSES_MIN: &str =
-    "LCP, boxed LCP, friction rows (directly); any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; local quadratic convergence";
+    "LCP, boxed LCP, friction rows (directly), free (equality) rows as Phi_i = w_i / d_i; any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; local quadratic convergence";
 
 /// Which nonsmooth equation the solver works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
