@@ -277,8 +277,9 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
     }
 }
 
-/// A results file written without the last columns of the row (`host`, `cpu_model`, `cores`)
-/// is an older lcpbench's: its rows still read, with those columns empty,
+/// A results file written without the last columns of the row (the joint columns, and before
+/// them `host`, `cpu_model`, `cores`) is an older lcpbench's: its rows still read, with those
+/// columns empty,
 /// but a sweep does not append rows of this version to it: it refuses, naming the file, and
 /// leaves it byte for byte as it was.
 #[test]
@@ -295,14 +296,17 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
     let text = std::fs::read_to_string(&results).unwrap();
     let header = text.lines().next().unwrap();
     assert!(
-        header.ends_with(",no_solution_steps,host,cpu_model,cores"),
+        header.ends_with(
+            ",no_solution_steps,host,cpu_model,cores,joint_drift_max,joint_drift_mean,\
+             joint_angle_max,sag_body"
+        ),
         "{header}"
     );
     let older: String = text
         .lines()
         .map(|line| {
             let cells: Vec<&str> = line.split(',').collect();
-            format!("{}\n", cells[..cells.len() - 3].join(","))
+            format!("{}\n", cells[..cells.len() - 7].join(","))
         })
         .collect();
     std::fs::write(&results, &older).unwrap();
