@@ -393,7 +393,11 @@ mod tests {
                     * moved[1].orientation;
             for (k, (rate, fd)) in rates_and_differences(&joint, &moved, &v).iter().enumerate() {
                 let angular = k >= 3 && kind != JointKind::Distance;
-                let tol = if angular { 0.05 * fd.abs() + 1e-5 } else { 1e-5 };
+                let tol = if angular {
+                    0.05 * fd.abs() + 1e-5
+                } else {
+                    1e-5
+                };
                 assert!(
                     (rate - fd).abs() < tol,
                     "{} row {k}: J u = {rate}, dC/dt = {fd}",
