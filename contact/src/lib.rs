@@ -26,7 +26,9 @@ pub use body::{MassSpec, RigidBody};
 pub use collision::{candidate_pairs, CollisionPipeline, Contact};
 pub use shape::{MassProperties, Shape, ShapeError};
 
-pub use body_solvers::{BodySolver, BodySolverKind, MicroImpulses, Penalty, SequentialImpulses};
+pub use body_solvers::{
+    AveragedImpulse, BodySolver, BodySolverKind, MicroImpulses, Penalty, SequentialImpulses,
+};
 pub use builder::{
     BuilderParams, ContactSystem, DelassusForm, DelassusOperator, FrictionModel, Material,
     PositionCorrection,
