@@ -65,8 +65,6 @@ pub struct SceneMetrics {
     pub sag_body: Option<String>,
     /// Joint error the scene should stay within, m (checked against the run's largest).
     pub max_joint_drift: Option<f64>,
-    /// Period of a pendulum scene, s (analytic, for small swings).
-    pub expected_period: Option<f64>,
     /// Informational: height a body is dropped from, m.
     pub drop_height: Option<f64>,
     /// Informational: slope of the incline, degrees.
