@@ -34,7 +34,6 @@
 //! | `stick_bodies`              | names of bodies that must not creep (creep speed = their largest speed in the last tenth of the run) |
 //! | `at_rest = true`            | marks a scene that should come to rest                          |
 //! | `sag_body = "name"`         | largest drop of that body below its starting height (`sag_body` column) |
-//! | `max_joint_drift`           | the joint error the scene should stay within (the report compares `joint_drift_max` with it) |
 //! | `push_direction = [x, y, z]` | angle in degrees between the first dynamic body's displacement and this direction (the sliding-direction error of a pushed body: the box model's anisotropy) |
 //!
 //! For resting scenes the row also gets the creep speed (largest speed, of every dynamic body or

@@ -63,8 +63,6 @@ pub struct SceneMetrics {
     /// Body whose sag (drop below its initial height) the joint metrics report: the end mass
     /// of a hanging chain, the load of a bridge.
     pub sag_body: Option<String>,
-    /// Joint error the scene should stay within, m (checked against the run's largest).
-    pub max_joint_drift: Option<f64>,
     /// Informational: height a body is dropped from, m.
     pub drop_height: Option<f64>,
     /// Informational: slope of the incline, degrees.
