@@ -282,20 +282,19 @@ impl Joint {
     }
 }
 
-/// The largest and mean error of `joints` at the current poses:
-/// `(max linear, mean linear, max angular)`; zeros without joints.
-pub fn joint_errors(joints: &[Joint], bodies: &[RigidBody]) -> (f64, f64, f64) {
-    if joints.is_empty() {
+/// The largest and mean linear error and the largest angular error of `errors` (one per
+/// joint): `(max linear, mean linear, max angular)`; zeros without joints.
+pub fn summarise_errors(errors: &[JointError]) -> (f64, f64, f64) {
+    if errors.is_empty() {
         return (0.0, 0.0, 0.0);
     }
     let (mut max, mut sum, mut angle) = (0.0f64, 0.0, 0.0f64);
-    for j in joints {
-        let e = j.error(bodies);
+    for e in errors {
         max = max.max(e.linear);
         sum += e.linear;
         angle = angle.max(e.angular);
     }
-    (max, sum / joints.len() as f64, angle)
+    (max, sum / errors.len() as f64, angle)
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use super::solve::Solved;
 use super::World;
 use crate::builder::{ContactSystem, Partition};
 use crate::integrate;
-use crate::joint::{joint_errors, JointError, JointKind};
+use crate::joint::{summarise_errors, JointError, JointKind};
 use lcpbench_solvers::{ConeProblem, HistoryPoint, Problem, Residuals, Status};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -373,9 +373,9 @@ impl World {
         }
         let f = &solved.f;
         let contact_records = self.contact_records(system, f);
-        let (joint_drift_max, joint_drift_mean, joint_angle_max) =
-            joint_errors(&self.joints, &self.bodies);
         let joint_records = self.joint_records(system, f);
+        let errors: Vec<JointError> = joint_records.iter().map(|j| j.error).collect();
+        let (joint_drift_max, joint_drift_mean, joint_angle_max) = summarise_errors(&errors);
         let friction_cone_violation = if f.len() == system.n() {
             system.friction_cone_violation(f)
         } else {
