@@ -83,12 +83,7 @@ impl TopBody {
     fn of(scene: &Scene, world: &World) -> Option<Self> {
         let m = &scene.metrics;
         let expected = m.expected_top_height.or(m.expected_rest_height)?;
-        let g = world.settings.gravity;
-        let up = if g.norm() > 0.0 {
-            -g / g.norm()
-        } else {
-            nalgebra::Vector3::z()
-        };
+        let up = world.settings.up();
         let top = world
             .bodies
             .iter()

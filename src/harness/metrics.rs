@@ -121,16 +121,10 @@ struct Frame {
 
 impl Frame {
     fn of(world: &World) -> Self {
-        let g = world.settings.gravity.norm();
-        let up = if g > 0.0 {
-            -world.settings.gravity / g
-        } else {
-            Vector3::z()
-        };
         Self {
             dt: world.settings.dt,
-            g,
-            up,
+            g: world.settings.gravity.norm(),
+            up: world.settings.up(),
         }
     }
 }

@@ -37,12 +37,7 @@ impl JointMetrics {
     /// Start measuring `world`; `sag_body` names the body whose drop is measured (the scene's
     /// `[metrics] sag_body`), ignored when no body has that name.
     pub fn new(world: &World, sag_body: Option<&str>) -> Self {
-        let g = world.settings.gravity;
-        let up = if g.norm() > 0.0 {
-            -g / g.norm()
-        } else {
-            Vector3::z()
-        };
+        let up = world.settings.up();
         let sag = sag_body.and_then(|name| world.body_index(name)).map(|i| {
             let b = &world.bodies[i];
             (b.name.clone(), b.position.coords.dot(&up), up)

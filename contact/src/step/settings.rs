@@ -64,6 +64,19 @@ pub struct SimSettings {
     pub deadline: Option<Instant>,
 }
 
+impl SimSettings {
+    /// The unit vector against gravity (`z` without gravity): the "up" that heights, sag and
+    /// lateral drift are measured along.
+    pub fn up(&self) -> Vector3<f64> {
+        let g = self.gravity.norm();
+        if g > 0.0 {
+            -self.gravity / g
+        } else {
+            Vector3::z()
+        }
+    }
+}
+
 impl Default for SimSettings {
     fn default() -> Self {
         Self {
