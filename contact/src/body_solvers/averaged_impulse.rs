@@ -77,7 +77,7 @@
 //! approximates).
 
 use super::{sequential_impulses, BodySolver, BodySolverKind, BodySweep};
-use crate::builder::{tangent_basis, ContactSystem, JacobianBlock, RowBlocks};
+use crate::builder::{bounces, tangent_basis, ContactSystem, JacobianBlock, RowBlocks};
 use lcpbench_solvers::Settings;
 use nalgebra::{Matrix3, Vector3};
 use std::collections::BTreeMap;
@@ -255,8 +255,13 @@ fn average_pair(system: &ContactSystem, members: &[usize], out: &mut ContactSyst
         .map(|&c| system.info[c].restitution)
         .fold(0.0, f64::max);
     let vn = out.free_rate[normal_row];
-    let closes = dist <= 0.0 || dist + system.h * vn <= 0.0;
-    let bouncing = restitution > 0.0 && closes && vn < -system.restitution_threshold;
+    let bouncing = bounces(
+        dist,
+        vn,
+        restitution,
+        system.restitution_threshold,
+        system.h,
+    );
     out.bias[normal_row] = if bouncing {
         restitution * vn
     } else {

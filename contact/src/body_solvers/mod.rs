@@ -52,7 +52,7 @@
 //! has made no new low (1 % below the best) in [`FIRST_ORDER_STAGNATION_WINDOW`] sweeps, they
 //! stop `Stalled` ([`lcpbench_solvers::Stagnation`]).
 
-use crate::builder::{BodyVelocity, ContactSystem, DelassusOperator};
+use crate::builder::{bounces, BodyVelocity, ContactSystem, DelassusOperator};
 use lcpbench_solvers::{
     decide, judge, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals,
     Settings, SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
@@ -121,6 +121,12 @@ impl BodySolverKind {
     /// `penalty` takes one pass.
     pub fn is_iterative(self) -> bool {
         !matches!(self, BodySolverKind::Penalty)
+    }
+
+    /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
+    /// them as engines do; the others resolve contacts only.
+    pub fn takes_joints(self) -> bool {
+        matches!(self, BodySolverKind::SequentialImpulses)
     }
 
     /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
@@ -436,9 +442,8 @@ fn restitution_phase(
             let i = system.info[c].normal_row;
             let vn = op.row_dot(i, u);
             let dist = system.contacts[c].dist;
-            let closes = dist <= 0.0 || dist + h * vn <= 0.0;
-            if closes && vn < -system.restitution_threshold {
-                let e = system.info[c].restitution;
+            let e = system.info[c].restitution;
+            if bounces(dist, vn, e, system.restitution_threshold, h) {
                 let d = -(1.0 + e) * vn / k[i];
                 op.apply_row(i, d, u);
                 f[i] += d;
@@ -599,8 +604,7 @@ fn micro_impulses(system: &ContactSystem, settings: &Settings) -> BodySweep {
             let i = info.normal_row;
             let vn = op.row_dot(i, &u);
             let dist = system.contacts[c].dist;
-            let closes = dist <= 0.0 || dist + h * vn <= 0.0;
-            let target = if info.restitution > 0.0 && closes && vn < -system.restitution_threshold {
+            let target = if bounces(dist, vn, info.restitution, system.restitution_threshold, h) {
                 -info.restitution * vn
             } else if info.bouncing {
                 0.0

@@ -614,6 +614,15 @@ fn add_contact(
     });
 }
 
+/// True when Newton's restitution law applies to a contact of gap `dist` and normal velocity
+/// `vn` (negative when closing) over a step of `h`: it has restitution, it closes within the
+/// step and it approaches faster than `threshold`. The one bounce rule of the builder and of
+/// the body-level solvers.
+pub fn bounces(dist: f64, vn: f64, restitution: f64, threshold: f64, h: f64) -> bool {
+    let closes = dist <= 0.0 || dist + h * vn <= 0.0;
+    restitution > 0.0 && closes && vn < -threshold
+}
+
 /// The normal row's `(bias, position_bias, bouncing)`: Newton's restitution when the contact
 /// closes faster than the threshold, else the speculative gap term for an open contact, else
 /// the position correction.
@@ -624,8 +633,7 @@ fn normal_bias(
     params: &BuilderParams,
     h: f64,
 ) -> (f64, f64, bool) {
-    let closes = ct.dist <= 0.0 || ct.dist + h * vn <= 0.0;
-    let bouncing = restitution > 0.0 && closes && vn < -params.restitution_threshold;
+    let bouncing = bounces(ct.dist, vn, restitution, params.restitution_threshold, h);
     let position_term = params.baumgarte / h * (ct.dist + params.slop).min(0.0);
     let (bias, position_bias) = if bouncing {
         (restitution * vn, 0.0)

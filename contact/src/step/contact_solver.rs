@@ -117,7 +117,7 @@ impl ContactSolver {
     pub fn supports_joints(&self) -> Result<(), String> {
         match self {
             ContactSolver::Matrix(_) => Ok(()),
-            ContactSolver::Body(s) if s.kind() == BodySolverKind::SequentialImpulses => Ok(()),
+            ContactSolver::Body(s) if s.kind().takes_joints() => Ok(()),
             ContactSolver::Body(s) => Err(format!(
                 "body-level solver `{}` resolves contacts only, not joints: use `si` or a matrix \
                  solver on scenes with joints",
