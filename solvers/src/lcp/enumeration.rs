@@ -53,7 +53,9 @@
 //! V. Acary, O. Bonnefon et al., Siconos numerics, `lcp_enum.c` and `mlcp_enum.c`.
 
 use crate::lcp::free_rows::{polish_on_basis, FreeRows};
-use crate::lcp::local::{basis_count, enumerate, LocalBound, LocalLcp, Workspace};
+use crate::lcp::local::{
+    basis_count, dense_matrix, enumerate, problem_bounds, LocalLcp, Workspace,
+};
 use crate::problem::metrics::impulse_scale;
 use crate::problem::Problem;
 use crate::solver::{
@@ -95,12 +97,7 @@ impl Enumeration {
         let free = FreeRows::of(island);
         let problem = free.rows(island);
         let n = problem.n();
-        let bounds: Vec<LocalBound> = (0..n)
-            .map(|i| match problem.friction_of(i) {
-                Some((normal, mu)) => LocalBound::Friction { normal, mu },
-                None => LocalBound::Fixed(problem.lo()[i], problem.hi()[i]),
-            })
-            .collect();
+        let bounds = problem_bounds(problem);
         let total = basis_count(&bounds);
         if total > MAX_BASES {
             let shown = if total == usize::MAX {
@@ -117,12 +114,7 @@ impl Enumeration {
                 )),
             );
         }
-        let mut mat = vec![0.0; n * n];
-        for i in 0..n {
-            for (j, v) in problem.row(i).iter() {
-                mat[i * n + j] = v;
-            }
-        }
+        let mat = dense_matrix(problem);
         let d = problem.diagonal_scale();
         let lcp = LocalLcp {
             m: n,

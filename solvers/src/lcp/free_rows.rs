@@ -43,7 +43,7 @@
 //! * **Cost**: `O(|F|³)` for the factorisation and `O(|F|² |C| + |F| |C|²)` for `M`, once per
 //!   solve; `O(|F| n)` per recovered impulse.
 
-use crate::lcp::local::{LocalBound, LocalLcp, Workspace};
+use crate::lcp::local::{dense_matrix, problem_bounds, LocalLcp, Workspace};
 use crate::linalg::pivoted_lu::PivotedLu;
 use crate::problem::{FrictionRow, Problem};
 use crate::solver::{Monitor, Outcome};
@@ -193,16 +193,8 @@ pub(crate) fn solve_basis_of(problem: &Problem, f: &[f64]) -> Option<Vec<f64>> {
     if problem.is_sparse() || f.len() != n {
         return None;
     }
-    let mut mat = vec![0.0; n * n];
-    for i in 0..n {
-        mat[i * n..(i + 1) * n].copy_from_slice(problem.dense_row(i));
-    }
-    let bounds: Vec<LocalBound> = (0..n)
-        .map(|i| match problem.friction_of(i) {
-            Some((normal, mu)) => LocalBound::Friction { normal, mu },
-            None => LocalBound::Fixed(problem.lo()[i], problem.hi()[i]),
-        })
-        .collect();
+    let mat = dense_matrix(problem);
+    let bounds = problem_bounds(problem);
     let d = problem.diagonal_scale();
     let lcp = LocalLcp {
         m: n,

@@ -7,6 +7,8 @@
 //! Gaussian elimination. Bases are tried in order of the number of rows whose state differs from
 //! a guess, and the first candidate within the acceptance residual ends the search.
 
+use crate::problem::Problem;
+
 /// Bounds of one row of a small local problem.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum LocalBound {
@@ -56,6 +58,29 @@ impl LocalBound {
             }
         }
     }
+}
+
+/// The bounds of every row of `problem` as local bounds (a friction row with the index of its
+/// normal row), for a [`LocalLcp`] of the whole problem.
+pub(crate) fn problem_bounds(problem: &Problem) -> Vec<LocalBound> {
+    (0..problem.n())
+        .map(|i| match problem.friction_of(i) {
+            Some((normal, mu)) => LocalBound::Friction { normal, mu },
+            None => LocalBound::Fixed(problem.lo()[i], problem.hi()[i]),
+        })
+        .collect()
+}
+
+/// `A` of `problem`, dense and row-major, for a [`LocalLcp`] of the whole problem.
+pub(crate) fn dense_matrix(problem: &Problem) -> Vec<f64> {
+    let n = problem.n();
+    let mut mat = vec![0.0; n * n];
+    for i in 0..n {
+        for (j, v) in problem.row(i).iter() {
+            mat[i * n + j] = v;
+        }
+    }
+    mat
 }
 
 /// A small boxed LCP `w = M x + q` with row-major `M` (`m × m`).
