@@ -208,34 +208,41 @@ impl ContactSystem {
     /// position solve given velocities `u`: `(A of those rows, b_p, their row indices)`. `None`
     /// when no contact penetrates past the slop and no joint has an error.
     pub fn position_problem(&self, u: &[BodyVelocity]) -> Option<(Problem, Vec<usize>)> {
-        let normals: Vec<usize> = self
+        let rows: Vec<usize> = self
             .info
             .iter()
             .map(|c| c.normal_row)
             .chain(self.joint_rows_start()..self.n())
             .collect();
-        let joint_error = (self.joint_rows_start()..self.n()).any(|i| self.position_bias[i] != 0.0);
-        if !joint_error && normals.iter().all(|&i| self.position_bias[i] >= 0.0) {
+        // A contact asks for correction when its term is negative (penetration past the slop),
+        // a joint when its term is non-zero (an error of either sign).
+        let contacts_clear = self
+            .info
+            .iter()
+            .all(|c| self.position_bias[c.normal_row] >= 0.0);
+        let joints_clear =
+            (self.joint_rows_start()..self.n()).all(|i| self.position_bias[i] == 0.0);
+        if contacts_clear && joints_clear {
             return None;
         }
         let op = self.operator();
-        let b = normals
+        let b = rows
             .iter()
             .map(|&i| op.row_dot(i, u) + self.position_bias[i])
             .collect();
         let mut local_row = vec![usize::MAX; self.n()];
-        for (k, &i) in normals.iter().enumerate() {
+        for (k, &i) in rows.iter().enumerate() {
             local_row[i] = k;
         }
         let (_, bodies) = self.identity();
         let subset = Subset {
-            rows: &normals,
+            rows: &rows,
             bodies: &bodies,
             local_row: &local_row,
             local_body: &bodies,
         };
         self.subset_problem(&subset, Vec::new(), b, DelassusForm::Assembled)
             .ok()
-            .map(|p| (p, normals))
+            .map(|p| (p, rows))
     }
 }
