@@ -193,6 +193,20 @@ pub struct RunRecord {
     pub joint_angle_max: Option<f64>,
     /// Scene naming a `sag_body`: its largest drop below its starting height, metres.
     pub sag_body: Option<f64>,
+    /// File and generated cases: how many timed solves from the same start `solve_time_s` is
+    /// the median of (after one untimed first solve that warms the caches).
+    pub timed_solves: Option<usize>,
+    /// File and generated cases: the fastest of the timed solves, seconds.
+    pub solve_time_min_s: Option<f64>,
+    /// File and generated cases: the slowest of the timed solves, seconds.
+    pub solve_time_max_s: Option<f64>,
+    /// Where a warm start came from: `previous step` (scenes), `20 PGS sweeps` or `file` (file
+    /// and generated cases); empty for a cold start.
+    #[serde(default)]
+    pub warm_source: String,
+    /// Time to compute the warm start (the PGS sweeps), seconds, measured as the solve is;
+    /// not part of `solve_time_s`. Empty when the start costs nothing (cold, file, previous step).
+    pub warm_time_s: Option<f64>,
 }
 
 impl RunRecord {
