@@ -11,8 +11,10 @@ use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
 
-/// Arguments of `lcpbench bench`.
+/// Arguments of `lcpbench bench`. The help ends with how solves are timed and where warm
+/// starts come from ([`lcpbench::harness::timing::HELP`]).
 #[derive(Args)]
+#[command(after_help = lcpbench::harness::timing::HELP)]
 pub struct BenchArgs {
     /// Scene files to run (glob, e.g. `bench_scenes/tower_*.toml`).
     #[arg(long)]

@@ -3,7 +3,9 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
+use lcpbench::harness::case::json_warm_start;
 use lcpbench::harness::catalogue::catalogue;
+use lcpbench::harness::timing::{measure, Timed, TimingRule, WallClock, MIN_TOTAL_S};
 use lcpbench::harness::SolverSpec;
 use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
@@ -49,11 +51,12 @@ pub struct SolveArgs {
     /// ignore it.
     #[arg(long)]
     pub warm: bool,
-    /// Solve the problem this many times (each solve from the same start) and report the
-    /// median of their times, as peer harnesses time small problems: one cold solve of a tiny
-    /// problem measures page faults and cold caches rather than the solver.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
-    pub repeat: u32,
+    /// Time exactly this many solves (each from the same start, after one untimed first solve
+    /// that warms the caches) and report the median of their times. Without it the solve is
+    /// timed as `lcpbench bench` times it (see `lcpbench bench --help`): one cold solve of a
+    /// small problem measures page faults and cold caches rather than the solver.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub repeat: Option<u32>,
 }
 
 /// An LCP solver or a cone solver, by name.
@@ -165,7 +168,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
             problem.n()
         );
     }
-    let mut solver = match lcp_solver {
+    let solver = match lcp_solver {
         Some(solver) => solver,
         None => {
             let cone = ConeProblem::from_box(&problem).with_context(|| {
@@ -177,28 +180,25 @@ pub fn run(args: SolveArgs) -> Result<()> {
             return run_cone(&args, &cone, &settings);
         }
     };
-    let r = repeated(args.repeat, || solver.solve(&problem, &settings));
+    let timed = timed(&args, || solver.clone().solve(&problem, &settings));
     print_result(
         &args,
         problem.name(),
         &describe(&problem),
         solver.name(),
-        &r,
+        &timed,
     )
 }
 
-/// The last of `repeat` solves, its time replaced by the median of all their times.
-fn repeated(repeat: u32, mut solve: impl FnMut() -> SolveResult) -> SolveResult {
-    let mut times = Vec::with_capacity(repeat as usize);
-    let mut r = solve();
-    times.push(r.time);
-    for _ in 1..repeat {
-        r = solve();
-        times.push(r.time);
-    }
-    times.sort_unstable();
-    r.time = times[times.len() / 2];
-    r
+/// Time `solve` by the harness's method ([`lcpbench::harness::timing`]): the `--repeat` count
+/// of timed solves, or the rule `bench` uses. `solve` gives each call a fresh copy of the
+/// solver, so every repeat is the same computation.
+fn timed(args: &SolveArgs, solve: impl FnMut() -> SolveResult) -> Timed<SolveResult> {
+    let rule = match args.repeat {
+        Some(n) => TimingRule::exactly(n as usize),
+        None => TimingRule::default(),
+    };
+    measure(&rule, &WallClock::new(), solve, |_| ())
 }
 
 /// The `warm_start` array of a JSON problem file: finite numbers.
@@ -207,20 +207,11 @@ fn file_warm_start(path: &std::path::Path, bytes: &[u8], json: bool) -> Result<V
     if !json {
         bail!("{display}: --warm needs a JSON problem file with a `warm_start` key");
     }
-    let value: serde_json::Value =
-        serde_json::from_slice(bytes).with_context(|| format!("{display}: not valid JSON"))?;
-    let Some(values) = value.get("warm_start").and_then(|v| v.as_array()) else {
-        bail!("{display}: --warm needs the key `warm_start` (an array of numbers)");
-    };
-    values
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            v.as_f64()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| anyhow!("{display}: warm_start[{i}] is not a finite number"))
+    json_warm_start(bytes, path)
+        .map_err(|m| anyhow!(m))?
+        .with_context(|| {
+            format!("{display}: --warm needs the key `warm_start` (an array of numbers)")
         })
-        .collect()
 }
 
 /// Solve a cone problem: with a cone solver, or `unsupported` for an LCP solver (the box
@@ -236,8 +227,8 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
             if args.omega.is_some() {
                 bail!("--omega applies only to --solver sor");
             }
-            let mut solver = kind.create();
-            let r = repeated(args.repeat, || solver.solve_cone(cone, settings));
+            let solver = kind.create();
+            let r = timed(args, || solver.clone().solve_cone(cone, settings));
             (solver.name(), r)
         }
         SolverName::Lcp(kind) => {
@@ -247,16 +238,21 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                 kind.name(),
                 ConeSolverKind::ALL.map(|k| k.name()).join(", ")
             );
-            let r = SolveResult {
-                w: cone.velocity(&f),
-                residuals: cone_residuals(cone, &f),
-                f,
-                status: Status::Unsupported { reason },
-                iterations: 0,
-                time: std::time::Duration::ZERO,
-                history: Vec::new(),
-                active_sets: Vec::new(),
-                certificate: None,
+            let r = Timed {
+                times_s: Vec::new(),
+                kept: Vec::new(),
+                first_counted: false,
+                result: SolveResult {
+                    w: cone.velocity(&f),
+                    residuals: cone_residuals(cone, &f),
+                    f,
+                    status: Status::Unsupported { reason },
+                    iterations: 0,
+                    time: std::time::Duration::ZERO,
+                    history: Vec::new(),
+                    active_sets: Vec::new(),
+                    certificate: None,
+                },
             };
             (kind.name(), r)
         }
@@ -269,8 +265,9 @@ fn print_result(
     problem_name: Option<&str>,
     describe: &str,
     solver_name: &str,
-    r: &SolveResult,
+    timed: &Timed<SolveResult>,
 ) -> Result<()> {
+    let r = &timed.result;
     if args.json {
         let out = json!({
             "problem": problem_name,
@@ -279,8 +276,10 @@ fn print_result(
             "status": r.status.name(),
             "reason": r.status.reason(),
             "iterations": r.iterations,
-            "time_s": r.time.as_secs_f64(),
-            "repeat": args.repeat,
+            "time_s": timed.median_s(),
+            "timed_solves": timed.count(),
+            "time_min_s": timed.min_s(),
+            "time_max_s": timed.max_s(),
             "residual": r.residuals.natural_map,
             "residual_rel": r.residuals.natural_map_rel,
             "complementarity_gap": r.residuals.complementarity_gap,
@@ -305,14 +304,27 @@ fn print_result(
     println!("solver      {solver_name}");
     println!("status      {}", r.status);
     println!("iterations  {}", r.iterations);
-    if args.repeat > 1 {
+    if timed.count() == 0 {
+        println!("time        0 (not solved)");
+    } else if timed.first_counted {
+        let why = if timed.median_s() >= MIN_TOTAL_S {
+            ", long enough to time alone"
+        } else {
+            ", too long in wall time to repeat"
+        };
         println!(
-            "time        {:.3} µs (median of {} solves)",
-            r.time.as_secs_f64() * 1e6,
-            args.repeat
+            "time        {:.3} ms (one solve{why})",
+            timed.median_s() * 1e3
         );
     } else {
-        println!("time        {:.3} ms", r.time.as_secs_f64() * 1e3);
+        println!(
+            "time        {:.3} µs (median of {} timed solves after an untimed first; min {:.3} µs, \
+             max {:.3} µs)",
+            timed.median_s() * 1e6,
+            timed.count(),
+            timed.min_s() * 1e6,
+            timed.max_s() * 1e6
+        );
     }
     println!(
         "residual    {:.3e} (relative {:.3e}); complementarity gap {:.3e}; bound violation {:.3e}",

@@ -27,7 +27,7 @@ use lcpbench_solvers::{read_problem, Problem};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// Largest size `n` of a generated case (and of `lcpbench gen --n`): its dense `n × n` matrix
@@ -655,6 +655,44 @@ impl Case {
             Case::Scene { path, .. } => Err(format!("{} is a scene, not an LCP", path.display())),
         }
     }
+}
+
+/// The warm start a problem file carries: the `warm_start` array of a JSON file (one value per
+/// row, as `lcpbench export` writes it for a warm-started step). `Ok(None)` when the file is
+/// not JSON or has no such key; an error naming the file and the field when the key holds
+/// anything but finite numbers. The file is read within the problem files' size limit; the
+/// caller checks the length against the problem's rows.
+pub fn file_warm_start(path: &Path) -> Result<Option<Vec<f64>>, String> {
+    use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
+    use lcpbench_solvers::ProblemFormat;
+    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let head = &bytes[..bytes.len().min(64)];
+    if ProblemFormat::detect(path, head) != ProblemFormat::Json {
+        return Ok(None);
+    }
+    json_warm_start(&bytes, path)
+}
+
+/// The `warm_start` array of the JSON text `bytes` read from `path` (see [`file_warm_start`]);
+/// the other keys are skipped without being kept.
+pub fn json_warm_start(bytes: &[u8], path: &Path) -> Result<Option<Vec<f64>>, String> {
+    #[derive(serde::Deserialize)]
+    struct WarmStartKey {
+        #[serde(default)]
+        warm_start: Option<Vec<f64>>,
+    }
+    let parsed: WarmStartKey = serde_json::from_slice(bytes)
+        .map_err(|e| format!("{}: field `warm_start`: {e}", path.display()))?;
+    if let Some(values) = &parsed.warm_start {
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "{}: field `warm_start`: entry {i} is not a finite number",
+                path.display()
+            ));
+        }
+    }
+    Ok(parsed.warm_start)
 }
 
 /// The LCP of step `step` of the scene at `path` (see [`Case::SceneStep`]).

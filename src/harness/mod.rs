@@ -36,6 +36,7 @@ pub mod shard;
 pub mod solver_spec;
 pub mod sweep;
 mod text;
+pub mod timing;
 
 pub use budget::{Budget, BudgetError, BudgetName, CustomBudget, NamedBudget};
 pub use case::{Case, CaseFamily, ProblemClass};

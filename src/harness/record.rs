@@ -193,19 +193,23 @@ pub struct RunRecord {
     pub joint_angle_max: Option<f64>,
     /// Scene naming a `sag_body`: its largest drop below its starting height, metres.
     pub sag_body: Option<f64>,
-    /// File and generated cases: how many timed solves from the same start `solve_time_s` is
-    /// the median of (after one untimed first solve that warms the caches).
+    /// File, scene-step and generated cases: how many timed solves from the same start
+    /// `solve_time_s` is the median of, after one untimed first solve that warms the caches; 1
+    /// when that first solve alone took 20 ms or more (or a repeat would have overrun the
+    /// wall-time cap) and so is the measurement. See [`crate::harness::timing`].
     pub timed_solves: Option<usize>,
-    /// File and generated cases: the fastest of the timed solves, seconds.
+    /// File, scene-step and generated cases: the fastest of the timed solves, seconds.
     pub solve_time_min_s: Option<f64>,
-    /// File and generated cases: the slowest of the timed solves, seconds.
+    /// File, scene-step and generated cases: the slowest of the timed solves, seconds.
     pub solve_time_max_s: Option<f64>,
-    /// Where a warm start came from: `previous step` (scenes), `20 PGS sweeps` or `file` (file
-    /// and generated cases); empty for a cold start.
+    /// Where a warm start came from ([`WarmSource::name`]): `previous step` (scenes), `file`
+    /// (the problem file's `warm_start`), `20 PGS sweeps` (a file without one, a scene step),
+    /// `perturbed planted solution` (generated cases); empty for a cold start.
     #[serde(default)]
     pub warm_source: String,
-    /// Time to compute the warm start (the PGS sweeps), seconds, measured as the solve is;
-    /// not part of `solve_time_s`. Empty when the start costs nothing (cold, file, previous step).
+    /// Time to compute the warm start (the PGS sweeps), seconds, measured as the solve is
+    /// ([`crate::harness::timing`]); not part of `solve_time_s`. Empty when the start costs
+    /// nothing the solver would pay (cold, file, previous step, perturbed planted solution).
     pub warm_time_s: Option<f64>,
 }
 
@@ -252,6 +256,36 @@ impl RunRecord {
         self.host = Some(machine.host.clone());
         self.cpu_model = Some(machine.cpu_model.clone());
         self.cores = Some(machine.cores);
+    }
+}
+
+/// Where the warm start of a `+warm` run came from: the `warm_source` column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WarmSource {
+    /// Scenes: each step starts from the previous step's impulses.
+    PreviousStep,
+    /// A problem file's own `warm_start` (as `lcpbench export` writes for a warm-started step).
+    File,
+    /// [`WARM_PGS_SWEEPS`] cold PGS sweeps computed by the harness (files without a warm start,
+    /// scene steps); their cost is the `warm_time_s` column.
+    PgsSweeps,
+    /// Generated cases: the planted solution perturbed by 1% of its largest entry, standing in
+    /// for the previous step of a slowly changing scene; it costs the solver nothing.
+    PerturbedPlanted,
+}
+
+/// The PGS sweeps of [`WarmSource::PgsSweeps`].
+pub const WARM_PGS_SWEEPS: usize = 20;
+
+impl WarmSource {
+    /// The text of the `warm_source` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            WarmSource::PreviousStep => "previous step",
+            WarmSource::File => "file",
+            WarmSource::PgsSweeps => "20 PGS sweeps",
+            WarmSource::PerturbedPlanted => "perturbed planted solution",
+        }
     }
 }
 

@@ -1,10 +1,18 @@
 //! One run, in process: load the case, solve (or step the scene), measure. This is what the
 //! isolated child (`lcpbench bench-one`) executes; [`crate::harness::isolate`] runs it in a child
 //! process so a panic, an abort or a hang cannot take the sweep down.
+//!
+//! An LCP or cone solve is timed by [`crate::harness::timing`]: an untimed first solve, then
+//! repeats from the same start (the same settings and warm start, a fresh copy of the solver),
+//! the median recorded. A `+warm` run's start is computed first ([`warm_start_for`]), outside
+//! the solve's time; the row says where it came from and what it cost.
 
-use crate::harness::case::{Case, GenFamily, LoadedLcp};
-use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus, TTA_LEVELS};
+use crate::harness::case::{file_warm_start, Case, GenFamily, LoadedLcp};
+use crate::harness::record::{
+    base_record, RunOutput, RunRecord, RunStatus, WarmSource, TTA_LEVELS, WARM_PGS_SWEEPS,
+};
 use crate::harness::scene;
+use crate::harness::timing::{measure, median, Timed, TimingRule, WallClock};
 use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::{
     ConeProblem, ConeSolver, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
@@ -39,20 +47,35 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     if let Case::File(_) | Case::SceneStep { .. } = case {
         record.class = Case::class_of_problem(&lcp.problem);
     }
-    if let Some(solver) = spec.create_cone() {
-        return run_cone_lcp(solver, &lcp, spec, budget, record);
-    }
-    let Some(mut solver) = spec.create() else {
-        return RunOutput::failed(record, RunStatus::Error, "no solver");
-    };
     let mut settings = budget.budget.settings();
     settings.record_history = true;
     if spec.warm() {
-        settings.warm_start = Some(warm_start_for(&lcp));
+        match warm_start_for(case, &lcp) {
+            Ok(warm) => {
+                record.warm_source = warm.source.name().to_owned();
+                record.warm_time_s = warm.time_s;
+                settings.warm_start = Some(warm.start);
+            }
+            Err(e) => return RunOutput::failed(record, RunStatus::Error, e),
+        }
     }
+    if let Some(solver) = spec.create_cone() {
+        return run_cone_lcp(solver, &lcp, &settings, record);
+    }
+    let Some(solver) = spec.create() else {
+        return RunOutput::failed(record, RunStatus::Error, "no solver");
+    };
     crate::harness::isolate::signal_ready();
-    let result = solver.solve(&lcp.problem, &settings);
-    fill_from_result(&mut record, &result);
+    // Each solve gets a fresh copy of the solver, so no repeat starts from state a previous
+    // one left behind.
+    let timed = measure(
+        &TimingRule::default(),
+        &WallClock::new(),
+        || solver.clone().solve(&lcp.problem, &settings),
+        time_to_accuracy,
+    );
+    fill_from_timed(&mut record, &timed);
+    let result = &timed.result;
     if let (Some(star), Case::Generated { family, .. }) = (&lcp.solution, case) {
         let unique = matches!(
             family,
@@ -77,10 +100,9 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
 /// A cone solver on an LCP case: the box-friction problem read as the cone of its
 /// (normal, tangent, tangent) triples; any other problem is `unsupported`.
 fn run_cone_lcp(
-    mut solver: Box<dyn ConeSolver + Send>,
+    solver: Box<dyn ConeSolver + Send>,
     lcp: &LoadedLcp,
-    spec: &SolverSpec,
-    budget: &NamedBudget,
+    settings: &Settings,
     mut record: RunRecord,
 ) -> RunOutput {
     let problem = match ConeProblem::from_box(&lcp.problem) {
@@ -93,17 +115,17 @@ fn run_cone_lcp(
             return RunOutput::failed(record, RunStatus::Unsupported, reason);
         }
     };
-    let mut settings = budget.budget.settings();
-    settings.record_history = true;
-    if spec.warm() {
-        settings.warm_start = Some(warm_start_for(lcp));
-    }
     crate::harness::isolate::signal_ready();
-    let result = solver.solve_cone(&problem, &settings);
-    fill_from_result(&mut record, &result);
+    let timed = measure(
+        &TimingRule::default(),
+        &WallClock::new(),
+        || solver.clone().solve_cone(&problem, settings),
+        time_to_accuracy,
+    );
+    fill_from_timed(&mut record, &timed);
     RunOutput {
+        history: thin_history(&timed.result.history, HISTORY_POINTS),
         record,
-        history: thin_history(&result.history, HISTORY_POINTS),
     }
 }
 
@@ -120,6 +142,25 @@ pub fn fill_from_result(record: &mut RunRecord, result: &SolveResult) {
     record.bound_violation = Some(result.residuals.bound_violation);
     record.set_tta(time_to_accuracy(result));
     record.certificate_bound = result.certificate.as_ref().map(|c| c.min_solution_norm);
+}
+
+/// Copy a timed solve into the row ([`crate::harness::timing`]): the outcome of the last timed
+/// solve ([`fill_from_result`]), with `solve_time_s` the median of the timed solves,
+/// `solve_time_min_s` and `solve_time_max_s` their spread, `timed_solves` their count, and
+/// each time-to-accuracy column the median over the timed solves that reached the level (so
+/// these too are measured with warm caches; a deterministic solver reaches a level at the same
+/// iteration in every repeat).
+pub fn fill_from_timed(record: &mut RunRecord, timed: &Timed<SolveResult, [Option<f64>; 4]>) {
+    fill_from_result(record, &timed.result);
+    record.solve_time_s = Some(timed.median_s());
+    record.solve_time_min_s = Some(timed.min_s());
+    record.solve_time_max_s = Some(timed.max_s());
+    record.timed_solves = Some(timed.count());
+    let levels: [Option<f64>; 4] = std::array::from_fn(|k| {
+        let reached: Vec<f64> = timed.kept.iter().filter_map(|tta| tta[k]).collect();
+        median(&reached)
+    });
+    record.set_tta(levels);
 }
 
 /// Solver time until the relative residual first reached each of [`TTA_LEVELS`]: the first
@@ -160,31 +201,77 @@ pub fn thin_history(history: &[HistoryPoint], max: usize) -> Vec<HistoryPoint> {
     keep.into_iter().map(|i| history[i]).collect()
 }
 
-/// The warm start of an LCP case: the planted solution with a deterministic 1% perturbation
-/// (as if it came from the previous step of a slowly changing scene), or, without a known
-/// solution, the impulse after 20 cold PGS sweeps.
-pub fn warm_start_for(lcp: &LoadedLcp) -> Vec<f64> {
-    match &lcp.solution {
-        Some(star) => {
-            let scale = star.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-12);
-            star.iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    // A fixed pseudo-random sign pattern in [-1, 1].
-                    let s = ((i as f64 * 12.9898).sin() * 43758.5453).fract();
-                    (v + 0.01 * scale * s).max(0.0)
-                })
-                .collect()
-        }
-        None => {
-            let settings = Settings {
-                max_iterations: 20,
-                tolerance: 1e-300,
-                ..Settings::default()
-            };
-            ProjectedSor::pgs().solve(&lcp.problem, &settings).f
+/// The warm start of a `+warm` run on an LCP case, where it came from and what it cost.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarmStart {
+    /// The starting impulse, one value per row.
+    pub start: Vec<f64>,
+    /// Where it came from.
+    pub source: WarmSource,
+    /// Median time to compute it, seconds, timed as solves are ([`crate::harness::timing`]);
+    /// `None` when it costs the solver nothing (read from the file, or the perturbed planted
+    /// solution).
+    pub time_s: Option<f64>,
+}
+
+/// The warm start of an LCP case, in this order: the problem file's own `warm_start` (as
+/// `lcpbench export` writes it for a warm-started step); for a generated case, the planted
+/// solution with a deterministic perturbation of 1% of its largest entry (as if it came from
+/// the previous step of a slowly changing scene); otherwise the impulse after
+/// [`WARM_PGS_SWEEPS`] cold PGS sweeps, whose cost is timed by the method of the solves. An
+/// error names the file and field of a `warm_start` that is malformed or of the wrong length.
+pub fn warm_start_for(case: &Case, lcp: &LoadedLcp) -> Result<WarmStart, String> {
+    let n = lcp.problem.n();
+    if let Case::File(path) = case {
+        if let Some(start) = file_warm_start(path)? {
+            if start.len() != n {
+                return Err(format!(
+                    "{}: field `warm_start` has {} values for {n} rows",
+                    path.display(),
+                    start.len()
+                ));
+            }
+            return Ok(WarmStart {
+                start,
+                source: WarmSource::File,
+                time_s: None,
+            });
         }
     }
+    if let Some(star) = &lcp.solution {
+        let scale = star.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-12);
+        let start = star
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                // A fixed pseudo-random sign pattern in [-1, 1].
+                let s = ((i as f64 * 12.9898).sin() * 43758.5453).fract();
+                (v + 0.01 * scale * s).max(0.0)
+            })
+            .collect();
+        return Ok(WarmStart {
+            start,
+            source: WarmSource::PerturbedPlanted,
+            time_s: None,
+        });
+    }
+    let settings = Settings {
+        max_iterations: WARM_PGS_SWEEPS,
+        tolerance: 1e-300,
+        ..Settings::default()
+    };
+    let pgs = ProjectedSor::pgs();
+    let timed = measure(
+        &TimingRule::default(),
+        &WallClock::new(),
+        || pgs.clone().solve(&lcp.problem, &settings),
+        |_| (),
+    );
+    Ok(WarmStart {
+        time_s: Some(timed.median_s()),
+        start: timed.result.f,
+        source: WarmSource::PgsSweeps,
+    })
 }
 
 #[cfg(test)]
@@ -220,6 +307,99 @@ mod tests {
         let solvable: Case = "spd:n=12:cond=1e2:seed=1".parse().unwrap();
         let out = run_in_process(&solvable, &"apgd".parse().unwrap(), &budget);
         assert_eq!(out.record.certificate_bound, None);
+    }
+
+    /// An LCP row records the spread of its timed solves, and a cold one no warm start.
+    #[test]
+    fn an_lcp_run_records_its_timed_solves() {
+        let generated: Case = "spd:n=12:cond=1e2:seed=1".parse().unwrap();
+        let step: Case = "step:bench_scenes/tower_5.toml?step=2".parse().unwrap();
+        let budget: NamedBudget = "default".parse().unwrap();
+        for (case, solver) in [
+            (&generated, "pgs"),
+            (&generated, "lemke"),
+            (&step, "nsgs-cone"),
+        ] {
+            let out = run_in_process(case, &solver.parse().unwrap(), &budget);
+            let r = &out.record;
+            let count = r.timed_solves.unwrap();
+            assert!(
+                (1..=crate::harness::timing::MAX_SOLVES).contains(&count),
+                "{r:?}"
+            );
+            let (min, median, max) = (
+                r.solve_time_min_s.unwrap(),
+                r.solve_time_s.unwrap(),
+                r.solve_time_max_s.unwrap(),
+            );
+            assert!(min <= median && median <= max, "{solver}: {r:?}");
+            assert!(r.warm_source.is_empty() && r.warm_time_s.is_none());
+        }
+        // A solver that declines the problem is not timed.
+        let out = run_in_process(&generated, &"nsgs-cone".parse().unwrap(), &budget);
+        assert_eq!(out.record.status, RunStatus::Unsupported);
+        assert_eq!(out.record.timed_solves, None);
+    }
+
+    /// The sources of a warm start, in order: the file's own, the perturbed planted solution,
+    /// PGS sweeps (timed); a malformed file start is an error naming the file and field.
+    #[test]
+    fn warm_starts_say_where_they_came_from() {
+        assert_eq!(
+            WarmSource::PgsSweeps.name(),
+            format!("{WARM_PGS_SWEEPS} PGS sweeps")
+        );
+        let budget: NamedBudget = "default".parse().unwrap();
+        let pgs_warm: SolverSpec = "pgs+warm".parse().unwrap();
+        let generated: Case = "spd:n=12:cond=1e2:seed=1".parse().unwrap();
+        let r = run_in_process(&generated, &pgs_warm, &budget).record;
+        assert_eq!(r.warm_source, "perturbed planted solution");
+        assert_eq!(r.warm_time_s, None);
+
+        let dir = tempfile::tempdir().unwrap();
+        let problem = r#""A": [[2, 1], [1, 2]], "b": [-1, -1]"#;
+        let file = |name: &str, text: String| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).unwrap();
+            Case::File(path)
+        };
+        let plain = file("plain.json", format!("{{{problem}}}"));
+        let r = run_in_process(&plain, &pgs_warm, &budget).record;
+        assert_eq!(r.status, RunStatus::Converged, "{r:?}");
+        assert_eq!(r.warm_source, "20 PGS sweeps");
+        assert!(r.warm_time_s.unwrap() > 0.0);
+        let cold = run_in_process(&plain, &"pgs".parse().unwrap(), &budget).record;
+        assert!(cold.warm_source.is_empty() && cold.warm_time_s.is_none());
+
+        // The solution of this problem is f = (1/3, 1/3): a file starting there needs no sweep.
+        let exported = file(
+            "exported.json",
+            format!(r#"{{{problem}, "warm_start": [0.3333333333333333, 0.3333333333333333]}}"#),
+        );
+        let r = run_in_process(&exported, &pgs_warm, &budget).record;
+        assert_eq!(r.warm_source, "file");
+        assert_eq!(r.warm_time_s, None);
+        assert!(r.iterations.unwrap() <= 2, "{r:?}");
+
+        let short = file("short.json", format!(r#"{{{problem}, "warm_start": [1]}}"#));
+        let r = run_in_process(&short, &pgs_warm, &budget).record;
+        assert_eq!(r.status, RunStatus::Error);
+        assert!(
+            r.reason.contains("short.json") && r.reason.contains("`warm_start` has 1 values"),
+            "{}",
+            r.reason
+        );
+        let text = file(
+            "text.json",
+            format!(r#"{{{problem}, "warm_start": ["x", 1]}}"#),
+        );
+        let r = run_in_process(&text, &pgs_warm, &budget).record;
+        assert_eq!(r.status, RunStatus::Error);
+        assert!(
+            r.reason.contains("text.json: field `warm_start`"),
+            "{}",
+            r.reason
+        );
     }
 
     #[test]

@@ -20,7 +20,7 @@
 
 use crate::harness::case::Case;
 use crate::harness::metrics::{SceneMetricsAccumulator, TimeStop};
-use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus};
+use crate::harness::record::{base_record, RunOutput, RunRecord, RunStatus, WarmSource};
 use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_contact::scene::{check_solver, Scene};
 use lcpbench_contact::step::World;
@@ -56,6 +56,9 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
     scene.settings.tolerance = b.tolerance;
     scene.settings.max_iterations = b.max_iterations;
     scene.settings.warm_start = spec.warm();
+    if spec.warm() {
+        record.warm_source = WarmSource::PreviousStep.name().to_owned();
+    }
     let n_steps = steps.map_or(scene.settings.steps, |s| s.min(scene.settings.steps));
     let mut world = scene.world();
     world.settings.step_time_budget = crate::harness::budget::time_budget(b.time_s).ok();
