@@ -402,6 +402,18 @@ mod tests {
         );
     }
 
+    /// Scenes keep their in-loop timing; a `+warm` scene run starts each step from the last.
+    #[test]
+    fn a_warm_scene_run_names_the_previous_step() {
+        let case: Case = "scene:bench_scenes/tower_5.toml?steps=2".parse().unwrap();
+        let budget: NamedBudget = "default".parse().unwrap();
+        let warm = run_in_process(&case, &"pgs+warm".parse().unwrap(), &budget).record;
+        assert_eq!(warm.warm_source, "previous step");
+        assert_eq!((warm.warm_time_s, warm.timed_solves), (None, None));
+        let cold = run_in_process(&case, &"pgs".parse().unwrap(), &budget).record;
+        assert!(cold.warm_source.is_empty());
+    }
+
     #[test]
     fn warm_start_helps_pgs() {
         let case: Case = "spd:n=40:cond=1e4:seed=1".parse().unwrap();
