@@ -4,8 +4,9 @@
 //! Flow: [`case`] (what to solve) × [`solver_spec`] (which solver, with its options) ×
 //! [`budget`] (tolerance, iterations, seconds) → [`sweep`] (queue, workers, resume) →
 //! [`isolate`] (child process, timeout) → [`run`] (in the child: solve an LCP, or step a scene
-//! via [`scene`], whose rows [`metrics`] fills) → [`record`] (the CSV row, its [`RunStatus`]
-//! and [`RunKey`]). [`export`] writes the LCP of one scene step; [`outdir`] keeps the rules of
+//! via [`scene`], whose rows [`metrics`] fills; an LCP solve is timed by [`timing`]: an untimed
+//! first solve, then repeats from the same start, their median recorded) → [`record`] (the CSV
+//! row, its [`RunStatus`] and [`RunKey`]). [`export`] writes the LCP of one scene step; [`outdir`] keeps the rules of
 //! the output directory (lock, tables, what is never overwritten). [`machine`] names the
 //! machine a run ran on (`isolate` records it in every row); [`fault`] injects a failure into
 //! the child in place of a solve; [`catalogue`] lists every solver with its level and problem
@@ -15,7 +16,8 @@
 //! joins the parts' directories into the rows of the whole sweep.
 //!
 //! Imports go one way: `solver_spec` knows `fault`; `record` knows `case`, `solver_spec`,
-//! `budget` and `machine`; `run`, `scene` and `isolate` know `record`; `sweep` knows
+//! `budget` and `machine`; `run`, `scene` and `isolate` know `record`; `run` knows `timing`,
+//! which knows only the solvers' result type (and `record` for its warm-start count, in tests); `sweep` knows
 //! `isolate`; `shard` knows `sweep`'s jobs, and `merge` knows `shard` and reads what `sweep`
 //! wrote.
 

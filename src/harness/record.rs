@@ -61,7 +61,9 @@ pub struct RunRecord {
     pub converged: bool,
     /// Iterations or pivots (a scene: summed over steps).
     pub iterations: Option<usize>,
-    /// Solver wall time in seconds (a scene: summed over steps), measurement excluded.
+    /// Solver wall time in seconds, measurement excluded: for an LCP case the median of its
+    /// timed solves from the same start ([`crate::harness::timing`]); for a scene summed over
+    /// the steps, each solved once.
     pub solve_time_s: Option<f64>,
     /// Wall time of the whole child process, seen from the parent.
     pub wall_time_s: f64,
@@ -75,7 +77,8 @@ pub struct RunRecord {
     pub bound_violation: Option<f64>,
     /// `‖f − f*‖∞ / max(‖f*‖∞, 1)` against a planted solution known to be unique.
     pub solution_error: Option<f64>,
-    /// Solver time in seconds until the relative residual first reached `1e-4`.
+    /// Solver time in seconds until the relative residual first reached `1e-4`: the median
+    /// over the timed solves that reached it ([`crate::harness::timing`]).
     pub tta_1e4: Option<f64>,
     /// Same, `1e-6`.
     pub tta_1e6: Option<f64>,
