@@ -17,13 +17,15 @@
 //!
 //! ```text
 //! every run   START_S = 0.01                                (child process, loading the case)
-//! LCP, n rows + min(budget seconds, 1e-9 · n² · iterations)          (dense O(n²) sweeps)
+//! LCP, n rows + timed(min(budget seconds, 1e-9 · n² · iterations))   (dense O(n²) sweeps)
 //! scene       + steps · (2e-5 · bodies                                (detection, integration)
 //!                        + min(budget seconds, 1.2e-8 · bodies² · iterations))  (one solve)
 //! ```
 //!
-//! with `n` from the case key (generated families) or the problem file, and `steps` (the
-//! planned steps) and `bodies` (the dynamic bodies) from the scene file. A solve's cost grows
+//! with `timed(s)` the solver seconds of timing a solve of `s` seconds by repeating it
+//! ([`crate::harness::timing::expected_seconds`]: `s` itself from 20 ms on, else `s` plus
+//! about 20 ms of repeats), `n` from the case key (generated families) or the problem file,
+//! and `steps` (the planned steps) and `bodies` (the dynamic bodies) from the scene file. A solve's cost grows
 //! with the square of the bodies because a taller stack has both more contact rows and needs
 //! more sweeps; the constant matches the median run over the solvers of the 10- and 40-box
 //! towers in the quick report on a 2-core machine. A case whose file does not load costs
@@ -286,11 +288,12 @@ impl CostModel {
     }
 }
 
-/// Seconds of one solve of `n` rows: a dense sweep per iteration, at most the budget's seconds.
-/// (The iteration count is the cap, so the model ranks solves by their worst case.)
+/// Seconds of timing a solve of `n` rows: a dense sweep per iteration, at most the budget's
+/// seconds, repeated as [`crate::harness::timing`] repeats it. (The iteration count is the
+/// cap, so the model ranks solves by their worst case.)
 fn lcp_seconds(n: usize, iterations: f64, time_s: f64) -> f64 {
     let n = n as f64;
-    (1e-9 * n * n * iterations).min(time_s)
+    crate::harness::timing::expected_seconds((1e-9 * n * n * iterations).min(time_s))
 }
 
 /// Greedy longest-processing-time assignment of jobs with `costs` to `count` shards: jobs by

@@ -202,6 +202,20 @@ pub fn median(values: &[f64]) -> Option<f64> {
     })
 }
 
+/// Expected solver seconds the default rule spends on a solve taking `solve_s` seconds: the
+/// first solve alone from [`MIN_TOTAL_S`] on, else the first plus repeats up to the larger of
+/// [`MIN_TOTAL_S`] and [`MIN_SOLVES`] solves (at most [`MAX_SOLVES`] solves, at most
+/// [`MAX_WALL_S`]). The cost model of sharded sweeps uses it.
+pub fn expected_seconds(solve_s: f64) -> f64 {
+    if solve_s >= MIN_TOTAL_S {
+        return solve_s;
+    }
+    let repeats = MIN_TOTAL_S
+        .max(MIN_SOLVES as f64 * solve_s)
+        .min(MAX_SOLVES as f64 * solve_s);
+    (solve_s + repeats).min(MAX_WALL_S)
+}
+
 /// Time `solve` by the rule (see the module documentation): an untimed first solve, then timed
 /// repeats. `keep` picks what to keep of each timed solve (time-to-accuracy figures, say).
 /// `solve` must perform the same computation each call.
@@ -382,6 +396,15 @@ mod tests {
         assert_eq!(t.median_s(), 2.5, "even count: mean of the middle two");
         assert_eq!(median(&[]), None);
         assert_eq!(median(&[7.0]), Some(7.0));
+    }
+
+    #[test]
+    fn the_expected_cost_follows_the_rule() {
+        assert_eq!(expected_seconds(0.5), 0.5, "a slow solve is made once");
+        assert_eq!(expected_seconds(0.02), 0.02);
+        assert_eq!(expected_seconds(0.01), 0.04, "first and three repeats");
+        assert_eq!(expected_seconds(0.001), 0.021, "first and 20 ms of repeats");
+        assert_eq!(expected_seconds(1e-6), 1e-6 + 1e-3, "the count cap");
     }
 
     /// The help text states the constants the method uses.
