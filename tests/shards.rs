@@ -48,13 +48,16 @@ fn refused(out: Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-/// Columns that depend on the machine and the moment: times and the machine itself.
+/// Columns that depend on the machine and the moment: times, the count of timed solves (which
+/// depends on them) and the machine itself.
 fn is_measured(column: &str) -> bool {
     column.ends_with("time_s")
         || column.starts_with("tta_")
         || column.starts_with("phase_")
         || column == "time_per_step_s"
         || column == "solve_wall_max_s"
+        || column.starts_with("solve_time_")
+        || column == "timed_solves"
         || ["host", "cpu_model", "cores"].contains(&column)
 }
 
