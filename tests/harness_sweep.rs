@@ -298,7 +298,8 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
     assert!(
         header.ends_with(
             ",no_solution_steps,host,cpu_model,cores,joint_drift_max,joint_drift_mean,\
-             joint_angle_max,sag_body"
+             joint_angle_max,sag_body,timed_solves,solve_time_min_s,solve_time_max_s,\
+             warm_source,warm_time_s"
         ),
         "{header}"
     );
@@ -306,7 +307,7 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
         .lines()
         .map(|line| {
             let cells: Vec<&str> = line.split(',').collect();
-            format!("{}\n", cells[..cells.len() - 7].join(","))
+            format!("{}\n", cells[..cells.len() - 12].join(","))
         })
         .collect();
     std::fs::write(&results, &older).unwrap();
@@ -314,6 +315,8 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
     assert_eq!(rows.len(), 1);
     assert_eq!(rows[0].host, None);
     assert_eq!(rows[0].cores, None);
+    assert_eq!((rows[0].timed_solves, rows[0].warm_time_s), (None, None));
+    assert!(rows[0].warm_source.is_empty());
     let output = run("pgs,sor");
     assert!(!output.status.success());
     assert!(
