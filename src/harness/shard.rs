@@ -53,6 +53,9 @@ pub const MANIFEST: &str = "shard.json";
 /// What the output directory stands for in the `file:` keys of a report's exported LCPs.
 pub const OUT_PLACEHOLDER: &str = "$OUT";
 
+/// Largest `shard.json` read, bytes (a shard of a million runs lists them in about 150 MB).
+pub const MAX_MANIFEST_BYTES: u64 = 256_000_000;
+
 /// Seconds every run costs in the cost model: starting the child process and loading the case.
 pub const START_S: f64 = 0.01;
 
@@ -519,12 +522,13 @@ impl ShardManifest {
 /// The manifest in `dir`, if it has one.
 pub fn read_manifest(dir: &Path) -> Result<Option<ShardManifest>, ShardError> {
     let path = dir.join(MANIFEST);
-    let text = match std::fs::read_to_string(&path) {
+    // A regular file within a bound (a link to a device or a huge file is refused unread).
+    let text = match lcpbench_solvers::io::input::read_input_file(&path, MAX_MANIFEST_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(source) => return Err(ShardError::Io { path, source }),
     };
-    serde_json::from_str(&text)
+    serde_json::from_slice(&text)
         .map(Some)
         .map_err(|source| ShardError::BadManifest { path, source })
 }
