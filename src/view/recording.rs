@@ -263,6 +263,12 @@ pub struct StepLine {
     /// the solver recorded, such as an active set).
     #[serde(default)]
     pub history: Vec<Value>,
+    /// The convergence history in the page's thinned form ([`history_json`]) as JSON text.
+    /// [`Recording::from_lines`] moves `history` here as it reads each step (and `simulate
+    /// --html` before it keeps a step), so a long run's page holds at most
+    /// [`MAX_HISTORY_POINTS`] points a step, in a few kilobytes, instead of every iteration.
+    #[serde(default)]
+    pub page_history: Option<String>,
     /// Body states after the step.
     pub bodies: Vec<BodyState>,
 }
@@ -335,7 +341,12 @@ impl Recording {
             }
             let step: StepLine =
                 serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?;
+            let mut step = step;
             check_step(&step, steps.last(), &names).map_err(|m| bad(k + 1, m))?;
+            if !step.history.is_empty() {
+                step.page_history = Some(history_json(&step.history).to_string());
+                step.history = Vec::new();
+            }
             steps.push(step);
         }
         let header = header.ok_or_else(|| bad(0, "the file is empty".into()))?;
@@ -654,10 +665,32 @@ fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine, joints: bo
         let ids: Vec<f32> = s.bodies.iter().map(|b| id(&b.name)).collect();
         out["ids"] = page_numbers(&ids);
     }
-    if !s.history.is_empty() {
+    let page_history = s
+        .page_history
+        .as_deref()
+        .and_then(|t| serde_json::from_str::<Value>(t).ok());
+    if let Some(h) = page_history {
+        out["history"] = h;
+    } else if !s.history.is_empty() {
         out["history"] = history_json(&s.history);
     }
     out
+}
+
+/// Replace a step line's `history` (every iteration) by its page form in `page_history`
+/// ([`StepLine::page_history`]), for a page built from lines kept in memory.
+pub fn compact_history(line: &mut Value) {
+    let Some(obj) = line.as_object_mut() else {
+        return;
+    };
+    if let Some(Value::Array(history)) = obj.remove("history") {
+        if !history.is_empty() {
+            obj.insert(
+                "page_history".into(),
+                Value::String(history_json(&history).to_string()),
+            );
+        }
+    }
 }
 
 /// Numbers as a page gets them: whole numbers without a fraction, others as the shortest
