@@ -675,7 +675,12 @@ fn collect_exports(shards: &[ShardDir], keys: &[RunKey]) -> Result<Exports, Merg
 /// The rows of the table at `path` (a regular file, read strictly), refusing a torn last row:
 /// its shard was interrupted, and merging it would lose the run or some of its history.
 fn read_finished<T: TableRow>(path: &Path) -> Result<Vec<T>, MergeError> {
-    let table = read_table::<T>(path).map_err(|e| read_error(path, format!("{e:#}")))?;
+    let table = read_table::<T>(path).map_err(|e| {
+        // The message names the file already; the error adds it once.
+        let message = format!("{e:#}");
+        let prefix = format!("{}: ", path.display());
+        read_error(path, message.strip_prefix(&prefix).unwrap_or(&message))
+    })?;
     match table.torn_at {
         Some(line) => Err(read_error(
             path,

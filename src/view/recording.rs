@@ -953,6 +953,48 @@ mod tests {
         Recording::from_lines(Path::new("r.jsonl"), lines.iter().cloned().map(Ok))
     }
 
+    /// A step line whose history is compacted (as `simulate --html` keeps it) gives the same
+    /// page frame as the full line, and the step read back holds the page form only.
+    #[test]
+    fn compacted_histories_give_the_same_frames_in_a_few_kilobytes() {
+        let (lines, _) = record("box_on_ground.toml", 3, |r| {
+            r.history = (0..5000)
+                .map(|i| lcpbench_solvers::HistoryPoint {
+                    iteration: i,
+                    residual: 1.0 / (1.0 + i as f64),
+                    time_s: 1e-6 * i as f64,
+                })
+                .collect();
+        });
+        let compact: Vec<String> = lines
+            .iter()
+            .map(|l| {
+                let mut v: Value = serde_json::from_str(l).unwrap();
+                compact_history(&mut v);
+                v.to_string()
+            })
+            .collect();
+        assert!(
+            compact[1].len() * 10 < lines[1].len(),
+            "{}",
+            compact[1].len()
+        );
+        let (full, small) = (read(&lines).unwrap(), read(&compact).unwrap());
+        for rec in [&full, &small] {
+            assert!(rec.steps.iter().all(|s| s.history.is_empty()));
+            let page = rec.steps[0].page_history.as_deref().unwrap();
+            assert!(page.len() < 8_000, "{}", page.len());
+        }
+        let (a, b) = (
+            run_data(&full, "x", 10_000_000),
+            run_data(&small, "x", 10_000_000),
+        );
+        assert_eq!(a["frames"], b["frames"]);
+        let history = &a["frames"][0]["history"];
+        assert_eq!(history["thinned_from"], json!(5000));
+        assert!(history["it"].as_array().unwrap().len() <= MAX_HISTORY_POINTS + 1);
+    }
+
     #[test]
     fn joints_are_read_back_and_sent_to_the_page_with_their_anchors() {
         let (lines, reports) = record("joints/chain_20_1e3.toml", 3, |_| {});
