@@ -329,10 +329,10 @@ pub fn read_table<T: TableRow>(path: &Path) -> Result<Table<T>> {
                 });
             }
             bail!(
-                "{}: line {line}: the last line is unfinished and is not the start of a row \
-                 (only a row an interrupted sweep tore is dropped); the file was edited or \
-                 written by something else, and no line of it is dropped silently: repair or \
-                 remove that line",
+                "{}: line {line}: the line is unfinished (no final newline, or a quote left \
+                 open to the end) and is not the start of a row, so no interrupted sweep tore \
+                 it; the file is damaged (it was edited, or written by something else), and no \
+                 line of it is dropped silently: repair or remove that line",
                 path.display()
             );
         }
