@@ -271,7 +271,8 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
         assert_eq!(std::fs::read_to_string(&results).unwrap(), damaged);
     }
     // Only the start of a row, without its newline, is a torn write: dropped and run again.
-    for torn in [text[..cut].to_owned()] {
+    {
+        let torn = text[..cut].to_owned();
         std::fs::write(&results, &torn).unwrap();
         let output = run();
         let stderr = stderr_of(&output);
