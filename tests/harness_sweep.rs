@@ -256,11 +256,23 @@ fn a_torn_last_row_is_dropped_and_rerun_not_padded() {
     let value = line.split(',').nth(column).unwrap();
     assert!(value.len() > 3, "{value}");
     let cut = line_start + field_start + 3;
-    for torn in [
-        text[..cut].to_owned(),              // no newline, columns missing
+    // A complete line that is not a row (ended by a newline, or with more cells than a row)
+    // is no torn write: the resume refuses, naming the line, and leaves the file as it is.
+    for damaged in [
         format!("{}\n", &text[..cut]),       // newline, columns missing
         format!("{}9,9\n", text.trim_end()), // extra columns
+        format!("{}9,9", text.trim_end()),   // extra columns, no newline
     ] {
+        std::fs::write(&results, &damaged).unwrap();
+        let output = run();
+        let stderr = stderr_of(&output);
+        assert!(!output.status.success(), "{stderr}");
+        assert!(stderr.contains("line 3"), "{stderr}");
+        assert_eq!(std::fs::read_to_string(&results).unwrap(), damaged);
+    }
+    // Only the start of a row, without its newline, is a torn write: dropped and run again.
+    {
+        let torn = text[..cut].to_owned();
         std::fs::write(&results, &torn).unwrap();
         let output = run();
         let stderr = stderr_of(&output);

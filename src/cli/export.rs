@@ -4,6 +4,7 @@ use super::world::{apply_solver_overrides, check_steps, load_world, step_progres
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::export::{step_problem, StepProblem};
+use lcpbench::harness::outdir::check_outputs;
 use lcpbench_contact::scene::LoadOptions;
 use lcpbench_solvers::{
     cone_problem_to_json, problem_to_json, write_fclib_local, write_problem, ConeProblem, Problem,
@@ -51,6 +52,7 @@ pub struct ExportArgs {
 
 /// Run `lcpbench export`.
 pub fn run(args: ExportArgs) -> Result<()> {
+    check_outputs(&[("the scene", &args.scene)], &[("--output", &args.output)])?;
     let (scene, mut world) = load_world(
         &args.scene,
         args.solver.as_deref(),

@@ -47,6 +47,7 @@ pub struct GenArgs {
 
 /// Run `lcpbench gen`.
 pub fn run(args: GenArgs) -> Result<()> {
+    lcpbench::harness::outdir::check_outputs(&[], &[("--output", &args.output)])?;
     let Some(family) = Family::from_name(&args.kind, args.n, args.cond, args.rank) else {
         bail!(
             "unknown instance kind `{}` (known: {})",

@@ -5,6 +5,7 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
+use lcpbench::harness::outdir::check_outputs;
 use lcpbench_solvers::{read_problem, write_problem, Problem};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -27,12 +28,7 @@ pub struct ImportArgs {
 
 /// Run `lcpbench import`.
 pub fn run(args: ImportArgs) -> Result<()> {
-    if args.input == args.output {
-        bail!(
-            "--output {} would overwrite the input file",
-            args.output.display()
-        );
-    }
+    check_outputs(&[("the input", &args.input)], &[("--output", &args.output)])?;
     let budget = match args.time_budget {
         Some(t) => Some(budget::time_budget(t).map_err(|m| anyhow!("--time-budget: {m}"))?),
         None => None,

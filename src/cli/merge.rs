@@ -21,6 +21,12 @@ pub struct MergeArgs {
 
 /// Run `lcpbench merge`.
 pub fn run(args: MergeArgs) -> Result<()> {
+    let inputs: Vec<(&str, &std::path::Path)> = args
+        .dirs
+        .iter()
+        .map(|d| ("the shard directory", d.as_path()))
+        .collect();
+    lcpbench::harness::outdir::check_outputs(&inputs, &[("--out", &args.out)])?;
     let summary = merge(&args.dirs, &args.out)?;
     let m = &summary.manifest;
     let mut line = format!(

@@ -50,6 +50,11 @@ const DEFAULT_SCENES: &str = "bench_scenes/*.toml";
 
 /// Run `lcpbench report`.
 pub fn run(args: ReportArgs) -> Result<()> {
+    // A report writes its own files under these; a link there would send them elsewhere.
+    lcpbench::harness::outdir::refuse_linked_dirs(
+        &args.out,
+        &["data", "tables", "plots", "replays", "lcps"],
+    )?;
     check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let pattern = args.scenes.as_deref().unwrap_or(DEFAULT_SCENES);
     let scenes = report::scenes_matching(pattern)?;

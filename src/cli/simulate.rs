@@ -126,7 +126,9 @@ fn apply_overrides(args: &SimulateArgs, world: &mut World) -> Result<()> {
     Ok(())
 }
 
-/// Where the recording lines go: the `--record` file and the `--html` page (kept in memory).
+/// Where the recording lines go: the `--record` file and the `--html` page (kept in memory,
+/// each step's convergence history already thinned to the page's form, so memory stays a few
+/// kilobytes a step however many iterations a solve took).
 struct Recorder {
     file: Option<BufWriter<std::fs::File>>,
     page_lines: Option<Vec<String>>,
@@ -151,12 +153,13 @@ impl Recorder {
         self.file.is_some() || self.page_lines.is_some()
     }
 
-    fn push(&mut self, line: String) -> Result<()> {
+    fn push(&mut self, mut line: serde_json::Value) -> Result<()> {
         if let Some(w) = self.file.as_mut() {
             writeln!(w, "{line}")?;
         }
         if let Some(lines) = self.page_lines.as_mut() {
-            lines.push(line);
+            lcpbench::view::recording::compact_history(&mut line);
+            lines.push(line.to_string());
         }
         Ok(())
     }
@@ -265,6 +268,12 @@ fn check_supported(args: &SimulateArgs, report: &StepReport) -> Result<()> {
 
 /// Run `lcpbench simulate`.
 pub fn run_simulate(args: SimulateArgs) -> Result<()> {
+    let outputs: Vec<(&str, &std::path::Path)> =
+        [("--record", &args.record), ("--html", &args.html)]
+            .into_iter()
+            .filter_map(|(what, p)| p.as_deref().map(|p| (what, p)))
+            .collect();
+    lcpbench::harness::outdir::check_outputs(&[("the scene", &args.scene)], &outputs)?;
     let (scene, mut world) = load_world(
         &args.scene,
         args.solver.as_deref(),
@@ -285,7 +294,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         );
     }
     let mut recorder = Recorder::new(&args)?;
-    recorder.push(lcpbench::view::header(&scene.name, &world).to_string())?;
+    recorder.push(lcpbench::view::header(&scene.name, &world))?;
     let mut totals = SimTotals::new(&world);
     let top = TopBody::of(&scene, &world);
     let mut joints = JointMetrics::new(&world, scene.metrics.sag_body.as_deref());
@@ -295,7 +304,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         let report = world.step();
         check_supported(&args, &report)?;
         if recorder.is_active() {
-            recorder.push(lcpbench::view::recording::step_line(&report, &world).to_string())?;
+            recorder.push(lcpbench::view::recording::step_line(&report, &world))?;
         }
         totals.observe(&report);
         joints.observe(&report, &world);

@@ -4,6 +4,7 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
+use lcpbench::harness::outdir::check_outputs;
 use lcpbench::harness::Case;
 use lcpbench::view::recording::MAX_RECORDING_BYTES;
 use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
@@ -62,6 +63,12 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     let time_budget =
         budget::time_budget(args.time_budget).map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?;
+    let inputs: Vec<(&str, &Path)> = args
+        .inputs
+        .iter()
+        .map(|p| ("the input", Path::new(p)))
+        .collect();
+    check_outputs(&inputs, &[("--output", &args.output)])?;
     let first = Path::new(&args.inputs[0]);
     let recording = first.exists() && is_recording(first)?;
     let min = view::min_page_bytes(recording);

@@ -7,20 +7,28 @@
 //! sweeps, kinds, shard counts or commits; a shard given twice or missing; keys that do not make
 //! up the sweep; a row that is no run of the sweep; two different rows for one run (identical
 //! copies are dropped); a run without a row; an exported LCP that differs between shards or that
-//! no shard has. Nothing is written until every check has passed, and only into a new or empty
-//! output directory, with files it creates.
+//! no shard has; a table, manifest or exported problem that is not a regular file within its
+//! size bound; a `histories.csv` or `results.csv` with a damaged line or a torn last line (an
+//! interrupted shard: resume it first); a `host` or `cpu_model` with control characters (the
+//! report prints them). A shard count is never used to allocate: only the shards given are.
+//! Nothing is written until every check has passed, and then into a temporary directory beside
+//! the output that is renamed onto it (a new name, or an empty directory) when complete, so a
+//! failure leaves no partial output.
 
+use crate::harness::outdir::{read_table, TableRow};
 use crate::harness::record::{HistoryRow, RunKey, RunRecord};
 use crate::harness::shard::{
     portable_case, read_manifest, rooted_case, sweep_id, ShardError, ShardManifest, SweepKind,
-    OUT_PLACEHOLDER,
+    MANIFEST, MAX_MANIFEST_BYTES, OUT_PLACEHOLDER,
 };
-use crate::harness::sweep::read_results;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// Most missing shard numbers named in an error.
+const MISSING_LISTED: usize = 10;
 
 /// File name of a merged directory's manifest.
 pub const MERGED: &str = "merged.json";
@@ -186,12 +194,12 @@ pub struct MergedManifest {
 /// The manifest of a merged directory, if it has one.
 pub fn read_merged(dir: &Path) -> Result<Option<MergedManifest>, MergeError> {
     let path = dir.join(MERGED);
-    let text = match std::fs::read_to_string(&path) {
+    let text = match lcpbench_solvers::io::input::read_input_file(&path, MAX_MANIFEST_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(read_error(&path, e)),
     };
-    serde_json::from_str(&text)
+    serde_json::from_slice(&text)
         .map(Some)
         .map_err(|e| read_error(&path, e))
 }
@@ -245,24 +253,71 @@ impl ShardDir {
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeSummary, MergeError> {
     check_out(out)?;
     let shards = read_shards(dirs)?;
-    let first = &shards[0].manifest;
-    let kind = first.kind;
     // Run keys as the merged directory names them, by position in the sweep.
     let keys = sweep_keys(&shards, out)?;
     let index: HashMap<&RunKey, usize> = keys.iter().enumerate().map(|(i, k)| (k, i)).collect();
     let (rows, identical_duplicates) = collect_rows(&shards, &keys, &index, out)?;
     let exports = collect_exports(&shards, &keys)?;
-    // Every check has passed: write.
-    let data = kind.data_dir(out);
+    // Every check has passed: write into a temporary directory beside `out`, renamed onto it
+    // when complete (and removed on failure), so no partial output is left.
+    let staging = staging_dir(out)?;
+    let written = write_merged(&shards, &keys, &index, &rows, &exports, out, &staging);
+    let (manifest, histories) = match written {
+        Ok(done) => done,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&staging);
+            return Err(e);
+        }
+    };
+    if let Err(e) = std::fs::rename(&staging, out) {
+        let _ = std::fs::remove_dir_all(&staging);
+        return Err(write_error(out, e));
+    }
+    Ok(MergeSummary {
+        manifest,
+        rows: rows.len(),
+        identical_duplicates,
+        histories,
+        exports: exports.len(),
+    })
+}
+
+/// A new, empty directory beside `out` for the merged files.
+fn staging_dir(out: &Path) -> Result<PathBuf, MergeError> {
+    let name = out
+        .file_name()
+        .map_or("merged".into(), |n| n.to_string_lossy().into_owned());
+    let staging = out.with_file_name(format!(".{name}.merge-{}.tmp", std::process::id()));
+    if let Some(parent) = staging.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| write_error(parent, e))?;
+    }
+    std::fs::create_dir(&staging).map_err(|e| write_error(&staging, e))?;
+    Ok(staging)
+}
+
+/// Write the merged files into `dir` (the staging directory of `out`, whose name the run keys
+/// use); returns the manifest and the history rows written.
+fn write_merged(
+    shards: &[ShardDir],
+    keys: &[RunKey],
+    index: &HashMap<&RunKey, usize>,
+    rows: &[SourcedRow],
+    exports: &Exports,
+    out: &Path,
+    dir: &Path,
+) -> Result<(MergedManifest, usize), MergeError> {
+    let first = &shards[0].manifest;
+    let kind = first.kind;
+    let data = kind.data_dir(dir);
     std::fs::create_dir_all(&data).map_err(|e| write_error(&data, e))?;
-    if let Some(dir) = kind.exports_dir(out) {
-        std::fs::create_dir_all(&dir).map_err(|e| write_error(&dir, e))?;
-        for (name, (bytes, _)) in &exports {
-            write_new(&dir.join(name), bytes)?;
+    if let Some(lcps) = kind.exports_dir(dir) {
+        std::fs::create_dir_all(&lcps).map_err(|e| write_error(&lcps, e))?;
+        for (name, (bytes, _)) in exports {
+            write_new(&lcps.join(name), bytes)?;
         }
     }
-    let histories = write_histories(&shards, &rows, &index, out, &data.join("histories.csv"))?;
-    write_results(&data.join("results.csv"), &rows)?;
+    let histories = write_histories(shards, rows, index, out, &data.join("histories.csv"))?;
+    write_results(&data.join("results.csv"), rows)?;
     let manifest = MergedManifest {
         sweep: first.sweep.clone(),
         kind,
@@ -275,14 +330,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeSummary, MergeError> {
             .collect(),
     };
     let text = serde_json::to_string_pretty(&manifest).map_err(|e| write_error(out, e))? + "\n";
-    write_new(&out.join(MERGED), text.as_bytes())?;
-    Ok(MergeSummary {
-        manifest,
-        rows: rows.len(),
-        identical_duplicates,
-        histories,
-        exports: exports.len(),
-    })
+    write_new(&dir.join(MERGED), text.as_bytes())?;
+    Ok((manifest, histories))
 }
 
 fn read_error(path: &Path, e: impl std::fmt::Display) -> MergeError {
@@ -359,6 +408,16 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
     let count = first.manifest.shards;
     let mut by_number: BTreeMap<usize, &ShardDir> = BTreeMap::new();
     for s in &shards {
+        if s.manifest.shard == 0 || s.manifest.shard > count {
+            return Err(MergeError::BadKeys {
+                sweep: s.manifest.sweep.clone(),
+                detail: format!(
+                    "{} says it is shard {} of {count}",
+                    s.dir.join(MANIFEST).display(),
+                    s.manifest.shard
+                ),
+            });
+        }
         if let Some(earlier) = by_number.insert(s.manifest.shard, s) {
             return Err(MergeError::RepeatedShard {
                 shard: s.manifest.shard().to_string(),
@@ -367,10 +426,16 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
             });
         }
     }
-    let missing: Vec<String> = (1..=count)
+    // The first few missing numbers only: the count comes from a file and may be huge.
+    let mut missing: Vec<String> = (1..=count)
         .filter(|k| !by_number.contains_key(k))
+        .take(MISSING_LISTED)
         .map(|k| k.to_string())
         .collect();
+    let absent = count.saturating_sub(by_number.len());
+    if absent > MISSING_LISTED {
+        missing.push(format!("… ({absent} in all)"));
+    }
     if !missing.is_empty() || shards.len() != count {
         return Err(MergeError::MissingShards {
             missing: missing.join(", "),
@@ -487,12 +552,13 @@ fn collect_rows(
     let mut identical = 0;
     for (s_index, s) in shards.iter().enumerate() {
         let path = s.results();
-        let shard_rows = if path.exists() {
-            read_results(&path).map_err(|e| read_error(&path, format!("{e:#}")))?
+        let shard_rows: Vec<RunRecord> = if path.exists() || path.symlink_metadata().is_ok() {
+            read_finished(&path)?
         } else {
             Vec::new()
         };
-        for mut row in shard_rows {
+        for (n, mut row) in shard_rows.into_iter().enumerate() {
+            check_machine_text(&path, n + 1, &row)?;
             row.case = s.case_in(&row.case, out);
             let key = row.key();
             let &i = index.get(&key).ok_or_else(|| MergeError::ForeignRow {
@@ -569,7 +635,11 @@ fn collect_exports(shards: &[ShardDir], keys: &[RunKey]) -> Result<Exports, Merg
             let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
                 continue;
             };
-            let bytes = std::fs::read(&path).map_err(|e| read_error(&path, e))?;
+            let bytes = lcpbench_solvers::io::input::read_input_file(
+                &path,
+                lcpbench_solvers::io::MAX_PROBLEM_FILE_BYTES,
+            )
+            .map_err(|e| read_error(&path, e))?;
             match exports.get(&name) {
                 Some((earlier, from)) if *earlier != bytes => {
                     return Err(MergeError::ExportsDiffer {
@@ -600,6 +670,47 @@ fn collect_exports(shards: &[ShardDir], keys: &[RunKey]) -> Result<Exports, Merg
         }
     }
     Ok(exports)
+}
+
+/// The rows of the table at `path` (a regular file, read strictly), refusing a torn last row:
+/// its shard was interrupted, and merging it would lose the run or some of its history.
+fn read_finished<T: TableRow>(path: &Path) -> Result<Vec<T>, MergeError> {
+    let table = read_table::<T>(path).map_err(|e| {
+        // The message names the file already; the error adds it once.
+        let message = format!("{e:#}");
+        let prefix = format!("{}: ", path.display());
+        read_error(path, message.strip_prefix(&prefix).unwrap_or(&message))
+    })?;
+    match table.torn_at {
+        Some(line) => Err(read_error(
+            path,
+            format!(
+                "line {line}: the last row was torn (the shard was interrupted); resume that \
+                 shard with the command that started it, then merge"
+            ),
+        )),
+        None => Ok(table.rows),
+    }
+}
+
+/// Refuse a `host` or `cpu_model` with control characters (a newline, an escape): the report
+/// prints them in its header and tables.
+fn check_machine_text(path: &Path, row: usize, r: &RunRecord) -> Result<(), MergeError> {
+    for (column, value) in [("host", &r.host), ("cpu_model", &r.cpu_model)] {
+        if let Some(v) = value {
+            if let Some(c) = v.chars().find(|c| c.is_control()) {
+                return Err(read_error(
+                    path,
+                    format!(
+                        "row {row} (run {}): column {column} holds the control character \
+                         {c:?}; a machine's name is one line of text",
+                        r.key()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Create `path` (refusing an existing file) with `bytes`.
@@ -646,13 +757,10 @@ fn write_histories(
     let mut written = 0;
     for (s_index, s) in shards.iter().enumerate() {
         let source = s.histories();
-        if !source.exists() {
+        if !source.exists() && source.symlink_metadata().is_err() {
             continue;
         }
-        let mut reader = csv::Reader::from_path(&source).map_err(|e| read_error(&source, e))?;
-        for h in reader.deserialize::<HistoryRow>() {
-            // A torn last line of an interrupted shard: its run has no row, or a complete one.
-            let Ok(mut h) = h else { continue };
+        for mut h in read_finished::<HistoryRow>(&source)? {
             h.case = s.case_in(&h.case, out);
             let from_here = index.get(&h.key()).is_some_and(|&i| rows[i].1 == s_index);
             if from_here {
@@ -680,6 +788,7 @@ fn write_histories(
 mod tests {
     use super::*;
     use crate::harness::shard::{Shard, ShardPlan};
+    use crate::harness::sweep::read_results;
     use crate::harness::{cross_product, Case, Job};
 
     /// The jobs of a report sweep written to `dir`: two exported LCPs under `dir/lcps` and a

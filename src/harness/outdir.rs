@@ -6,7 +6,13 @@
 //!   ([`table_origin`], [`check_own_table`]);
 //! * it never follows a symbolic link for its lock or its tables ([`lock_dir`]);
 //! * it reads a table strictly: a row that does not parse is refused with its line number,
-//!   except the last row of a file an interrupted sweep tore ([`read_table`]).
+//!   except the last row of a file an interrupted sweep tore, which must read as the start of
+//!   a row ([`read_table`]);
+//! * it never writes through a symbolic link to a directory of its own layout (`data/`,
+//!   `tables/`, `plots/`, … of a report or shard: [`refuse_linked_dirs`]);
+//! * no command writes an output onto one of its inputs or onto another of its outputs, judged
+//!   by file identity (device and inode, so `./d/../p`, symbolic and hard links count as the
+//!   same file): [`check_outputs`], which every subcommand with an output path calls.
 
 use anyhow::{bail, Context, Result};
 use std::fs::{File, OpenOptions, TryLockError};
@@ -86,6 +92,100 @@ fn refuse_link(path: &Path) -> Result<()> {
     }
 }
 
+/// Refuse a symbolic link (or anything but a directory) at any of `subdirs` under `dir`: a
+/// report or sweep writes its own files there, and a link would send them into another
+/// directory. Missing ones are fine (they are created).
+pub fn refuse_linked_dirs(dir: &Path, subdirs: &[&str]) -> Result<()> {
+    for sub in subdirs {
+        let path = dir.join(sub);
+        match std::fs::symlink_metadata(&path) {
+            Ok(meta) if meta.file_type().is_symlink() => bail!(
+                "{} is a symbolic link; lcpbench writes its own files there and does not follow                  links in an output directory (remove the link, or choose another output                  directory)",
+                path.display()
+            ),
+            Ok(meta) if !meta.is_dir() => bail!(
+                "{} is not a directory; lcpbench writes its own files there (remove it, or                  choose another output directory)",
+                path.display()
+            ),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// What makes two paths the same file: device and inode of an existing file (links followed,
+/// so a symbolic or hard link is its target), else the canonical directory and the name a new
+/// file would get there.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum FileIdentity {
+    Inode(u64, u64),
+    New(PathBuf),
+}
+
+/// The identity of `path` (see [`FileIdentity`]); `None` when its directory does not exist
+/// either (then no file can be written there, and it equals no input).
+fn file_identity(path: &Path) -> Option<FileIdentity> {
+    if let Ok(meta) = std::fs::metadata(path) {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            return Some(FileIdentity::Inode(meta.dev(), meta.ino()));
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = meta;
+            return std::fs::canonicalize(path).ok().map(FileIdentity::New);
+        }
+    }
+    // A dangling symbolic link is written through: it stands for its target.
+    let target = match std::fs::read_link(path) {
+        Ok(t) => path.parent().unwrap_or(Path::new(".")).join(t),
+        Err(_) => path.to_owned(),
+    };
+    let name = target.file_name()?;
+    let parent = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    std::fs::canonicalize(parent)
+        .ok()
+        .map(|dir| FileIdentity::New(dir.join(name)))
+}
+
+/// Refuse a command whose output would land on one of its inputs or on another of its
+/// outputs: `inputs` and `outputs` are (option name, path) pairs, such as `("the scene", p)`
+/// and `("--record", q)`. Files are compared by identity (device and inode; a file not yet
+/// written by its canonical directory and name), so `./d/../p`, a symbolic link and a hard
+/// link to an input are all refused. Call before anything is read or written.
+pub fn check_outputs(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<()> {
+    let inputs: Vec<_> = inputs
+        .iter()
+        .map(|&(what, p)| (what, p, file_identity(p)))
+        .collect();
+    let mut seen: Vec<(&str, &Path, Option<FileIdentity>)> = Vec::new();
+    for &(what, path) in outputs {
+        let id = file_identity(path);
+        if id.is_some() {
+            if let Some((input, ipath, _)) = inputs.iter().find(|(_, _, i)| *i == id) {
+                bail!(
+                    "{what} {} is the same file as {input} {} (through `..`, a symbolic link or                      a hard link, or the same name); writing it would destroy the input: choose                      another output path",
+                    path.display(),
+                    ipath.display()
+                );
+            }
+            if let Some((other, opath, _)) = seen.iter().find(|(_, _, o)| *o == id) {
+                bail!(
+                    "{what} {} and {other} {} are the same file; each output needs its own path",
+                    path.display(),
+                    opath.display()
+                );
+            }
+        }
+        seen.push((what, path, id));
+    }
+    Ok(())
+}
+
 /// Whose table `path` is, from its header and `columns`, this version's header.
 pub fn table_origin(path: &Path, columns: &[String]) -> Result<TableOrigin> {
     if !path.exists() && std::fs::symlink_metadata(path).is_err() {
@@ -153,31 +253,57 @@ pub fn check_own_table(path: &Path, columns: &[String], what: &str) -> Result<Ta
     }
 }
 
+/// A row type of an lcpbench table, with a sample row whose cells complete the start of a torn
+/// row for [`read_table`]'s check that it is one.
+pub trait TableRow: serde::de::DeserializeOwned + serde::Serialize {
+    /// Any valid row.
+    fn sample() -> Self;
+}
+
+impl TableRow for crate::harness::record::RunRecord {
+    fn sample() -> Self {
+        Self::default()
+    }
+}
+
+impl TableRow for crate::harness::record::HistoryRow {
+    fn sample() -> Self {
+        Self {
+            case: "spd:n=1:cond=1:seed=1".into(),
+            solver: Default::default(),
+            budget: Default::default(),
+            iteration: 0,
+            time_s: 0.0,
+            residual: 0.0,
+        }
+    }
+}
+
 /// The rows of a table, read strictly, and whether its last row was torn.
 #[derive(Debug, Clone)]
 pub struct Table<T> {
     /// The rows that parse.
     pub rows: Vec<T>,
     /// 1-based line of a last row that an interrupted write tore (no final newline, or a quoted
-    /// field cut short), which is not in `rows`.
+    /// field cut short) and that reads as the start of a row; it is not in `rows`.
     pub torn_at: Option<u64>,
 }
 
-/// Read the table at `path`. Only a newline-terminated row counts as written, and only the last
-/// row may be incomplete (an interrupted sweep appends one row at a time and flushes it):
-/// any other row that does not parse (a wrong column count, a cell that is not a value of its
-/// column, a quote left open so that it swallows the rows after it) is an error naming its
-/// line, and nothing is dropped silently.
-pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T>> {
+/// Read the table at `path` (a regular file of at most [`MAX_TABLE_BYTES`]). Only a
+/// newline-terminated row counts as written. The one exception to strict reading is the last
+/// row of an interrupted sweep (which appends one row at a time and flushes it): an unfinished
+/// last line (no final newline, or a quote left open to the end) is dropped as torn when it
+/// reads as the *start* of a row, its cells but the last valid values of their columns and the
+/// last one the start of such a value. Any other line that is not a row (a wrong cell count, a
+/// cell that is not a value of its column, a line of something else, even the last one) is an
+/// error naming the file and line, and nothing is dropped silently.
+pub fn read_table<T: TableRow>(path: &Path) -> Result<Table<T>> {
     refuse_link(path)?;
     let bytes = lcpbench_solvers::io::input::read_input_file(path, MAX_TABLE_BYTES)
         .with_context(|| format!("reading {}", path.display()))?;
-    let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
-    let tail_torn = bytes[complete..].iter().any(|c| !c.is_ascii_whitespace());
-    let lines_before = |offset: usize| 1 + bytes[..offset].iter().filter(|&&c| c == b'\n').count();
     let mut reader = csv::ReaderBuilder::new()
-        .flexible(false)
-        .from_reader(&bytes[..complete]);
+        .flexible(true)
+        .from_reader(&bytes[..]);
     let headers = reader
         .byte_headers()
         .with_context(|| format!("{}: line 1: not a CSV header", path.display()))?
@@ -186,8 +312,37 @@ pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T
     let mut record = csv::ByteRecord::new();
     loop {
         let start = reader.position().clone();
-        let failure = match reader.read_byte_record(&mut record) {
+        let read = reader.read_byte_record(&mut record);
+        let at = start.byte() as usize;
+        let line = start.line();
+        let rest = &bytes[at.min(bytes.len())..];
+        // Unfinished: the file ends inside this record (no newline after it, or an open quote).
+        let unfinished = reader.position().byte() as usize >= bytes.len()
+            && !rest.iter().all(u8::is_ascii_whitespace)
+            && (bytes.last() != Some(&b'\n')
+                || rest.iter().filter(|&&c| c == b'"').count() % 2 == 1);
+        if unfinished {
+            if starts_a_row::<T>(rest, &headers) {
+                return Ok(Table {
+                    rows,
+                    torn_at: Some(line),
+                });
+            }
+            bail!(
+                "{}: line {line}: the line is unfinished (no final newline, or a quote left \
+                 open to the end) and is not the start of a row, so no interrupted sweep tore \
+                 it; the file is damaged (it was edited, or written by something else), and no \
+                 line of it is dropped silently: repair or remove that line",
+                path.display()
+            );
+        }
+        let failure = match read {
             Ok(false) => break,
+            Ok(true) if record.len() != headers.len() => format!(
+                "the row has {} cells where the header has {}",
+                record.len(),
+                headers.len()
+            ),
             Ok(true) => match record.deserialize::<T>(Some(&headers)) {
                 Ok(row) => {
                     rows.push(row);
@@ -197,22 +352,6 @@ pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T
             },
             Err(e) => csv_problem(&e),
         };
-        let at = start.byte() as usize;
-        let line = start.line();
-        // A torn last row spans to the end of the file and nothing after its first line parses
-        // as a row; an open quote in the middle swallows complete rows.
-        let rest = &bytes[at..complete];
-        let after_first_line = rest
-            .iter()
-            .position(|&c| c == b'\n')
-            .map_or(&rest[rest.len()..], |i| &rest[i + 1..]);
-        let reaches_end = reader.is_done() || reader.position().byte() as usize >= complete;
-        if reaches_end && !parses_a_row::<T>(after_first_line, &headers) {
-            return Ok(Table {
-                rows,
-                torn_at: Some(line),
-            });
-        }
         bail!(
             "{}: line {line}: {failure}; the file is damaged (it was edited, or written by \
              something else), and no row of it is dropped silently: repair or remove that line",
@@ -221,7 +360,7 @@ pub fn read_table<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Table<T
     }
     Ok(Table {
         rows,
-        torn_at: tail_torn.then(|| lines_before(complete) as u64),
+        torn_at: None,
     })
 }
 
@@ -240,18 +379,74 @@ fn csv_problem(e: &csv::Error) -> String {
     }
 }
 
-/// True when some line of `bytes`, read as rows of the table with `headers`, makes a row.
-fn parses_a_row<T: serde::de::DeserializeOwned>(bytes: &[u8], headers: &csv::ByteRecord) -> bool {
-    bytes.split(|&c| c == b'\n').any(|line| {
-        csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(false)
-            .from_reader(line)
-            .byte_records()
-            .next()
-            .and_then(Result::ok)
-            .filter(|r| r.len() == headers.len())
-            .is_some_and(|r| r.deserialize::<T>(Some(headers)).is_ok())
+/// The cells of `row` as the CSV writer writes them.
+fn cells_of<T: serde::Serialize>(row: &T) -> Vec<Vec<u8>> {
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_writer(Vec::new());
+    let bytes = w
+        .serialize(row)
+        .ok()
+        .and_then(|()| w.into_inner().ok())
+        .unwrap_or_default();
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(&bytes[..])
+        .byte_records()
+        .next()
+        .and_then(Result::ok)
+        .map(|r| r.iter().map(<[u8]>::to_vec).collect())
+        .unwrap_or_default()
+}
+
+/// True when `bytes` (one unfinished line, or a record whose quote is still open) reads as the
+/// start of a row of the table with `headers`: at most as many cells as the header, each but
+/// the last a valid value of its column, and the last one the start of a valid value (the
+/// cells after it taken from [`TableRow::sample`]).
+fn starts_a_row<T: TableRow>(bytes: &[u8], headers: &csv::ByteRecord) -> bool {
+    let Some(Ok(found)) = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(bytes)
+        .byte_records()
+        .next()
+    else {
+        return false;
+    };
+    let sample = cells_of(&T::sample());
+    let k = found.len();
+    if k == 0 || k > headers.len() || sample.len() != headers.len() {
+        return false;
+    }
+    let last = &found[k - 1];
+    // Ways the cut last cell may end: as it is, or completed into a number, a special float,
+    // a boolean or the sample's own value.
+    let mut endings: Vec<Vec<u8>> = vec![last.to_vec()];
+    for suffix in [&b"0"[..], b"e0", b".0"] {
+        endings.push([last, suffix].concat());
+    }
+    for word in [
+        &b"NaN"[..],
+        b"inf",
+        b"-inf",
+        b"true",
+        b"false",
+        &sample[k - 1],
+    ] {
+        if word.starts_with(last) {
+            endings.push(word.to_vec());
+        }
+    }
+    endings.into_iter().any(|ending| {
+        let mut candidate = csv::ByteRecord::new();
+        for cell in found.iter().take(k - 1) {
+            candidate.push_field(cell);
+        }
+        candidate.push_field(&ending);
+        for cell in &sample[k..] {
+            candidate.push_field(cell);
+        }
+        candidate.deserialize::<T>(Some(headers)).is_ok()
     })
 }
 

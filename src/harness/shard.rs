@@ -55,6 +55,9 @@ pub const MANIFEST: &str = "shard.json";
 /// What the output directory stands for in the `file:` keys of a report's exported LCPs.
 pub const OUT_PLACEHOLDER: &str = "$OUT";
 
+/// Largest `shard.json` read, bytes (a shard of a million runs lists them in about 150 MB).
+pub const MAX_MANIFEST_BYTES: u64 = 256_000_000;
+
 /// Seconds every run costs in the cost model: starting the child process and loading the case.
 pub const START_S: f64 = 0.01;
 
@@ -299,8 +302,12 @@ fn lcp_seconds(n: usize, iterations: f64, time_s: f64) -> f64 {
 /// Greedy longest-processing-time assignment of jobs with `costs` to `count` shards: jobs by
 /// decreasing cost (ties by position), each to the shard with the least total so far (ties to
 /// the lower shard). Returns each job's shard, 0-based.
+///
+/// Memory is that of the jobs, whatever `count`: with more shards than jobs, the jobs in
+/// decreasing cost take shards 1, 2, … in turn (every earlier shard holds more), and shards
+/// past the job count get no job, so only the first `min(count, jobs)` shards are kept.
 pub fn partition(costs: &[u64], count: usize) -> Vec<usize> {
-    let count = count.max(1);
+    let count = count.clamp(1, costs.len().max(1));
     let mut order: Vec<usize> = (0..costs.len()).collect();
     order.sort_by_key(|&i| (Reverse(costs[i]), i));
     let mut loads: BinaryHeap<Reverse<(u64, usize)>> =
@@ -518,12 +525,13 @@ impl ShardManifest {
 /// The manifest in `dir`, if it has one.
 pub fn read_manifest(dir: &Path) -> Result<Option<ShardManifest>, ShardError> {
     let path = dir.join(MANIFEST);
-    let text = match std::fs::read_to_string(&path) {
+    // A regular file within a bound (a link to a device or a huge file is refused unread).
+    let text = match lcpbench_solvers::io::input::read_input_file(&path, MAX_MANIFEST_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(source) => return Err(ShardError::Io { path, source }),
     };
-    serde_json::from_str(&text)
+    serde_json::from_slice(&text)
         .map(Some)
         .map_err(|source| ShardError::BadManifest { path, source })
 }
@@ -666,6 +674,32 @@ mod tests {
             "{cost_split} {count_split}"
         );
         assert!(cost_split <= total / 3 + largest);
+    }
+
+    /// More shards than jobs: the assignment is that of one shard per job, shards past the job
+    /// count are empty, and nothing is allocated per shard (a count of `usize::MAX` would
+    /// otherwise overflow, and one of 1e9 would take gigabytes).
+    #[test]
+    fn a_huge_shard_count_costs_no_memory_and_leaves_the_later_shards_empty() {
+        let costs = [5, 1, 9, 3];
+        let per_job = partition(&costs, costs.len());
+        assert_eq!(partition(&costs, 1_000_000_000), per_job);
+        assert_eq!(partition(&costs, usize::MAX), per_job);
+        // Decreasing cost takes shards 0, 1, 2, 3 in turn.
+        assert_eq!(per_job, vec![1, 3, 0, 2]);
+        let plan = ShardPlan::new(SweepKind::Bench, sweep(), Path::new("out"));
+        let huge = |index| Shard {
+            index,
+            count: usize::MAX,
+        };
+        let firsts: usize = (1..=plan.len())
+            .map(|k| plan.positions(huge(k)).len())
+            .sum();
+        assert_eq!(firsts, plan.len());
+        assert!(plan.jobs(huge(usize::MAX)).is_empty());
+        assert!(plan.manifest(huge(plan.len() + 1), "abc").keys.is_empty());
+        let spec = format!("1/{}", usize::MAX);
+        assert_eq!(spec.parse::<Shard>().unwrap(), huge(1));
     }
 
     #[test]

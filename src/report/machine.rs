@@ -6,7 +6,8 @@ use std::process::Command;
 /// Where and when a report was produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Header {
-    /// CPU model of the machine writing the report (`/proc/cpuinfo`), or `unknown`.
+    /// CPU model of the machine writing the report (`/proc/cpuinfo`), or `unknown`, escaped
+    /// for the README ([`escape_cell`]).
     pub cpu: String,
     /// Logical cores available to the process.
     pub cores: usize,
@@ -44,7 +45,7 @@ impl Header {
     pub fn collect(command: &str, workers: usize, out_dir: &std::path::Path) -> Self {
         let machine = Machine::current();
         Self {
-            cpu: machine.cpu_model.clone(),
+            cpu: escape_cell(&machine.cpu_model),
             cores: machine.cores,
             os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
             commit: commit(out_dir),
@@ -53,6 +54,28 @@ impl Header {
             workers,
         }
     }
+}
+
+/// `text` made safe to print in a Markdown table cell or HTML: control characters (a newline
+/// would end the table row) become spaces, and the characters Markdown or HTML would read as
+/// markup (`<`, `>`, `&`, `|`, a backquote, `*`, `_`, `[`, `]`, `\`) become HTML character
+/// references, which both render as the character itself. Every machine field the report prints
+/// (host, CPU model) goes through it.
+pub fn escape_cell(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            c if c.is_control() => out.push(' '),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '&' => out.push_str("&amp;"),
+            '|' | '`' | '*' | '_' | '[' | ']' | '\\' => {
+                out.push_str(&format!("&#{};", u32::from(c)));
+            }
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// The lcpbench commit of the working directory: `git rev-parse --short HEAD`, with `+dirty`
@@ -128,6 +151,24 @@ fn report_pathspec(out_dir: &std::path::Path, top: Option<String>) -> Option<Str
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn machine_text_cannot_break_a_table_or_carry_markup() {
+        let hostile = "node\n| x |\n```\n<img src=x onerror=alert(1)>";
+        let cell = escape_cell(hostile);
+        for bad in ['\n', '|', '`', '<', '>'] {
+            assert!(!cell.contains(bad), "{cell}");
+        }
+        assert_eq!(
+            cell,
+            "node &#124; x &#124; &#96;&#96;&#96; &lt;img src=x onerror=alert(1)&gt;"
+        );
+        assert_eq!(
+            escape_cell("Intel(R) Xeon(R) 2.10GHz"),
+            "Intel(R) Xeon(R) 2.10GHz"
+        );
+        assert_eq!(escape_cell("a&b_c"), "a&amp;b&#95;c");
+    }
 
     #[test]
     fn formats_known_dates() {

@@ -6,6 +6,7 @@
 //! rows (ties: the first by CPU model), and the overview says so and lists the hosts. The
 //! robustness matrix, which counts statuses, uses every row.
 
+use super::machine::escape_cell;
 use crate::harness::{HistoryRow, RunKey, RunRecord};
 use std::collections::{BTreeMap, BTreeSet, HashSet};
 
@@ -43,13 +44,18 @@ impl MachineGroup {
         let Some(kind) = &self.kind else {
             return "rows without a recorded machine".to_owned();
         };
-        let hosts: Vec<&str> = self.hosts.iter().map(String::as_str).collect();
+        // Host and CPU model came from the rows (other machines, merged shards): escaped.
+        let hosts: Vec<String> = self.hosts.iter().map(|h| escape_cell(h)).collect();
         let on = match &hosts[..] {
-            [one] => (*one).to_owned(),
+            [one] => one.clone(),
             few if few.len() <= 3 => format!("{} hosts ({})", few.len(), few.join(", ")),
             many => format!("{} hosts ({}, …)", many.len(), many[..3].join(", ")),
         };
-        format!("{}, {} cores on {on}", kind.cpu_model, kind.cores)
+        format!(
+            "{}, {} cores on {on}",
+            escape_cell(&kind.cpu_model),
+            kind.cores
+        )
     }
 }
 

@@ -263,6 +263,12 @@ pub struct StepLine {
     /// the solver recorded, such as an active set).
     #[serde(default)]
     pub history: Vec<Value>,
+    /// The convergence history in the page's thinned form ([`history_json`]) as JSON text.
+    /// [`Recording::from_lines`] moves `history` here as it reads each step (and `simulate
+    /// --html` before it keeps a step), so a long run's page holds at most
+    /// [`MAX_HISTORY_POINTS`] points a step, in a few kilobytes, instead of every iteration.
+    #[serde(default)]
+    pub page_history: Option<String>,
     /// Body states after the step.
     pub bodies: Vec<BodyState>,
 }
@@ -335,7 +341,12 @@ impl Recording {
             }
             let step: StepLine =
                 serde_json::from_str(&line).map_err(|e| bad(k + 1, e.to_string()))?;
+            let mut step = step;
             check_step(&step, steps.last(), &names).map_err(|m| bad(k + 1, m))?;
+            if !step.history.is_empty() {
+                step.page_history = Some(history_json(&step.history).to_string());
+                step.history = Vec::new();
+            }
             steps.push(step);
         }
         let header = header.ok_or_else(|| bad(0, "the file is empty".into()))?;
@@ -654,10 +665,32 @@ fn frame(rec: &Recording, index: &HashMap<&str, usize>, s: &StepLine, joints: bo
         let ids: Vec<f32> = s.bodies.iter().map(|b| id(&b.name)).collect();
         out["ids"] = page_numbers(&ids);
     }
-    if !s.history.is_empty() {
+    let page_history = s
+        .page_history
+        .as_deref()
+        .and_then(|t| serde_json::from_str::<Value>(t).ok());
+    if let Some(h) = page_history {
+        out["history"] = h;
+    } else if !s.history.is_empty() {
         out["history"] = history_json(&s.history);
     }
     out
+}
+
+/// Replace a step line's `history` (every iteration) by its page form in `page_history`
+/// ([`StepLine::page_history`]), for a page built from lines kept in memory.
+pub fn compact_history(line: &mut Value) {
+    let Some(obj) = line.as_object_mut() else {
+        return;
+    };
+    if let Some(Value::Array(history)) = obj.remove("history") {
+        if !history.is_empty() {
+            obj.insert(
+                "page_history".into(),
+                Value::String(history_json(&history).to_string()),
+            );
+        }
+    }
 }
 
 /// Numbers as a page gets them: whole numbers without a fraction, others as the shortest
@@ -918,6 +951,48 @@ mod tests {
 
     fn read(lines: &[String]) -> Result<Recording, ViewError> {
         Recording::from_lines(Path::new("r.jsonl"), lines.iter().cloned().map(Ok))
+    }
+
+    /// A step line whose history is compacted (as `simulate --html` keeps it) gives the same
+    /// page frame as the full line, and the step read back holds the page form only.
+    #[test]
+    fn compacted_histories_give_the_same_frames_in_a_few_kilobytes() {
+        let (lines, _) = record("box_on_ground.toml", 3, |r| {
+            r.history = (0..5000)
+                .map(|i| lcpbench_solvers::HistoryPoint {
+                    iteration: i,
+                    residual: 1.0 / (1.0 + i as f64),
+                    time_s: 1e-6 * i as f64,
+                })
+                .collect();
+        });
+        let compact: Vec<String> = lines
+            .iter()
+            .map(|l| {
+                let mut v: Value = serde_json::from_str(l).unwrap();
+                compact_history(&mut v);
+                v.to_string()
+            })
+            .collect();
+        assert!(
+            compact[1].len() * 10 < lines[1].len(),
+            "{}",
+            compact[1].len()
+        );
+        let (full, small) = (read(&lines).unwrap(), read(&compact).unwrap());
+        for rec in [&full, &small] {
+            assert!(rec.steps.iter().all(|s| s.history.is_empty()));
+            let page = rec.steps[0].page_history.as_deref().unwrap();
+            assert!(page.len() < 8_000, "{}", page.len());
+        }
+        let (a, b) = (
+            run_data(&full, "x", 10_000_000),
+            run_data(&small, "x", 10_000_000),
+        );
+        assert_eq!(a["frames"], b["frames"]);
+        let history = &a["frames"][0]["history"];
+        assert_eq!(history["thinned_from"], json!(5000));
+        assert!(history["it"].as_array().unwrap().len() <= MAX_HISTORY_POINTS + 1);
     }
 
     #[test]
