@@ -60,6 +60,7 @@ mod sections;
 pub mod shard;
 mod status;
 pub mod suite;
+pub mod summary;
 mod table;
 
 pub use machine::Header;
