@@ -64,7 +64,7 @@ pub mod summary;
 mod table;
 
 pub use machine::Header;
-pub use sections::write_report;
+pub use sections::{write_report, write_report_from};
 
 use crate::harness::outdir::{check_own_table, table_origin, TableOrigin};
 use crate::harness::sweep::{history_columns, lock_dir, result_columns, run_sweep_locked};

@@ -5,9 +5,9 @@
 //! Points that cannot be shown on a log axis (zero, negative, non-finite) are dropped from the
 //! plot but kept in the CSV.
 
+use crate::report::palette::{Marker, Style};
 use anyhow::{Context, Result};
 use plotters::coord::types::RangedCoordf64;
-use crate::report::palette::{Marker, Style};
 use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 use std::path::Path;
@@ -205,7 +205,10 @@ fn draw_legend(
         } else {
             rgb(style.colour)
         };
-        if matches!(s.mark, Mark::Line | Mark::LinePoints | Mark::Step | Mark::Reference) {
+        if matches!(
+            s.mark,
+            Mark::Line | Mark::LinePoints | Mark::Step | Mark::Reference
+        ) {
             panel
                 .draw(&PathElement::new(
                     vec![(6, y), (30, y)],
@@ -266,9 +269,9 @@ where
             Marker::HollowTriangle => area.draw(&(at() + PathElement::new(tri.clone(), line))),
             Marker::Square => area.draw(&(at() + Rectangle::new(square, filled))),
             Marker::HollowSquare => area.draw(&(at() + Rectangle::new(square, line))),
-            Marker::Diamond => area.draw(
-                &(at() + Polygon::new(vec![(0, -r), (-r, 0), (0, r), (r, 0)], filled)),
-            ),
+            Marker::Diamond => {
+                area.draw(&(at() + Polygon::new(vec![(0, -r), (-r, 0), (0, r), (r, 0)], filled)))
+            }
             Marker::Cross => area.draw(
                 &(at()
                     + PathElement::new(vec![(-r, -r), (r, r)], line)

@@ -40,11 +40,7 @@ pub fn shifted_geo_mean(times: &[f64], shift: f64) -> Option<f64> {
     if times.is_empty() {
         return None;
     }
-    let mean = times
-        .iter()
-        .map(|t| (t.max(0.0) + shift).ln())
-        .sum::<f64>()
-        / times.len() as f64;
+    let mean = times.iter().map(|t| (t.max(0.0) + shift).ln()).sum::<f64>() / times.len() as f64;
     Some((mean.exp() - shift).max(0.0))
 }
 
@@ -188,8 +184,7 @@ pub fn rank<'a>(rows: &[&'a RunRecord], level: f64) -> Vec<Candidate<'a>> {
 
 /// True when outcome `a` beats `b` by the rule (more solved, then less time).
 fn better(a: &Outcome, b: &Outcome) -> bool {
-    (a.solved * b.total.max(1)).cmp(&(b.solved * a.total.max(1)))
-        == std::cmp::Ordering::Greater
+    (a.solved * b.total.max(1)).cmp(&(b.solved * a.total.max(1))) == std::cmp::Ordering::Greater
         || (a.solved * b.total.max(1) == b.solved * a.total.max(1) && a.time_s < b.time_s)
 }
 

@@ -175,20 +175,6 @@ pub(crate) fn relaxation_footnote<'a>(solvers: impl IntoIterator<Item = &'a Solv
     )
 }
 
-/// The ranking of one family at one accuracy.
-pub(crate) fn family_ranking<'a>(
-    rows: &[&'a RunRecord],
-    family: &str,
-    level: f64,
-) -> Vec<Candidate<'a>> {
-    let members: Vec<&RunRecord> = rows
-        .iter()
-        .copied()
-        .filter(|r| family_of(r) == Some(family))
-        .collect();
-    rank(&members, level)
-}
-
 impl Section for Findings {
     fn title(&self) -> &'static str {
         HEADING
@@ -304,25 +290,43 @@ mod tests {
     #[test]
     fn families_come_from_case_names() {
         let f = |case: &str, solver: &str| family_of(&row(case, solver));
-        assert_eq!(f("scene:bench_scenes/tower_40_60hz.toml", "pgs"), Some("towers"));
-        assert_eq!(f("scene:x/pyramid_3d_1015.toml?steps=10", "si"), Some("pyramids"));
+        assert_eq!(
+            f("scene:bench_scenes/tower_40_60hz.toml", "pgs"),
+            Some("towers")
+        );
+        assert_eq!(
+            f("scene:x/pyramid_3d_1015.toml?steps=10", "si"),
+            Some("pyramids")
+        );
         assert_eq!(f("scene:x/sphere_pile_100.toml", "pgs"), Some("piles"));
         assert_eq!(f("scene:x/scaling/wall_5x3.toml", "pgs"), Some("walls"));
-        assert_eq!(f("scene:x/joints/chain_20_1e3.toml", "si"), Some("chains and joints"));
+        assert_eq!(
+            f("scene:x/joints/chain_20_1e3.toml", "si"),
+            Some("chains and joints")
+        );
         assert_eq!(
             f("scene:x/mass_ratio_heavy_on_light_10.toml", "lemke"),
             Some("mass ratios")
         );
         assert_eq!(f("scene:x/ball_drop.toml", "pgs"), Some("other scenes"));
         assert_eq!(
-            f("scene:x/tower_10_60hz.toml?steps=5&friction=cone", "nsgs-cone+warm"),
+            f(
+                "scene:x/tower_10_60hz.toml?steps=5&friction=cone",
+                "nsgs-cone+warm"
+            ),
             Some("FC3D (cone solvers)")
         );
         assert_eq!(
-            f("scene:x/tower_10_60hz.toml?steps=5&friction=box", "pgs+warm"),
+            f(
+                "scene:x/tower_10_60hz.toml?steps=5&friction=box",
+                "pgs+warm"
+            ),
             Some("friction-model variants")
         );
-        assert_eq!(f("file:a/b.hdf5", "lemke"), Some("FCLIB (box-friction LCPs)"));
+        assert_eq!(
+            f("file:a/b.hdf5", "lemke"),
+            Some("FCLIB (box-friction LCPs)")
+        );
         assert_eq!(f("file:a/b.hdf5", "newton-ac"), Some("FC3D (cone solvers)"));
         assert_eq!(f("file:a/b.json", "lemke"), Some("problem files"));
         assert_eq!(f("spd:n=8:cond=1e2:seed=1", "pgs"), Some("generated LCPs"));
@@ -331,7 +335,10 @@ mod tests {
 
     #[test]
     fn anchors_are_githubs() {
-        assert_eq!(anchor("Fastest solver per scene"), "fastest-solver-per-scene");
+        assert_eq!(
+            anchor("Fastest solver per scene"),
+            "fastest-solver-per-scene"
+        );
         assert_eq!(
             anchor("Towers at 60 Hz, low budgets"),
             "towers-at-60-hz-low-budgets"
@@ -350,8 +357,14 @@ mod tests {
         assert_eq!(solver_cell(&socp), "clarabel-socp †");
         assert_eq!(solver_cell(&pgs), "pgs");
         let note = relaxation_footnote([&clarabel, &pgs, &penalty]);
-        assert!(note.contains("`clarabel`: on friction rows, Anitescu"), "{note}");
-        assert!(note.contains("`penalty`: a penalty (soft-contact) model"), "{note}");
+        assert!(
+            note.contains("`clarabel`: on friction rows, Anitescu"),
+            "{note}"
+        );
+        assert!(
+            note.contains("`penalty`: a penalty (soft-contact) model"),
+            "{note}"
+        );
         assert!(!note.contains("`pgs`"));
     }
 }

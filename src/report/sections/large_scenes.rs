@@ -74,13 +74,7 @@ impl Section for LargeScenes {
             let path = ctx
                 .plots_dir
                 .join(format!("large_worst_{}.svg", slug(&name)));
-            speed_accuracy_figure(
-                ctx,
-                case,
-                &path,
-                |r| r.residual_rel,
-                "worst relative residual of a step",
-            )?;
+            speed_accuracy_figure(ctx, case, &path, &SCENE_BUDGETS)?;
             figures.push(Figure::new(
                 format!("Speed–accuracy on large scene {name} (worst step residual)"),
                 path,
