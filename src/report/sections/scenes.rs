@@ -56,7 +56,9 @@ impl Section for Scenes {
             md,
             "## Scenes\n\nEach scene stepped with each solver, cold and (the iterative ones, \
              `+warm`) warm-started from the previous step's impulses, under budgets `realtime`, \
-             `loose` and `default`. A budget's seconds bound each step's solve: a step that runs \
+             `loose` and `default`, and the warm-started ones also under `{}` (the accuracy \
+             1e-6 of [Findings](#findings); its runs appear in the figures and in the best \
+             solver per scene). A budget's seconds bound each step's solve: a step that runs \
              out of them ends `time_limit` with the solver's best point and the run goes on; a \
              run stops early only at twice its steps times those seconds, or after three \
              consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
@@ -73,6 +75,7 @@ impl Section for Scenes {
              separating normal speed at a sliding contact after a solve (what a convex \
              relaxation of friction causes; Baumgarte correction of a penetrating contact shows \
              up here too).\n",
+            suite::SCENE_MID_BUDGET,
             suite::SCENE_STEPS,
             suite::LARGE_SCENE_BODIES,
             suite::LARGE_SCENE_STEPS,
@@ -351,7 +354,9 @@ fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
 fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
     let name = case.short_name();
     let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
-    speed_accuracy_figure(ctx, case, &path, &suite::SCENE_BUDGETS)?;
+    let mut budgets = suite::SCENE_BUDGETS.to_vec();
+    budgets.push(suite::scene_mid_budget().name);
+    speed_accuracy_figure(ctx, case, &path, &budgets)?;
     Ok(Figure::new(
         format!("Speed–accuracy on scene {name} (worst step residual, median beside it)"),
         path,
