@@ -225,6 +225,95 @@ pub fn common_set_means(
     (common.len(), means)
 }
 
+/// The closing summary of a sweep (`bench` prints it): per budget, and apart for scenes and
+/// for problems, each solver's solved count, the cases it is best on by the rule, and its
+/// shifted geometric mean, best first. Empty when there are no rows.
+pub fn sweep_summary(rows: &[RunRecord]) -> String {
+    use std::fmt::Write as _;
+    let mut groups: Vec<(String, bool, f64, Vec<&RunRecord>)> = Vec::new();
+    for r in rows {
+        let scene = is_scene(r);
+        let name = r.budget.to_string();
+        match groups
+            .iter_mut()
+            .find(|(n, s, _, _)| *n == name && *s == scene)
+        {
+            Some(g) => g.3.push(r),
+            None => groups.push((name, scene, r.tolerance, vec![r])),
+        }
+    }
+    let mut out = String::new();
+    for (budget, scene, tolerance, members) in groups {
+        let ranked = rank(&members, tolerance);
+        let mut cases: Vec<&str> = members.iter().map(|r| r.case.as_str()).collect();
+        cases.sort_unstable();
+        cases.dedup();
+        let mut best_on: BTreeMap<String, usize> = BTreeMap::new();
+        for case in &cases {
+            let of_case: Vec<&RunRecord> = members
+                .iter()
+                .copied()
+                .filter(|r| r.case == *case)
+                .collect();
+            if let Some(best) = rank(&of_case, tolerance).first().filter(|c| c.solved > 0) {
+                *best_on.entry(best.solver.to_string()).or_default() += 1;
+            }
+        }
+        let what = if scene { "scenes" } else { "problems" };
+        let _ = writeln!(
+            out,
+            "budget {budget} (tolerance {tolerance:.0e}), {} {what}:",
+            cases.len()
+        );
+        let _ = writeln!(
+            out,
+            "  {:<22} {:>14} {:>8} {:>22}",
+            "solver",
+            if scene { "steps solved" } else { "solved" },
+            "fastest",
+            if scene {
+                "shifted geo. mean/step"
+            } else {
+                "shifted geo. mean"
+            }
+        );
+        for c in &ranked {
+            let name = c.solver.to_string();
+            let mean = if c.no_work {
+                "no contacts".to_owned()
+            } else {
+                format_seconds(c.mean_s)
+            };
+            let _ = writeln!(
+                out,
+                "  {:<22} {:>14} {:>8} {:>22}",
+                name,
+                format!("{}/{}", c.solved, c.total),
+                best_on.get(&name).copied().unwrap_or(0),
+                mean
+            );
+        }
+    }
+    if !out.is_empty() {
+        let _ = writeln!(
+            out,
+            "ranked by {RULE}; `fastest`: cases on which the solver is best by that rule"
+        );
+    }
+    out
+}
+
+/// Seconds as `µs`, `ms` or `s`.
+fn format_seconds(s: f64) -> String {
+    if s < 1e-3 {
+        format!("{:.1} µs", s * 1e6)
+    } else if s < 1.0 {
+        format!("{:.2} ms", s * 1e3)
+    } else {
+        format!("{s:.2} s")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -328,6 +417,31 @@ mod tests {
     }
 
     struct SpecName(&'static str);
+
+    #[test]
+    fn the_sweep_summary_counts_solved_and_fastest_per_solver() {
+        let rows = [
+            lcp("easy", SolverKind::Pgs, Some(1e-3)),
+            lcp("hard", SolverKind::Pgs, Some(1.0)),
+            lcp("easy", SolverKind::Lemke, Some(2e-4)),
+            lcp("hard", SolverKind::Lemke, None),
+        ];
+        let text = sweep_summary(&rows);
+        let line = |name: &str| {
+            text.lines()
+                .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+                .unwrap()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        assert!(text.contains("2 problems"), "{text}");
+        // pgs solved both and is best on `hard`; lemke is best on `easy` only.
+        assert!(line("pgs").starts_with("pgs 2/2 1 "), "{text}");
+        assert!(line("lemke").starts_with("lemke 1/2 1 "), "{text}");
+        assert!(text.find("pgs").unwrap() < text.find("lemke").unwrap());
+        assert_eq!(sweep_summary(&[]), "");
+    }
 
     /// Scenes: steps converged first, then time; a row of a looser tolerance is not eligible,
     /// a tighter one is; of one solver's rows the best is taken.
