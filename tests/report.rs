@@ -387,8 +387,26 @@ fn every_section_renders_from_a_fixture_run() {
     has(
         out,
         "cone_time_to_accuracy",
-        "newton-ac,1 of 2,1.00 s,0 of 2",
+        // Over both problems: newton-ac's unsolved one counted at the budget's 5 s, so
+        // `((1 s + 10 µs)(5 s + 10 µs))^½ − 10 µs`, not the 1 s of its one success.
+        "newton-ac,1 of 2,2.24 s,0 of 2,5.00 s,0 of 2",
     );
+    // Findings comes first after the header, and answers per family and accuracy with a link
+    // to its evidence.
+    let first_section = md.lines().find(|l| l.starts_with("## ")).unwrap();
+    assert_eq!(first_section, "## Findings");
+    let findings = read(out, "findings");
+    assert!(
+        findings.contains("FC3D (cone solvers),2,1e-8,nsgs-cone,1.10 ms (2/2 problems),newton-ac,"),
+        "{findings}"
+    );
+    assert!(
+        findings.contains("[Fastest solver per scene](#fastest-solver-per-scene)"),
+        "{findings}"
+    );
+    for family in ["towers,", "generated LCPs,", "FCLIB (box-friction LCPs),"] {
+        assert!(findings.contains(family), "{family} in {findings}");
+    }
     has(
         out,
         "cone_problems",
