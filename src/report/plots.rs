@@ -197,7 +197,7 @@ fn draw_legend(
     entries: &[(&Series, Style)],
     secondary: bool,
 ) -> Result<()> {
-    let font = ("sans-serif", 12).into_font();
+    let font = ("sans-serif", 14).into_font();
     let mut y = 40;
     for (s, style) in entries {
         let colour = if s.mark == Mark::Reference {
@@ -219,7 +219,7 @@ fn draw_legend(
         if matches!(s.mark, Mark::Points | Mark::LinePoints) {
             draw_marker_on(panel, (18, y), style.marker, colour, 5)?;
         }
-        let label: String = s.name.chars().take(30).collect();
+        let label: String = s.name.chars().take(32).collect();
         panel
             .draw(&Text::new(label, (36, y - 7), font.clone()))
             .map_err(draw_err)?;

@@ -843,7 +843,7 @@ mod tests {
             .jobs
             .iter()
             .filter(on_scene)
-            .filter(|j| SCENE_BUDGETS.iter().any(|b| *b == j.budget.name))
+            .filter(|j| SCENE_BUDGETS.contains(&j.budget.name))
             .filter(|j| s.scene_cases.contains(&j.case))
             .count();
         assert!(mid.len() * 6 < presets, "{} of {presets}", mid.len());

@@ -255,7 +255,11 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
                 .copied()
                 .filter(|r| r.case == *case)
                 .collect();
-            if let Some(best) = rank(&of_case, tolerance).first().filter(|c| c.solved > 0) {
+            // A case without contacts has no fastest solver: nothing was solved.
+            if let Some(best) = rank(&of_case, tolerance)
+                .first()
+                .filter(|c| c.solved > 0 && !c.no_work)
+            {
                 *best_on.entry(best.solver.to_string()).or_default() += 1;
             }
         }

@@ -221,6 +221,12 @@ impl Section for Findings {
                     format!("{level:.0e}"),
                 ];
                 match ranked.first() {
+                    Some(best) if best.no_work => row.extend([
+                        "no contacts in any case".to_owned(),
+                        "—".to_owned(),
+                        "—".to_owned(),
+                        "—".to_owned(),
+                    ]),
                     Some(best) if best.solved > 0 => {
                         row.push(solver_cell(&best.solver));
                         row.push(cost_cell(best));

@@ -338,6 +338,7 @@ fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
     for level in ACCURACIES {
         let ranked = summary::rank(&runs, level);
         match ranked.first() {
+            Some(best) if best.no_work => row.extend(["no contacts".into(), "—".into()]),
             Some(best) if best.solved > 0 => {
                 row.push(super::findings::solver_cell(&best.solver));
                 row.push(super::findings::cost_cell(best));
@@ -368,10 +369,10 @@ fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
 /// and its worst residual is below 1 (a residual of 1 or more says it did not solve).
 pub(super) fn returned_solutions(r: &RunRecord) -> bool {
     let steps = r.steps.unwrap_or(0);
-    !r.is_isolation_failure()
-        && !status::blew_up(r)
-        && !(status::unsupported(r) && steps == 0)
-        && steps > 0
+    let ran = !(r.is_isolation_failure() || status::blew_up(r) || status::unsupported(r));
+    // A run declined on some steps but not all still returned solutions on the others.
+    let ran = ran || (status::unsupported(r) && steps > 0);
+    ran && steps > 0
         && r.contacts_mean != Some(0.0)
         && r.no_solution_steps.unwrap_or(0) == 0
         && r.residual_rel.is_some_and(|v| v < 1.0)
@@ -395,9 +396,8 @@ pub(super) fn speed_accuracy_figure(
         .into_iter()
         .filter(|r| r.case == key && budgets.contains(&r.budget))
         .filter(|r| {
-            !r.is_isolation_failure()
-                && !(status::unsupported(r) && r.steps.unwrap_or(0) == 0)
-                && r.contacts_mean != Some(0.0)
+            let declined = status::unsupported(r) && r.steps.unwrap_or(0) == 0;
+            !(r.is_isolation_failure() || declined) && r.contacts_mean != Some(0.0)
         })
         .collect();
     let mut solvers: Vec<SolverSpec> = Vec::new();
@@ -450,7 +450,7 @@ pub(super) fn speed_accuracy_figure(
     series.extend(medians);
     if front.len() > 1 {
         series.push(Series {
-            name: "Pareto front (runs that solved)".into(),
+            name: "Pareto front (solved runs)".into(),
             color_key: "front".into(),
             points: front,
             mark: Mark::Reference,
