@@ -231,3 +231,43 @@ fn profiles(ctx: &ReportContext, rows: &[&RunRecord], cases: &[Case]) -> Result<
     }
     Ok(figures)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn times_show_their_spread_and_nothing_for_runs_that_did_not_run() {
+        let timed = RunRecord {
+            status: RunStatus::Converged,
+            solve_time_s: Some(2e-4),
+            timed_solves: Some(7),
+            solve_time_min_s: Some(1.9e-4),
+            solve_time_max_s: Some(3e-4),
+            ..RunRecord::default()
+        };
+        assert_eq!(time_cell(&timed), "200.0 µs [190.0 µs–300.0 µs, 7 solves]");
+        let declined = RunRecord {
+            status: RunStatus::Unsupported,
+            solve_time_s: Some(2e-7),
+            ..RunRecord::default()
+        };
+        assert_eq!(time_cell(&declined), "—");
+        let idle = RunRecord {
+            status: RunStatus::Converged,
+            steps: Some(5),
+            contacts_mean: Some(0.0),
+            time_per_step_s: Some(0.0),
+            ..RunRecord::default()
+        };
+        assert_eq!(time_cell(&idle), "no contacts");
+        let warm = RunRecord {
+            solver: "pgs+warm".parse().unwrap(),
+            warm_source: "20 PGS sweeps".into(),
+            warm_time_s: Some(5e-6),
+            ..RunRecord::default()
+        };
+        assert_eq!(warm_cell(&warm), "20 PGS sweeps (5.0 µs)");
+        assert_eq!(warm_cell(&RunRecord::default()), "cold");
+    }
+}

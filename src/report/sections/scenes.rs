@@ -299,7 +299,7 @@ fn by_budget_row(case: &Case, r: &RunRecord) -> Vec<String> {
         count(r.steps_planned),
         count(converged_steps(r)),
         count(r.time_limit_steps),
-        fmt_time(r.time_per_step_s),
+        step_time(r),
         fmt_time(r.step_time_s),
         fmt_sci(r.residual_rel_median),
         fmt_sci(r.residual_rel),
@@ -493,8 +493,20 @@ fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     front
 }
 
+/// A scene run's time per step for the tables: `no contacts` when no step had any (there was
+/// nothing to time), `—` when the solver did not run (declined, or failed in isolation).
+pub(super) fn step_time(r: &RunRecord) -> String {
+    if r.is_isolation_failure() || (status::unsupported(r) && r.steps.unwrap_or(0) == 0) {
+        "—".into()
+    } else if r.contacts_mean == Some(0.0) {
+        "no contacts".into()
+    } else {
+        fmt_time(r.time_per_step_s)
+    }
+}
+
 pub(super) fn glance_cell(r: &RunRecord) -> String {
-    let t = fmt_time(r.time_per_step_s);
+    let t = step_time(r);
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
     if r.is_isolation_failure() {
@@ -542,7 +554,7 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         r.contacts_mean
             .map(|c| format!("{c:.1}"))
             .unwrap_or("–".into()),
-        fmt_time(r.time_per_step_s),
+        step_time(r),
         r.iterations_per_step
             .map(|i| format!("{i:.1}"))
             .unwrap_or("–".into()),
@@ -590,6 +602,14 @@ mod tests {
             glance_cell(&run("iteration_limit", 10, 10)),
             "✗ 2.00 ms (iteration_limit)"
         );
+        // No contacts: nothing timed.
+        let idle = RunRecord {
+            contacts_mean: Some(0.0),
+            time_per_step_s: Some(0.0),
+            ..run("converged", 10, 0)
+        };
+        assert_eq!(glance_cell(&idle), "✓ no contacts");
+        assert_eq!(step_time(&run("unsupported", 0, 0)), "—");
         // Unsupported after some steps: judged by the steps, like any other run.
         assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (3/4)");
     }
