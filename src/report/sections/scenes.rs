@@ -125,9 +125,10 @@ impl Section for Scenes {
             md,
             "### Fastest solver per scene\n\nThe best solver per scene at each accuracy by the \
              rule of [Findings](#findings) ({}), cold and `+warm` runs alike; a run counts at an \
-             accuracy when its budget's tolerance is that accuracy or tighter.\n\n{}",
+             accuracy when its budget's tolerance is that accuracy or tighter.\n\n{}\n{}",
             summary::RULE,
-            ctx.table(&fastest)?
+            ctx.table(&fastest)?,
+            super::findings::relaxation_footnote(&scene_solvers())
         );
         Ok(figures)
     }
@@ -273,7 +274,7 @@ fn budget_matrix(ctx: &ReportContext, case: &Case, by_budget: &mut Table) -> Str
     header.extend(suite::SCENE_BUDGETS.iter().map(|b| b.to_string()));
     let mut t = Table::with_header("budgets", header);
     for solver in solvers_of(ctx, case) {
-        let mut row = vec![solver.to_string()];
+        let mut row = vec![super::findings::solver_cell(&solver)];
         for budget in &suite::SCENE_BUDGETS {
             match ctx.get(case, &solver, budget) {
                 Some(r) => {
@@ -548,7 +549,7 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         format!("{} ({reason})", r.status)
     };
     vec![
-        r.solver.to_string(),
+        super::findings::solver_cell(&r.solver),
         status,
         r.steps.map(|s| s.to_string()).unwrap_or("–".into()),
         r.contacts_mean
