@@ -395,6 +395,15 @@ fn every_section_renders_from_a_fixture_run() {
     // to its evidence.
     let first_section = md.lines().find(|l| l.starts_with("## ")).unwrap();
     assert_eq!(first_section, "## Findings");
+    // Relaxed solvers are marked where they are tabled, and the mark explained.
+    let robust_md = md.split("## Robustness matrix").nth(1).unwrap_or_default();
+    assert!(robust_md.contains("| clarabel † |"), "{robust_md}");
+    assert!(
+        robust_md.contains(
+            "† solves a relaxed problem, not the one posed (`clarabel`: on friction rows, Anitescu"
+        ),
+        "{robust_md}"
+    );
     let findings = read(out, "findings");
     assert!(
         findings.contains("FC3D (cone solvers),2,1e-8,nsgs-cone,1.10 ms (2/2 problems),newton-ac,"),
