@@ -78,7 +78,7 @@ pub fn outcome(r: &RunRecord, level: f64) -> Option<Outcome> {
         } else {
             done.saturating_sub(r.nonconverged_steps.unwrap_or(done))
         };
-        let no_work = r.contacts_mean == Some(0.0) && done > 0;
+        let no_work = crate::report::status::no_work(r);
         let time_s = match r.time_per_step_s {
             Some(t) if done > 0 && !r.is_isolation_failure() => t,
             _ => cap,

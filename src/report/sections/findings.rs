@@ -33,16 +33,18 @@ const FAMILIES: [(&str, &str); 13] = [
     ("generated LCPs", "Time to accuracy"),
 ];
 
-/// The family of a row's case (with its solver: a cone solver's rows are the FC3D family):
+/// The family of a row's case (with its solver: a cone solver's problems are the FC3D family):
 /// scenes by their file name (`tower…`, `pyramid…`, `…pile…`/`sphere…`, `wall…`,
 /// `chain…`/`rope…`/`ragdoll…`/`pendulum…`/`cradle…`, `mass_ratio…`), a scene under a
 /// friction model of the run's choosing, FCLIB files (`.hdf5`), other problem files, scene
 /// steps and generated LCPs (the infeasible ones left out: no solver can reach an accuracy).
 pub(crate) fn family_of(r: &RunRecord) -> Option<&'static str> {
-    if matches!(r.solver, SolverSpec::Cone { .. }) {
+    let case: Case = r.case.parse().ok()?;
+    // A cone solver's problems are the FC3D family; its scene runs (under the cone friction
+    // model) stay with the scenes.
+    if matches!(r.solver, SolverSpec::Cone { .. }) && !matches!(case, Case::Scene { .. }) {
         return Some("FC3D (cone solvers)");
     }
-    let case: Case = r.case.parse().ok()?;
     Some(match &case {
         Case::Scene {
             friction: Some(_), ..
@@ -271,7 +273,7 @@ impl Section for Findings {
              Families by case name: scenes `tower*`, `pyramid*`, `*pile*`/`sphere*`, `wall*`, \
              `chain*`/`rope*`/`ragdoll*`/`pendulum*`/`cradle*`, `mass_ratio*`, the rest; scenes \
              under a friction model chosen by the run; FCLIB files (`.hdf5`) with the matrix \
-             solvers; every case the cone solvers ran (FC3D); scene steps, other problem files, \
+             solvers; every problem the cone solvers ran (FC3D; their scene runs stay with the scenes); scene steps, other problem files, \
              generated LCPs (the infeasible ones left out).\n\n{}\n{}",
             SHIFT_S * 1e6,
             ctx.table(&t)?,
@@ -320,7 +322,7 @@ mod tests {
                 "scene:x/tower_10_60hz.toml?steps=5&friction=cone",
                 "nsgs-cone+warm"
             ),
-            Some("FC3D (cone solvers)")
+            Some("friction-model variants")
         );
         assert_eq!(
             f(

@@ -26,7 +26,7 @@ pub(crate) fn time_cell(r: &RunRecord) -> String {
         return "—".into();
     }
     if r.steps.is_some() {
-        if r.contacts_mean == Some(0.0) {
+        if crate::report::status::no_work(r) {
             return "no contacts".into();
         }
         return match r.time_per_step_s {

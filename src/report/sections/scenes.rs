@@ -374,7 +374,7 @@ pub(super) fn returned_solutions(r: &RunRecord) -> bool {
     // A run declined on some steps but not all still returned solutions on the others.
     let ran = ran || (status::unsupported(r) && steps > 0);
     ran && steps > 0
-        && r.contacts_mean != Some(0.0)
+        && !status::no_work(r)
         && r.no_solution_steps.unwrap_or(0) == 0
         && r.residual_rel.is_some_and(|v| v < 1.0)
 }
@@ -398,7 +398,7 @@ pub(super) fn speed_accuracy_figure(
         .filter(|r| r.case == key && budgets.contains(&r.budget))
         .filter(|r| {
             let declined = status::unsupported(r) && r.steps.unwrap_or(0) == 0;
-            !(r.is_isolation_failure() || declined) && r.contacts_mean != Some(0.0)
+            !(r.is_isolation_failure() || declined || status::no_work(r))
         })
         .collect();
     let mut solvers: Vec<SolverSpec> = Vec::new();
@@ -499,7 +499,7 @@ fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
 pub(super) fn step_time(r: &RunRecord) -> String {
     if r.is_isolation_failure() || (status::unsupported(r) && r.steps.unwrap_or(0) == 0) {
         "—".into()
-    } else if r.contacts_mean == Some(0.0) {
+    } else if status::no_work(r) {
         "no contacts".into()
     } else {
         fmt_time(r.time_per_step_s)
