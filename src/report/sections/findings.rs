@@ -11,13 +11,14 @@ use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::summary::{rank, Candidate, ACCURACIES, RULE, SHIFT_S};
 use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
+use lcpbench_contact::FrictionModel;
 use std::fmt::Write as _;
 
 pub(super) struct Findings;
 
 /// The families, in the order Findings lists them, each with its evidence section's heading
 /// in the full report.
-const FAMILIES: [(&str, &str); 13] = [
+const FAMILIES: [(&str, &str); 16] = [
     ("towers", "Fastest solver per scene"),
     ("pyramids", "Fastest solver per scene"),
     ("piles", "Fastest solver per scene"),
@@ -25,7 +26,10 @@ const FAMILIES: [(&str, &str); 13] = [
     ("chains and joints", "Joints"),
     ("mass ratios", "Fastest solver per scene"),
     ("other scenes", "Fastest solver per scene"),
-    ("friction-model variants", "Friction models"),
+    ("scenes under friction model none", "Friction models"),
+    ("scenes under friction model box", "Friction models"),
+    ("scenes under friction model pyramid", "Friction models"),
+    ("scenes under friction model cone", "Friction models"),
     ("FCLIB (box-friction LCPs)", "FCLIB problems"),
     ("FC3D (cone solvers)", "Cone solvers on the FC3D collection"),
     ("scene-step LCPs", "Time to accuracy"),
@@ -46,9 +50,16 @@ pub(crate) fn family_of(r: &RunRecord) -> Option<&'static str> {
         return Some("FC3D (cone solvers)");
     }
     Some(match &case {
+        // One family per model: each model is its own problem, solved by its own solvers.
         Case::Scene {
-            friction: Some(_), ..
-        } => "friction-model variants",
+            friction: Some(model),
+            ..
+        } => match model {
+            FrictionModel::None => "scenes under friction model none",
+            FrictionModel::Box => "scenes under friction model box",
+            FrictionModel::Pyramid { .. } => "scenes under friction model pyramid",
+            FrictionModel::Cone => "scenes under friction model cone",
+        },
         Case::Scene { path, .. } => {
             let stem = path
                 .file_stem()
@@ -272,7 +283,7 @@ impl Section for Findings {
              to the accuracy for LCP and cone problems, with the steps or problems solved. \
              Families by case name: scenes `tower*`, `pyramid*`, `*pile*`/`sphere*`, `wall*`, \
              `chain*`/`rope*`/`ragdoll*`/`pendulum*`/`cradle*`, `mass_ratio*`, the rest; scenes \
-             under a friction model chosen by the run; FCLIB files (`.hdf5`) with the matrix \
+             under a friction model chosen by the run, one family per model; FCLIB files (`.hdf5`) with the matrix \
              solvers; every problem the cone solvers ran (FC3D; their scene runs stay with the scenes); scene steps, other problem files, \
              generated LCPs (the infeasible ones left out).\n\n{}\n{}",
             SHIFT_S * 1e6,
@@ -322,14 +333,14 @@ mod tests {
                 "scene:x/tower_10_60hz.toml?steps=5&friction=cone",
                 "nsgs-cone+warm"
             ),
-            Some("friction-model variants")
+            Some("scenes under friction model cone")
         );
         assert_eq!(
             f(
                 "scene:x/tower_10_60hz.toml?steps=5&friction=box",
                 "pgs+warm"
             ),
-            Some("friction-model variants")
+            Some("scenes under friction model box")
         );
         assert_eq!(
             f("file:a/b.hdf5", "lemke"),
