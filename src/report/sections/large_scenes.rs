@@ -75,7 +75,7 @@ impl Section for LargeScenes {
             let path = ctx
                 .plots_dir
                 .join(format!("large_worst_{}.svg", slug(&name)));
-            speed_accuracy_figure(ctx, case, &path, &SCENE_BUDGETS)?;
+            speed_accuracy_figure(ctx, case, &path, &super::scenes::scene_budgets())?;
             figures.push(Figure::new(
                 format!("Speed–accuracy on large scene {name} (worst step residual)"),
                 path,

@@ -340,7 +340,7 @@ mod tests {
         }
         // Solver × budget cells: converged steps over steps where some did not converge.
         assert!(
-            md.contains("| pgs+warm | ~ 2.00 ms (4/10) | – | ✓ 2.00 ms |"),
+            md.contains("| pgs+warm | ~ 2.00 ms (4/10) | – | ✓ 2.00 ms | – |"),
             "{md}"
         );
         // Findings and the fastest-per-scene table agree: newton-fb converged every step, at

@@ -57,8 +57,8 @@ impl Section for Scenes {
             "## Scenes\n\nEach scene stepped with each solver, cold and (the iterative ones, \
              `+warm`) warm-started from the previous step's impulses, under budgets `realtime`, \
              `loose` and `default`, and the warm-started ones also under `{}` (the accuracy \
-             1e-6 of [Findings](#findings); its runs appear in the figures and in the best \
-             solver per scene). A budget's seconds bound each step's solve: a step that runs \
+             1e-6 of [Findings](#findings); its runs appear in the solver × budget tables, the \
+             figures and the best solver per scene). A budget's seconds bound each step's solve: a step that runs \
              out of them ends `time_limit` with the solver's best point and the run goes on; a \
              run stops early only at twice its steps times those seconds, or after three \
              consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
@@ -254,13 +254,20 @@ const BY_BUDGET_COLUMNS: [&str; 12] = [
     "residual max",
 ];
 
+/// The budgets of the scene runs: [`suite::SCENE_BUDGETS`] and [`suite::SCENE_MID_BUDGET`].
+pub(super) fn scene_budgets() -> Vec<BudgetName> {
+    let mut budgets = suite::SCENE_BUDGETS.to_vec();
+    budgets.push(suite::scene_mid_budget().name);
+    budgets
+}
+
 /// The solver specifications with a run on `case`, in the order of the scene solvers, each
 /// cold then warm.
 fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<SolverSpec> {
     scene_solvers_cold_and_warm()
         .into_iter()
         .filter(|s| {
-            suite::SCENE_BUDGETS
+            scene_budgets()
                 .iter()
                 .any(|b| ctx.get(case, s, b).is_some())
         })
@@ -271,11 +278,11 @@ fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<SolverSpec> {
 /// the glance table), as Markdown; the runs' rows are added to `by_budget`.
 fn budget_matrix(ctx: &ReportContext, case: &Case, by_budget: &mut Table) -> String {
     let mut header = vec!["solver".to_owned()];
-    header.extend(suite::SCENE_BUDGETS.iter().map(|b| b.to_string()));
+    header.extend(scene_budgets().iter().map(|b| b.to_string()));
     let mut t = Table::with_header("budgets", header);
     for solver in solvers_of(ctx, case) {
         let mut row = vec![super::findings::solver_cell(&solver)];
-        for budget in &suite::SCENE_BUDGETS {
+        for budget in &scene_budgets() {
             match ctx.get(case, &solver, budget) {
                 Some(r) => {
                     row.push(glance_cell(r));
@@ -356,9 +363,7 @@ fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
 fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
     let name = case.short_name();
     let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
-    let mut budgets = suite::SCENE_BUDGETS.to_vec();
-    budgets.push(suite::scene_mid_budget().name);
-    speed_accuracy_figure(ctx, case, &path, &budgets)?;
+    speed_accuracy_figure(ctx, case, &path, &scene_budgets())?;
     Ok(Figure::new(
         format!("Speed–accuracy on scene {name} (worst step residual, median beside it)"),
         path,
