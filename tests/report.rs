@@ -387,8 +387,35 @@ fn every_section_renders_from_a_fixture_run() {
     has(
         out,
         "cone_time_to_accuracy",
-        "newton-ac,1 of 2,1.00 s,0 of 2",
+        // Over both problems: newton-ac's unsolved one counted at the budget's 5 s, so
+        // `((1 s + 10 µs)(5 s + 10 µs))^½ − 10 µs`, not the 1 s of its one success.
+        "newton-ac,1 of 2,2.24 s,0 of 2,5.00 s,0 of 2",
     );
+    // Findings comes first after the header, and answers per family and accuracy with a link
+    // to its evidence.
+    let first_section = md.lines().find(|l| l.starts_with("## ")).unwrap();
+    assert_eq!(first_section, "## Findings");
+    // Relaxed solvers are marked where they are tabled, and the mark explained.
+    let robust_md = md.split("## Robustness matrix").nth(1).unwrap_or_default();
+    assert!(robust_md.contains("| clarabel † |"), "{robust_md}");
+    assert!(
+        robust_md.contains(
+            "† solves a relaxed problem, not the one posed (`clarabel`: on friction rows, Anitescu"
+        ),
+        "{robust_md}"
+    );
+    let findings = read(out, "findings");
+    assert!(
+        findings.contains("FC3D (cone solvers),2,1e-8,nsgs-cone,1.10 ms (2/2 problems),newton-ac,"),
+        "{findings}"
+    );
+    assert!(
+        findings.contains("[Fastest solver per scene](#fastest-solver-per-scene)"),
+        "{findings}"
+    );
+    for family in ["towers,", "generated LCPs,", "FCLIB (box-friction LCPs),"] {
+        assert!(findings.contains(family), "{family} in {findings}");
+    }
     has(
         out,
         "cone_problems",
@@ -427,4 +454,140 @@ fn every_section_renders_from_a_fixture_run() {
             "missing plots/{plot}.svg"
         );
     }
+}
+
+/// `bench` on a scene and a problem file of the user's, run from a directory outside the
+/// checkout, prints its per-solver summary; `report --from` on its output, from there too,
+/// writes Findings and the tables of those two cases only, figures named after the cases,
+/// and refuses to overwrite a README it did not write.
+#[test]
+fn report_from_a_users_sweep_covers_its_cases_only() {
+    use std::process::Command;
+    let exe = env!("CARGO_BIN_EXE_lcpbench");
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(
+        root.join("bench_scenes/box_on_ground.toml"),
+        dir.path().join("my_scene.toml"),
+    )
+    .unwrap();
+    std::fs::copy(
+        root.join("tests/data/siconos/lcp_deudeu_block.dat"),
+        dir.path().join("my_problem.dat"),
+    )
+    .unwrap();
+    let bench = Command::new(exe)
+        .current_dir(dir.path())
+        .args(["bench", "--no-progress", "--jobs", "1", "--out", "sweep"])
+        .args(["--lcps", "scene:my_scene.toml?steps=5,file:my_problem.dat"])
+        .args([
+            "--solvers",
+            "pgs,pgs+warm,lemke",
+            "--budgets",
+            "loose,default",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&bench.stdout);
+    assert!(
+        bench.status.success(),
+        "{}",
+        String::from_utf8_lossy(&bench.stderr)
+    );
+    assert!(
+        stdout.contains("budget default (tolerance 1e-8), 1 problems:"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("budget loose (tolerance 1e-4), 1 scenes:"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("report: lcpbench report --from sweep"),
+        "{stdout}"
+    );
+
+    let report = Command::new(exe)
+        .current_dir(dir.path())
+        .args(["report", "--from", "sweep"])
+        .output()
+        .unwrap();
+    assert!(
+        report.status.success(),
+        "{}",
+        String::from_utf8_lossy(&report.stderr)
+    );
+    let out = dir.path().join("sweep/report");
+    let md = std::fs::read_to_string(out.join("README.md")).unwrap();
+    let sections: Vec<&str> = md.lines().filter(|l| l.starts_with("## ")).collect();
+    assert_eq!(
+        sections,
+        ["## Findings", "## Results per case", "## Figures"],
+        "{md}"
+    );
+    let cases: Vec<&str> = md.lines().filter(|l| l.starts_with("### ")).collect();
+    assert_eq!(cases, ["### my_scene", "### my_problem"], "{md}");
+    let per_case = read(&out, "per_case");
+    assert_eq!(per_case.lines().count(), 1 + 2 * 3 * 2, "{per_case}");
+    assert!(per_case
+        .lines()
+        .skip(1)
+        .all(|l| l.starts_with("scene:my_scene.toml") || l.starts_with("file:my_problem.dat")));
+    let findings = read(&out, "findings");
+    let families: Vec<&str> = findings
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert!(
+        families
+            .iter()
+            .all(|f| *f == "other scenes" || *f == "problem files"),
+        "{findings}"
+    );
+    assert!(
+        findings.contains("[per case](#results-per-case)"),
+        "{findings}"
+    );
+    // Figures are named after the cases, never after a path.
+    let plots: Vec<String> = std::fs::read_dir(out.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        plots.contains(&"pareto_my_scene.svg".to_owned()),
+        "{plots:?}"
+    );
+    let tmp = dir.path().to_string_lossy().replace('/', "_");
+    assert!(
+        plots
+            .iter()
+            .all(|p| !p.contains("tmp") && !p.contains(&tmp)),
+        "{plots:?}"
+    );
+
+    // A README lcpbench did not write is never overwritten.
+    let foreign = dir.path().join("elsewhere");
+    std::fs::create_dir_all(&foreign).unwrap();
+    std::fs::write(foreign.join("README.md"), "# my notes\n").unwrap();
+    let refused = Command::new(exe)
+        .current_dir(dir.path())
+        .args(["report", "--from", "sweep", "--out", "elsewhere"])
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("is not a report lcpbench wrote"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(foreign.join("README.md")).unwrap(),
+        "# my notes\n"
+    );
+    // A directory without a sweep's rows is named in the error.
+    let empty = Command::new(exe)
+        .current_dir(dir.path())
+        .args(["report", "--from", "elsewhere"])
+        .output()
+        .unwrap();
+    assert!(!empty.status.success());
+    assert!(String::from_utf8_lossy(&empty.stderr).contains("no results.csv"));
 }

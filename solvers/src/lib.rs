@@ -173,6 +173,20 @@ impl SolverKind {
         }
     }
 
+    /// The relaxed problem the solver solves in place of the one it is given, when it does:
+    /// Clarabel solves the convex QP whose optimality conditions are the LCP, which on box
+    /// friction rows (bounds scaled by the normal impulse) is Anitescu's convex relaxation,
+    /// not Coulomb's friction. `None` for the solvers of the problem as posed.
+    pub fn relaxation(self) -> Option<&'static str> {
+        match self {
+            SolverKind::Clarabel => Some(
+                "on friction rows, Anitescu's convex relaxation (a QP whose sliding contacts \
+                 may lift off), not the friction LCP",
+            ),
+            _ => None,
+        }
+    }
+
     /// True for solvers that iterate from a starting impulse (and so use a warm start).
     pub fn is_iterative(self) -> bool {
         matches!(
@@ -302,6 +316,15 @@ impl ConeSolverKind {
     /// contact slides, and so not `converged` on sliding problems).
     pub fn is_relaxation(self) -> bool {
         matches!(self, ConeSolverKind::ClarabelSocp)
+    }
+
+    /// The relaxed problem the solver solves in place of the cone problem, when it does:
+    /// Clarabel's SOCP is Anitescu's convex relaxation of Coulomb's law (a sliding contact
+    /// lifts off). `None` for the solvers of the exact cone problem.
+    pub fn relaxation(self) -> Option<&'static str> {
+        self.is_relaxation().then_some(
+            "Anitescu's convex relaxation of the Coulomb cone (sliding contacts lift off)",
+        )
     }
 
     /// A solver of this kind with default parameters.

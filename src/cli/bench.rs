@@ -158,8 +158,29 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     };
     let summary = run_sweep_locked(&config, jobs, &lock)?;
+    drop(lock);
     report_summary(&summary, &config);
+    print_solver_summary(&config);
     Ok(())
+}
+
+/// Print the sweep's per-solver summary to stdout (every row of its results table, those of
+/// earlier runs resumed included), and how to write its report.
+fn print_solver_summary(config: &SweepConfig) {
+    let results = config.results_path();
+    match lcpbench::harness::sweep::read_results(&results) {
+        Ok(rows) => {
+            let text = report::summary::sweep_summary(&rows);
+            if !text.is_empty() {
+                print!("{text}");
+                println!(
+                    "report: lcpbench report --from {}",
+                    config.out_dir.display()
+                );
+            }
+        }
+        Err(e) => eprintln!("no summary: reading {}: {e:#}", results.display()),
+    }
 }
 
 /// The jobs of `shard` of the sweep of `jobs`, after claiming the output directory for it

@@ -4,18 +4,24 @@
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::merge::{self, MergedManifest};
+use lcpbench::harness::outdir::{table_origin, TableOrigin};
 use lcpbench::harness::shard::{self, Shard, SweepKind};
 use lcpbench::harness::sweep::check_jobs;
 use lcpbench::harness::SweepConfig;
 use lcpbench::report::{self, suite};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `lcpbench report`.
 #[derive(Args)]
 pub struct ReportArgs {
-    /// Output directory.
-    #[arg(long, default_value = "reports")]
-    pub out: PathBuf,
+    /// Output directory [default: `reports`; with `--from DIR`, `DIR/report`].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the report of a sweep `lcpbench bench` wrote into DIR (its `results.csv`, and
+    /// `histories.csv` when present), from any working directory, without runs: Findings, the
+    /// results per case, their figures and profiles, about the cases of those rows only.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["quick", "scenes", "resume", "no_run", "shard"])]
+    pub from: Option<PathBuf>,
     /// Run a much smaller suite with every section (under a minute on two cores, instead of
     /// about 35 minutes).
     #[arg(long)]
@@ -48,13 +54,19 @@ pub struct ReportArgs {
 /// The report's scene files when `--scenes` is not given (relative to the working directory).
 const DEFAULT_SCENES: &str = "bench_scenes/*.toml";
 
+/// The default output directory of the suite's report.
+const DEFAULT_OUT: &str = "reports";
+
 /// Run `lcpbench report`.
 pub fn run(args: ReportArgs) -> Result<()> {
-    // A report writes its own files under these; a link there would send them elsewhere.
-    lcpbench::harness::outdir::refuse_linked_dirs(
-        &args.out,
-        &["data", "tables", "plots", "replays", "lcps"],
-    )?;
+    if let Some(from) = &args.from {
+        return report_from(from, args.out.as_deref());
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
+    refuse_report_links(&out)?;
     check_jobs(args.jobs).map_err(|m| anyhow!("--jobs {m}"))?;
     let pattern = args.scenes.as_deref().unwrap_or(DEFAULT_SCENES);
     let scenes = report::scenes_matching(pattern)?;
@@ -73,12 +85,12 @@ pub fn run(args: ReportArgs) -> Result<()> {
             "--scenes `{pattern}` matches no scene file: the report covers generated LCPs only"
         );
     }
-    report::check_output_dir(&args.out)?;
-    let merged = check_report_dir(&args)?;
-    let lcp_dir = args.out.join("lcps");
+    report::check_output_dir(&out)?;
+    let merged = check_report_dir(&args, &out)?;
+    let lcp_dir = out.join("lcps");
     let exported = if args.no_run {
         // Tables from existing data: the LCPs exported by the run that produced it.
-        report::recorded_exports(&args.out)?
+        report::recorded_exports(&out)?
     } else {
         remove_exported_lcps(&lcp_dir)?;
         // Sorted by path, the order `--no-run` lists them in.
@@ -91,12 +103,12 @@ pub fn run(args: ReportArgs) -> Result<()> {
         exported.sort();
         exported
     };
-    let mut sweep = SweepConfig::new(args.out.join("data"))?;
+    let mut sweep = SweepConfig::new(out.join("data"))?;
     sweep.jobs = args.jobs;
     sweep.progress = !args.no_progress;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let options = report::ReportOptions {
-        out_dir: args.out.clone(),
+        out_dir: out.clone(),
         quick: args.quick,
         resume: args.resume,
         scenes,
@@ -143,13 +155,13 @@ pub fn run(args: ReportArgs) -> Result<()> {
 /// Check that `report`'s output directory suits what it is asked to do: a shard's directory is
 /// only resumed by the same `--shard`, and `--no-run` on a merged directory needs the suite its
 /// shards ran (`--quick` or not). Returns the merged directory's manifest, if it has one.
-fn check_report_dir(args: &ReportArgs) -> Result<Option<MergedManifest>> {
+fn check_report_dir(args: &ReportArgs, out: &Path) -> Result<Option<MergedManifest>> {
     if args.shard.is_none() {
-        if let Some(m) = shard::read_manifest(&args.out)? {
+        if let Some(m) = shard::read_manifest(out)? {
             bail!(
                 "{} holds {} only; merge every shard with `lcpbench merge DIR... --out DIR` and \
                  write the report from that directory{}",
-                args.out.display(),
+                out.display(),
                 m.describe(),
                 if args.no_run {
                     ""
@@ -159,20 +171,20 @@ fn check_report_dir(args: &ReportArgs) -> Result<Option<MergedManifest>> {
             );
         }
     }
-    let merged = merge::read_merged(&args.out)?;
+    let merged = merge::read_merged(out)?;
     if let Some(m) = &merged {
         if !args.no_run {
             bail!(
                 "{} holds rows merged from shards; write their report with --no-run, or give \
                  this run another output directory",
-                args.out.display()
+                out.display()
             );
         }
         let suite = SweepKind::report(args.quick);
         if m.kind != suite {
             bail!(
                 "{} holds the rows of a {} sweep; {}",
-                args.out.display(),
+                out.display(),
                 m.kind,
                 match m.kind {
                     SweepKind::ReportQuick => "add --quick",
@@ -205,4 +217,45 @@ fn remove_exported_lcps(dir: &std::path::Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `report --from DIR`: the report of the sweep in `DIR` into `out` (default `DIR/report`).
+/// Refuses a `DIR` without lcpbench's `results.csv`, and an output directory holding files
+/// lcpbench did not write ([`report::check_output_dir`]).
+fn report_from(from: &Path, out: Option<&Path>) -> Result<()> {
+    let results = from.join("results.csv");
+    if !results.is_file() {
+        bail!(
+            "--from {}: no results.csv there; give the directory `lcpbench bench --out DIR` \
+             wrote",
+            from.display()
+        );
+    }
+    let columns = lcpbench::harness::sweep::result_columns();
+    if let TableOrigin::Foreign { header } = table_origin(&results, &columns)? {
+        bail!(
+            "--from {}: {} is not a table lcpbench wrote (its header starts `{}`)",
+            from.display(),
+            results.display(),
+            header.chars().take(80).collect::<String>()
+        );
+    }
+    let out = out.map_or_else(|| from.join("report"), Path::to_path_buf);
+    refuse_report_links(&out)?;
+    report::check_output_dir(&out)?;
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let header = report::Header::collect(&command, 1, &out);
+    let readme = report::write_report_from(from, &out, &header)?;
+    eprintln!("wrote {}", readme.display());
+    Ok(())
+}
+
+/// A report writes its own files under these subdirectories of its output; a link there would
+/// send them elsewhere.
+fn refuse_report_links(out: &Path) -> Result<()> {
+    lcpbench::harness::outdir::refuse_linked_dirs(
+        out,
+        &["data", "tables", "plots", "replays", "lcps"],
+    )
 }

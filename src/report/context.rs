@@ -59,6 +59,9 @@ pub(super) struct ReportContext<'a> {
     pub(super) plots_dir: PathBuf,
     /// The machines the rows ran on, and which kind's rows the timing tables use.
     pub(super) machines: Machines,
+    /// True for a report of a sweep of the user's (`report --from`): its sections are those
+    /// that apply to whatever the rows hold, and Findings links to the per-case tables.
+    pub(super) from_sweep: bool,
     /// The rows the timing tables use (every row when they come from one kind of machine).
     by_key: HashMap<RunKey, &'a RunRecord>,
     /// Every row.
@@ -102,7 +105,16 @@ impl<'a> ReportContext<'a> {
                 .collect(),
             all_by_key: rows.iter().map(|r| (r.key(), r)).collect(),
             machines,
+            from_sweep: false,
         }
+    }
+
+    /// The rows the timing tables use, in the order of the results table.
+    pub(super) fn timed_rows(&self) -> Vec<&'a RunRecord> {
+        self.rows
+            .iter()
+            .filter(|r| self.machines.timed(r))
+            .collect()
     }
 
     /// The run of `case` by `solver` under `budget`, if there is one among the rows the timing

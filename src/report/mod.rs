@@ -21,10 +21,13 @@
 //! suite.rs             which cases × solvers × budgets the report runs
 //! context.rs           ReportContext (the rows indexed once by run key) and the Section trait
 //! sections/            one module per section of the README, listed in sections/mod.rs:
-//!   overview           title, header table (machine, commit, command, sweep), how to read it
+//!   overview           title, header table (machine, commit, command, sweep), how to read it,
+//!                      the timing method
+//!   findings           the best solver and runner-up per family of cases and accuracy
+//!   per_case           (`report --from` only) every case of a sweep: runs, times, figures
 //!   budgets            the budget presets
-//!   scenes             scenes at a glance, solver × budget and details per scene, fastest per
-//!                      scene, speed–accuracy plots (median step residual)
+//!   scenes             scenes at a glance, solver × budget and details per scene, best per
+//!                      scene and accuracy, speed–accuracy plots (worst step residual)
 //!   large_scenes       best solver per budget on the large scenes, worst-residual plots
 //!   pipeline           phase times of a step on the large scenes, stacked bars
 //!   towers             60 Hz towers under low iteration budgets: sag, drift, time, steps short
@@ -40,7 +43,9 @@
 //!   scaling            log–log slopes of time against rows and against contacts
 //!   fclib              the FCLIB problems of Siconos' test data: time to 1e-6 per solver
 //! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
-//! palette.rs           the plots' colours: a fixed one per shipped solver, hashed for others
+//! summary.rs           the one rule that ranks solvers over a group of cases, and its means
+//! palette.rs           the plots' (colour, marker) pairs: fixed per shipped solver, distinct
+//!                      for any number of series
 //! status.rs            the run-status predicates the sections use
 //! machine.rs           the header's machine, commit and date
 //! machines.rs          the machines the rows ran on; the rows the timing tables use
@@ -60,10 +65,11 @@ mod sections;
 pub mod shard;
 mod status;
 pub mod suite;
+pub mod summary;
 mod table;
 
 pub use machine::Header;
-pub use sections::write_report;
+pub use sections::{write_report, write_report_from};
 
 use crate::harness::outdir::{check_own_table, table_origin, TableOrigin};
 use crate::harness::sweep::{history_columns, lock_dir, result_columns, run_sweep_locked};

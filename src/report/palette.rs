@@ -1,11 +1,19 @@
-//! The plot palette: a fixed colour for each shipped solver, a stable hashed one for any other
-//! series (solver variants, cone solvers, faults, reference lines).
+//! The plots' styles: each series a (colour, marker) pair, no pair repeated in a plot, for any
+//! number of series.
+//!
+//! Every shipped solver (matrix, body-level, cone) has a fixed index, so it keeps its style
+//! from one figure and one report to the next: its colour is its slot in [`PALETTE`], its
+//! marker a filled circle or triangle, and its warm-started form the same colour with the
+//! hollow marker. Other series (SOR variants, faults, friction models, solvers this module
+//! does not know) take the next free index of the figure ([`styles`]). Index `i` is the pair
+//! (colour `i mod 16`, marker `i div 16`) for the first `16 × 8` indices; beyond them the
+//! colours are generated (golden-angle hues), so pairs never repeat however many series a
+//! figure has.
 
 use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_solvers::SolverKind;
+use lcpbench_solvers::{ConeSolverKind, SolverKind};
 
-/// The plot palette (RGB): the solvers with a fixed slot ([`palette_slot`]) take theirs; other
-/// series are hashed onto it.
+/// The plot palette (RGB): sixteen colours told apart on white.
 pub const PALETTE: [(u8, u8, u8); 16] = [
     (31, 119, 180),
     (255, 127, 14),
@@ -25,76 +33,167 @@ pub const PALETTE: [(u8, u8, u8); 16] = [
     (255, 0, 255),
 ];
 
-/// The fixed palette slot of a shipped solver (`None`: the colour is hashed from the name).
-pub fn palette_slot(name: &str) -> Option<usize> {
-    if let Some(kind) = BodySolverKind::from_name(name) {
-        return Some(match kind {
-            BodySolverKind::SequentialImpulses => 6,
-            BodySolverKind::MicroImpulses => 7,
-            BodySolverKind::Penalty => 8,
-            BodySolverKind::AveragedImpulse => 15,
-        });
-    }
-    Some(match SolverKind::from_name(name)? {
-        SolverKind::Pgs => 0,
-        SolverKind::Sor => 1,
-        SolverKind::Lemke => 2,
-        SolverKind::Dantzig => 3,
-        SolverKind::Clarabel => 4,
-        SolverKind::MicroImpulse => 5,
-        SolverKind::NewtonFb => 9,
-        SolverKind::NewtonMin => 10,
-        SolverKind::Apgd => 11,
-        SolverKind::Nncg => 12,
-        SolverKind::Nsgs => 13,
-        SolverKind::Enumeration => 14,
-    })
+/// A marker shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Marker {
+    /// Filled circle.
+    Circle,
+    /// Filled triangle.
+    Triangle,
+    /// Hollow circle.
+    HollowCircle,
+    /// Hollow triangle.
+    HollowTriangle,
+    /// Filled square.
+    Square,
+    /// Filled diamond.
+    Diamond,
+    /// Hollow square.
+    HollowSquare,
+    /// Cross.
+    Cross,
 }
 
-/// A stable colour per series key (a solver specification or name): a plain shipped solver
-/// gets its fixed slot, anything else (variants, cone solvers, faults) a hashed one.
-pub fn colour(key: &str) -> (u8, u8, u8) {
-    if let Some(slot) = palette_slot(key) {
-        return PALETTE[slot];
+/// The markers, in index order (see the module doc).
+pub const MARKERS: [Marker; 8] = [
+    Marker::Circle,
+    Marker::Triangle,
+    Marker::HollowCircle,
+    Marker::HollowTriangle,
+    Marker::Square,
+    Marker::Diamond,
+    Marker::HollowSquare,
+    Marker::Cross,
+];
+
+/// A series' style.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Style {
+    /// RGB colour.
+    pub colour: (u8, u8, u8),
+    /// Marker.
+    pub marker: Marker,
+}
+
+/// The style of index `i`.
+pub fn style_at(i: usize) -> Style {
+    let (row, col) = (i / PALETTE.len(), i % PALETTE.len());
+    let colour = if row < MARKERS.len() {
+        PALETTE[col]
+    } else {
+        generated_colour(i)
+    };
+    Style {
+        colour,
+        marker: MARKERS[row % MARKERS.len()],
     }
-    let h = key
-        .bytes()
-        .fold(7u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
-    PALETTE[(h % PALETTE.len() as u64) as usize]
+}
+
+/// A colour of golden-angle hue `i` (saturation and value varied with `i` too), for indices
+/// past the fixed pairs.
+fn generated_colour(i: usize) -> (u8, u8, u8) {
+    let h = (i as f64 * 137.507_764_050_037_86).rem_euclid(360.0);
+    let s = 0.55 + 0.4 * ((i * 7 % 11) as f64 / 10.0);
+    let v = 0.45 + 0.4 * ((i * 3 % 7) as f64 / 6.0);
+    let c = v * s;
+    let x = c * (1.0 - ((h / 60.0).rem_euclid(2.0) - 1.0).abs());
+    let (r, g, b) = match (h / 60.0) as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    let to = |u: f64| ((u + m) * 255.0).round().clamp(0.0, 255.0) as u8;
+    (to(r), to(g), to(b))
+}
+
+/// Every shipped solver's name, in the order of their fixed indices.
+fn shipped_names() -> Vec<&'static str> {
+    let mut v: Vec<&'static str> = SolverKind::ALL.iter().map(|k| k.name()).collect();
+    v.extend(BodySolverKind::ALL.iter().map(|k| k.name()));
+    v.extend(ConeSolverKind::ALL.iter().map(|k| k.name()));
+    v
+}
+
+/// The fixed index of a shipped solver's specification (`pgs`, `pgs+warm`, `nsgs-cone`), or
+/// `None` for anything else. Cold: base slot `b` on the filled circle/triangle rows; warm:
+/// the same colour on the hollow rows.
+pub fn fixed_index(key: &str) -> Option<usize> {
+    let (base, warm) = match key.strip_suffix("+warm") {
+        Some(b) => (b, true),
+        None => (key, false),
+    };
+    let b = shipped_names().iter().position(|n| *n == base)?;
+    let (row, col) = (b / PALETTE.len(), b % PALETTE.len());
+    let row = if warm { row + 2 } else { row };
+    Some(row * PALETTE.len() + col)
+}
+
+/// The first index of the series without a fixed one: past the fixed rows.
+const FREE_FROM: usize = 4 * PALETTE.len();
+
+/// A style for each key, in order: equal keys share one, different keys never do. Shipped
+/// solvers take their fixed index, the others the free indices in order of first appearance.
+pub fn styles<S: AsRef<str>>(keys: &[S]) -> Vec<Style> {
+    let mut assigned: Vec<(String, usize)> = Vec::new();
+    let mut next = FREE_FROM;
+    keys.iter()
+        .map(|k| {
+            let k = k.as_ref();
+            if let Some((_, i)) = assigned.iter().find(|(name, _)| name == k) {
+                return style_at(*i);
+            }
+            let i = fixed_index(k).unwrap_or_else(|| {
+                let i = next;
+                next += 1;
+                i
+            });
+            assigned.push((k.to_owned(), i));
+            style_at(i)
+        })
+        .collect()
+}
+
+/// The colour of a series key on its own (the fixed one of a shipped solver; otherwise that
+/// of the first free index): for figures with one series per colour, such as bars.
+pub fn colour(key: &str) -> (u8, u8, u8) {
+    styles(&[key])[0].colour
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashSet;
 
     #[test]
-    fn shipped_solvers_keep_their_plot_colours() {
-        // Each shipped solver's slot, in palette order: a solver keeps its colour from one
-        // report to the next.
-        let fixed = [
-            "pgs",
-            "sor",
-            "lemke",
-            "dantzig",
-            "clarabel",
-            "micro",
-            "si",
-            "body-micro",
-            "penalty",
-            "newton-fb",
-            "newton-min",
-            "apgd",
-            "nncg",
-            "nsgs",
-            "enum",
-            "avg",
-        ];
-        for (i, name) in fixed.iter().enumerate() {
-            assert_eq!(colour(name), PALETTE[i], "{name}");
+    fn shipped_solvers_keep_their_styles_and_warm_forms_differ() {
+        assert_eq!(style_at(fixed_index("pgs").unwrap()).colour, PALETTE[0]);
+        assert_eq!(style_at(fixed_index("sor").unwrap()).colour, PALETTE[1]);
+        let pgs = styles(&["pgs", "pgs+warm", "sor", "newton-fb", "newton-min"]);
+        assert_eq!(pgs[0].colour, pgs[1].colour);
+        assert_ne!(pgs[0].marker, pgs[1].marker);
+        let set: HashSet<Style> = pgs.iter().copied().collect();
+        assert_eq!(set.len(), pgs.len());
+    }
+
+    /// Forty solvers, and four hundred series, get distinct (colour, marker) pairs; a key
+    /// repeated gets its first style.
+    #[test]
+    fn any_number_of_series_gets_distinct_pairs() {
+        let mut keys: Vec<String> = shipped_names().iter().map(|s| s.to_string()).collect();
+        keys.extend(shipped_names().iter().map(|s| format!("{s}+warm")));
+        keys.truncate(40);
+        keys.extend((0..360).map(|i| format!("sor@{i}")));
+        for n in [40, keys.len()] {
+            let s = styles(&keys[..n]);
+            let set: HashSet<Style> = s.iter().copied().collect();
+            assert_eq!(set.len(), n, "{n} series");
         }
-        // Variants and unlisted solvers are hashed, and stable.
-        assert_eq!(colour("sor@1.5"), colour("sor@1.5"));
-        let slots: std::collections::HashSet<_> = fixed.iter().map(|n| colour(n)).collect();
-        assert_eq!(slots.len(), fixed.len());
+        let again = styles(&["x", "pgs", "x"]);
+        assert_eq!(again[0], again[2]);
+        assert_ne!(again[0], again[1]);
     }
 }

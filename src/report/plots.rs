@@ -5,8 +5,10 @@
 //! Points that cannot be shown on a log axis (zero, negative, non-finite) are dropped from the
 //! plot but kept in the CSV.
 
+use crate::report::palette::{Marker, Style};
 use anyhow::{Context, Result};
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -23,6 +25,9 @@ pub enum Mark {
     Step,
     /// Dashed reference line, grey.
     Reference,
+    /// A second marker of the series named by the colour key (a small cross in its colour,
+    /// no legend entry of its own): the median beside a worst-case point.
+    Secondary,
 }
 
 /// One named series of `(x, y)` points.
@@ -57,7 +62,9 @@ pub struct PlotSpec {
     pub legend: LegendAt,
 }
 
-/// Legend placement.
+/// Legend placement. Every legend is drawn in a panel right of the data area, never over the
+/// data; the variants are kept for the callers, which chose a corner when the legend was drawn
+/// inside.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LegendAt {
     /// Upper right corner (the default).
@@ -69,10 +76,7 @@ pub enum LegendAt {
     LowerRight,
 }
 
-/// A stable colour per series key (the shipped solvers get fixed colours; see
-/// [`crate::report::palette::colour`]).
-pub fn color_for(key: &str) -> RGBColor {
-    let (r, g, b) = crate::report::palette::colour(key);
+fn rgb((r, g, b): (u8, u8, u8)) -> RGBColor {
     RGBColor(r, g, b)
 }
 
@@ -139,10 +143,24 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
         })
         .collect();
     let (x0, x1, y0, y1) = axis_ranges(spec, &mapped);
-    let root = SVGBackend::new(svg_path, (820, 540)).into_drawing_area();
+    let keys: Vec<&str> = series.iter().map(|s| s.color_key.as_str()).collect();
+    let styles = crate::report::palette::styles(&keys);
+    let legend: Vec<(&Series, Style)> = series
+        .iter()
+        .zip(&styles)
+        .filter(|(s, _)| !s.name.is_empty() && s.mark != Mark::Secondary)
+        .map(|(s, st)| (s, *st))
+        .collect();
+    let secondary = series.iter().any(|s| s.mark == Mark::Secondary);
+    // The legend panel right of the data: one line per entry (and one for the second marker).
+    let lines = legend.len() + usize::from(secondary);
+    let height = (540).max(60 + 18 * lines as u32);
+    let root = SVGBackend::new(svg_path, (LEGEND_W + 640, height)).into_drawing_area();
     root.fill(&WHITE).map_err(draw_err)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&spec.title, ("sans-serif", 20))
+    let (area, panel) = root.split_horizontally(640);
+    let area = area.shrink((0, 0), (640, 540));
+    let mut chart = ChartBuilder::on(&area)
+        .caption(&spec.title, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
@@ -160,24 +178,108 @@ pub fn plot(svg_path: &Path, spec: &PlotSpec, series: &[Series]) -> Result<()> {
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(draw_err)?;
-    for (s, pts) in &mapped {
+    for ((s, pts), style) in mapped.iter().zip(&styles) {
         if !pts.is_empty() {
-            draw_one(&mut chart, s, pts, x1)?;
+            draw_one(&mut chart, s, *style, pts, x1)?;
         }
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(match spec.legend {
-            LegendAt::UpperRight => SeriesLabelPosition::UpperRight,
-            LegendAt::LowerLeft => SeriesLabelPosition::LowerLeft,
-            LegendAt::LowerRight => SeriesLabelPosition::LowerRight,
-        })
-        .draw()
-        .map_err(draw_err)?;
+    draw_legend(&panel, &legend, secondary)?;
     root.present().map_err(draw_err)?;
+    Ok(())
+}
+
+/// Width of the legend panel right of a plot's data area.
+const LEGEND_W: u32 = 240;
+
+/// The legend panel: each named series' marker (and line), then its name.
+fn draw_legend(
+    panel: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    entries: &[(&Series, Style)],
+    secondary: bool,
+) -> Result<()> {
+    let font = ("sans-serif", 14).into_font();
+    let mut y = 40;
+    for (s, style) in entries {
+        let colour = if s.mark == Mark::Reference {
+            RGBColor(90, 90, 90)
+        } else {
+            rgb(style.colour)
+        };
+        if matches!(
+            s.mark,
+            Mark::Line | Mark::LinePoints | Mark::Step | Mark::Reference
+        ) {
+            panel
+                .draw(&PathElement::new(
+                    vec![(6, y), (30, y)],
+                    ShapeStyle::from(&colour).stroke_width(2),
+                ))
+                .map_err(draw_err)?;
+        }
+        if matches!(s.mark, Mark::Points | Mark::LinePoints) {
+            draw_marker_on(panel, (18, y), style.marker, colour, 5)?;
+        }
+        let label: String = s.name.chars().take(32).collect();
+        panel
+            .draw(&Text::new(label, (36, y - 7), font.clone()))
+            .map_err(draw_err)?;
+        y += 18;
+    }
+    if secondary {
+        draw_marker_on(panel, (18, y), Marker::Cross, BLACK, 4)?;
+        panel
+            .draw(&Text::new("median of the same run", (36, y - 7), font))
+            .map_err(draw_err)?;
+    }
+    Ok(())
+}
+
+/// Draw one marker at a pixel position of a drawing area.
+fn draw_marker_on(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    at: (i32, i32),
+    marker: Marker,
+    colour: RGBColor,
+    r: i32,
+) -> Result<()> {
+    draw_markers(area, &[at], marker, colour, r)
+}
+
+/// Draw `marker` at each of `pts` (in the area's coordinates).
+fn draw_markers<DB: DrawingBackend, CT: CoordTranslate>(
+    area: &DrawingArea<DB, CT>,
+    pts: &[CT::From],
+    marker: Marker,
+    colour: RGBColor,
+    r: i32,
+) -> Result<()>
+where
+    CT::From: Clone,
+{
+    let filled = ShapeStyle::from(&colour).filled();
+    let line = ShapeStyle::from(&colour).stroke_width(2);
+    let tri = vec![(0, -r), (-r, r), (r, r), (0, -r)];
+    let square = [(-r, -r), (r, r)];
+    for p in pts {
+        let at = || EmptyElement::at(p.clone());
+        match marker {
+            Marker::Circle => area.draw(&(at() + Circle::new((0, 0), r, filled))),
+            Marker::HollowCircle => area.draw(&(at() + Circle::new((0, 0), r, line))),
+            Marker::Triangle => area.draw(&(at() + Polygon::new(tri.clone(), filled))),
+            Marker::HollowTriangle => area.draw(&(at() + PathElement::new(tri.clone(), line))),
+            Marker::Square => area.draw(&(at() + Rectangle::new(square, filled))),
+            Marker::HollowSquare => area.draw(&(at() + Rectangle::new(square, line))),
+            Marker::Diamond => {
+                area.draw(&(at() + Polygon::new(vec![(0, -r), (-r, 0), (0, r), (r, 0)], filled)))
+            }
+            Marker::Cross => area.draw(
+                &(at()
+                    + PathElement::new(vec![(-r, -r), (r, r)], line)
+                    + PathElement::new(vec![(-r, r), (r, -r)], line)),
+            ),
+        }
+        .map_err(draw_err)?;
+    }
     Ok(())
 }
 
@@ -216,39 +318,45 @@ fn axis_ranges(spec: &PlotSpec, mapped: &[(&Series, Vec<(f64, f64)>)]) -> (f64, 
     (x0, x1, y0, y1)
 }
 
-/// Draw one series' points (in axis units, not empty) in its mark, and its legend entry when
-/// it has a name; `x_end` is where a staircase's last step ends.
-fn draw_one(chart: &mut Chart, s: &Series, pts: &[(f64, f64)], x_end: f64) -> Result<()> {
+/// Draw one series' points (in axis units, not empty) in its mark and style; `x_end` is where
+/// a staircase's last step ends. Legends are drawn apart ([`draw_legend`]).
+fn draw_one(
+    chart: &mut Chart,
+    s: &Series,
+    style: Style,
+    pts: &[(f64, f64)],
+    x_end: f64,
+) -> Result<()> {
     let color = if s.mark == Mark::Reference {
         RGBColor(90, 90, 90)
     } else {
-        color_for(&s.color_key)
+        rgb(style.colour)
     };
-    let style = ShapeStyle::from(&color).stroke_width(2);
-    let dots = |r: u32| {
-        pts.iter()
-            .map(move |&p| Circle::new(p, r, ShapeStyle::from(&color).filled()))
-    };
+    let line = ShapeStyle::from(&color).stroke_width(2);
     let mark = if pts.len() == 1 && matches!(s.mark, Mark::Line | Mark::Step) {
         Mark::Points
     } else {
         s.mark
     };
-    let anno = match mark {
-        Mark::Line | Mark::Reference => chart.draw_series(LineSeries::new(pts.to_vec(), style)),
-        Mark::Step => chart.draw_series(LineSeries::new(staircase(pts, x_end), style)),
-        Mark::Points => chart.draw_series(dots(4)),
+    match mark {
+        Mark::Line | Mark::Reference => {
+            chart
+                .draw_series(LineSeries::new(pts.to_vec(), line))
+                .map_err(draw_err)?;
+        }
+        Mark::Step => {
+            chart
+                .draw_series(LineSeries::new(staircase(pts, x_end), line))
+                .map_err(draw_err)?;
+        }
+        Mark::Points => draw_markers(chart.plotting_area(), pts, style.marker, color, 5)?,
         Mark::LinePoints => {
             chart
-                .draw_series(LineSeries::new(pts.to_vec(), style))
+                .draw_series(LineSeries::new(pts.to_vec(), line))
                 .map_err(draw_err)?;
-            chart.draw_series(dots(3))
+            draw_markers(chart.plotting_area(), pts, style.marker, color, 4)?;
         }
-    }
-    .map_err(draw_err)?;
-    if !s.name.is_empty() {
-        anno.label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+        Mark::Secondary => draw_markers(chart.plotting_area(), pts, Marker::Cross, color, 3)?,
     }
     Ok(())
 }

@@ -19,6 +19,12 @@ pub(super) fn blew_up(r: &RunRecord) -> bool {
     r.status == RunStatus::BlowUp
 }
 
+/// A scene run whose steps had nothing to solve: no contact and no joint row in any step (a
+/// ball still falling), so no time per step worth printing and no solver to rank.
+pub(crate) fn no_work(r: &RunRecord) -> bool {
+    r.steps.unwrap_or(0) > 0 && r.contacts_mean == Some(0.0) && r.n.unwrap_or(0) == 0
+}
+
 /// The scene run stopped before its last step for lack of time: at its run limit, or after
 /// consecutive steps over their per-step budget (fewer steps than it was to take).
 pub(super) fn cut_short(r: &RunRecord) -> bool {

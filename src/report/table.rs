@@ -76,12 +76,6 @@ pub(super) fn fmt_sci(v: Option<f64>) -> String {
     }
 }
 
-/// Geometric mean of the positive values, if any.
-pub(super) fn geo_mean(v: &[f64]) -> Option<f64> {
-    let v: Vec<f64> = v.iter().copied().filter(|x| *x > 0.0).collect();
-    (!v.is_empty()).then(|| (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
-}
-
 /// ✓ all, ~ some, ✗ none of `total`.
 pub(super) fn mark(ok: usize, total: usize) -> &'static str {
     if ok == total {

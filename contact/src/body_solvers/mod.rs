@@ -123,6 +123,18 @@ impl BodySolverKind {
         !matches!(self, BodySolverKind::Penalty)
     }
 
+    /// The relaxed problem the solver solves in place of the rigid contact problem, when it
+    /// does: `penalty` is a penalty (soft-contact) model, spring-damper forces that let bodies
+    /// overlap, not the LCP. `None` for the others.
+    pub fn relaxation(self) -> Option<&'static str> {
+        match self {
+            BodySolverKind::Penalty => {
+                Some("a penalty (soft-contact) model: spring-damper forces, not the rigid LCP")
+            }
+            _ => None,
+        }
+    }
+
     /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
     /// them as engines do; the others resolve contacts only.
     pub fn takes_joints(self) -> bool {

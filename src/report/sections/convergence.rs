@@ -32,7 +32,8 @@ impl Section for Convergence {
             for (axis, x_label) in AXES {
                 let path = ctx.plots_dir.join(format!(
                     "convergence_{}_{axis}.svg",
-                    slug(&case.to_string())
+                    // The case's name, not its path (a file case's key holds the path).
+                    slug(&case.short_name())
                 ));
                 plot(
                     &path,

@@ -38,7 +38,8 @@ impl Section for Fastest {
         let _ = writeln!(
             md,
             "## Fastest solver per problem\n\nSolver time until the shared relative residual first \
-             reached 1e-4 and 1e-8 (from the residual history of each solve under budget `{BUDGET}`).\n\n{}",
+             reached 1e-4 and 1e-8 (from the residual history of each solve under budget `{BUDGET}`): \
+             the rule of [Findings](#findings) on one problem.\n\n{}",
             ctx.table(&fastest)?
         );
         Ok(Vec::new())

@@ -30,7 +30,7 @@ impl Section for Fclib {
         let mut t = Table::with_header("fclib", header);
         let budget = fclib_budget().name;
         for solver in all_solvers() {
-            let mut row = vec![solver.to_string()];
+            let mut row = vec![super::findings::solver_cell(&solver)];
             row.extend(cases.iter().map(|c| cell(ctx.get(c, &solver, &budget))));
             t.rows.push(row);
         }
@@ -51,8 +51,9 @@ impl Section for Fclib {
              (`bench_scenes/fclib/`), each read as a box-friction LCP (per contact a normal row \
              and two friction rows bounded by ±mu·f_n). Every matrix solver, cold start, budget \
              `{budget}`: the solve time when the shared relative residual reached 1e-6, \
-             otherwise the status and the residual it ended at.\n\n{}",
-            ctx.table(&t)?
+             otherwise the status and the residual it ended at.\n\n{}\n{}",
+            ctx.table(&t)?,
+            super::findings::relaxation_footnote(&all_solvers())
         );
         Ok(Vec::new())
     }

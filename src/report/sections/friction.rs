@@ -121,10 +121,15 @@ fn friction_section(md: &mut String, ctx: &ReportContext) -> Result<()> {
          Converged steps count the steps that met the tolerance, over all four scenes.\n\n{}",
         ctx.table(&table)?
     );
+    let solvers: Vec<SolverSpec> = FRICTION_MODELS
+        .iter()
+        .flat_map(|(_, specs)| specs.iter().cloned())
+        .collect();
     let _ = writeln!(
         md,
-        "Solver time per step of the same runs:\n\n{}",
-        ctx.table(&times)?
+        "Solver time per step of the same runs:\n\n{}\n{}",
+        ctx.table(&times)?,
+        super::findings::relaxation_footnote(&solvers)
     );
     Ok(())
 }
@@ -153,7 +158,7 @@ fn tables(ctx: &ReportContext, scenes: &FrictionScenes) -> (Table, Table) {
     let mut times = Table::with_header("friction_models_time", time_header);
     for (model, solvers) in FRICTION_MODELS {
         for solver in solvers {
-            let mut row = vec![model.name(), solver.to_string()];
+            let mut row = vec![model.name(), super::findings::solver_cell(solver)];
             let mut time_row = row.clone();
             let (mut done, mut converged) = (0, 0);
             for (_, cases) in scenes {

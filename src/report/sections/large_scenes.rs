@@ -34,9 +34,10 @@ impl Section for LargeScenes {
             md,
             "## Large scenes\n\nThe scenes with more than {LARGE_SCENE_BODIES} dynamic bodies, \
              under every budget of the scene runs ({}), each solver cold and the iterative ones \
-             warm-started. Per budget, the fastest solver whose every step converged (time per \
-             step, converged steps / steps); where none converged on every step, the one with \
-             the most converged steps. What the suite leaves out here: the runs take \
+             warm-started. Per budget, the best solver by the rule of [Findings](#findings) \
+             restricted to that budget: the fastest whose every step converged (time per step, \
+             converged steps / steps); where none converged on every step, the one with the \
+             most converged steps. What the suite leaves out here: the runs take \
              {LARGE_SCENE_STEPS} steps ({}; the sphere piles fall for their first 17 steps); \
              budget `tight` is not run; a run stops after three consecutive steps over the \
              per-step budget (`cut` in the tables).\n",
@@ -74,13 +75,7 @@ impl Section for LargeScenes {
             let path = ctx
                 .plots_dir
                 .join(format!("large_worst_{}.svg", slug(&name)));
-            speed_accuracy_figure(
-                ctx,
-                case,
-                &path,
-                |r| r.residual_rel,
-                "worst relative residual of a step",
-            )?;
+            speed_accuracy_figure(ctx, case, &path, &super::scenes::scene_budgets())?;
             figures.push(Figure::new(
                 format!("Speed–accuracy on large scene {name} (worst step residual)"),
                 path,

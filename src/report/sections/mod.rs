@@ -11,10 +11,12 @@ mod cone_profiles;
 mod convergence;
 mod fastest;
 mod fclib;
+mod findings;
 mod friction;
 mod joints;
 mod large_scenes;
 mod overview;
+mod per_case;
 mod pipeline;
 mod profiles;
 mod robustness;
@@ -38,6 +40,7 @@ use std::path::{Path, PathBuf};
 /// The sections of the README, in order.
 const SECTIONS: &[&dyn Section] = &[
     &overview::Overview,
+    &findings::Findings,
     &budgets::Budgets,
     &scenes::Scenes,
     &large_scenes::LargeScenes,
@@ -58,6 +61,11 @@ const SECTIONS: &[&dyn Section] = &[
     &fclib::Fclib,
 ];
 
+/// The sections of a report of any sweep (`report --from`): the header, Findings, and the
+/// results per case with their figures and profiles.
+const FROM_SECTIONS: &[&dyn Section] =
+    &[&overview::Overview, &findings::Findings, &per_case::PerCase];
+
 /// Write README.md, tables/ and plots/ from `out_dir/data`. Returns the README path.
 pub fn write_report(
     out_dir: &Path,
@@ -65,8 +73,33 @@ pub fn write_report(
     header: &Header,
     sweep_seconds: f64,
 ) -> Result<PathBuf> {
-    let data_dir = out_dir.join("data");
-    let rows = read_results(&data_dir.join("results.csv"))?;
+    render(
+        &out_dir.join("data"),
+        out_dir,
+        suite,
+        header,
+        sweep_seconds,
+        false,
+    )
+}
+
+/// Write the report of a sweep `bench` wrote into `from` (its `results.csv`, and
+/// `histories.csv` when there is one) into `out_dir`: Findings, the results per case, their
+/// figures and profiles, about the cases of those rows and no others. Returns the README path.
+pub fn write_report_from(from: &Path, out_dir: &Path, header: &Header) -> Result<PathBuf> {
+    render(from, out_dir, &Suite::default(), header, 0.0, true)
+}
+
+fn render(
+    data_dir: &Path,
+    out_dir: &Path,
+    suite: &Suite,
+    header: &Header,
+    sweep_seconds: f64,
+    from_sweep: bool,
+) -> Result<PathBuf> {
+    let results = data_dir.join("results.csv");
+    let rows = read_results(&results).with_context(|| format!("reading {}", results.display()))?;
     let hist_path = data_dir.join("histories.csv");
     let histories = if hist_path.exists() {
         read_histories(&hist_path)?
@@ -75,12 +108,14 @@ pub fn write_report(
     };
     // Histories plot residuals against time: only those of the runs the timing tables use.
     let histories = Machines::of(&rows).timed_histories(&rows, histories);
-    let ctx = ReportContext::new(suite, header, sweep_seconds, &rows, &histories, out_dir);
+    let mut ctx = ReportContext::new(suite, header, sweep_seconds, &rows, &histories, out_dir);
+    ctx.from_sweep = from_sweep;
     std::fs::create_dir_all(&ctx.tables_dir)?;
     std::fs::create_dir_all(&ctx.plots_dir)?;
     let mut md = String::new();
     let mut figures = Vec::new();
-    for section in SECTIONS {
+    let sections = if from_sweep { FROM_SECTIONS } else { SECTIONS };
+    for section in sections {
         let shown = section
             .render(&ctx, &mut md)
             .with_context(|| format!("report section `{}`", section.title()))?;
@@ -174,6 +209,7 @@ mod tests {
             headings,
             [
                 "# lcpbench report",
+                "## Findings",
                 "## Budgets",
                 "## Robustness matrix",
                 "## Fastest solver per problem",
@@ -185,6 +221,17 @@ mod tests {
             ]
         );
         assert!(md.contains("3 rows (0 isolation failures"));
+        // Findings: the generated family (the infeasible case left out), pgs the only solver
+        // that solved it, at each accuracy.
+        let findings = std::fs::read_to_string(dir.path().join("tables/findings.csv")).unwrap();
+        for level in ["1e-4", "1e-6", "1e-8"] {
+            assert!(
+                findings.contains(&format!(
+                    "generated LCPs,1,{level},pgs,100.0 µs (1/1 problems)"
+                )),
+                "{findings}"
+            );
+        }
         assert!(md.contains("sweep 12 s on 3 worker processes"));
         let robust = std::fs::read_to_string(dir.path().join("tables/robustness.csv")).unwrap();
         let line = |solver: &str| {
@@ -293,8 +340,23 @@ mod tests {
         }
         // Solver × budget cells: converged steps over steps where some did not converge.
         assert!(
-            md.contains("| pgs+warm | ~ 2.00 ms (4/10) | – | ✓ 2.00 ms |"),
+            md.contains("| pgs+warm | ~ 2.00 ms (4/10) | – | ✓ 2.00 ms | – |"),
             "{md}"
+        );
+        // Findings and the fastest-per-scene table agree: newton-fb converged every step, at
+        // 1.00 ms per step; pgs+warm (2.00 ms, every step under `default`) is the runner-up.
+        let findings = std::fs::read_to_string(dir.path().join("tables/findings.csv")).unwrap();
+        assert!(
+            findings.contains(
+                "towers,1,1e-6,newton-fb,1.00 ms/step (10/10 steps),pgs+warm,2.00 ms/step (10/10 steps)"
+            ),
+            "{findings}"
+        );
+        let fastest =
+            std::fs::read_to_string(dir.path().join("tables/scenes_fastest.csv")).unwrap();
+        assert!(
+            fastest.contains("tower_40,newton-fb,1.00 ms/step (10/10 steps)"),
+            "{fastest}"
         );
         let best =
             std::fs::read_to_string(dir.path().join("tables/large_scenes_best.csv")).unwrap();

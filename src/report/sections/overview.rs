@@ -12,6 +12,17 @@ use std::fmt::Write as _;
 
 pub(super) struct Overview;
 
+/// How times are measured, as the header states it.
+const TIMING: &str = "**Timing.** LCP and cone cases: median of repeated solves from the same \
+    start after one untimed warm-up solve, until ≥ 20 ms total and ≥ 3 solves (a first solve \
+    of ≥ 20 ms counts alone); spread (min, max, count) in the tables' data \
+    (`timed_solves`, `solve_time_min_s`, `solve_time_max_s`). A warm start's source and the \
+    time to compute it (`warm_source`, `warm_time_s`) are recorded beside the solve time and \
+    are not part of it. Scene steps timed in-process per step (solver time per step). Means \
+    over several problems are shifted geometric means (shift 10 µs) over every problem of the \
+    set, a failure counted at the budget's seconds, or geometric means over the problems every \
+    compared solver solved, as each caption says; never a mean over a solver's own successes.";
+
 impl Section for Overview {
     fn title(&self) -> &'static str {
         "lcpbench report"
@@ -19,11 +30,19 @@ impl Section for Overview {
 
     fn render(&self, ctx: &ReportContext, md: &mut String) -> Result<Vec<Figure>> {
         let _ = writeln!(md, "{}\n", crate::report::README_TITLE);
-        let _ = writeln!(
-            md,
-            "Regenerate with `cargo run --release -- report` (about 35 minutes on two cores; \
-             `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
-        );
+        if ctx.from_sweep {
+            let _ = writeln!(
+                md,
+                "The report of one `lcpbench bench` sweep; regenerate it with `lcpbench report \
+                 --from DIR` on the sweep's directory.\n"
+            );
+        } else {
+            let _ = writeln!(
+                md,
+                "Regenerate with `cargo run --release -- report` (about 45 minutes on two cores; \
+                 `--quick` for a small version); run the tests with `cargo test --workspace`.\n"
+            );
+        }
         md.push_str(&ctx.table(&header_table(ctx))?);
         if let Some(timing) = ctx.machines.timing() {
             let _ = writeln!(
@@ -51,10 +70,15 @@ impl Section for Overview {
              Residuals are the shared relative natural-map residual of the returned impulse, \
              `max_i |f_i − mid(lo_i, hi_i, f_i − w_i/A_ii)| / ((|b_i| + Σ_j |A_ij f_j|) / A_ii)`: \
              each row measured against the magnitudes its own velocity is made of, so no row, bound \
-             or scale can hide another row's error (see the README); times are solver wall time with residual measurement excluded. Raw rows: \
-             [`data/results.csv`](data/results.csv); convergence histories: \
-             [`data/histories.csv`](data/histories.csv); every table below is also in `tables/`, \
-             every figure's points next to it in `plots/`.\n"
+             or scale can hide another row's error (see the README); times are solver wall time \
+             with residual measurement excluded. {} Every table below is also in `tables/`, \
+             every figure's points next to it in `plots/`.\n\n{TIMING}\n",
+            if ctx.from_sweep {
+                "Raw rows: the sweep's `results.csv` and `histories.csv`."
+            } else {
+                "Raw rows: [`data/results.csv`](data/results.csv); convergence histories: \
+                 [`data/histories.csv`](data/histories.csv)."
+            }
         );
         Ok(Vec::new())
     }

@@ -30,7 +30,7 @@ impl Section for Robustness {
         header.extend(classes.iter().map(|c| c.name().to_owned()));
         let mut robust = Table::with_header("robustness", header);
         for solver in all_solvers() {
-            let mut row = vec![solver.to_string()];
+            let mut row = vec![super::findings::solver_cell(&solver)];
             for class in &classes {
                 let runs: Vec<&RunRecord> = ctx
                     .lcp_cases
@@ -61,6 +61,7 @@ impl Section for Robustness {
             },
             ctx.table(&robust)?
         );
+        md.push_str(&super::findings::relaxation_footnote(&all_solvers()));
         Ok(Vec::new())
     }
 }

@@ -18,6 +18,7 @@ use crate::report::context::{scene_solvers_cold_and_warm, Figure, ReportContext,
 use crate::report::plots::{plot, LegendAt, Mark, PlotSpec, Series};
 use crate::report::status;
 use crate::report::suite::{self, scene_solvers};
+use crate::report::summary::{self, ACCURACIES};
 use crate::report::table::{fmt_sci, fmt_time, slug, Table};
 use anyhow::Result;
 use lcpbench_contact::scene::Scene;
@@ -55,7 +56,9 @@ impl Section for Scenes {
             md,
             "## Scenes\n\nEach scene stepped with each solver, cold and (the iterative ones, \
              `+warm`) warm-started from the previous step's impulses, under budgets `realtime`, \
-             `loose` and `default`. A budget's seconds bound each step's solve: a step that runs \
+             `loose` and `default`, and the warm-started ones also under `{}` (the accuracy \
+             1e-6 of [Findings](#findings); its runs appear in the solver × budget tables, the \
+             figures and the best solver per scene). A budget's seconds bound each step's solve: a step that runs \
              out of them ends `time_limit` with the solver's best point and the run goes on; a \
              run stops early only at twice its steps times those seconds, or after three \
              consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
@@ -72,6 +75,7 @@ impl Section for Scenes {
              separating normal speed at a sliding contact after a solve (what a convex \
              relaxation of friction causes; Baumgarte correction of a penetrating contact shows \
              up here too).\n",
+            suite::SCENE_MID_BUDGET,
             suite::SCENE_STEPS,
             suite::LARGE_SCENE_BODIES,
             suite::LARGE_SCENE_STEPS,
@@ -95,10 +99,12 @@ impl Section for Scenes {
             "scenes_fastest",
             &[
                 "scene",
-                "fastest at 1e-4 (budget loose)",
-                "time/step",
-                "fastest at 1e-8 (budget default)",
-                "time/step",
+                "best at 1e-4",
+                "its cost",
+                "best at 1e-6",
+                "its cost",
+                "best at 1e-8",
+                "its cost",
             ],
         );
         let mut figures = Vec::new();
@@ -117,8 +123,12 @@ impl Section for Scenes {
         by_budget.write_csv(&ctx.tables_dir)?;
         let _ = writeln!(
             md,
-            "### Fastest solver per scene\n\nAmong runs whose every step converged.\n\n{}",
-            ctx.table(&fastest)?
+            "### Fastest solver per scene\n\nThe best solver per scene at each accuracy by the \
+             rule of [Findings](#findings) ({}), cold and `+warm` runs alike; a run counts at an \
+             accuracy when its budget's tolerance is that accuracy or tighter.\n\n{}\n{}",
+            summary::RULE,
+            ctx.table(&fastest)?,
+            super::findings::relaxation_footnote(&scene_solvers())
         );
         Ok(figures)
     }
@@ -244,13 +254,20 @@ const BY_BUDGET_COLUMNS: [&str; 12] = [
     "residual max",
 ];
 
+/// The budgets of the scene runs: [`suite::SCENE_BUDGETS`] and [`suite::SCENE_MID_BUDGET`].
+pub(super) fn scene_budgets() -> Vec<BudgetName> {
+    let mut budgets = suite::SCENE_BUDGETS.to_vec();
+    budgets.push(suite::scene_mid_budget().name);
+    budgets
+}
+
 /// The solver specifications with a run on `case`, in the order of the scene solvers, each
 /// cold then warm.
 fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<SolverSpec> {
     scene_solvers_cold_and_warm()
         .into_iter()
         .filter(|s| {
-            suite::SCENE_BUDGETS
+            scene_budgets()
                 .iter()
                 .any(|b| ctx.get(case, s, b).is_some())
         })
@@ -261,11 +278,11 @@ fn solvers_of(ctx: &ReportContext, case: &Case) -> Vec<SolverSpec> {
 /// the glance table), as Markdown; the runs' rows are added to `by_budget`.
 fn budget_matrix(ctx: &ReportContext, case: &Case, by_budget: &mut Table) -> String {
     let mut header = vec!["solver".to_owned()];
-    header.extend(suite::SCENE_BUDGETS.iter().map(|b| b.to_string()));
+    header.extend(scene_budgets().iter().map(|b| b.to_string()));
     let mut t = Table::with_header("budgets", header);
     for solver in solvers_of(ctx, case) {
-        let mut row = vec![solver.to_string()];
-        for budget in &suite::SCENE_BUDGETS {
+        let mut row = vec![super::findings::solver_cell(&solver)];
+        for budget in &scene_budgets() {
             match ctx.get(case, &solver, budget) {
                 Some(r) => {
                     row.push(glance_cell(r));
@@ -290,7 +307,7 @@ fn by_budget_row(case: &Case, r: &RunRecord) -> Vec<String> {
         count(r.steps_planned),
         count(converged_steps(r)),
         count(r.time_limit_steps),
-        fmt_time(r.time_per_step_s),
+        step_time(r),
         fmt_time(r.step_time_s),
         fmt_sci(r.residual_rel_median),
         fmt_sci(r.residual_rel),
@@ -315,112 +332,160 @@ fn scene_table(ctx: &ReportContext, case: &Case, all: &mut Table) -> String {
     t.markdown()
 }
 
-/// The fastest solver whose every step converged, at budgets `loose` and `default`.
+/// The best solver on `case` at each accuracy of [`ACCURACIES`] by the rule of
+/// [`crate::report::summary`] (every solver, cold and warm), with its time per step and
+/// converged steps.
 fn fastest_row(ctx: &ReportContext, case: &Case) -> Vec<String> {
+    let key = case.to_string();
+    let runs: Vec<&RunRecord> = ctx
+        .timed_rows()
+        .into_iter()
+        .filter(|r| r.case == key)
+        .collect();
     let mut row = vec![case.short_name()];
-    for budget in [BudgetName::Loose, BudgetName::Default] {
-        let best = ctx
-            .runs_of(case, &scene_solvers(), &budget)
-            .into_iter()
-            .filter(|r| r.converged && r.blow_up != Some(true))
-            .filter_map(|r| Some((r.solver.to_string(), r.time_per_step_s?)))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        match best {
-            Some((s, tm)) => {
-                row.push(s);
-                row.push(fmt_time(Some(tm)));
+    for level in ACCURACIES {
+        let ranked = summary::rank(&runs, level);
+        match ranked.first() {
+            Some(best) if best.no_work => row.extend(["no contacts".into(), "—".into()]),
+            Some(best) if best.solved > 0 => {
+                row.push(super::findings::solver_cell(&best.solver));
+                row.push(super::findings::cost_cell(best));
             }
-            None => {
-                row.push("none converged".into());
-                row.push("–".into());
-            }
+            Some(_) => row.extend(["none converged a step".into(), "–".into()]),
+            None => row.extend(["no run at this accuracy".into(), "–".into()]),
         }
     }
     row
 }
 
-/// Time per step against the median residual per step of every solver and budget, with the
-/// Pareto front over all of them.
+/// Time per step against the worst residual of a step (the median step's beside it) of every
+/// solver and budget, with the Pareto front through the runs that returned solutions.
 fn pareto_figure(ctx: &ReportContext, case: &Case) -> Result<Figure> {
     let name = case.short_name();
     let path = ctx.plots_dir.join(format!("pareto_{}.svg", slug(&name)));
-    speed_accuracy_figure(
-        ctx,
-        case,
-        &path,
-        |r| r.residual_rel_median,
-        "median relative residual per step",
-    )?;
+    speed_accuracy_figure(ctx, case, &path, &scene_budgets())?;
     Ok(Figure::new(
-        format!("Speed–accuracy on scene {name} (median step residual)"),
+        format!("Speed–accuracy on scene {name} (worst step residual, median beside it)"),
         path,
     ))
 }
 
-/// Time per step against `residual` of every run of `case` (each solver, cold and warm, one
-/// point per budget), with the Pareto front over all of them, drawn to `path`.
+/// True when the run returned a solution on every step it took that had work: it ran (not
+/// declined, not failed in isolation, not blown up), had contacts, no step without a solution,
+/// and its worst residual is below 1 (a residual of 1 or more says it did not solve).
+pub(super) fn returned_solutions(r: &RunRecord) -> bool {
+    let steps = r.steps.unwrap_or(0);
+    let ran = !(r.is_isolation_failure() || status::blew_up(r) || status::unsupported(r));
+    // A run declined on some steps but not all still returned solutions on the others.
+    let ran = ran || (status::unsupported(r) && steps > 0);
+    ran && steps > 0
+        && !status::no_work(r)
+        && r.no_solution_steps.unwrap_or(0) == 0
+        && r.residual_rel.is_some_and(|v| v < 1.0)
+}
+
+/// Time per step against the worst step residual of every run of `case` under `budgets` (each
+/// solver, cold and warm, one point per budget; the median step residual a small cross of the
+/// same colour), with the Pareto front over the runs that returned solutions
+/// ([`returned_solutions`]), drawn to `path`. Runs with no time to show (declined, failed in
+/// isolation, or without contacts) are left out. Returns false (and draws nothing) when no run
+/// has a point.
 pub(super) fn speed_accuracy_figure(
     ctx: &ReportContext,
     case: &Case,
     path: &std::path::Path,
-    residual: impl Fn(&RunRecord) -> Option<f64>,
-    y_label: &str,
-) -> Result<()> {
-    let mut pareto = Vec::new();
-    for solver in solvers_of(ctx, case) {
-        let pts: Vec<(f64, f64)> = suite::SCENE_BUDGETS
-            .iter()
-            .filter_map(|b| ctx.get(case, &solver, b))
-            .filter_map(|r| Some((r.time_per_step_s?, residual(r)?)))
-            .collect();
-        if !pts.is_empty() {
-            pareto.push(Series {
-                name: solver.to_string(),
-                color_key: solver.base_name(),
-                points: pts,
-                mark: if solver.warm() {
-                    Mark::LinePoints
-                } else {
-                    Mark::Points
-                },
-            });
+    budgets: &[BudgetName],
+) -> Result<bool> {
+    let key = case.to_string();
+    let runs: Vec<&RunRecord> = ctx
+        .timed_rows()
+        .into_iter()
+        .filter(|r| r.case == key && budgets.contains(&r.budget))
+        .filter(|r| {
+            let declined = status::unsupported(r) && r.steps.unwrap_or(0) == 0;
+            !(r.is_isolation_failure() || declined || status::no_work(r))
+        })
+        .collect();
+    let mut solvers: Vec<SolverSpec> = Vec::new();
+    for r in &runs {
+        if !solvers.contains(&r.solver) {
+            solvers.push(r.solver.clone());
         }
     }
-    let front = pareto_front(&pareto);
+    let mut series = Vec::new();
+    let mut medians = Vec::new();
+    let mut solved = Vec::new();
+    for solver in &solvers {
+        let mine: Vec<&&RunRecord> = runs.iter().filter(|r| r.solver == *solver).collect();
+        let pts: Vec<(f64, f64)> = mine
+            .iter()
+            .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel?.max(1e-17))))
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        solved.extend(
+            mine.iter()
+                .filter(|r| returned_solutions(r))
+                .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel?))),
+        );
+        medians.push(Series {
+            name: String::new(),
+            color_key: solver.to_string(),
+            points: mine
+                .iter()
+                .filter_map(|r| Some((r.time_per_step_s?, r.residual_rel_median?.max(1e-17))))
+                .collect(),
+            mark: Mark::Secondary,
+        });
+        series.push(Series {
+            name: super::findings::solver_cell(solver),
+            color_key: solver.to_string(),
+            points: pts,
+            mark: if solver.warm() {
+                Mark::LinePoints
+            } else {
+                Mark::Points
+            },
+        });
+    }
+    if series.is_empty() {
+        return Ok(false);
+    }
+    let front = pareto_front(&solved);
+    series.extend(medians);
     if front.len() > 1 {
-        pareto.push(Series {
-            name: "Pareto front".into(),
+        series.push(Series {
+            name: "Pareto front (solved runs)".into(),
             color_key: "front".into(),
             points: front,
             mark: Mark::Reference,
         });
     }
-    for s in &mut pareto {
-        for p in &mut s.points {
-            p.1 = p.1.max(1e-17);
-        }
-    }
+    let budget_names: Vec<String> = budgets.iter().map(ToString::to_string).collect();
     plot(
         path,
         &PlotSpec {
             title: format!(
-                "{}: speed against accuracy (budgets realtime, loose, default)",
-                case.short_name()
+                "{}: speed against accuracy ({})",
+                case.short_name(),
+                budget_names.join(", ")
             ),
             x_label: "solver time per step (s)".into(),
-            y_label: y_label.into(),
+            y_label: "worst relative residual of a step (× median)".into(),
             log_x: true,
             log_y: true,
             y_range: None,
             legend: LegendAt::LowerLeft,
         },
-        &pareto,
-    )
+        &series,
+    )?;
+    Ok(true)
 }
 
 /// The points no other point beats in both time and residual, by increasing time.
-fn pareto_front(series: &[Series]) -> Vec<(f64, f64)> {
-    let mut every: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.clone()).collect();
+fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut every: Vec<(f64, f64)> = points.to_vec();
     every.retain(|(x, y)| *x > 0.0 && *y >= 0.0);
     every.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut front = Vec::new();
@@ -434,8 +499,20 @@ fn pareto_front(series: &[Series]) -> Vec<(f64, f64)> {
     front
 }
 
+/// A scene run's time per step for the tables: `no contacts` when no step had any (there was
+/// nothing to time), `—` when the solver did not run (declined, or failed in isolation).
+pub(super) fn step_time(r: &RunRecord) -> String {
+    if r.is_isolation_failure() || (status::unsupported(r) && r.steps.unwrap_or(0) == 0) {
+        "—".into()
+    } else if status::no_work(r) {
+        "no contacts".into()
+    } else {
+        fmt_time(r.time_per_step_s)
+    }
+}
+
 pub(super) fn glance_cell(r: &RunRecord) -> String {
-    let t = fmt_time(r.time_per_step_s);
+    let t = step_time(r);
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
     if r.is_isolation_failure() {
@@ -477,13 +554,13 @@ fn scene_cells(r: &RunRecord) -> Vec<String> {
         format!("{} ({reason})", r.status)
     };
     vec![
-        r.solver.to_string(),
+        super::findings::solver_cell(&r.solver),
         status,
         r.steps.map(|s| s.to_string()).unwrap_or("–".into()),
         r.contacts_mean
             .map(|c| format!("{c:.1}"))
             .unwrap_or("–".into()),
-        fmt_time(r.time_per_step_s),
+        step_time(r),
         r.iterations_per_step
             .map(|i| format!("{i:.1}"))
             .unwrap_or("–".into()),
@@ -531,22 +608,59 @@ mod tests {
             glance_cell(&run("iteration_limit", 10, 10)),
             "✗ 2.00 ms (iteration_limit)"
         );
+        // No contacts: nothing timed.
+        let idle = RunRecord {
+            contacts_mean: Some(0.0),
+            time_per_step_s: Some(0.0),
+            ..run("converged", 10, 0)
+        };
+        assert_eq!(glance_cell(&idle), "✓ no contacts");
+        assert_eq!(step_time(&run("unsupported", 0, 0)), "—");
         // Unsupported after some steps: judged by the steps, like any other run.
         assert_eq!(glance_cell(&run("unsupported", 4, 1)), "~ 2.00 ms (3/4)");
     }
 
     #[test]
     fn the_pareto_front_keeps_the_points_nothing_beats() {
-        let series = |points: Vec<(f64, f64)>| Series {
-            name: "s".into(),
-            color_key: "s".into(),
-            points,
-            mark: Mark::Points,
-        };
         let front = pareto_front(&[
-            series(vec![(1.0, 1e-3), (3.0, 1e-4)]),
-            series(vec![(2.0, 1e-5), (0.5, 1e-2), (0.0, 1e-9), (4.0, 0.0)]),
+            (1.0, 1e-3),
+            (3.0, 1e-4),
+            (2.0, 1e-5),
+            (0.5, 1e-2),
+            (0.0, 1e-9),
+            (4.0, 0.0),
         ]);
         assert_eq!(front, [(0.5, 1e-2), (1.0, 1e-3), (2.0, 1e-5), (4.0, 1e-17)]);
+    }
+
+    /// A run whose residual says it did not solve (penalty at 1), a declined run, a run
+    /// without contacts and a run with steps without a solution are not on the front.
+    #[test]
+    fn only_runs_that_returned_solutions_are_on_the_front() {
+        let ok = RunRecord {
+            residual_rel: Some(1e-7),
+            contacts_mean: Some(4.0),
+            ..run("converged", 10, 0)
+        };
+        assert!(returned_solutions(&ok));
+        let penalty = RunRecord {
+            residual_rel: Some(1.0),
+            ..ok.clone()
+        };
+        assert!(!returned_solutions(&penalty));
+        assert!(!returned_solutions(&RunRecord {
+            steps: Some(0),
+            ..run("unsupported", 0, 0)
+        }));
+        let idle = RunRecord {
+            contacts_mean: Some(0.0),
+            ..ok.clone()
+        };
+        assert!(!returned_solutions(&idle));
+        let no_solution = RunRecord {
+            no_solution_steps: Some(2),
+            ..ok
+        };
+        assert!(!returned_solutions(&no_solution));
     }
 }

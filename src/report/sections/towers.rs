@@ -33,7 +33,9 @@ impl Section for Towers {
              cap per step of each budget. Sag: how far the top box's centre ended below its resting \
              height; drift: its horizontal distance from where it started; time: solver time per \
              step; steps short: steps that ended short of the tolerance (of the steps taken). A run \
-             that collapses shows a sag of metres.\n"
+             that collapses shows a sag of metres. These runs answer what a capped iteration \
+             count per step buys; which solver is best on the towers at each accuracy (with a \
+             real iteration cap) is in [Findings](#findings), by its one rule.\n"
         );
         for case in &suite.tower_cases {
             let name = case.short_name();

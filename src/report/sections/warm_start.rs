@@ -1,9 +1,10 @@
 //! Warm start against cold start: iterations, solver time and status of every iterative matrix
 //! solver, cold and `+warm`, on the suite's warm cases (budget `default`).
 
+use super::per_case::{time_cell, warm_cell};
 use crate::harness::{BudgetName, Case, RunRecord, SolverSpec};
 use crate::report::context::{Figure, ReportContext, Section};
-use crate::report::table::{fmt_time, Table};
+use crate::report::table::Table;
 use anyhow::Result;
 use lcpbench_solvers::SolverKind;
 use std::fmt::Write as _;
@@ -28,6 +29,7 @@ impl Section for WarmStart {
                 "iterations warm",
                 "time cold",
                 "time warm",
+                "warm start (source, cost)",
                 "status cold / warm",
             ],
         );
@@ -45,7 +47,9 @@ impl Section for WarmStart {
             md,
             "## Warm start versus cold start\n\nIterative solvers, budget `{BUDGET}`. The warm start \
              of a generated problem is its planted solution perturbed by 1 % (as from the previous \
-             step of a slowly changing scene); of a problem file, 20 cold PGS sweeps.\n\n{}",
+             step of a slowly changing scene); of a problem file, 20 cold PGS sweeps. Times are medians of \
+             the timed solves with their fastest and slowest; the warm start's source and the time \
+             to compute it are beside them, not part of the warm time.\n\n{}",
             ctx.table(&warm)?
         );
         Ok(Vec::new())
@@ -69,8 +73,9 @@ fn row(
         solver.to_owned(),
         it(cold),
         it(hot),
-        fmt_time(cold.and_then(|r| r.solve_time_s)),
-        fmt_time(hot.and_then(|r| r.solve_time_s)),
+        cold.map_or("–".into(), time_cell),
+        hot.map_or("–".into(), time_cell),
+        hot.map_or("–".into(), warm_cell),
         format!("{} / {}", st(cold), st(hot)),
     ]
 }
