@@ -1,0 +1,171 @@
+//! Hostile numbers, seen from outside: friction coefficients that blind the cone residual,
+//! warm starts that overflow, vectors whose norm overflows. Each ends in a refusal naming the
+//! file, field and limit, or in an honest status checked here independently.
+
+use faer::Mat;
+use lcpbench_solvers::{
+    parse_cone_problem, read_problem, write_fclib_local, ConeProblem, ConeSolverKind, Settings,
+    MAX_FILE_MU,
+};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lcpbench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A refusal: exit status 1, a last line `error: …` holding every `wanted` piece, no panic.
+#[track_caller]
+fn assert_refused(o: &Output, wanted: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "expected a refusal, got:\n{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: "), "{err}");
+    for w in wanted {
+        assert!(last.contains(w), "`{w}` missing from:\n{err}");
+    }
+}
+
+/// One contact, `W = 0.5 I`, `q = (-0.16, 0.08, 0)`: pressed into the obstacle and pushed
+/// sideways. Its solution sticks (`u = 0`, `r = (0.32, -0.16, 0)`) for every `mu >= 0.5`.
+fn pressed_contact(mu: f64) -> ConeProblem {
+    let w = Mat::from_fn(3, 3, |i, j| if i == j { 0.5 } else { 0.0 });
+    ConeProblem::new(w, vec![-0.16, 0.08, 0.0], vec![mu]).unwrap()
+}
+
+const PRESSED_JSON: &str = r#"{"W":[[0.5,0,0],[0,0.5,0],[0,0,0.5]],"q":[-0.16,0.08,0],"mu":[MU]}"#;
+
+#[test]
+fn no_cone_solver_converges_with_a_penetrating_normal_velocity() {
+    // The normal velocity and the magnitudes of each row's terms are computed here from W and
+    // q, not by the library. A converged answer may leave `u_N` negative only by the tolerance
+    // times the contact's terms (the normal row's and the tangent rows', with a margin of 2).
+    let w = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 0.5]];
+    let q = [-0.16, 0.08, 0.0];
+    for mu in [0.5, 1e3, 1e4, 1e5] {
+        let p = pressed_contact(mu);
+        for tol in [1e-6, 1e-8, 1e-10] {
+            let settings = Settings {
+                tolerance: tol,
+                max_iterations: 2000,
+                ..Settings::default()
+            };
+            for kind in ConeSolverKind::ALL {
+                let r = kind.create().solve_cone(&p, &settings);
+                if !r.status.is_converged() {
+                    continue;
+                }
+                let mut u = [0.0; 3];
+                let mut t = [0.0; 3];
+                for i in 0..3 {
+                    u[i] = q[i] + (0..3).map(|j| w[i][j] * r.f[j]).sum::<f64>();
+                    t[i] = q[i].abs() + (0..3).map(|j| (w[i][j] * r.f[j]).abs()).sum::<f64>();
+                }
+                let allowed = 2.0 * tol * (t[0] + t[1] + t[2]);
+                assert!(
+                    u[0] >= -allowed,
+                    "{} at mu = {mu:e}, tol = {tol:e}: converged with u_N = {:e} (r = {:?})",
+                    kind.name(),
+                    u[0],
+                    r.f
+                );
+                assert!(r.f[0] >= -allowed, "{} at mu = {mu:e}", kind.name());
+            }
+        }
+    }
+    // The problem is not beyond reach: at mu = 0.5 the exact sticking answer is found.
+    let settings = Settings {
+        tolerance: 1e-10,
+        ..Settings::default()
+    };
+    let r = ConeSolverKind::NsgsCone
+        .create()
+        .solve_cone(&pressed_contact(0.5), &settings);
+    assert!(r.status.is_converged(), "{:?}", r.status);
+    assert!((r.f[0] - 0.32).abs() < 1e-8 && (r.f[1] + 0.16).abs() < 1e-8);
+}
+
+#[test]
+fn a_blind_cone_residual_gives_a_stalled_status_with_the_reason() {
+    // At mu = 1e5, r = 0 meets a tolerance of 1e-8 on the cone residual alone.
+    let p = pressed_contact(1e5);
+    let res = lcpbench_solvers::cone_residuals(&p, &[0.0; 3]);
+    assert!(res.natural_map_rel < 1e-8, "{res:?}");
+    let settings = Settings {
+        tolerance: 1e-8,
+        ..Settings::default()
+    };
+    let r = ConeSolverKind::NsgsCone.create().solve_cone(&p, &settings);
+    if r.f == [0.0; 3] {
+        let s = r.status.to_string();
+        assert!(!r.status.is_converged(), "{s}");
+        assert!(s.contains("normal complementarity"), "{s}");
+    }
+}
+
+#[test]
+fn problem_files_refuse_friction_above_the_limit_in_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(MAX_FILE_MU, 1e3);
+    // Cone JSON.
+    let json = |mu: &str| PRESSED_JSON.replace("MU", mu);
+    assert!(parse_cone_problem(&json("1000"), Path::new("c.json")).is_ok());
+    let e = parse_cone_problem(&json("1e5"), Path::new("c.json"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("c.json: field `mu[0]`: contact 0: mu = 1e5") && e.contains("at most 1e3"),
+        "{e}"
+    );
+    // Siconos friction-contact `.dat`: d = 3, two contacts, M = 0.5 I dense, q, mu.
+    let dat = |mu: &str| {
+        let mut s = String::from("3\n2\n0\n6\n6\n6 6\n");
+        for i in 0..6 {
+            let row: Vec<&str> = (0..6).map(|j| if i == j { "0.5" } else { "0" }).collect();
+            s += &(row.join(" ") + "\n");
+        }
+        s + "-0.16 0.08 0 -0.16 0.08 0\n0.5 " + mu + "\n"
+    };
+    let ok = dir.path().join("ok.dat");
+    std::fs::write(&ok, dat("1000")).unwrap();
+    assert!(read_problem(&ok).is_ok());
+    let bad = dir.path().join("bad.dat");
+    std::fs::write(&bad, dat("1e5")).unwrap();
+    let e = read_problem(&bad).unwrap_err().to_string();
+    assert!(
+        e.contains("bad.dat: field `mu[1]`: contact 1: mu = 1e5") && e.contains("at most 1e3"),
+        "{e}"
+    );
+    // FCLIB HDF5 (local form).
+    let w = faer::sparse::SparseColMat::<usize, f64>::try_new_from_triplets(
+        3,
+        3,
+        &[
+            faer::sparse::Triplet::new(0, 0, 0.5),
+            faer::sparse::Triplet::new(1, 1, 0.5),
+            faer::sparse::Triplet::new(2, 2, 0.5),
+        ],
+    )
+    .unwrap();
+    let h5 = dir.path().join("bad.hdf5");
+    write_fclib_local(&h5, 3, &w, &[-0.16, 0.08, 0.0], &[1e5]).unwrap();
+    let e = read_problem(&h5).unwrap_err().to_string();
+    assert!(
+        e.contains("field `/fclib_local/vectors/mu[0]`: contact 0: mu = 1e5")
+            && e.contains("at most 1e3"),
+        "{e}"
+    );
+    // The command line says the same, without a panic.
+    let cone = dir.path().join("cone.json");
+    std::fs::write(&cone, json("1e5")).unwrap();
+    let o = lcpbench(&["solve", cone.to_str().unwrap(), "--solver", "nsgs-cone"]);
+    assert_refused(&o, &["cone.json", "mu[0]", "1e3"]);
+}
