@@ -169,3 +169,37 @@ fn problem_files_refuse_friction_above_the_limit_in_every_reader() {
     let o = lcpbench(&["solve", cone.to_str().unwrap(), "--solver", "nsgs-cone"]);
     assert_refused(&o, &["cone.json", "mu[0]", "1e3"]);
 }
+
+/// A small joint problem (two free rows coupled, one contact row), stored sparse so that the
+/// pivoting and Newton solvers split it into islands.
+const JOINT_WARM: &str = r#"{"A":{"n":3,"triplets":[[0,0,2],[0,1,1],[1,0,1],[1,1,2],[2,2,1]]},"b":[-1,0.5,-1],"lo":[null,null,0],"hi":[null,null,null],"warm_start":[WS]}"#;
+
+#[test]
+fn an_overflowing_warm_start_is_refused_and_never_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("joint.json");
+    std::fs::write(&file, JOINT_WARM.replace("WS", "1e308,1e308,1e308")).unwrap();
+    let path = file.to_str().unwrap();
+    for solver in ["newton-fb", "newton-min", "dantzig", "lemke", "pgs"] {
+        let o = lcpbench(&["solve", path, "--solver", solver, "--warm"]);
+        assert_refused(&o, &["joint.json", "warm_start[0] = 1e308", "overflows"]);
+    }
+    // The library, given the same start without the command line's check, ends with a status.
+    let p = read_problem(&file).unwrap();
+    let settings = Settings {
+        warm_start: Some(vec![1e308; 3]),
+        ..Settings::default()
+    };
+    for kind in lcpbench_solvers::SolverKind::ALL {
+        let r = kind.create().solve(&p, &settings);
+        assert_eq!(r.f.len(), 3, "{}", kind.name());
+        if r.status.is_converged() {
+            let w = p.velocity(&r.f);
+            assert!(w.iter().all(|v| v.is_finite()), "{}", kind.name());
+        }
+    }
+    // A warm start of the problem's size is used.
+    std::fs::write(&file, JOINT_WARM.replace("WS", "0.5,0.1,1")).unwrap();
+    let o = lcpbench(&["solve", path, "--solver", "newton-fb", "--warm"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

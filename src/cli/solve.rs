@@ -12,7 +12,8 @@ use lcpbench_solvers::{
     SolverKind, Status,
 };
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Arguments of `lcpbench solve`.
 #[derive(Args)]
@@ -177,28 +178,73 @@ pub fn run(args: SolveArgs) -> Result<()> {
             return run_cone(&args, &cone, &settings);
         }
     };
-    let r = repeated(args.repeat, || solver.solve(&problem, &settings));
+    if let Some(ws) = &settings.warm_start {
+        check_warm_velocity(&args.problem, ws, &problem.velocity(ws))?;
+    }
+    let (r, solves) = repeated(args.repeat, time_budget, || {
+        solver.solve(&problem, &settings)
+    });
     print_result(
         &args,
         problem.name(),
         &describe(&problem),
         solver.name(),
         &r,
+        solves,
     )
 }
 
-/// The last of `repeat` solves, its time replaced by the median of all their times.
-fn repeated(repeat: u32, mut solve: impl FnMut() -> SolveResult) -> SolveResult {
-    let mut times = Vec::with_capacity(repeat as usize);
+/// The last of `repeat` solves, its time replaced by the median of all their times, and how
+/// many solves ran: `--time-budget` bounds the repeats together ([`within_total_budget`]) as
+/// well as each solve, so fewer than `repeat` may run (always at least one).
+fn repeated(
+    repeat: u32,
+    total_budget: Option<Duration>,
+    mut solve: impl FnMut() -> SolveResult,
+) -> (SolveResult, u32) {
+    let started = Instant::now();
+    let mut times = Vec::with_capacity((repeat as usize).min(1024));
     let mut r = solve();
     times.push(r.time);
-    for _ in 1..repeat {
+    while times.len() < repeat as usize && within_total_budget(started, total_budget) {
         r = solve();
         times.push(r.time);
     }
     times.sort_unstable();
     r.time = times[times.len() / 2];
-    r
+    (r, times.len() as u32)
+}
+
+/// The total deadline of `solve --repeat`: another solve may start while the time since the
+/// first began is within `--time-budget` (no budget: no total deadline). The budget is checked
+/// before each repeat, so the total overruns it by at most one solve, which the budget bounds
+/// too.
+fn within_total_budget(started: Instant, total_budget: Option<Duration>) -> bool {
+    total_budget.is_none_or(|budget| started.elapsed() < budget)
+}
+
+/// Refuse a warm start at which the velocity overflows (`A f + b` for an LCP, `W r + q` for a
+/// cone problem): finite entries such as `1e308` pass the file's number check, but no solver
+/// can start from them. Names the file and the warm-start entry of the largest magnitude.
+fn check_warm_velocity(path: &Path, warm_start: &[f64], velocity: &[f64]) -> Result<()> {
+    if let Some(row) = velocity.iter().position(|v| !v.is_finite()) {
+        let (i, v) = warm_start
+            .iter()
+            .enumerate()
+            .fold((0, 0.0f64), |(k, m), (i, v)| {
+                if v.abs() > m.abs() {
+                    (i, *v)
+                } else {
+                    (k, m)
+                }
+            });
+        bail!(
+            "{}: warm_start[{i}] = {v:e}: the velocity overflows at the warm start (row {row} \
+             is not finite); give a warm start of the size of the problem's impulses",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 /// The `warm_start` array of a JSON problem file: finite numbers.
@@ -231,14 +277,27 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
         cone.n(),
         cone.contacts()
     );
-    let (name, r) = match args.solver {
+    let (name, r, solves) = match args.solver {
         SolverName::Cone(kind) => {
             if args.omega.is_some() {
                 bail!("--omega applies only to --solver sor");
             }
+            if let Some(ws) = &settings.warm_start {
+                if ws.len() != cone.n() {
+                    bail!(
+                        "{}: warm_start has {} values for {} rows",
+                        args.problem.display(),
+                        ws.len(),
+                        cone.n()
+                    );
+                }
+                check_warm_velocity(&args.problem, ws, &cone.velocity(ws))?;
+            }
             let mut solver = kind.create();
-            let r = repeated(args.repeat, || solver.solve_cone(cone, settings));
-            (solver.name(), r)
+            let (r, solves) = repeated(args.repeat, settings.time_budget, || {
+                solver.solve_cone(cone, settings)
+            });
+            (solver.name(), r, solves)
         }
         SolverName::Lcp(kind) => {
             let f = vec![0.0; cone.n()];
@@ -258,10 +317,10 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                 active_sets: Vec::new(),
                 certificate: None,
             };
-            (kind.name(), r)
+            (kind.name(), r, 1)
         }
     };
-    print_result(args, cone.name(), &describe, name, &r)
+    print_result(args, cone.name(), &describe, name, &r, solves)
 }
 
 fn print_result(
@@ -270,6 +329,7 @@ fn print_result(
     describe: &str,
     solver_name: &str,
     r: &SolveResult,
+    solves: u32,
 ) -> Result<()> {
     if args.json {
         let out = json!({
@@ -281,6 +341,7 @@ fn print_result(
             "iterations": r.iterations,
             "time_s": r.time.as_secs_f64(),
             "repeat": args.repeat,
+            "solves": solves,
             "residual": r.residuals.natural_map,
             "residual_rel": r.residuals.natural_map_rel,
             "complementarity_gap": r.residuals.complementarity_gap,
@@ -306,10 +367,17 @@ fn print_result(
     println!("status      {}", r.status);
     println!("iterations  {}", r.iterations);
     if args.repeat > 1 {
+        let cut = if solves < args.repeat {
+            format!(
+                "; {} asked for, --time-budget bounds them together",
+                args.repeat
+            )
+        } else {
+            String::new()
+        };
         println!(
-            "time        {:.3} µs (median of {} solves)",
+            "time        {:.3} µs (median of {solves} solves{cut})",
             r.time.as_secs_f64() * 1e6,
-            args.repeat
         );
     } else {
         println!("time        {:.3} ms", r.time.as_secs_f64() * 1e3);

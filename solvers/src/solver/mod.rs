@@ -728,6 +728,17 @@ fn solve_islands_with(
         }
         let r = solve_one(&sub, &sub_settings);
         iterations += r.iterations;
+        if r.f.len() != rows.len() {
+            // An island's result of the wrong length cannot be placed in `f`: the whole solve
+            // fails with its reason rather than reading past the island's values.
+            outcome = Outcome::NumericalFailure(format!(
+                "an island of {} rows returned {} values ({})",
+                rows.len(),
+                r.f.len(),
+                r.status
+            ));
+            break;
+        }
         for (k, &i) in rows.iter().enumerate() {
             f[i] = r.f[k];
         }
@@ -844,6 +855,28 @@ mod tests {
         assert_eq!(given, vec![25, 10], "the third island gets nothing");
         assert_eq!(r.iterations, 25);
         assert_ne!(r.status, Status::Converged);
+    }
+
+    /// An island whose solve returns a result of the wrong length (a failed solve that kept no
+    /// point) ends the whole solve `numerical_failure` with the reason, instead of indexing past
+    /// the island's values.
+    #[test]
+    fn an_island_result_of_the_wrong_length_is_a_failure_not_a_panic() {
+        let n = 60;
+        let p = Problem::lcp(tridiagonal_blocks_of_20(n), vec![-1.0; n]).unwrap();
+        let r = solve_by_islands(&p, &Settings::default(), 1000, |island, s| {
+            Monitor::new(island, s).finish(Vec::new(), 0, Outcome::NumericalFailure("x".into()))
+        });
+        match &r.status {
+            Status::NumericalFailure { reason } => {
+                assert!(
+                    reason.contains("island of 20 rows returned 0 values"),
+                    "{reason}"
+                )
+            }
+            s => panic!("{s:?}"),
+        }
+        assert_eq!(r.f.len(), n);
     }
 
     /// An impulse that meets the tolerance by growing along the null direction of a problem
