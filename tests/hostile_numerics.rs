@@ -203,3 +203,51 @@ fn an_overflowing_warm_start_is_refused_and_never_panics() {
     let o = lcpbench(&["solve", path, "--solver", "newton-fb", "--warm"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A door on a hinge, with `AXIS`, `ANCHOR` and `VELOCITY` to fill in.
+const DOOR: &str = r#"name = "door"
+[settings]
+dt = 0.01
+steps = 2
+solver = "pgs"
+
+[[bodies]]
+name = "door"
+shape = { type = "box", half_extents = [0.5, 0.05, 1.0] }
+position = [0.5, 0.0, 1.0]
+velocity = VELOCITY
+
+[[joints]]
+type = "hinge"
+bodies = ["world", "door"]
+anchor = ANCHOR
+axis = AXIS
+"#;
+
+#[test]
+fn scene_vectors_whose_length_overflows_are_refused_at_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |axis: &str, anchor: &str, velocity: &str| {
+        let p = dir.path().join("door.toml");
+        let text = DOOR
+            .replace("AXIS", axis)
+            .replace("ANCHOR", anchor)
+            .replace("VELOCITY", velocity);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_owned()
+    };
+    let ok = scene("[0.0, 0.0, 1.0]", "[0.0, 0.0, 1.0]", "[0.0, 0.0, 0.0]");
+    let o = lcpbench(&["simulate", &ok, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let huge = "[1e308, 1e308, 1e308]";
+    let o = lcpbench(&[
+        "simulate",
+        &scene(huge, "[0.0, 0.0, 1.0]", "[0.0, 0.0, 0.0]"),
+    ]);
+    assert_refused(&o, &["door.toml", "axis", "length overflows"]);
+    let o = lcpbench(&[
+        "simulate",
+        &scene("[0.0, 0.0, 1.0]", "[0.0, 0.0, 1.0]", huge),
+    ]);
+    assert_refused(&o, &["door.toml", "velocity", "length overflows"]);
+}
