@@ -251,3 +251,56 @@ fn scene_vectors_whose_length_overflows_are_refused_at_load() {
     ]);
     assert_refused(&o, &["door.toml", "velocity", "length overflows"]);
 }
+
+#[test]
+fn view_says_a_cone_file_is_a_cone_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let cone = dir.path().join("cone.json");
+    std::fs::write(&cone, PRESSED_JSON.replace("MU", "0.5")).unwrap();
+    let out = dir.path().join("c.html");
+    let o = lcpbench(&["view", cone.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_refused(
+        &o,
+        &["cone.json", "Coulomb cone", "view shows LCP problems"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn names_are_isolated_and_strides_are_ordinals_in_pages() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = "door\u{202E}reversed";
+    let scene = dir.path().join("rtl.toml");
+    let text = DOOR
+        .replace(
+            "name = \"door\"\n[settings]",
+            &format!("name = \"{name}\"\n[settings]"),
+        )
+        .replace("AXIS", "[0.0, 0.0, 1.0]")
+        .replace("ANCHOR", "[0.0, 0.0, 1.0]")
+        .replace("VELOCITY", "[0.0, 0.0, 0.0]");
+    std::fs::write(&scene, text).unwrap();
+    let html = dir.path().join("rtl.html");
+    let o = lcpbench(&[
+        "simulate",
+        scene.to_str().unwrap(),
+        "--html",
+        html.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = std::fs::read_to_string(&html).unwrap();
+    let title = page
+        .split("<title>")
+        .nth(1)
+        .and_then(|t| t.split("</title>").next())
+        .unwrap();
+    assert!(
+        title.starts_with(&format!("\u{2068}{name}\u{2069} · ")),
+        "{title:?}"
+    );
+    // The scripts isolate the names they show and write strides as ordinals.
+    assert!(page.contains("function iso(name)"));
+    assert!(page.contains("iso(RUNS[0].scene)"));
+    assert!(page.contains("every ${ordinal(r.stride)} of"));
+    assert!(!page.contains("${r.stride}th"));
+}

@@ -7,8 +7,11 @@ use lcpbench::harness::budget;
 use lcpbench::harness::Case;
 use lcpbench::view::recording::MAX_RECORDING_BYTES;
 use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
-use lcpbench_solvers::io::{input::check_input_file, MAX_PROBLEM_FILE_BYTES};
-use lcpbench_solvers::{read_problem, Settings};
+use lcpbench_solvers::io::{
+    input::{check_input_file, read_input_file},
+    MAX_PROBLEM_FILE_BYTES,
+};
+use lcpbench_solvers::{is_cone_file, read_problem, Settings};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -92,6 +95,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
             bail!("only recordings can be compared side by side; give one problem file or case");
         }
         let (problem, name) = if first.exists() {
+            refuse_cone_file(first)?;
             let p = read_problem(first)?;
             let name = p.name().map(str::to_owned).unwrap_or_else(|| {
                 first
@@ -130,5 +134,27 @@ pub fn write_page(path: &Path, html: &str) -> Result<()> {
         path.display(),
         html.len() as f64 / 1e3
     );
+    Ok(())
+}
+
+/// `view` shows LCP problems (every matrix solver on one file) and recordings; a cone (FC3D)
+/// problem file, a JSON object with a `mu` key, is refused as what it is rather than with the
+/// LCP reader's "missing field `A`".
+fn refuse_cone_file(path: &Path) -> Result<()> {
+    let looks_json = path.extension().is_some_and(|e| e == "json");
+    if !looks_json {
+        return Ok(());
+    }
+    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    if std::str::from_utf8(&bytes).is_ok_and(is_cone_file) {
+        bail!(
+            "{}: a Coulomb cone (FC3D) problem (it has `mu`): view shows LCP problems and \
+             recordings; solve it with `lcpbench solve {} --solver nsgs-cone` (or another cone \
+             solver), or export the scene with a box or pyramid friction model to view it",
+            path.display(),
+            path.display()
+        );
+    }
     Ok(())
 }

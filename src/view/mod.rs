@@ -170,10 +170,16 @@ fn replay_page_with(recordings: &[Recording], max_bytes: usize, budget: usize) -
         })
         .collect();
     let title = match recordings {
-        [a] => format!("{} · {}", a.header.scene, a.header.solver),
+        [a] => format!(
+            "{} · {}",
+            isolate(&a.header.scene),
+            isolate(&a.header.solver)
+        ),
         [a, b] => format!(
             "{} · {} vs {}",
-            a.header.scene, a.header.solver, b.header.solver
+            isolate(&a.header.scene),
+            isolate(&a.header.solver),
+            isolate(&b.header.solver)
         ),
         _ => String::new(),
     };
@@ -200,7 +206,7 @@ pub fn problem_page(data: &Value, max_bytes: usize) -> Result<String, ViewError>
         .get("name")
         .and_then(Value::as_str)
         .unwrap_or("problem");
-    let html = page(&format!("{name} · every solver"), data, false);
+    let html = page(&format!("{} · every solver", isolate(name)), data, false);
     if html.len() > max_bytes {
         return Err(ViewError::PageTooLarge {
             needed: html.len(),
@@ -276,6 +282,15 @@ fn page(title: &str, data: &Value, replay: bool) -> String {
             ("{{DATA}}", &json),
         ],
     )
+}
+
+/// A user-given name (scene, body, problem, recording label) set apart from the text around
+/// it by Unicode's first-strong isolate (U+2068 … U+2069, what `<bdi>` does in markup, and
+/// usable in `<title>` too): a right-to-left override (U+202E) or right-to-left letters inside
+/// the name cannot reorder the rest of the line. The page's scripts do the same (`iso` in
+/// `common.js`) wherever they put a name into text.
+pub(crate) fn isolate(name: &str) -> String {
+    format!("\u{2068}{name}\u{2069}")
 }
 
 fn html_escape(s: &str) -> String {
