@@ -304,3 +304,40 @@ fn names_are_isolated_and_strides_are_ordinals_in_pages() {
     assert!(page.contains("every ${ordinal(r.stride)} of"));
     assert!(!page.contains("${r.stride}th"));
 }
+
+#[test]
+fn a_warm_started_cone_export_carries_its_warm_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cone.json");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/diagonal_push.toml"
+    );
+    let o = lcpbench(&[
+        "export",
+        scene,
+        "--friction-model",
+        "cone",
+        "--solver",
+        "nsgs-cone+warm",
+        "--step",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("with its warm start"));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let ws = v["warm_start"].as_array().expect("warm_start");
+    assert_eq!(ws.len(), v["q"].as_array().unwrap().len());
+    // The previous step's reactions: not all zero on a resting, pushed block.
+    assert!(ws.iter().any(|x| x.as_f64().unwrap() != 0.0), "{ws:?}");
+    let o = lcpbench(&[
+        "solve",
+        out.to_str().unwrap(),
+        "--solver",
+        "nsgs-cone",
+        "--warm",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

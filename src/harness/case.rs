@@ -668,7 +668,7 @@ fn scene_step_lcp(path: &std::path::Path, step: usize) -> Result<LoadedLcp, Stri
             problem,
             solution: None,
         }),
-        StepProblem::Cone(_) => Err(format!(
+        StepProblem::Cone { .. } => Err(format!(
             "{} step {step}: the scene's friction model is the cone; a scene step case is its \
              box-friction LCP",
             path.display()

@@ -18,8 +18,14 @@ pub enum StepProblem {
         /// The warm start.
         warm_start: Option<Vec<f64>>,
     },
-    /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`.
-    Cone(ConeProblem),
+    /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`, with the warm
+    /// start the step's solver was given (`None` for a solver started cold).
+    Cone {
+        /// The problem.
+        problem: ConeProblem,
+        /// The warm start, one value per row of the cone problem.
+        warm_start: Option<Vec<f64>>,
+    },
     /// The step had no contacts.
     NoContacts,
     /// The step was not solved, for the reason given: past one of the stepper's limits (see
@@ -44,7 +50,10 @@ pub fn step_problem(
     let report = world.step();
     let name = format!("{scene_name} step {step}");
     let problem = match (report.problem, report.cone_problem) {
-        (_, Some(cone)) => StepProblem::Cone(cone.with_name(name)),
+        (_, Some(cone)) => StepProblem::Cone {
+            problem: cone.with_name(name),
+            warm_start: report.warm_start,
+        },
         (Some(lcp), None) => StepProblem::Lcp {
             problem: lcp.with_name(name),
             warm_start: report.warm_start,
