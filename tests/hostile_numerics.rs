@@ -341,3 +341,25 @@ fn a_warm_started_cone_export_carries_its_warm_start() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn view_of_a_far_scene_step_keeps_to_its_time_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("far.html");
+    let case = concat!(
+        "step:",
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/tower_5.toml?step=999999"
+    );
+    // Reaching step 999,999 of tower_5 takes minutes; the budget covers it.
+    let o = lcpbench(&[
+        "view",
+        case,
+        "--time-budget",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_refused(&o, &["step 999999", "time budget ran out after simulating"]);
+    assert!(!out.exists());
+}

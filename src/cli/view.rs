@@ -65,6 +65,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     let time_budget =
         budget::time_budget(args.time_budget).map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?;
+    let started = std::time::Instant::now();
     let first = Path::new(&args.inputs[0]);
     let recording = first.exists() && is_recording(first)?;
     let min = view::min_page_bytes(recording);
@@ -107,15 +108,21 @@ pub fn run(args: ViewArgs) -> Result<()> {
             let case: Case = args.inputs[0].parse().map_err(|e| {
                 anyhow::anyhow!("{} is neither a file nor a case key: {e}", args.inputs[0])
             })?;
+            // --time-budget covers reaching a scene step's problem too: the solves get
+            // what is left of it.
             let loaded = case
-                .load_lcp()
+                .load_lcp_within(Some(started + time_budget))
                 .map_err(|e| anyhow::anyhow!("case {}: {e}", args.inputs[0]))?;
             (loaded.problem, args.inputs[0].clone())
         };
         let settings = Settings {
             tolerance: args.tol,
             max_iterations: args.max_iter,
-            time_budget: Some(time_budget),
+            time_budget: Some(
+                time_budget
+                    .saturating_sub(started.elapsed())
+                    .max(std::time::Duration::from_millis(1)),
+            ),
             ..Settings::default()
         };
         view::problem_page(
