@@ -363,3 +363,48 @@ fn view_of_a_far_scene_step_keeps_to_its_time_budget() {
     assert_refused(&o, &["step 999999", "time budget ran out after simulating"]);
     assert!(!out.exists());
 }
+
+#[test]
+fn the_smallest_max_bytes_is_below_what_a_real_page_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("door.toml");
+    let text = DOOR
+        .replace("AXIS", "[0.0, 0.0, 1.0]")
+        .replace("ANCHOR", "[0.0, 0.0, 1.0]")
+        .replace("VELOCITY", "[0.0, 0.0, 0.0]");
+    std::fs::write(&scene, text).unwrap();
+    let rec = dir.path().join("door.jsonl");
+    let o = lcpbench(&[
+        "simulate",
+        scene.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = dir.path().join("door.html");
+    let o = lcpbench(&["view", rec.to_str().unwrap(), "-o", page.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let size = std::fs::metadata(&page).unwrap().len();
+    // The page's own size is an acceptable bound: the floor is below every real page.
+    std::fs::remove_file(&page).unwrap();
+    let o = lcpbench(&[
+        "view",
+        rec.to_str().unwrap(),
+        "-o",
+        page.to_str().unwrap(),
+        "--max-bytes",
+        &size.to_string(),
+    ]);
+    assert!(o.status.success(), "{size}: {}", stderr(&o));
+    assert!(std::fs::metadata(&page).unwrap().len() <= size);
+    // The floor says what it is made of.
+    let o = lcpbench(&[
+        "view",
+        rec.to_str().unwrap(),
+        "-o",
+        page.to_str().unwrap(),
+        "--max-bytes",
+        "1000",
+    ]);
+    assert_refused(&o, &["--max-bytes must be at least"]);
+}

@@ -76,12 +76,30 @@ pub enum ViewError {
 /// Default byte budget of a replay page (frames are decimated to fit).
 pub const DEFAULT_MAX_BYTES: usize = 6_000_000;
 
-/// Bytes of a page's data the size bound must leave room for beyond the scripts and styles.
-const MIN_DATA_BYTES: usize = 20_000;
-
-/// The smallest size bound of a replay page (`replay`) or a solve page.
+/// The smallest size bound of a replay page (`replay`) or a solve page: the page's fixed part
+/// (template, styles, scripts, licences: [`fixed_bytes`]) and the envelope of its data (the
+/// data object without a run or a solver, [`data_envelope_bytes`]). Every real page is larger,
+/// so no page that could be written is refused by this floor; a bound above it that a page
+/// still cannot meet with its fewest frames is refused when the page is built, with the size
+/// it needs.
 pub fn min_page_bytes(replay: bool) -> usize {
-    fixed_bytes(replay) + MIN_DATA_BYTES
+    fixed_bytes(replay) + data_envelope_bytes(replay)
+}
+
+/// Bytes of the smallest data object a page holds: its kind, the generator and, for a replay
+/// page, the size bound, with no runs (a solve page: no solvers).
+fn data_envelope_bytes(replay: bool) -> usize {
+    let envelope = if replay {
+        serde_json::json!({
+            "kind": "replay",
+            "generator": concat!("lcpbench ", env!("CARGO_PKG_VERSION")),
+            "max_bytes": 0,
+            "runs": [],
+        })
+    } else {
+        serde_json::json!({ "kind": "problem", "solvers": [] })
+    };
+    envelope.to_string().len()
 }
 
 const THREE: &str = include_str!("assets/vendor/three.min.js");
