@@ -408,3 +408,32 @@ fn the_smallest_max_bytes_is_below_what_a_real_page_needs() {
     ]);
     assert_refused(&o, &["--max-bytes must be at least"]);
 }
+
+#[test]
+fn repeated_solves_keep_to_the_time_budget_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("spd.json");
+    let f = file.to_str().unwrap();
+    let o = lcpbench(&[
+        "gen", "spd", "--n", "50", "--cond", "1e3", "--seed", "1", "-o", f,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A million solves of a 50-row problem take far longer than half a second; the budget
+    // stops the repeats, and the output says how many ran.
+    let o = lcpbench(&[
+        "solve",
+        f,
+        "--solver",
+        "pgs",
+        "--repeat",
+        "1000000",
+        "--time-budget",
+        "0.5",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["repeat"], 1_000_000);
+    let solves = v["solves"].as_u64().unwrap();
+    assert!((1..1_000_000).contains(&solves), "{v}");
+}
