@@ -102,11 +102,17 @@ fn a_step_over_its_budget_ends_time_limit_and_the_run_goes_on() {
         two.reason.contains("steps not converged, first time_limit"),
         "{two:?}"
     );
+    // Which of the two early-stop rules fires first depends on the machine's load (the run
+    // limit of 2 · 6 · 0.05 s counts collision and assembly too); the rules themselves are
+    // tested on a made-up clock in `harness::scene`. Here: the run stops early, at step 3 at
+    // the latest, and says why.
     let six = rows.iter().find(|r| r.case.ends_with("steps=6")).unwrap();
-    assert_eq!(six.steps, Some(3), "{six:?}");
+    assert!(six.steps.is_some_and(|s| (1..=3).contains(&s)), "{six:?}");
     assert_eq!(six.steps_planned, Some(6), "{six:?}");
     assert!(
-        six.reason.contains("stopped after 3 of 6 steps after 3 consecutive steps over the per-step budget of 0.05 s"),
+        six.reason
+            .contains("consecutive steps over the per-step budget of 0.05 s")
+            || six.reason.contains("at the run limit of 0.6"),
         "{six:?}"
     );
     // The phase means add up to the mean step time.

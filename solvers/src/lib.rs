@@ -55,14 +55,15 @@ pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
 pub use cone::nsgs_cone::{NsgsCone, NsgsConeSettings};
 pub use cone::proximal::ProxCone;
 pub use cone::{
-    cone_residuals, cone_residuals_and_velocity, project_onto_cone, ConeError, ConeProblem,
-    ConeSolver,
+    cone_residuals, cone_residuals_and_velocity, normal_unresolved, project_onto_cone, ConeError,
+    ConeProblem, ConeSolver, NormalUnresolved,
 };
 pub use io::cone::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use io::fclib::{parse_fclib, read_fclib, write_fclib_local, write_problem_as_fclib};
 pub use io::siconos::{parse_siconos, parse_siconos_lcp};
 pub use io::{
     parse_problem, problem_to_json, read_problem, write_problem, ProblemFileError, ProblemFormat,
+    MAX_FILE_MU,
 };
 pub use lcp::apgd::Apgd;
 pub use lcp::clarabel_qp::{ClarabelQp, InteriorPoint};

@@ -71,7 +71,10 @@ pub fn run(args: ExportArgs) -> Result<()> {
             problem,
             warm_start,
         } => (problem, warm_start),
-        StepProblem::Cone(cone) => return write_cone(&args, &scene.name, &cone),
+        StepProblem::Cone {
+            problem,
+            warm_start,
+        } => return write_cone(&args, &scene.name, &problem, warm_start.as_deref()),
         StepProblem::NoContacts => bail!(
             "step {} of {} has no contacts, so there is no LCP to export",
             args.step,
@@ -114,7 +117,16 @@ fn write_problem_with_warm_start(problem: &Problem, warm_start: &[f64], path: &P
 
 /// Write the cone problem of `lcpbench export` (friction model `cone`): a local FCLIB file with
 /// `W` sparse when the output ends in `.hdf5` or `.h5`, the cone JSON (`W` dense) otherwise.
-fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result<()> {
+///
+/// The cone JSON carries the step's warm start (`warm_start`, as the LCP export does) when the
+/// step's solver was warm-started, so `solve --warm` replays the step; FCLIB has no place for
+/// one, and the message says it was left out.
+fn write_cone(
+    args: &ExportArgs,
+    scene_name: &str,
+    cone: &ConeProblem,
+    warm_start: Option<&[f64]>,
+) -> Result<()> {
     let fclib = args
         .output
         .extension()
@@ -134,11 +146,20 @@ fn write_cone(args: &ExportArgs, scene_name: &str, cone: &ConeProblem) -> Result
             .map_err(|e| anyhow::anyhow!("cannot assemble W: {e:?}"))?;
         write_fclib_local(&args.output, 3, &w, cone.q(), cone.mu())?;
     } else {
-        std::fs::write(&args.output, cone_problem_to_json(cone))
+        let mut value: serde_json::Value = serde_json::from_str(&cone_problem_to_json(cone))?;
+        if let (Some(ws), Some(object)) = (warm_start, value.as_object_mut()) {
+            object.insert("warm_start".into(), json!(ws));
+        }
+        std::fs::write(&args.output, serde_json::to_string(&value)?)
             .with_context(|| format!("cannot write {}", args.output.display()))?;
     }
+    let warm = match (warm_start, fclib) {
+        (None, _) => "",
+        (Some(_), false) => ", with its warm start",
+        (Some(_), true) => " (its warm start is not written: FCLIB files hold none)",
+    };
     println!(
-        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}",
+        "wrote {}: cone problem of {} contacts ({} rows) of step {} of {}{warm}",
         args.output.display(),
         cone.contacts(),
         cone.n(),

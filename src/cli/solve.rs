@@ -14,7 +14,8 @@ use lcpbench_solvers::{
     SolverKind, Status,
 };
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// Arguments of `lcpbench solve`.
 #[derive(Args)]
@@ -180,7 +181,12 @@ pub fn run(args: SolveArgs) -> Result<()> {
             return run_cone(&args, &cone, &settings);
         }
     };
-    let timed = timed(&args, || solver.clone().solve(&problem, &settings));
+    if let Some(ws) = &settings.warm_start {
+        check_warm_velocity(&args.problem, ws, &problem.velocity(ws))?;
+    }
+    let timed = timed(&args, settings.time_budget, || {
+        solver.clone().solve(&problem, &settings)
+    });
     print_result(
         &args,
         problem.name(),
@@ -192,13 +198,46 @@ pub fn run(args: SolveArgs) -> Result<()> {
 
 /// Time `solve` by the harness's method ([`lcpbench::harness::timing`]): the `--repeat` count
 /// of timed solves, or the rule `bench` uses. `solve` gives each call a fresh copy of the
-/// solver, so every repeat is the same computation.
-fn timed(args: &SolveArgs, solve: impl FnMut() -> SolveResult) -> Timed<SolveResult> {
+/// solver, so every repeat is the same computation. `--time-budget` bounds each solve and,
+/// with `--repeat`, the repeats together: a repeat starts only while the longest solve so far
+/// would still end within the budget from the start of the first solve.
+fn timed(
+    args: &SolveArgs,
+    total_budget: Option<Duration>,
+    solve: impl FnMut() -> SolveResult,
+) -> Timed<SolveResult> {
     let rule = match args.repeat {
-        Some(n) => TimingRule::exactly(n as usize),
+        Some(n) => TimingRule {
+            max_wall_s: total_budget.map_or(f64::INFINITY, |b| b.as_secs_f64()),
+            ..TimingRule::exactly(n as usize)
+        },
         None => TimingRule::default(),
     };
     measure(&rule, &WallClock::new(), solve, |_| ())
+}
+
+/// Refuse a warm start at which the velocity overflows (`A f + b` for an LCP, `W r + q` for a
+/// cone problem): finite entries such as `1e308` pass the file's number check, but no solver
+/// can start from them. Names the file and the warm-start entry of the largest magnitude.
+fn check_warm_velocity(path: &Path, warm_start: &[f64], velocity: &[f64]) -> Result<()> {
+    if let Some(row) = velocity.iter().position(|v| !v.is_finite()) {
+        let (i, v) = warm_start
+            .iter()
+            .enumerate()
+            .fold((0, 0.0f64), |(k, m), (i, v)| {
+                if v.abs() > m.abs() {
+                    (i, *v)
+                } else {
+                    (k, m)
+                }
+            });
+        bail!(
+            "{}: warm_start[{i}] = {v:e}: the velocity overflows at the warm start (row {row} \
+             is not finite); give a warm start of the size of the problem's impulses",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 /// The `warm_start` array of a JSON problem file: finite numbers.
@@ -227,8 +266,21 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
             if args.omega.is_some() {
                 bail!("--omega applies only to --solver sor");
             }
+            if let Some(ws) = &settings.warm_start {
+                if ws.len() != cone.n() {
+                    bail!(
+                        "{}: warm_start has {} values for {} rows",
+                        args.problem.display(),
+                        ws.len(),
+                        cone.n()
+                    );
+                }
+                check_warm_velocity(&args.problem, ws, &cone.velocity(ws))?;
+            }
             let solver = kind.create();
-            let r = timed(args, || solver.clone().solve_cone(cone, settings));
+            let r = timed(args, settings.time_budget, || {
+                solver.clone().solve_cone(cone, settings)
+            });
             (solver.name(), r)
         }
         SolverName::Lcp(kind) => {
@@ -277,6 +329,7 @@ fn print_result(
             "reason": r.status.reason(),
             "iterations": r.iterations,
             "time_s": timed.median_s(),
+            "repeat": args.repeat,
             "timed_solves": timed.count(),
             "time_min_s": timed.min_s(),
             "time_max_s": timed.max_s(),
@@ -317,9 +370,15 @@ fn print_result(
             timed.median_s() * 1e3
         );
     } else {
+        let cut = match args.repeat {
+            Some(n) if timed.count() < n as usize => {
+                format!("; {n} asked for, --time-budget bounds them together")
+            }
+            _ => String::new(),
+        };
         println!(
             "time        {:.3} µs (median of {} timed solves after an untimed first; min {:.3} µs, \
-             max {:.3} µs)",
+             max {:.3} µs{cut})",
             timed.median_s() * 1e6,
             timed.count(),
             timed.min_s() * 1e6,

@@ -8,8 +8,11 @@ use lcpbench::harness::outdir::check_outputs;
 use lcpbench::harness::Case;
 use lcpbench::view::recording::MAX_RECORDING_BYTES;
 use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
-use lcpbench_solvers::io::{input::check_input_file, MAX_PROBLEM_FILE_BYTES};
-use lcpbench_solvers::{read_problem, Settings};
+use lcpbench_solvers::io::{
+    input::{check_input_file, read_input_file},
+    MAX_PROBLEM_FILE_BYTES,
+};
+use lcpbench_solvers::{is_cone_file, read_problem, Settings};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -69,6 +72,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         .map(|p| ("the input", Path::new(p)))
         .collect();
     check_outputs(&inputs, &[("--output", &args.output)])?;
+    let started = std::time::Instant::now();
     let first = Path::new(&args.inputs[0]);
     let recording = first.exists() && is_recording(first)?;
     let min = view::min_page_bytes(recording);
@@ -99,6 +103,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
             bail!("only recordings can be compared side by side; give one problem file or case");
         }
         let (problem, name) = if first.exists() {
+            refuse_cone_file(first)?;
             let p = read_problem(first)?;
             let name = p.name().map(str::to_owned).unwrap_or_else(|| {
                 first
@@ -110,15 +115,21 @@ pub fn run(args: ViewArgs) -> Result<()> {
             let case: Case = args.inputs[0].parse().map_err(|e| {
                 anyhow::anyhow!("{} is neither a file nor a case key: {e}", args.inputs[0])
             })?;
+            // --time-budget covers reaching a scene step's problem too: the solves get
+            // what is left of it.
             let loaded = case
-                .load_lcp()
+                .load_lcp_within(Some(started + time_budget))
                 .map_err(|e| anyhow::anyhow!("case {}: {e}", args.inputs[0]))?;
             (loaded.problem, args.inputs[0].clone())
         };
         let settings = Settings {
             tolerance: args.tol,
             max_iterations: args.max_iter,
-            time_budget: Some(time_budget),
+            time_budget: Some(
+                time_budget
+                    .saturating_sub(started.elapsed())
+                    .max(std::time::Duration::from_millis(1)),
+            ),
             ..Settings::default()
         };
         view::problem_page(
@@ -137,5 +148,27 @@ pub fn write_page(path: &Path, html: &str) -> Result<()> {
         path.display(),
         html.len() as f64 / 1e3
     );
+    Ok(())
+}
+
+/// `view` shows LCP problems (every matrix solver on one file) and recordings; a cone (FC3D)
+/// problem file, a JSON object with a `mu` key, is refused as what it is rather than with the
+/// LCP reader's "missing field `A`".
+fn refuse_cone_file(path: &Path) -> Result<()> {
+    let looks_json = path.extension().is_some_and(|e| e == "json");
+    if !looks_json {
+        return Ok(());
+    }
+    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    if std::str::from_utf8(&bytes).is_ok_and(is_cone_file) {
+        bail!(
+            "{}: a Coulomb cone (FC3D) problem (it has `mu`): view shows LCP problems and \
+             recordings; solve it with `lcpbench solve {} --solver nsgs-cone` (or another cone \
+             solver), or export the scene with a box or pyramid friction model to view it",
+            path.display(),
+            path.display()
+        );
+    }
     Ok(())
 }

@@ -28,6 +28,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 use thiserror::Error;
 
 /// Largest size `n` of a generated case (and of `lcpbench gen --n`): its dense `n × n` matrix
@@ -643,6 +644,15 @@ impl Case {
 
     /// Build (or read) the LCP of a non-scene case.
     pub fn load_lcp(&self) -> Result<LoadedLcp, String> {
+        self.load_lcp_within(None)
+    }
+
+    /// [`Case::load_lcp`] within a deadline: a scene step case simulates the steps before its
+    /// step only while the deadline has not passed ([`step_problem_within`]), and says how far
+    /// it got when it has.
+    ///
+    /// [`step_problem_within`]: crate::harness::export::step_problem_within
+    pub fn load_lcp_within(&self, deadline: Option<Instant>) -> Result<LoadedLcp, String> {
         match self {
             Case::Generated { family, n, seed } => Ok(generate_case(*family, *n, *seed)),
             Case::File(path) => read_problem(path)
@@ -651,7 +661,7 @@ impl Case {
                     solution: None,
                 })
                 .map_err(|e| e.to_string()),
-            Case::SceneStep { path, step } => scene_step_lcp(path, *step),
+            Case::SceneStep { path, step } => scene_step_lcp(path, *step, deadline),
             Case::Scene { path, .. } => Err(format!("{} is a scene, not an LCP", path.display())),
         }
     }
@@ -696,17 +706,21 @@ pub fn json_warm_start(bytes: &[u8], path: &Path) -> Result<Option<Vec<f64>>, St
 }
 
 /// The LCP of step `step` of the scene at `path` (see [`Case::SceneStep`]).
-fn scene_step_lcp(path: &std::path::Path, step: usize) -> Result<LoadedLcp, String> {
-    use crate::harness::export::{step_problem, StepProblem};
+fn scene_step_lcp(
+    path: &std::path::Path,
+    step: usize,
+    deadline: Option<Instant>,
+) -> Result<LoadedLcp, String> {
+    use crate::harness::export::{step_problem_within, StepProblem};
     let scene = lcpbench_contact::scene::Scene::load(path)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     let mut world = scene.world();
-    match step_problem(&mut world, &scene.name, step, || {}).0 {
+    match step_problem_within(&mut world, &scene.name, step, deadline, || {}).0 {
         StepProblem::Lcp { problem, .. } => Ok(LoadedLcp {
             problem,
             solution: None,
         }),
-        StepProblem::Cone(_) => Err(format!(
+        StepProblem::Cone { .. } => Err(format!(
             "{} step {step}: the scene's friction model is the cone; a scene step case is its \
              box-friction LCP",
             path.display()

@@ -6,6 +6,7 @@ use lcpbench_contact::scene::Scene;
 use lcpbench_contact::step::World;
 use lcpbench_solvers::{write_problem, ConeProblem, Problem};
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// The problem of one step.
 #[derive(Debug, Clone)]
@@ -18,8 +19,14 @@ pub enum StepProblem {
         /// The warm start.
         warm_start: Option<Vec<f64>>,
     },
-    /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`.
-    Cone(ConeProblem),
+    /// A Coulomb-cone problem (friction model `cone`), named `SCENE step K`, with the warm
+    /// start the step's solver was given (`None` for a solver started cold).
+    Cone {
+        /// The problem.
+        problem: ConeProblem,
+        /// The warm start, one value per row of the cone problem.
+        warm_start: Option<Vec<f64>>,
+    },
     /// The step had no contacts.
     NoContacts,
     /// The step was not solved, for the reason given: past one of the stepper's limits (see
@@ -34,9 +41,32 @@ pub fn step_problem(
     world: &mut World,
     scene_name: &str,
     step: usize,
+    tick: impl FnMut(),
+) -> (StepProblem, usize) {
+    step_problem_within(world, scene_name, step, None, tick)
+}
+
+/// [`step_problem`] within a deadline: simulating the steps before `step` counts against it,
+/// checked after each, and a deadline that passes before the step is reached gives
+/// [`StepProblem::Refused`] with how far the run got (no contacts counted). The step itself is
+/// solved under the world's own per-step budget.
+pub fn step_problem_within(
+    world: &mut World,
+    scene_name: &str,
+    step: usize,
+    deadline: Option<Instant>,
     mut tick: impl FnMut(),
 ) -> (StepProblem, usize) {
-    for _ in 0..step {
+    let started = Instant::now();
+    for k in 0..step {
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            let reason = format!(
+                "the time budget ran out after simulating {k} of the {step} steps before step \
+                 {step} ({:.1} s); give a larger --time-budget or an earlier step",
+                started.elapsed().as_secs_f64()
+            );
+            return (StepProblem::Refused(reason), 0);
+        }
         world.step();
         tick();
     }
@@ -44,7 +74,10 @@ pub fn step_problem(
     let report = world.step();
     let name = format!("{scene_name} step {step}");
     let problem = match (report.problem, report.cone_problem) {
-        (_, Some(cone)) => StepProblem::Cone(cone.with_name(name)),
+        (_, Some(cone)) => StepProblem::Cone {
+            problem: cone.with_name(name),
+            warm_start: report.warm_start,
+        },
         (Some(lcp), None) => StepProblem::Lcp {
             problem: lcp.with_name(name),
             warm_start: report.warm_start,

@@ -85,31 +85,104 @@ fn measure(scene: &Scene, world: &mut World, n_steps: usize, time_limit: f64, r:
     world.settings.deadline = Some(start + Duration::from_secs_f64(time_limit));
     let mut last = None;
     let mut stop = TimeStop::No;
-    let mut slow = 0;
+    let per_step = world
+        .settings
+        .step_time_budget
+        .map_or(0.0, |d| d.as_secs_f64());
+    let mut rules = StopRules::new(time_limit, per_step);
     for k in 0..n_steps {
-        if start.elapsed().as_secs_f64() > time_limit {
-            stop = TimeStop::RunLimit(time_limit);
+        if let Some(s) = rules.before_step(start.elapsed().as_secs_f64()) {
+            stop = s;
             break;
         }
         let report = world.step();
-        slow = if report.status == Status::TimeLimit {
-            slow + 1
-        } else {
-            0
-        };
+        let slow_stop = rules.after_step(&report.status, k + 1 < n_steps);
         let go_on = metrics.observe(&report, world);
         last = Some(report);
         if !go_on {
             break;
         }
-        if slow >= SLOW_STEPS_STOP && k + 1 < n_steps {
-            let per_step = world
-                .settings
-                .step_time_budget
-                .map_or(0.0, |d| d.as_secs_f64());
-            stop = TimeStop::SlowSteps(slow, per_step);
+        if let Some(s) = slow_stop {
+            stop = s;
             break;
         }
     }
     metrics.finish(world, last.as_ref(), stop, r);
+}
+
+/// The two rules that stop a scene run early, fed the run's clock and each step's status (so
+/// they are tested with a made-up clock, not the machine's): the run's wall time past
+/// `time_limit` before a step, or [`SLOW_STEPS_STOP`] consecutive steps ending `time_limit`
+/// with steps still to go.
+struct StopRules {
+    time_limit: f64,
+    per_step: f64,
+    slow: usize,
+}
+
+impl StopRules {
+    fn new(time_limit: f64, per_step: f64) -> Self {
+        Self {
+            time_limit,
+            per_step,
+            slow: 0,
+        }
+    }
+
+    /// Before a step, `elapsed` seconds into the run.
+    fn before_step(&self, elapsed: f64) -> Option<TimeStop> {
+        (elapsed > self.time_limit).then_some(TimeStop::RunLimit(self.time_limit))
+    }
+
+    /// After a step that ended with `status`; `more` when steps remain.
+    fn after_step(&mut self, status: &Status, more: bool) -> Option<TimeStop> {
+        self.slow = if *status == Status::TimeLimit {
+            self.slow + 1
+        } else {
+            0
+        };
+        (self.slow >= SLOW_STEPS_STOP && more)
+            .then_some(TimeStop::SlowSteps(self.slow, self.per_step))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The run limit, on a made-up clock: a run stops before the first step that starts past
+    /// the limit, never mid-step.
+    #[test]
+    fn the_run_limit_stops_before_the_first_step_past_it() {
+        let rules = StopRules::new(0.6, 0.05);
+        let clock = [0.0, 0.2, 0.45, 0.6, 0.61, 5.0];
+        let stops: Vec<bool> = clock
+            .iter()
+            .map(|&t| rules.before_step(t).is_some())
+            .collect();
+        assert_eq!(stops, [false, false, false, false, true, true]);
+        assert_eq!(rules.before_step(0.61), Some(TimeStop::RunLimit(0.6)));
+    }
+
+    /// Three consecutive steps over their budget stop the run when steps remain; a step within
+    /// it resets the count, and the last step never stops the run (it has taken every step).
+    #[test]
+    fn three_consecutive_slow_steps_stop_the_run() {
+        let mut rules = StopRules::new(100.0, 0.05);
+        let over = Status::TimeLimit;
+        let ok = Status::Converged;
+        assert_eq!(rules.after_step(&over, true), None);
+        assert_eq!(rules.after_step(&over, true), None);
+        assert_eq!(rules.after_step(&ok, true), None);
+        assert_eq!(rules.after_step(&over, true), None);
+        assert_eq!(rules.after_step(&over, true), None);
+        assert_eq!(
+            rules.after_step(&over, true),
+            Some(TimeStop::SlowSteps(3, 0.05))
+        );
+        let mut last = StopRules::new(100.0, 0.05);
+        for more in [true, true, false] {
+            assert_eq!(last.after_step(&over, more), None);
+        }
+    }
 }

@@ -76,12 +76,30 @@ pub enum ViewError {
 /// Default byte budget of a replay page (frames are decimated to fit).
 pub const DEFAULT_MAX_BYTES: usize = 6_000_000;
 
-/// Bytes of a page's data the size bound must leave room for beyond the scripts and styles.
-const MIN_DATA_BYTES: usize = 20_000;
-
-/// The smallest size bound of a replay page (`replay`) or a solve page.
+/// The smallest size bound of a replay page (`replay`) or a solve page: the page's fixed part
+/// (template, styles, scripts, licences: [`fixed_bytes`]) and the envelope of its data (the
+/// data object without a run or a solver, [`data_envelope_bytes`]). Every real page is larger,
+/// so no page that could be written is refused by this floor; a bound above it that a page
+/// still cannot meet with its fewest frames is refused when the page is built, with the size
+/// it needs.
 pub fn min_page_bytes(replay: bool) -> usize {
-    fixed_bytes(replay) + MIN_DATA_BYTES
+    fixed_bytes(replay) + data_envelope_bytes(replay)
+}
+
+/// Bytes of the smallest data object a page holds: its kind, the generator and, for a replay
+/// page, the size bound, with no runs (a solve page: no solvers).
+fn data_envelope_bytes(replay: bool) -> usize {
+    let envelope = if replay {
+        serde_json::json!({
+            "kind": "replay",
+            "generator": concat!("lcpbench ", env!("CARGO_PKG_VERSION")),
+            "max_bytes": 0,
+            "runs": [],
+        })
+    } else {
+        serde_json::json!({ "kind": "problem", "solvers": [] })
+    };
+    envelope.to_string().len()
 }
 
 const THREE: &str = include_str!("assets/vendor/three.min.js");
@@ -170,10 +188,16 @@ fn replay_page_with(recordings: &[Recording], max_bytes: usize, budget: usize) -
         })
         .collect();
     let title = match recordings {
-        [a] => format!("{} · {}", a.header.scene, a.header.solver),
+        [a] => format!(
+            "{} · {}",
+            isolate(&a.header.scene),
+            isolate(&a.header.solver)
+        ),
         [a, b] => format!(
             "{} · {} vs {}",
-            a.header.scene, a.header.solver, b.header.solver
+            isolate(&a.header.scene),
+            isolate(&a.header.solver),
+            isolate(&b.header.solver)
         ),
         _ => String::new(),
     };
@@ -200,7 +224,7 @@ pub fn problem_page(data: &Value, max_bytes: usize) -> Result<String, ViewError>
         .get("name")
         .and_then(Value::as_str)
         .unwrap_or("problem");
-    let html = page(&format!("{name} · every solver"), data, false);
+    let html = page(&format!("{} · every solver", isolate(name)), data, false);
     if html.len() > max_bytes {
         return Err(ViewError::PageTooLarge {
             needed: html.len(),
@@ -276,6 +300,15 @@ fn page(title: &str, data: &Value, replay: bool) -> String {
             ("{{DATA}}", &json),
         ],
     )
+}
+
+/// A user-given name (scene, body, problem, recording label) set apart from the text around
+/// it by Unicode's first-strong isolate (U+2068 … U+2069, what `<bdi>` does in markup, and
+/// usable in `<title>` too): a right-to-left override (U+202E) or right-to-left letters inside
+/// the name cannot reorder the rest of the line. The page's scripts do the same (`iso` in
+/// `common.js`) wherever they put a name into text.
+pub(crate) fn isolate(name: &str) -> String {
+    format!("\u{2068}{name}\u{2069}")
 }
 
 fn html_escape(s: &str) -> String {

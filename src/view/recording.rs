@@ -522,11 +522,32 @@ pub fn check_step(
             step.step
         ));
     }
+    if let Some(b) = step.bodies.iter().find(|b| {
+        !b.position
+            .iter()
+            .chain(&b.orientation)
+            .all(|&x| drawable(x))
+    }) {
+        return Err(format!(
+            "step {}: body \"{}\": position and orientation must be finite numbers within \
+             ±{:e} (the page draws in single precision)",
+            step.step,
+            b.name,
+            f32::MAX
+        ));
+    }
     check_joints(step).map_err(|m| format!("step {}: {m}", step.step))
 }
 
-/// A step's joint figures and records: known kinds, finite anchors, errors and impulses that
-/// are finite and not negative.
+/// Whether the page can draw `x`: finite and within `f32`'s range (the page's frames hold
+/// single-precision numbers; a larger value becomes `∞`, written `null`, and three.js cannot
+/// place a point at it).
+fn drawable(x: f64) -> bool {
+    x.is_finite() && x.abs() <= f32::MAX as f64
+}
+
+/// A step's joint figures and records: known kinds, anchors the page can draw ([`drawable`]),
+/// errors and impulses that are finite and not negative.
 fn check_joints(step: &StepLine) -> Result<(), String> {
     let figures = [
         ("joint_drift_max", step.joint_drift_max),
@@ -550,11 +571,13 @@ fn check_joints(step: &StepLine) -> Result<(), String> {
         if let Some(side) = j
             .anchors
             .iter()
-            .position(|p| !p.iter().all(|x| x.is_finite()))
+            .position(|p| !p.iter().all(|&x| drawable(x)))
         {
             return Err(format!(
-                "{}: anchors[{side}] must be 3 finite numbers, got {:?}",
+                "{}: anchors[{side}] must be 3 finite numbers within ±{:e} (the page draws in \
+                 single precision), got {:?}",
                 at(),
+                f32::MAX,
                 j.anchors[side]
             ));
         }
@@ -1056,6 +1079,13 @@ mod tests {
         assert!(
             e.contains("r.jsonl: line 3: step 1: joint_records[4] (\"")
                 && e.contains("anchors[1] must be 3 finite numbers"),
+            "{e}"
+        );
+        // Finite in f64 but beyond f32: the page would place the anchor at infinity.
+        let e = refused(|r| r.joint_records[2].anchors[0][0] = 1e300);
+        assert!(
+            e.contains("r.jsonl: line 3: step 1: joint_records[2] (\"")
+                && e.contains("anchors[0] must be 3 finite numbers within ±3.4028235e38"),
             "{e}"
         );
         let e = refused(|r| r.joint_records[0].kind = "slider");

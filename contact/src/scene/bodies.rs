@@ -2,7 +2,7 @@
 //! (mesh files resolved inside the scene's directory tree), mass, orientation, motion limits,
 //! repeats expanded into grids of copies, and the check on initial overlaps.
 
-use super::file::{magnitude, vec3, BodyFile, MaterialFile, ShapeFile};
+use super::file::{finite_vector, magnitude, vec3, BodyFile, MaterialFile, ShapeFile};
 use super::{
     readable, FieldError, LoadOptions, MASS_RANGE, MAX_BODIES, MAX_COORDINATE, MAX_INITIAL_OVERLAP,
     MAX_MU, MAX_SPEED, SIZE_RANGE,
@@ -236,6 +236,13 @@ pub(super) fn check_motion(b: &BodyFile) -> Result<(), FieldError> {
             ))
         }
     };
+    for (field, v) in [
+        ("position", b.position),
+        ("velocity", b.velocity),
+        ("angular_velocity", b.angular_velocity),
+    ] {
+        finite_vector(field, v)?;
+    }
     let biggest = b.position.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if !(biggest.is_finite() && biggest <= MAX_COORDINATE) {
         return Err(err(

@@ -299,6 +299,31 @@ pub(super) fn magnitude(v: [f64; 3]) -> f64 {
     }
 }
 
+/// The one check of a vector field of a scene file (axes, anchors, positions, velocities,
+/// gravity): every component finite and the Euclidean length finite, so no later `norm()` or
+/// normalisation overflows to `∞` (an axis of `[1e308, 1e308, 1e308]` has an infinite norm,
+/// and normalised it is `0`). Each field then checks its own bound on the result. The error is
+/// the field and what is wrong.
+pub(super) fn finite_vector(field: &str, v: [f64; 3]) -> Result<Vector3<f64>, (String, String)> {
+    let w = vec3(v);
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err((
+            field.to_owned(),
+            format!("every component must be finite, got {v:?}"),
+        ));
+    }
+    if !w.norm().is_finite() {
+        return Err((
+            field.to_owned(),
+            format!(
+                "its length overflows (components up to {:e}); give a vector of moderate size",
+                magnitude(v)
+            ),
+        ));
+    }
+    Ok(w)
+}
+
 pub(super) fn vec3(v: [f64; 3]) -> Vector3<f64> {
     Vector3::new(v[0], v[1], v[2])
 }

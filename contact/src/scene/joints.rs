@@ -1,7 +1,7 @@
 //! The `[[joints]]` tables: joints between named bodies (or a body and `"world"`), anchored at
 //! world points of the initial poses.
 
-use super::file::{vec3, JointFile};
+use super::file::{finite_vector, JointFile};
 use super::{readable, FieldError, MAX_COORDINATE};
 use crate::body::RigidBody;
 use crate::joint::{Joint, JointKind};
@@ -80,8 +80,9 @@ fn convert_joint(i: usize, f: &JointFile, bodies: &[RigidBody]) -> Result<Joint,
         );
     }
     let point = |k: &str, p: [f64; 3]| -> Result<Point3<f64>, FieldError> {
-        if p.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE) {
-            Ok(Point3::from(vec3(p)))
+        let v = finite_vector(&field(k), p)?;
+        if p.iter().all(|x| x.abs() <= MAX_COORDINATE) {
+            Ok(Point3::from(v))
         } else {
             Err((
                 field(k),
@@ -115,8 +116,8 @@ fn convert_joint(i: usize, f: &JointFile, bodies: &[RigidBody]) -> Result<Joint,
     };
     let axis = match (kind, f.axis) {
         (JointKind::Hinge, Some(a)) => {
-            let v = vec3(a);
-            if !(v.iter().all(|x| x.is_finite()) && v.norm() > 1e-9) {
+            let v = finite_vector("axis", a)?;
+            if v.norm() <= 1e-9 {
                 return err(
                     "axis",
                     "the hinge axis must be a finite, non-zero vector".into(),

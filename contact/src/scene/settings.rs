@@ -2,7 +2,7 @@
 //! correction, solver, penalty parameters, tolerance and limits, into [`SimSettings`] and the
 //! scene's [`Penalty`].
 
-use super::file::{magnitude, SettingsFile};
+use super::file::{finite_vector, magnitude, SettingsFile};
 use super::{check_solver, ContactSolver, SimSettings};
 use super::{
     default_solver, readable, solver_from_name, FieldError, DT_RANGE, MAX_CONTACT_DISTANCE,
@@ -74,6 +74,7 @@ pub(super) fn check_clock(s: &SettingsFile) -> Result<f64, FieldError> {
             format!("must be between 1 and {MAX_STEPS}, got {}", s.steps),
         ));
     }
+    finite_vector("gravity", s.gravity).map_err(|(f, m)| err(&f, m))?;
     let g = magnitude(s.gravity);
     if !(g.is_finite() && g <= MAX_GRAVITY) {
         return Err(err(

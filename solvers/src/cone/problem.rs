@@ -1,7 +1,7 @@
 //! The cone problem ([`ConeProblem`]), its conversions to and from the box-friction LCP, and
 //! the interface of its solvers ([`ConeSolver`]).
 
-use super::residual::{cone_residuals_and_velocity, project_onto_cone};
+use super::residual::{cone_residuals_and_velocity, normal_unresolved, project_onto_cone};
 use crate::problem::certificate::Certificate;
 use crate::problem::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
@@ -291,8 +291,26 @@ impl Measured for ConeProblem {
     fn measure(&self, r: &[f64], u: &mut [f64]) -> Residuals {
         cone_residuals_and_velocity(self, r, u)
     }
-    fn cancellation(&self, _r: &[f64], _u: &[f64]) -> Option<(Status, Option<Certificate>)> {
-        None
+    fn cancellation(
+        &self,
+        r: &[f64],
+        u: &[f64],
+        tol: f64,
+    ) -> Option<(Status, Option<Certificate>)> {
+        let x = normal_unresolved(self, r, u, tol)?;
+        let reason = format!(
+            "the cone residual meets the tolerance {tol:.1e}, but contact {} leaves its normal \
+             complementarity unresolved: r_N = {:.3e}, u_N = {:.3e}, normal step {:.3e} above \
+             {tol:.1e} of the contact's terms {:.3e} (mu = {}: the mu ‖u_T‖ term of De Saxcé's \
+             velocity hides the normal velocity from the cone residual)",
+            x.contact,
+            x.r_n,
+            x.u_n,
+            x.step,
+            x.scale,
+            self.mu()[x.contact]
+        );
+        Some((Status::Stalled { reason }, None))
     }
 }
 

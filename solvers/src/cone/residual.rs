@@ -125,3 +125,96 @@ fn contact_residuals(problem: &ConeProblem, c: usize, r: &[f64], u: &mut [f64]) 
         bound_violation: norm3([rc[0] - p[0], rc[1] - p[1], rc[2] - p[2]]),
     }
 }
+
+/// The contact whose normal complementarity `0 <= r_N ⟂ u_N >= 0` a cone result leaves
+/// unresolved: its normal step (the LCP natural-map step of the normal row, in velocity units,
+/// `e_N = d · |r_N − max(0, r_N − u_N / d)|`: `|u_N|` for a contact pressed into the obstacle,
+/// `d r_N` for one that pushes while separating), the scale it is held to and the contact's
+/// `r_N`, `u_N`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NormalUnresolved {
+    /// Contact index.
+    pub contact: usize,
+    /// `e_N`.
+    pub step: f64,
+    /// `m_c`, the scale `e_N` is compared with (see [`normal_unresolved`]).
+    pub scale: f64,
+    /// `r_N`.
+    pub r_n: f64,
+    /// `u_N = (W r + q)_N`.
+    pub u_n: f64,
+}
+
+/// The second half of a converged cone result, the counterpart of the LCP's data-resolution
+/// test ([`crate::problem::metrics::unresolved_row`]): every contact's normal complementarity
+/// resolved to the tolerance against the normal row's own terms, so a large `mu` cannot hide a
+/// penetrating normal velocity.
+///
+/// The cone residual scales contact `c` by `s_c = ‖(t_N + mu ‖(t_1, t_2)‖, t_1, t_2)‖ / d_c`
+/// (see [`crate::cone`]); as `mu` grows, `mu ‖u_T‖` dominates De Saxcé's velocity and the
+/// residual no longer sees `u_N` (at `mu = 1e5`, `r = 0` under `u = (-0.16, 0.08, 0)` meets
+/// `1e-9`). At every Coulomb solution `0 <= r_N ⟂ u_N >= 0` holds, whichever of take-off,
+/// sticking or sliding the contact does, so the normal row is tested alone, against the cone
+/// residual's scale with `mu` capped at 1 (`m = min(mu, 1)`):
+///
+/// ```text
+/// e_N <= max(tol · m_c, 4 (nnz_N + 1) ε t_N),
+/// m_c = √(1 + m²) ‖(t_N + m ‖(t_1, t_2)‖, t_1, t_2)‖
+/// ```
+///
+/// Why `√(1 + m²)`: with `δ = r − P_K(r − û / d)` the natural map, `û / d − δ` lies in the dual
+/// cone, so `u_N / d >= δ_N − mu ‖δ_T‖ >= −√(1 + mu²) ‖δ‖`; a contact whose cone residual
+/// meets the tolerance (`d ‖δ‖ <= tol · d s_c`) has a normal step within `tol · m_c` when
+/// `mu <= 1`. So for `mu <= 1` the test adds nothing beyond the cone residual's own bound, and
+/// above 1 it stops the `mu` amplification at 1. Returns the contact with the largest
+/// `e_N / m_c` among those that fail, `None` when all pass (or `r`/`u` have the wrong length).
+/// `O(nnz)`.
+pub fn normal_unresolved(
+    problem: &ConeProblem,
+    r: &[f64],
+    u: &[f64],
+    tol: f64,
+) -> Option<NormalUnresolved> {
+    let n = problem.n();
+    if r.len() != n || u.len() != n {
+        return None;
+    }
+    let (w, q) = (problem.delassus(), problem.q());
+    let mut worst: Option<(f64, NormalUnresolved)> = None;
+    for (c, &mu) in problem.mu().iter().enumerate() {
+        let mut t = [0.0; 3];
+        let mut len = 0;
+        for (a, ta) in t.iter_mut().enumerate() {
+            let row = w.row(3 * c + a);
+            *ta = q[3 * c + a].abs() + row.dot_and_magnitude(r).1;
+            if a == 0 {
+                len = row.len();
+            }
+        }
+        let d = problem.scale_of(c);
+        let (r_n, u_n) = (r[3 * c], u[3 * c]);
+        let step = d * (r_n - (r_n - u_n / d).max(0.0)).abs();
+        let m = mu.min(1.0);
+        let scale = m.hypot(1.0) * norm3([t[0] + m * t[1].hypot(t[2]), t[1], t[2]]);
+        let round_off = 4.0 * (len as f64 + 1.0) * f64::EPSILON * t[0];
+        let resolved = step <= (tol * scale).max(round_off);
+        if !resolved {
+            let ratio = if scale > 0.0 {
+                step / scale
+            } else {
+                f64::INFINITY
+            };
+            if worst.as_ref().is_none_or(|(m, _)| ratio > *m) {
+                let one = NormalUnresolved {
+                    contact: c,
+                    step,
+                    scale,
+                    r_n,
+                    u_n,
+                };
+                worst = Some((ratio, one));
+            }
+        }
+    }
+    worst.map(|(_, u)| u)
+}

@@ -59,6 +59,7 @@ pub fn parse_cone_problem(text: &str, path: &Path) -> Result<ConeProblem, Proble
         message,
     };
     let n = file.q.len();
+    crate::io::check_friction_coefficients(path, "mu", &file.mu)?;
     let p = match matrix_data(path, file.w, "W", "q", n)? {
         MatrixData::Dense(w) => ConeProblem::new(w, file.q, file.mu),
         MatrixData::Triplets(triplets) => {
@@ -106,8 +107,24 @@ mod tests {
         .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "c.json: field `W/q/mu`: contact 0: mu = -1 must be finite and >= 0"
+            "c.json: field `mu[0]`: contact 0: mu = -1e0 must be finite, >= 0 and at most 1e3 \
+             (the limit for friction coefficients in problem files: above it the cone residual \
+             is blind to the normal velocity)"
         );
+        // The limit itself is accepted, anything above it refused with the contact's index.
+        let at = |mu: &str| {
+            let text = format!(
+                r#"{{"W":[[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,0],[0,0,0,0,0,1]],"q":[-1,0,0,-1,0,0],"mu":[0.5,{mu}]}}"#
+            );
+            parse_cone_problem(&text, Path::new("m.json"))
+        };
+        assert!(at("1000").is_ok());
+        let e = at("1000.5").unwrap_err().to_string();
+        assert!(
+            e.starts_with("m.json: field `mu[1]`: contact 1: mu = 1.0005e3"),
+            "{e}"
+        );
+        assert!(e.contains("at most 1e3"), "{e}");
     }
 
     /// Two contacts coupled in one entry pair: W is written as compressed rows (smaller than

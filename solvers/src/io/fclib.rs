@@ -48,7 +48,7 @@
 //! numbers. A file that breaks a limit, or that the HDF5 reader rejects, gives a
 //! [`ProblemFileError`] naming the file and the dataset.
 
-use super::{contact_rows, ProblemFileError};
+use super::{check_friction_coefficients, contact_rows, ProblemFileError};
 use crate::problem::{sparse_from_triplets, Problem};
 use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
 use faer::sparse::{SparseColMat, Triplet};
@@ -383,6 +383,7 @@ fn read_local(
     let vectors = r.group(&local, "vectors")?;
     let q = r.numbers(&vectors, "q", w.rows)?;
     let mu = r.numbers(&vectors, "mu", w.rows / d)?;
+    check_friction_coefficients(r.path, "/fclib_local/vectors/mu", &mu)?;
     Ok((w, q, mu, d))
 }
 
@@ -417,6 +418,7 @@ fn read_global(
     let f = r.numbers(&vectors, "f", nv)?;
     let w_vec = r.numbers(&vectors, "w", nr)?;
     let mu = r.numbers(&vectors, "mu", nr / d)?;
+    check_friction_coefficients(r.path, "/fclib_global/vectors/mu", &mu)?;
     r.condensed_size("M⁻¹ [H f]", nv, nr + 1)?;
     r.condensed_size("W", nr, nr)?;
     let to_csc = |s: &SparseData, what: &str| {

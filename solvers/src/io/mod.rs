@@ -443,6 +443,44 @@ pub fn read_problem(path: &Path) -> Result<Problem, ProblemFileError> {
     }
 }
 
+/// The largest friction coefficient a problem file may give a contact (cone JSON, FCLIB,
+/// Siconos friction-contact files; scene files stop at 100).
+///
+/// The cone residual measures each contact against the magnitudes of the terms of De Saxcé's
+/// velocity `û = u + mu ‖u_T‖ e_N` (see [`crate::cone`]), so `mu ‖u_T‖` sets its scale as `mu`
+/// grows: at `mu = 1e5` a reaction of zero under a normal velocity of `-0.16` and a tangential
+/// one of `0.08` meets a tolerance of `1e-9`. Up to `1e3` the scale exceeds the normal row's own
+/// terms by at most that factor, which the normal-complementarity test of a converged cone
+/// result ([`crate::cone::normal_unresolved`]) still resolves at the tolerances lcpbench uses
+/// (down to `1e-12` against data of order 1); physical friction coefficients are below 10.
+pub const MAX_FILE_MU: f64 = 1e3;
+
+/// The one check of the friction coefficients read from a problem file: each finite, `>= 0`
+/// and at most [`MAX_FILE_MU`]. The error names the file, the field with the contact's index,
+/// and the limit.
+pub(crate) fn check_friction_coefficients(
+    path: &Path,
+    field: &str,
+    mu: &[f64],
+) -> Result<(), ProblemFileError> {
+    match mu
+        .iter()
+        .position(|m| !(m.is_finite() && (0.0..=MAX_FILE_MU).contains(m)))
+    {
+        None => Ok(()),
+        Some(c) => Err(ProblemFileError::Field {
+            path: path.to_owned(),
+            field: format!("{field}[{c}]"),
+            message: format!(
+                "contact {c}: mu = {:e} must be finite, >= 0 and at most {MAX_FILE_MU:e} (the \
+                 limit for friction coefficients in problem files: above it the cone residual \
+                 is blind to the normal velocity)",
+                mu[c]
+            ),
+        }),
+    }
+}
+
 /// Bounds and friction rows of a frictional-contact problem with `mu.len()` contacts of
 /// dimension `d` (rows `d·c` normal, `d·c + 1 …` tangential): `0 <= f_n`, `|f_t| <= mu_c f_n`
 /// (the box-friction LCP shared by the FCLIB and Siconos friction-contact readers).

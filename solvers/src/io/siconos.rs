@@ -220,6 +220,7 @@ pub fn parse_siconos(text: &str, path: &Path) -> Result<Problem, ProblemFileErro
     let (matrix, n, _, _) = read_matrix(&mut t)?;
     let q = read_vector(&mut t, "q", n)?;
     let mu = read_vector(&mut t, "mu", contacts)?;
+    super::check_friction_coefficients(path, "mu", &mu)?;
     let (lo, hi, friction) = super::contact_rows(&mu, d);
     let invalid = ProblemFileError::invalid(path);
     let problem = match matrix {

@@ -16,7 +16,8 @@ use std::time::{Duration, Instant};
 /// `Converged` if and only if `natural_map_rel <= tolerance` and every row is resolved against
 /// the problem's data ([`crate::problem::metrics::unresolved_row`]); a result that meets the tolerance
 /// only through cancellation is `Diverged`, or `NoSolution` when a Farkas certificate read off it
-/// proves there is no solution.
+/// proves there is no solution. A cone result must also resolve every contact's normal
+/// complementarity ([`crate::cone::normal_unresolved`]); one that does not is `Stalled`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum Status {
@@ -26,7 +27,8 @@ pub enum Status {
     IterationLimit,
     /// The time budget ran out with the residual above tolerance.
     TimeLimit,
-    /// The solver met its own stopping rule, but the shared residual is above tolerance.
+    /// The solver met its own stopping rule, but the shared residual is above tolerance (or,
+    /// for a cone problem, within it with a contact's normal complementarity unresolved).
     Stalled {
         /// Why.
         reason: String,
@@ -232,10 +234,12 @@ pub(crate) trait Measured {
     fn velocity_at(&self, x: &[f64]) -> Vec<f64>;
     /// The shared residuals of `x`, writing the velocity into `v` in the same pass.
     fn measure(&self, x: &[f64], v: &mut [f64]) -> Residuals;
-    /// For a finite `x` whose relative residual meets the tolerance: the status that says it
-    /// does so only through cancellation, with the certificate read off `x`, if any (`None`:
-    /// `x` is resolved, the status stays `Converged`).
-    fn cancellation(&self, x: &[f64], v: &[f64]) -> Option<(Status, Option<Certificate>)>;
+    /// For a finite `x` whose relative residual meets the tolerance `tol`: the status that says
+    /// it does so only through cancellation (an LCP row unresolved against the data) or with a
+    /// cone contact's normal complementarity unresolved, with the certificate read off `x`, if
+    /// any (`None`: `x` is resolved, the status stays `Converged`).
+    fn cancellation(&self, x: &[f64], v: &[f64], tol: f64)
+        -> Option<(Status, Option<Certificate>)>;
 }
 
 impl Measured for Problem {
@@ -250,7 +254,12 @@ impl Measured for Problem {
     fn measure(&self, f: &[f64], w: &mut [f64]) -> Residuals {
         residuals_and_velocity(self, f, w)
     }
-    fn cancellation(&self, f: &[f64], w: &[f64]) -> Option<(Status, Option<Certificate>)> {
+    fn cancellation(
+        &self,
+        f: &[f64],
+        w: &[f64],
+        _tol: f64,
+    ) -> Option<(Status, Option<Certificate>)> {
         lcp_cancellation(self, f, w)
     }
 }
@@ -479,7 +488,7 @@ impl<'a, P: Measured> Monitor<'a, P> {
                 }
             } else {
                 match decide(outcome, res.natural_map_rel, tol) {
-                    Status::Converged => match problem.cancellation(&f, &w) {
+                    Status::Converged => match problem.cancellation(&f, &w, tol) {
                         Some((status, c)) => {
                             certificate = c;
                             status
@@ -719,6 +728,17 @@ fn solve_islands_with(
         }
         let r = solve_one(&sub, &sub_settings);
         iterations += r.iterations;
+        if r.f.len() != rows.len() {
+            // An island's result of the wrong length cannot be placed in `f`: the whole solve
+            // fails with its reason rather than reading past the island's values.
+            outcome = Outcome::NumericalFailure(format!(
+                "an island of {} rows returned {} values ({})",
+                rows.len(),
+                r.f.len(),
+                r.status
+            ));
+            break;
+        }
         for (k, &i) in rows.iter().enumerate() {
             f[i] = r.f[k];
         }
@@ -835,6 +855,28 @@ mod tests {
         assert_eq!(given, vec![25, 10], "the third island gets nothing");
         assert_eq!(r.iterations, 25);
         assert_ne!(r.status, Status::Converged);
+    }
+
+    /// An island whose solve returns a result of the wrong length (a failed solve that kept no
+    /// point) ends the whole solve `numerical_failure` with the reason, instead of indexing past
+    /// the island's values.
+    #[test]
+    fn an_island_result_of_the_wrong_length_is_a_failure_not_a_panic() {
+        let n = 60;
+        let p = Problem::lcp(tridiagonal_blocks_of_20(n), vec![-1.0; n]).unwrap();
+        let r = solve_by_islands(&p, &Settings::default(), 1000, |island, s| {
+            Monitor::new(island, s).finish(Vec::new(), 0, Outcome::NumericalFailure("x".into()))
+        });
+        match &r.status {
+            Status::NumericalFailure { reason } => {
+                assert!(
+                    reason.contains("island of 20 rows returned 0 values"),
+                    "{reason}"
+                )
+            }
+            s => panic!("{s:?}"),
+        }
+        assert_eq!(r.f.len(), n);
     }
 
     /// An impulse that meets the tolerance by growing along the null direction of a problem

@@ -15,6 +15,20 @@ function publishState(fields) {
 }
 
 /** Create an element: el('div', {class: 'x'}, [children or text]). */
+// A user-given name (scene, body, recording label) isolated from the text around it with
+// U+2068 FIRST STRONG ISOLATE … U+2069 POP DIRECTIONAL ISOLATE, as <bdi> does: a right-to-left
+// override inside the name cannot reorder the rest of the line.
+function iso(name) {
+  return '\u2068' + String(name) + '\u2069';
+}
+
+// "1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", …
+function ordinal(k) {
+  const tens = k % 100;
+  const suffix = tens >= 11 && tens <= 13 ? 'th' : ({ 1: 'st', 2: 'nd', 3: 'rd' }[k % 10] || 'th');
+  return `${k}${suffix}`;
+}
+
 function el(tag, attrs, children) {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs || {})) {

@@ -126,7 +126,7 @@ class RunView {
     this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(window.devicePixelRatio || 1);
     container.append(this.renderer.domElement);
-    this.label = el('div', { class: 'label', text: run.label });
+    this.label = el('div', { class: 'label', text: iso(run.label) });
     this.stats = el('div', { class: 'stats' });
     container.append(this.label, this.stats);
     this.buildBodies(bounds);
@@ -335,12 +335,12 @@ class RunView {
 const notes = [];
 RUNS.forEach((r) => {
   if (r.stride > 1) {
-    notes.push(`${r.label}: the 3-D view shows every ${r.stride}th of ${r.steps_total} steps (decimated to keep this file under ` +
+    notes.push(`${iso(r.label)}: the 3-D view shows every ${ordinal(r.stride)} of ${r.steps_total} steps (decimated to keep this file under ` +
       `${(DATA.max_bytes / 1e6).toFixed(1)} MB); the plots show every step.`);
   }
 });
 document.getElementById('note').textContent =
-  `${RUNS[0].scene} · ${RUNS.map((r) => r.solver).join(' vs ')} · ${NSTEPS} steps of ${RUNS[0].dt} s · ` +
+  `${iso(RUNS[0].scene)} · ${RUNS.map((r) => iso(r.solver)).join(' vs ')} · ${NSTEPS} steps of ${RUNS[0].dt} s · ` +
   `${RUNS[0].bodies.length} bodies. ${notes.join(' ')} Drag to orbit, right-drag to pan, wheel to zoom; click a contact or a plot.`;
 
 const viewsEl = el('div', { class: 'views' });
@@ -434,11 +434,11 @@ function renderHistory() {
     const f = frameAt(r, ui.index);
     const h = f.history;
     if (!h) {
-      parts.push(el('p', { class: 'muted', text: `${r.label}: no history recorded (body-level solvers record none; matrix solvers do with --html or simulate --history).` }));
+      parts.push(el('p', { class: 'muted', text: `${iso(r.label)}: no history recorded (body-level solvers record none; matrix solvers do with --html or simulate --history).` }));
       return;
     }
     curves.push({ label: r.label, xs: h.it, ys: h.res, color: PALETTE[k] });
-    if (h.thinned_from) parts.push(el('p', { class: 'muted', text: `${r.label}: ${h.res.length} of ${h.thinned_from} points shown.` }));
+    if (h.thinned_from) parts.push(el('p', { class: 'muted', text: `${iso(r.label)}: ${h.res.length} of ${h.thinned_from} points shown.` }));
     if (h.extra) {
       const rows = h.extra.slice(0, 200).map((a, i) => el('tr', {}, [el('td', { text: String(h.it[i]) }), el('td', { text: fmt(h.res[i]) }),
         el('td', { class: 'l', text: Array.isArray(a) ? a.join(' ') : JSON.stringify(a) })]));
@@ -457,7 +457,7 @@ function renderContacts() {
   const f = frameAt(run, ui.index);
   const c = f.contacts;
   const count = c.length / CF;
-  const name = (id) => (id >= 0 && run.bodies[id] ? run.bodies[id].name : '?');
+  const name = (id) => (id >= 0 && run.bodies[id] ? iso(run.bodies[id].name) : '?');
   const runPick = RUNS.length > 1 ? el('select', { onchange: (e) => { ui.detailRun = Number(e.target.value); ui.selected = -1; update(true); } },
     RUNS.map((r, i) => { const o = el('option', { value: String(i), text: r.label }); if (i === ui.detailRun) o.selected = true; return o; })) : '';
   const head = ['#', 'bodies', 'status', 'f_n', '|f_t|', 'gap', 'v_n', '|v_t|', 'min(f_n, w_n/A_nn)'];

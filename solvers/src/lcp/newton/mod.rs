@@ -432,7 +432,9 @@ impl Newton {
         let mut f = it.f;
         if outcome != Outcome::Stopped {
             let raw = monitor.residual_of(&f);
-            if raw.is_nan() || best.0 <= raw {
+            // `best` is empty when no point was measured finite (a warm start at which the
+            // velocity overflows): the iterate stays, and its non-finite residual says so.
+            if !best.1.is_empty() && (raw.is_nan() || best.0 <= raw) {
                 f = best.1;
             }
         }
