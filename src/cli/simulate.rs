@@ -16,11 +16,12 @@ use std::path::PathBuf;
 pub struct SimulateArgs {
     /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
-    /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
-    /// body-level one (si, body-micro, avg, penalty; on scenes with joints only si), or, for friction model cone, a cone solver
-    /// (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone). A solver that does not take the friction model is refused.
-    /// `NAME` starts every step cold and `NAME+warm` from the previous step's impulses, as in
-    /// `bench` (without `--solver`, the scene's `warm_start` applies).
+    /// Contact solver (overrides the scene's): a matrix solver, a body-level one (on scenes
+    /// with joints only si), or, for friction model cone, a cone solver (listed below from the
+    /// solver table; `lcpbench solvers` says what each takes). A solver that does not take the
+    /// friction model is refused. `NAME` starts every step cold and `NAME+warm` from the
+    /// previous step's impulses, as in `bench` (without `--solver`, the scene's `warm_start`
+    /// applies).
     #[arg(long, short)]
     pub solver: Option<String>,
     /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K
