@@ -372,7 +372,8 @@ fn print_result(
         println!("time        {:.3} ms", r.time.as_secs_f64() * 1e3);
     }
     println!(
-        "residual    {:.3e} (relative {:.3e}); complementarity gap {:.3e}; bound violation {:.3e}",
+        "residual    max over rows {:.3e} (relative {:.3e}); complementarity gap, sum over \
+         rows {:.3e}; bound violation, max over rows {:.3e}",
         r.residuals.natural_map,
         r.residuals.natural_map_rel,
         r.residuals.complementarity_gap,

@@ -124,11 +124,16 @@ pub fn run(args: ViewArgs) -> Result<()> {
 
 /// Write a page and say where it went and how large it is.
 pub fn write_page(path: &Path, html: &str) -> Result<()> {
+    println!("{}", write_page_quietly(path, html)?);
+    Ok(())
+}
+
+/// Write a page; returns the line saying where it went and how large it is.
+pub fn write_page_quietly(path: &Path, html: &str) -> Result<String> {
     std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
-    println!(
+    Ok(format!(
         "wrote {} ({:.1} kB)",
         path.display(),
         html.len() as f64 / 1e3
-    );
-    Ok(())
+    ))
 }
