@@ -7,8 +7,11 @@ use lcpbench::harness::budget;
 use lcpbench::harness::Case;
 use lcpbench::view::recording::MAX_RECORDING_BYTES;
 use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
-use lcpbench_solvers::io::{input::check_input_file, MAX_PROBLEM_FILE_BYTES};
-use lcpbench_solvers::{read_problem, Settings};
+use lcpbench_solvers::io::{
+    input::{check_input_file, read_input_file},
+    MAX_PROBLEM_FILE_BYTES,
+};
+use lcpbench_solvers::{is_cone_file, parse_cone_problem, read_problem, ConeProblem, Settings};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -92,7 +95,12 @@ pub fn run(args: ViewArgs) -> Result<()> {
             bail!("only recordings can be compared side by side; give one problem file or case");
         }
         let (problem, name) = if first.exists() {
-            let p = read_problem(first)?;
+            // A cone file (JSON with `W`, `q`, `mu`) is shown through its box form, whose rows
+            // the cone solvers take back as contact triples.
+            let p = match read_cone_file(first)? {
+                Some(cone) => cone.to_box(),
+                None => read_problem(first)?,
+            };
             let name = p.name().map(str::to_owned).unwrap_or_else(|| {
                 first
                     .file_stem()
@@ -120,6 +128,25 @@ pub fn run(args: ViewArgs) -> Result<()> {
         )?
     };
     write_page(&args.output, &html)
+}
+
+/// The cone problem in `path` when it is a cone JSON file (a `mu` key), else `None`.
+fn read_cone_file(path: &Path) -> Result<Option<ConeProblem>> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    {
+        return Ok(None);
+    }
+    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let Ok(text) = std::str::from_utf8(&bytes) else {
+        return Ok(None);
+    };
+    if !is_cone_file(text) {
+        return Ok(None);
+    }
+    Ok(Some(parse_cone_problem(text, path)?))
 }
 
 /// Write a page and say where it went and how large it is.
