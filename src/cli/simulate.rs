@@ -473,7 +473,7 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         "iterations        mean {:.1}, max {} ({} per step)",
         t.iters as f64 / n,
         t.max_iters,
-        super::solve::iteration_unit(world.settings.solver.name()).unwrap_or("iterations")
+        lcpbench::view::iteration_unit(world.settings.solver.name()).unwrap_or("iterations")
     );
     println!(
         "contacts, rows    mean {:.1}, mean {:.1}",

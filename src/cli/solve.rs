@@ -5,7 +5,6 @@ use clap::Args;
 use lcpbench::harness::budget;
 use lcpbench::harness::catalogue::{catalogue, SolverLevel};
 use lcpbench::harness::SolverSpec;
-use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, parse_problem, read_problem, Certificate,
@@ -360,7 +359,7 @@ fn print_result(
     println!(
         "iterations  {} ({})",
         r.iterations,
-        iteration_unit(solver_name).unwrap_or("iterations")
+        lcpbench::view::iteration_unit(solver_name).unwrap_or("iterations")
     );
     if args.repeat > 1 {
         println!(
@@ -427,42 +426,6 @@ fn describe_certificate(c: &Certificate) -> String {
     )
 }
 
-/// What one iteration of the solver named `name` is, the unit of its `iterations` count
-/// (sweeps, pivots, Newton steps, interior-point iterations, …); `None` for an unknown name.
-pub fn iteration_unit(name: &str) -> Option<&'static str> {
-    if let Some(kind) = SolverKind::from_name(name) {
-        return Some(match kind {
-            SolverKind::Pgs | SolverKind::Sor | SolverKind::Nsgs => "sweeps over the rows",
-            SolverKind::MicroImpulse => "sweep-equivalents (n single impulses each)",
-            SolverKind::Nncg => "sweeps (PGS sweeps with conjugate directions)",
-            SolverKind::Lemke | SolverKind::Dantzig => "pivots",
-            SolverKind::Clarabel => "interior-point iterations",
-            SolverKind::NewtonFb | SolverKind::NewtonMin => "Newton steps",
-            SolverKind::Apgd => "projected gradient steps",
-            SolverKind::Enumeration => "complementary bases tried",
-        });
-    }
-    if let Some(kind) = BodySolverKind::from_name(name) {
-        return Some(match kind {
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
-            BodySolverKind::Penalty => "passes (always 1)",
-        });
-    }
-    ConeSolverKind::from_name(name).map(|kind| match kind {
-        ConeSolverKind::NsgsCone => "sweeps over the contacts",
-        ConeSolverKind::NewtonAc | ConeSolverKind::NewtonFbCone | ConeSolverKind::NewtonNmCone => {
-            "Newton steps"
-        }
-        ConeSolverKind::ExtragradientCone => "extragradient steps",
-        ConeSolverKind::FixedPointProjectionCone => "projection steps",
-        ConeSolverKind::AdmmCone => "ADMM iterations",
-        ConeSolverKind::ProxCone => "inner NSGS sweeps",
-        ConeSolverKind::ClarabelSocp => "interior-point iterations",
-    })
-}
-
 /// The names of the solvers of the catalogue at `levels`, comma-separated, in catalogue order
 /// (what the help texts list, so they cannot fall behind the solver table).
 pub fn solver_names(levels: &[SolverLevel]) -> String {
@@ -491,7 +454,9 @@ pub fn solvers_table() -> String {
                 e.name.to_owned(),
                 e.level.name().to_owned(),
                 if e.iterative { "+warm" } else { "-" }.to_owned(),
-                iteration_unit(e.name).unwrap_or("iterations").to_owned(),
+                lcpbench::view::iteration_unit(e.name)
+                    .unwrap_or("iterations")
+                    .to_owned(),
                 e.problem_classes.to_owned(),
             ]
         })

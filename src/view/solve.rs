@@ -3,6 +3,7 @@
 //! `f` and `w` per row.
 
 use super::recording::history_json;
+use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::{ConeProblem, ConeSolverKind, Problem, Settings, SolverKind};
 use serde_json::{json, Value};
 
@@ -76,7 +77,7 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
                 "status": r.status.name(),
                 "reason": r.status.reason(),
                 "iterations": r.iterations,
-                "iteration_unit": iteration_unit(&run),
+                "iteration_unit": iteration_unit(name).unwrap_or("iterations"),
                 "time_s": r.time.as_secs_f64(),
                 "residual_rel": r.residuals.natural_map_rel,
                 "history": history_json(&history),
@@ -103,29 +104,38 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
     })
 }
 
-/// What one iteration of the solver is, for the page's table (the same units `lcpbench
-/// solvers` prints).
-fn iteration_unit(run: &PageSolver) -> &'static str {
-    match run {
-        PageSolver::Lcp(kind) => match kind {
-            SolverKind::Pgs | SolverKind::Sor | SolverKind::Nsgs | SolverKind::Nncg => "sweeps",
-            SolverKind::MicroImpulse => "sweep-equivalents",
+/// What one iteration of the solver named `name` is, the unit of its `iterations` count
+/// (sweeps, pivots, Newton steps, interior-point iterations, …); `None` for an unknown name.
+pub fn iteration_unit(name: &str) -> Option<&'static str> {
+    if let Some(kind) = SolverKind::from_name(name) {
+        return Some(match kind {
+            SolverKind::Pgs | SolverKind::Sor | SolverKind::Nsgs => "sweeps over the rows",
+            SolverKind::MicroImpulse => "sweep-equivalents (n single impulses each)",
+            SolverKind::Nncg => "sweeps (PGS sweeps with conjugate directions)",
             SolverKind::Lemke | SolverKind::Dantzig => "pivots",
             SolverKind::Clarabel => "interior-point iterations",
             SolverKind::NewtonFb | SolverKind::NewtonMin => "Newton steps",
-            SolverKind::Apgd => "gradient steps",
-            SolverKind::Enumeration => "bases tried",
-        },
-        PageSolver::Cone(kind, _) => match kind {
-            ConeSolverKind::NsgsCone => "sweeps",
-            ConeSolverKind::NewtonAc
-            | ConeSolverKind::NewtonFbCone
-            | ConeSolverKind::NewtonNmCone => "Newton steps",
-            ConeSolverKind::ExtragradientCone => "extragradient steps",
-            ConeSolverKind::FixedPointProjectionCone => "projection steps",
-            ConeSolverKind::AdmmCone => "ADMM iterations",
-            ConeSolverKind::ProxCone => "inner sweeps",
-            ConeSolverKind::ClarabelSocp => "interior-point iterations",
-        },
+            SolverKind::Apgd => "projected gradient steps",
+            SolverKind::Enumeration => "complementary bases tried",
+        });
     }
+    if let Some(kind) = BodySolverKind::from_name(name) {
+        return Some(match kind {
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
+            BodySolverKind::Penalty => "passes (always 1)",
+        });
+    }
+    ConeSolverKind::from_name(name).map(|kind| match kind {
+        ConeSolverKind::NsgsCone => "sweeps over the contacts",
+        ConeSolverKind::NewtonAc | ConeSolverKind::NewtonFbCone | ConeSolverKind::NewtonNmCone => {
+            "Newton steps"
+        }
+        ConeSolverKind::ExtragradientCone => "extragradient steps",
+        ConeSolverKind::FixedPointProjectionCone => "projection steps",
+        ConeSolverKind::AdmmCone => "ADMM iterations",
+        ConeSolverKind::ProxCone => "inner NSGS sweeps",
+        ConeSolverKind::ClarabelSocp => "interior-point iterations",
+    })
 }
