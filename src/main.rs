@@ -2,7 +2,7 @@
 
 mod cli;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Compare rigid-body contact solvers posed as linear complementarity problems.
@@ -44,7 +44,8 @@ enum Command {
 fn main() -> ExitCode {
     restore_default_sigpipe();
     keep_freed_memory();
-    let cli = Cli::parse();
+    let matches = with_solver_lists(Cli::command()).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Solve(args) => cli::solve::run(args),
         Command::Solvers => cli::solve::list_solvers(),
@@ -65,6 +66,47 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The help of every option that takes a solver, completed with the solver names of the one
+/// solver table ([`cli::solve::solver_names`], the catalogue `lcpbench solvers` prints), so
+/// that no help text lists solvers by hand or falls behind the table.
+fn with_solver_lists(command: clap::Command) -> clap::Command {
+    use cli::solve::solver_names;
+    use lcpbench::harness::catalogue::SolverLevel::{Body, Cone, Matrix};
+    let lists = |levels: &[lcpbench::harness::catalogue::SolverLevel]| {
+        levels
+            .iter()
+            .map(|&level| {
+                let what = match level {
+                    Matrix => "matrix solvers",
+                    Body => "body-level solvers",
+                    Cone => "cone solvers",
+                };
+                format!("{what}: {}", solver_names(&[level]))
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let complete = move |arg: clap::Arg, levels: &[lcpbench::harness::catalogue::SolverLevel]| {
+        let base = arg
+            .get_long_help()
+            .or(arg.get_help())
+            .map(|h| h.to_string())
+            .unwrap_or_default();
+        let text = format!("{base}\n\n[{}]", lists(levels));
+        arg.help(text.clone()).long_help(text)
+    };
+    command
+        .mut_subcommand("solve", |c| {
+            c.mut_arg("solver", |a| complete(a, &[Matrix, Cone]))
+        })
+        .mut_subcommand("simulate", |c| {
+            c.mut_arg("solver", |a| complete(a, &[Matrix, Body, Cone]))
+        })
+        .mut_subcommand("bench", |c| {
+            c.mut_arg("solvers", |a| complete(a, &[Matrix, Body, Cone]))
+        })
 }
 
 /// Let a write to a closed pipe end the process quietly, as it ends `cat` or `grep`: `lcpbench

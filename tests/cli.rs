@@ -509,3 +509,145 @@ fn simulate_and_export_refuse_step_counts_beyond_the_limit() {
     );
     refused(&["simulate", scene, "--tol", "1e300"], &["--tol", "(0, 1)"]);
 }
+
+/// Run lcpbench with `input` on standard input.
+fn lcpbench_stdin(args: &[&str], input: &[u8]) -> Output {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_vec();
+    let writer = std::thread::spawn(move || {
+        stdin.write_all(&input).ok();
+    });
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    out
+}
+
+/// `solve -` reads a JSON problem (LCP or cone) from standard input; anything else gets a clear
+/// message.
+#[test]
+fn solve_reads_a_problem_from_stdin() {
+    // A = I, b = (-1, 2): f = (1, 0), w = (0, 2).
+    let lcp = br#"{"A": [[1, 0], [0, 1]], "b": [-1, 2]}"#;
+    let o = lcpbench_stdin(&["solve", "-", "--solver", "lemke", "--json"], lcp);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "converged", "{v}");
+    let f: Vec<f64> = serde_json::from_value(v["f"].clone()).unwrap();
+    assert!((f[0] - 1.0).abs() < 1e-12 && f[1].abs() < 1e-12, "{f:?}");
+    // The summary names the source.
+    let o = lcpbench_stdin(&["solve", "-", "--solver", "pgs"], lcp);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("<stdin>"), "{text}");
+    assert!(text.contains("sweeps over the rows"), "{text}");
+    // A cone problem: the block on the incline, solved exactly.
+    let cone = br#"{"W": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "q": [-1, 0.6, 0.8], "mu": [0.5]}"#;
+    let o = lcpbench_stdin(&["solve", "-", "--solver", "newton-ac", "--json"], cone);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["status"], "converged", "{v}");
+    // Empty input, a Siconos file and broken JSON are refused with a message naming stdin.
+    for (input, needle) in [
+        (&b""[..], "the input is empty"),
+        (&b"2\n1 0\n0 1\n-1 2\n"[..], "not a JSON problem"),
+        (&b"{\"A\": [[1]], \"b\": "[..], "<stdin>"),
+    ] {
+        let o = lcpbench_stdin(&["solve", "-", "--solver", "pgs"], input);
+        assert!(!o.status.success());
+        let e = stderr(&o);
+        assert!(e.contains(needle), "{needle:?} not in {e}");
+        assert!(!e.contains("panicked"), "{e}");
+    }
+}
+
+/// `lcpbench solvers` prints a header and aligned columns: every column starts at the same
+/// character position on every line, and each solver says what its iterations count.
+#[test]
+fn solvers_prints_a_header_and_aligned_columns() {
+    let o = lcpbench(&["solvers"]);
+    assert!(o.status.success());
+    let text = String::from_utf8(o.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header = lines[0];
+    assert!(
+        header.starts_with("solver") && header.contains("iterations count"),
+        "{header}"
+    );
+    let starts = |line: &str| -> Vec<usize> {
+        // Character positions where a column starts: after two or more spaces.
+        let chars: Vec<char> = line.chars().collect();
+        (2..chars.len())
+            .filter(|&i| chars[i] != ' ' && chars[i - 1] == ' ' && chars[i - 2] == ' ')
+            .take(4)
+            .collect()
+    };
+    let want = starts(header);
+    assert_eq!(want.len(), 4, "{header}");
+    for line in &lines[1..] {
+        let chars: Vec<char> = line.chars().collect();
+        for &c in &want {
+            assert!(
+                chars[c - 1] == ' ' && chars[c] != ' ',
+                "column at {c} not aligned in {line:?} (header {header:?})"
+            );
+        }
+    }
+    for (name, unit) in [
+        ("pgs", "sweeps"),
+        ("lemke", "pivots"),
+        ("newton-fb", "Newton steps"),
+        ("clarabel", "interior-point iterations"),
+        ("clarabel-socp", "interior-point iterations"),
+    ] {
+        let line = lines
+            .iter()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap();
+        assert!(line.contains(unit), "{name}: {line}");
+    }
+}
+
+/// Every help text that takes a solver lists the names `lcpbench solvers` prints, all of them
+/// (solve: the matrix and cone solvers; simulate and bench: every one).
+#[test]
+fn help_texts_list_every_solver_of_the_table() {
+    let o = lcpbench(&["solvers"]);
+    let table = String::from_utf8(o.stdout).unwrap();
+    let rows: Vec<(String, String)> = table
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next().unwrap().to_owned(), w.next().unwrap().to_owned())
+        })
+        .collect();
+    assert_eq!(rows.iter().filter(|(_, level)| level == "cone").count(), 9);
+    for (command, levels) in [
+        ("solve", &["matrix", "cone"][..]),
+        ("simulate", &["matrix", "body", "cone"][..]),
+        ("bench", &["matrix", "body", "cone"][..]),
+    ] {
+        let o = lcpbench(&[command, "--help"]);
+        assert!(o.status.success());
+        let help = String::from_utf8(o.stdout).unwrap();
+        let words: std::collections::HashSet<&str> = help
+            .split(|c: char| c.is_whitespace() || c == ',' || c == '[' || c == ']' || c == ';')
+            .collect();
+        for (name, level) in &rows {
+            if levels.contains(&level.as_str()) {
+                assert!(
+                    words.contains(name.as_str()),
+                    "{command} --help lacks {name}"
+                );
+            }
+        }
+    }
+}

@@ -521,3 +521,56 @@ fn a_wedged_box_has_steps_without_a_solution() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["statuses"].get("converged").is_none(), "{v}");
 }
+
+/// `simulate --html` (and `--record`) end with a `wrote PATH` line after the summary, as the
+/// other writers do; with `--json` standard output stays one JSON document and the lines go to
+/// standard error. Aggregates say whether they are a mean or a max.
+#[test]
+fn simulate_says_what_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("drop.html");
+    let rec = dir.path().join("drop.jsonl");
+    let run = |json: bool| {
+        let mut args = vec![
+            "simulate".to_owned(),
+            "bench_scenes/box_on_ground.toml".into(),
+            "--steps".into(),
+            "5".into(),
+            "--html".into(),
+            page.to_str().unwrap().into(),
+            "--record".into(),
+            rec.to_str().unwrap().into(),
+        ];
+        if json {
+            args.push("--json".into());
+        }
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_lcpbench"))
+            .args(&args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (
+            String::from_utf8(o.stdout).unwrap(),
+            String::from_utf8(o.stderr).unwrap(),
+        )
+    };
+    let (out, _) = run(false);
+    let lines: Vec<&str> = out.lines().collect();
+    let n = lines.len();
+    assert_eq!(
+        lines[n - 1],
+        format!(
+            "wrote {} ({:.1} kB)",
+            page.display(),
+            std::fs::metadata(&page).unwrap().len() as f64 / 1e3
+        )
+    );
+    assert_eq!(lines[n - 2], format!("wrote {} (recording)", rec.display()));
+    assert!(out.contains("steps of 1/100 s (10 ms)"), "{out}");
+    assert!(out.contains("cone violation    max "), "{out}");
+    assert!(out.contains("time per step     mean "), "{out}");
+    let (out, err) = run(true);
+    serde_json::from_str::<serde_json::Value>(&out).expect("stdout is one JSON document");
+    assert!(err.contains(&format!("wrote {}", page.display())), "{err}");
+}

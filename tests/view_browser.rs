@@ -445,3 +445,145 @@ fn hostile_names_leave_the_page_working() {
     let shot = screenshot(&browser, &page, "#step=10", dir.path(), "hostile.png");
     assert!(distinct(&shot.view_region()) > 20, "the 3-D view is blank");
 }
+
+/// Pixels of the tolerance line's colour (`#f0147a`, used by no curve), within a few units.
+fn tolerance_pixels(shot: &Shot) -> usize {
+    shot.rgb
+        .iter()
+        .filter(|p| {
+            (p[0] as i32 - 0xf0).abs() < 12
+                && (p[1] as i32 - 0x14).abs() < 12
+                && (p[2] as i32 - 0x7a).abs() < 12
+        })
+        .count()
+}
+
+/// Every plot of a replay page keeps its tick labels inside the canvas, no axis repeats a
+/// label (the energy of a resting box varies in its sixth digit), the residual plots draw the
+/// tolerance line, and the header gives the step as a fraction and in milliseconds.
+#[test]
+fn replay_plots_keep_labels_inside_and_draw_the_tolerance_line() {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("box.html");
+    lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--solver",
+        "pgs",
+        "--steps",
+        "60",
+        "--html",
+        page.to_str().unwrap(),
+    ]);
+    let state = page_state(&browser, &page, "#step=30");
+    assert_no_errors(&state);
+    let plots: usize = state.get("plots").parse().unwrap();
+    assert!(plots >= 6, "{plots} plots");
+    assert_eq!(state.get("empty"), "0", "every plot of this run has data");
+    assert_eq!(
+        state.get("clipped-labels"),
+        "0",
+        "a tick label leaves its canvas"
+    );
+    assert_eq!(
+        state.get("repeated-ticks"),
+        "0",
+        "an axis repeats a tick label"
+    );
+    // The per-step residual plot and the selected step's history plot.
+    assert_eq!(state.get("tolerance-lines"), "2");
+    let dom = run_chromium(&browser, &["--dump-dom".into()], &url(&page, "#step=30"));
+    assert!(
+        dom.contains("steps of 1/100 s (10 ms)"),
+        "the step is not shown as 1/100 s (10 ms)"
+    );
+    let shot = screenshot(&browser, &page, "#step=30", dir.path(), "box.png");
+    assert!(
+        tolerance_pixels(&shot) > 40,
+        "no tolerance line in the screenshot ({} pixels of its colour)",
+        tolerance_pixels(&shot)
+    );
+}
+
+/// A plot with nothing to draw says "no data" (here the residual, not measured) instead of a
+/// 0–100 frame.
+#[test]
+fn a_plot_without_data_says_so() {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("si.html");
+    lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--solver",
+        "si",
+        "--no-residuals",
+        "--steps",
+        "20",
+        "--html",
+        page.to_str().unwrap(),
+    ]);
+    let state = page_state(&browser, &page, "#step=10");
+    assert_no_errors(&state);
+    let empty: usize = state.get("empty").parse().unwrap();
+    assert!(empty >= 1, "the unmeasured residual is drawn as a plot");
+    let dom = run_chromium(&browser, &["--dump-dom".into()], &url(&page, "#step=10"));
+    assert!(dom.contains("no data"), "no plot says \"no data\"");
+    assert_eq!(state.get("clipped-labels"), "0");
+}
+
+/// On a box-friction problem of contact triples the solve page runs every matrix solver and
+/// every cone solver, draws the convergence plot across the page with its labels inside and
+/// the tolerance line, and shows friction bounds as ±mu·f of their normal row.
+#[test]
+fn problem_page_of_contact_triples_runs_the_cone_solvers_too() {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let problem = dir.path().join("step.json");
+    lcpbench(&[
+        "export",
+        "bench_scenes/box_on_ground.toml",
+        "--step",
+        "5",
+        "--friction-model",
+        "box",
+        "-o",
+        problem.to_str().unwrap(),
+    ]);
+    let page = dir.path().join("step.html");
+    lcpbench(&[
+        "view",
+        problem.to_str().unwrap(),
+        "-o",
+        page.to_str().unwrap(),
+    ]);
+    let state = page_state(&browser, &page, "");
+    assert_no_errors(&state);
+    assert_eq!(
+        state.get("solvers"),
+        (lcpbench_solvers::SolverKind::ALL.len() + lcpbench_solvers::ConeSolverKind::ALL.len())
+            .to_string()
+    );
+    assert_eq!(state.get("clipped-labels"), "0");
+    assert_eq!(state.get("repeated-ticks"), "0");
+    assert_eq!(state.get("tolerance-lines"), "1");
+    let dom = run_chromium(&browser, &["--dump-dom".into()], &url(&page, ""));
+    for name in lcpbench_solvers::ConeSolverKind::ALL.map(|k| k.name()) {
+        assert!(
+            dom.contains(&format!(">{name}<")),
+            "{name} is not on the page"
+        );
+    }
+    assert!(
+        dom.contains("−0.5·f0") && dom.contains("+0.5·f0"),
+        "friction bounds not shown as ±mu·f"
+    );
+    let shot = screenshot(&browser, &page, "", dir.path(), "step.png");
+    // The convergence plot spans the page: its tolerance line is longer than half the width.
+    assert!(
+        tolerance_pixels(&shot) > shot.width / 4,
+        "tolerance line too short or missing: {} pixels",
+        tolerance_pixels(&shot)
+    );
+}

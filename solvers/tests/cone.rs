@@ -438,6 +438,9 @@ fn relaxation_lifts_off_a_sliding_contact() {
     assert!(
         matches!(&r.status, Status::Stalled { reason } if reason.contains("lifts off 1 of 1")
             && reason.contains(&format!("{:.3e}", u[0]))
+            && reason.contains("Anitescu's convex relaxation")
+            && reason.contains("not the Coulomb problem")
+            && reason.contains(&format!("exact Coulomb problem {:.3e}", r.residuals.natural_map_rel))
             && !reason.contains("relaxation itself")),
         "{}",
         r.status

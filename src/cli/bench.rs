@@ -30,10 +30,9 @@ pub struct BenchArgs {
     /// each scene's own. A solver that does not take a model is recorded `unsupported`.
     #[arg(long, value_delimiter = ',')]
     pub friction_models: Vec<String>,
-    /// Solvers, comma-separated: names (`pgs`, `lemke`, …, for scenes `si`, `body-micro`,
-    /// `penalty`, `avg`, and the cone solvers `nsgs-cone`, `newton-ac`), `sor@OMEGA`,
-    /// `NAME+warm`, `all` (the matrix solvers), `body` (the body-level ones) or `cone` (the cone
-    /// solvers).
+    /// Solvers, comma-separated: names (listed below from the solver table; the body-level
+    /// ones for scenes only), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers), `body` (the
+    /// body-level ones) or `cone` (the cone solvers).
     #[arg(long, value_delimiter = ',', default_value = "all")]
     pub solvers: Vec<String>,
     /// Budgets, comma-separated: presets (loose 1e-4:1000:1, default 1e-8:10000:1, tight

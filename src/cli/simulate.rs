@@ -16,11 +16,12 @@ use std::path::PathBuf;
 pub struct SimulateArgs {
     /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
-    /// Contact solver (overrides the scene's): a matrix solver (see `lcpbench solvers`), a
-    /// body-level one (si, body-micro, avg, penalty; on scenes with joints only si), or, for friction model cone, a cone solver
-    /// (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone). A solver that does not take the friction model is refused.
-    /// `NAME` starts every step cold and `NAME+warm` from the previous step's impulses, as in
-    /// `bench` (without `--solver`, the scene's `warm_start` applies).
+    /// Contact solver (overrides the scene's): a matrix solver, a body-level one (on scenes
+    /// with joints only si), or, for friction model cone, a cone solver (listed below from the
+    /// solver table; `lcpbench solvers` says what each takes). A solver that does not take the
+    /// friction model is refused. `NAME` starts every step cold and `NAME+warm` from the
+    /// previous step's impulses, as in `bench` (without `--solver`, the scene's `warm_start`
+    /// applies).
     #[arg(long, short)]
     pub solver: Option<String>,
     /// Friction model (overrides the scene's): none, box, pyramid (4 directions), pyramid-K
@@ -164,18 +165,22 @@ impl Recorder {
         Ok(())
     }
 
-    /// Flush the file and write the replay page.
-    fn finish(self, args: &SimulateArgs) -> Result<()> {
-        if let Some(mut w) = self.file {
-            w.flush()?;
+    /// Flush the file and write the replay page; returns the `wrote PATH` lines of what was
+    /// written (printed after the run's summary, where a reader looks last).
+    fn finish(self, args: &SimulateArgs) -> Result<Vec<String>> {
+        let mut wrote = Vec::new();
+        if let (Some(mut w), Some(path)) = (self.file, &args.record) {
+            w.flush()
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            wrote.push(format!("wrote {} (recording)", path.display()));
         }
         if let (Some(path), Some(lines)) = (&args.html, self.page_lines) {
             let recording =
                 lcpbench::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
             let html = lcpbench::view::replay_page(&[recording], args.max_bytes)?;
-            super::view::write_page(path, &html)?;
+            wrote.push(super::view::write_page_quietly(path, &html)?);
         }
-        Ok(())
+        Ok(wrote)
     }
 }
 
@@ -310,7 +315,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         joints.observe(&report, &world);
     }
     bar.finish_and_clear();
-    recorder.finish(&args)?;
+    let wrote = recorder.finish(&args)?;
     let top = top.as_ref().map_or((None, None), |t| t.measure(&world));
     let run = SimRun {
         scene: &scene,
@@ -320,11 +325,44 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         joints: joints.summary(),
     };
     if args.json {
-        print_json(&run, &totals)
+        print_json(&run, &totals)?;
+        // Standard output stays one JSON document; the files written go to standard error.
+        for line in wrote {
+            eprintln!("{line}");
+        }
     } else {
         print_text(&run, &totals);
-        Ok(())
+        for line in wrote {
+            println!("{line}");
+        }
     }
+    Ok(())
+}
+
+/// A time step for people: `1/60 s (16.67 ms)` when `1/dt` is a whole number of steps per
+/// second (to 1e-9 relative), else `16.67 ms`, or seconds for a step of a second or more. The
+/// replay page writes it the same way (`formatStep` in replay.js).
+pub fn format_step(dt: f64) -> String {
+    if !dt.is_finite() || dt <= 0.0 {
+        return format!("{dt} s");
+    }
+    if dt >= 1.0 {
+        return format!("{} s", shortest(dt, 4));
+    }
+    let ms = format!("{} ms", shortest(dt * 1e3, 4));
+    let rate = 1.0 / dt;
+    if (rate - rate.round()).abs() <= 1e-9 * rate && rate.round() > 1.0 {
+        format!("1/{} s ({ms})", rate.round() as u64)
+    } else {
+        ms
+    }
+}
+
+/// `x` with at most `digits` significant digits, trailing zeros dropped.
+fn shortest(x: f64, digits: usize) -> String {
+    let text = format!("{:.*e}", digits.saturating_sub(1), x);
+    let value: f64 = text.parse().unwrap_or(x);
+    format!("{value}")
 }
 
 /// What the summary of a `simulate` run names besides the totals.
@@ -396,7 +434,7 @@ fn print_text(run: &SimRun, t: &SimTotals) {
     let n = steps.max(1) as f64;
     let statuses: Vec<String> = t.statuses.iter().map(|(k, v)| format!("{k} {v}")).collect();
     println!(
-        "scene {} ({} bodies), solver {}{}, {steps} steps of {} s",
+        "scene {} ({} bodies), solver {}{}, {steps} steps of {}",
         run.scene.name,
         world.bodies.len(),
         world.settings.solver.name(),
@@ -405,15 +443,15 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         } else {
             " (cold)"
         },
-        world.settings.dt
+        format_step(world.settings.dt)
     );
     println!(
-        "time per step     {:.3} ms (max {:.3} ms)",
+        "time per step     mean {:.3} ms, max {:.3} ms",
         1e3 * t.step_time / n,
         1e3 * t.max_step_time
     );
     println!(
-        "solver time/step  {:.3} ms (solve phase wall time {:.3} ms, max {:.3} ms{})",
+        "solver time/step  mean {:.3} ms (solve phase wall time mean {:.3} ms, max {:.3} ms{})",
         1e3 * t.solve_time / n,
         1e3 * t.solve_wall / n,
         1e3 * t.max_solve_wall,
@@ -429,9 +467,9 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         .zip(p.values())
         .map(|(name, v)| format!("{name} {:.3}", 1e3 * v))
         .collect();
-    println!("phases, ms/step   {}", phases.join(", "));
+    println!("phases, ms/step   mean {}", phases.join(", "));
     println!(
-        "  of collision    broad phase {:.3}, narrow phase {:.3}",
+        "  of collision    mean broad phase {:.3}, narrow phase {:.3}",
         1e3 * p.broad_phase,
         1e3 * p.narrow_phase
     );
@@ -441,12 +479,13 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         t.largest_island
     );
     println!(
-        "iterations        mean {:.1}, max {}",
+        "iterations        mean {:.1}, max {} ({} per step)",
         t.iters as f64 / n,
-        t.max_iters
+        t.max_iters,
+        lcpbench::view::iteration_unit(world.settings.solver.name()).unwrap_or("iterations")
     );
     println!(
-        "contacts, rows    mean {:.1}, {:.1}",
+        "contacts, rows    mean {:.1}, mean {:.1}",
         t.contacts as f64 / n,
         t.rows as f64 / n
     );
@@ -472,7 +511,10 @@ fn print_text(run: &SimRun, t: &SimTotals) {
             run.scene.metrics.sag_body.as_deref().unwrap_or("")
         );
     }
-    println!("cone violation    {:.3e} N s", t.max_cone);
+    println!(
+        "cone violation    max {:.3e} N s (over steps and contacts)",
+        t.max_cone
+    );
     println!(
         "energy            {:.6} J -> {:.6} J ({:+.3e} J)",
         t.energy0,

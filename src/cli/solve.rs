@@ -4,16 +4,17 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use lcpbench::harness::budget;
 use lcpbench::harness::case::json_warm_start;
-use lcpbench::harness::catalogue::catalogue;
+use lcpbench::harness::catalogue::{catalogue, SolverLevel};
 use lcpbench::harness::timing::{measure, Timed, TimingRule, WallClock, MIN_TOTAL_S};
 use lcpbench::harness::SolverSpec;
 use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
 use lcpbench_solvers::{
-    cone_residuals, is_cone_file, parse_cone_problem, read_problem, Certificate, ConeProblem,
-    ConeSolverKind, Problem, ProblemFileError, ProblemFormat, Settings, SolveResult, Solver,
-    SolverKind, Status,
+    cone_residuals, is_cone_file, parse_cone_problem, parse_problem, read_problem, Certificate,
+    ConeProblem, ConeSolverKind, Problem, ProblemFileError, ProblemFormat, Settings, SolveResult,
+    Solver, SolverKind, Status,
 };
 use serde_json::json;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -21,11 +22,10 @@ use std::time::Duration;
 #[derive(Args)]
 pub struct SolveArgs {
     /// Problem file: JSON (format in the README), Siconos numerics LCP (`.dat`) or FCLIB
-    /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content.
+    /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content. `-` reads a JSON
+    /// problem (LCP or cone) from standard input.
     pub problem: PathBuf,
-    /// Solver name (see `lcpbench solvers`): an LCP solver, or a cone solver (`nsgs-cone`,
-    /// `newton-ac`, `newton-fb-cone`, `newton-nm-cone`, `clarabel-socp`) for a cone file or a box-friction file in (normal, t1, t2)
-    /// triples.
+    /// Solver name (`lcpbench solvers` says what each takes).
     #[arg(long, short)]
     pub solver: SolverName,
     /// Tolerance on the relative natural-map residual.
@@ -125,17 +125,23 @@ pub fn run(args: SolveArgs) -> Result<()> {
         SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
         SolverName::Cone(_) => None,
     };
-    let bytes = read_input_file(&args.problem, MAX_PROBLEM_FILE_BYTES).map_err(|source| {
-        ProblemFileError::Io {
-            path: args.problem.clone(),
-            source,
-        }
-    })?;
+    let stdin = is_stdin(&args.problem);
+    let bytes = if stdin {
+        read_stdin(&mut std::io::stdin().lock(), MAX_PROBLEM_FILE_BYTES)?
+    } else {
+        read_input_file(&args.problem, MAX_PROBLEM_FILE_BYTES).map_err(|source| {
+            ProblemFileError::Io {
+                path: args.problem.clone(),
+                source,
+            }
+        })?
+    };
     let head = &bytes[..bytes.len().min(64)];
-    let json = matches!(
-        ProblemFormat::detect(&args.problem, head),
-        ProblemFormat::Json
-    );
+    let json = stdin
+        || matches!(
+            ProblemFormat::detect(&args.problem, head),
+            ProblemFormat::Json
+        );
     let warm_start = if args.warm {
         Some(file_warm_start(&args.problem, &bytes, json)?)
     } else {
@@ -152,11 +158,22 @@ pub fn run(args: SolveArgs) -> Result<()> {
     // of its format (JSON, Siconos .dat, FCLIB .hdf5).
     if let Some(text) = json.then(|| std::str::from_utf8(&bytes).ok()).flatten() {
         if is_cone_file(text) {
-            let cone = parse_cone_problem(text, &args.problem)?;
+            let source = if stdin {
+                Path::new(STDIN_NAME)
+            } else {
+                args.problem.as_path()
+            };
+            let cone = parse_cone_problem(text, source)?;
             return run_cone(&args, &cone, &settings);
         }
     }
-    let problem = read_problem(&args.problem)?;
+    let problem = if stdin {
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|e| anyhow!("standard input: the problem is not UTF-8 JSON ({e})"))?;
+        parse_problem(text, Path::new(STDIN_NAME))?
+    } else {
+        read_problem(&args.problem)?
+    };
     if let Some(ws) = settings
         .warm_start
         .as_ref()
@@ -194,6 +211,40 @@ pub fn run(args: SolveArgs) -> Result<()> {
         solver.name(),
         &timed,
     )
+}
+
+/// How a problem read from standard input is named in messages.
+const STDIN_NAME: &str = "<stdin>";
+
+/// True when `path` is `-`, standard input.
+fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Read a JSON problem from `input` (standard input), at most `max_bytes` bytes: a longer input
+/// is refused once `max_bytes + 1` bytes have been read, before more is kept. Only JSON can
+/// come this way (the Siconos and FCLIB readers take files by path).
+fn read_stdin(input: &mut impl Read, max_bytes: u64) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    input
+        .take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .context("cannot read the problem from standard input")?;
+    if bytes.len() as u64 > max_bytes {
+        bail!(
+            "standard input: the problem is larger than the limit of {max_bytes} bytes \
+             (MAX_PROBLEM_FILE_BYTES)"
+        );
+    }
+    let start = bytes.iter().find(|b| !b.is_ascii_whitespace());
+    match start {
+        None => bail!("standard input: no problem (the input is empty)"),
+        Some(b'{') => Ok(bytes),
+        Some(_) => bail!(
+            "standard input: not a JSON problem (it does not start with `{{`); `solve -` reads \
+             the JSON formats (LCP or cone), give a Siconos .dat or FCLIB .hdf5 file by its path"
+        ),
+    }
 }
 
 /// Time `solve` by the harness's method ([`lcpbench::harness::timing`]): the `--repeat` count
@@ -349,14 +400,19 @@ fn print_result(
         return Ok(());
     }
     let name = problem_name.map(|n| format!("{n}: ")).unwrap_or_default();
-    println!(
-        "problem     {}{} ({describe})",
-        name,
-        args.problem.display(),
-    );
+    let source = if is_stdin(&args.problem) {
+        STDIN_NAME.to_owned()
+    } else {
+        args.problem.display().to_string()
+    };
+    println!("problem     {name}{source} ({describe})");
     println!("solver      {solver_name}");
     println!("status      {}", r.status);
-    println!("iterations  {}", r.iterations);
+    println!(
+        "iterations  {} ({})",
+        r.iterations,
+        lcpbench::view::iteration_unit(solver_name).unwrap_or("iterations")
+    );
     if timed.count() == 0 {
         println!("time        0 (not solved)");
     } else if timed.first_counted {
@@ -386,7 +442,8 @@ fn print_result(
         );
     }
     println!(
-        "residual    {:.3e} (relative {:.3e}); complementarity gap {:.3e}; bound violation {:.3e}",
+        "residual    max over rows {:.3e} (relative {:.3e}); complementarity gap, sum over \
+         rows {:.3e}; bound violation, max over rows {:.3e}",
         r.residuals.natural_map,
         r.residuals.natural_map_rel,
         r.residuals.complementarity_gap,
@@ -440,18 +497,71 @@ fn describe_certificate(c: &Certificate) -> String {
     )
 }
 
-/// Run `lcpbench solvers`: every solver with its level (matrix, body, cone), whether `+warm`
-/// applies, and its problem classes and limits.
-pub fn list_solvers() -> Result<()> {
-    for entry in catalogue() {
-        let warm = if entry.iterative { "+warm" } else { "" };
-        println!(
-            "{:<13} {:<6} {:<5} {}",
-            entry.name,
-            entry.level.name(),
-            warm,
-            entry.problem_classes
-        );
+/// The names of the solvers of the catalogue at `levels`, comma-separated, in catalogue order
+/// (what the help texts list, so they cannot fall behind the solver table).
+pub fn solver_names(levels: &[SolverLevel]) -> String {
+    catalogue()
+        .into_iter()
+        .filter(|e| levels.contains(&e.level))
+        .map(|e| e.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The `lcpbench solvers` table: a header line and one line per solver, columns padded to
+/// their widest entry; the last column (problem classes and limits) runs on.
+pub fn solvers_table() -> String {
+    let header = [
+        "solver",
+        "level",
+        "warm",
+        "iterations count",
+        "problem classes and limits",
+    ];
+    let rows: Vec<[String; 5]> = catalogue()
+        .into_iter()
+        .map(|e| {
+            [
+                e.name.to_owned(),
+                e.level.name().to_owned(),
+                if e.iterative { "+warm" } else { "-" }.to_owned(),
+                lcpbench::view::iteration_unit(e.name)
+                    .unwrap_or("iterations")
+                    .to_owned(),
+                e.problem_classes.to_owned(),
+            ]
+        })
+        .collect();
+    let mut widths = header.map(|h| h.chars().count());
+    for row in &rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
     }
+    let line = |cells: [&str; 5]| {
+        let mut out = String::new();
+        for (k, cell) in cells.iter().enumerate() {
+            if k + 1 == cells.len() {
+                out.push_str(cell);
+            } else {
+                out.push_str(cell);
+                out.push_str(&" ".repeat(widths[k] - cell.chars().count() + 2));
+            }
+        }
+        out
+    };
+    let mut out = line(header);
+    out.push('\n');
+    for row in &rows {
+        out.push_str(&line(row.each_ref().map(String::as_str)));
+        out.push('\n');
+    }
+    out
+}
+
+/// Run `lcpbench solvers`: every solver with its level (matrix, body, cone), whether `+warm`
+/// applies, what its iteration count counts, and its problem classes and limits.
+pub fn list_solvers() -> Result<()> {
+    print!("{}", solvers_table());
     Ok(())
 }

@@ -12,7 +12,7 @@ use lcpbench_solvers::io::{
     input::{check_input_file, read_input_file},
     MAX_PROBLEM_FILE_BYTES,
 };
-use lcpbench_solvers::{is_cone_file, read_problem, Settings};
+use lcpbench_solvers::{is_cone_file, parse_cone_problem, read_problem, ConeProblem, Settings};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -103,8 +103,12 @@ pub fn run(args: ViewArgs) -> Result<()> {
             bail!("only recordings can be compared side by side; give one problem file or case");
         }
         let (problem, name) = if first.exists() {
-            refuse_cone_file(first)?;
-            let p = read_problem(first)?;
+            // A cone file (JSON with `W`, `q`, `mu`) is shown through its box form, whose rows
+            // the cone solvers take back as contact triples.
+            let p = match read_cone_file(first)? {
+                Some(cone) => cone.to_box(),
+                None => read_problem(first)?,
+            };
             let name = p.name().map(str::to_owned).unwrap_or_else(|| {
                 first
                     .file_stem()
@@ -140,35 +144,37 @@ pub fn run(args: ViewArgs) -> Result<()> {
     write_page(&args.output, &html)
 }
 
+/// The cone problem in `path` when it is a cone JSON file (a `mu` key), else `None`.
+fn read_cone_file(path: &Path) -> Result<Option<ConeProblem>> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    {
+        return Ok(None);
+    }
+    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let Ok(text) = std::str::from_utf8(&bytes) else {
+        return Ok(None);
+    };
+    if !is_cone_file(text) {
+        return Ok(None);
+    }
+    Ok(Some(parse_cone_problem(text, path)?))
+}
+
 /// Write a page and say where it went and how large it is.
 pub fn write_page(path: &Path, html: &str) -> Result<()> {
-    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
-    println!(
-        "wrote {} ({:.1} kB)",
-        path.display(),
-        html.len() as f64 / 1e3
-    );
+    println!("{}", write_page_quietly(path, html)?);
     Ok(())
 }
 
-/// `view` shows LCP problems (every matrix solver on one file) and recordings; a cone (FC3D)
-/// problem file, a JSON object with a `mu` key, is refused as what it is rather than with the
-/// LCP reader's "missing field `A`".
-fn refuse_cone_file(path: &Path) -> Result<()> {
-    let looks_json = path.extension().is_some_and(|e| e == "json");
-    if !looks_json {
-        return Ok(());
-    }
-    let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    if std::str::from_utf8(&bytes).is_ok_and(is_cone_file) {
-        bail!(
-            "{}: a Coulomb cone (FC3D) problem (it has `mu`): view shows LCP problems and \
-             recordings; solve it with `lcpbench solve {} --solver nsgs-cone` (or another cone \
-             solver), or export the scene with a box or pyramid friction model to view it",
-            path.display(),
-            path.display()
-        );
-    }
-    Ok(())
+/// Write a page; returns the line saying where it went and how large it is.
+pub fn write_page_quietly(path: &Path, html: &str) -> Result<String> {
+    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(format!(
+        "wrote {} ({:.1} kB)",
+        path.display(),
+        html.len() as f64 / 1e3
+    ))
 }

@@ -25,7 +25,7 @@ use std::path::PathBuf;
 use thiserror::Error;
 
 pub use recording::{header, Recording};
-pub use solve::problem_data;
+pub use solve::{iteration_unit, problem_data};
 
 /// Errors reading the inputs of a page.
 #[derive(Debug, Error)]

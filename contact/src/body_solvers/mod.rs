@@ -123,15 +123,18 @@ impl BodySolverKind {
         !matches!(self, BodySolverKind::Penalty)
     }
 
-    /// The relaxed problem the solver solves in place of the rigid contact problem, when it
-    /// does: `penalty` is a penalty (soft-contact) model, spring-damper forces that let bodies
-    /// overlap, not the LCP. `None` for the others.
+    /// The relaxed problem the solver solves in place of the step's LCP, for a solver that
+    /// solves a different (soft) problem: `penalty`'s spring-damper forces, which let bodies
+    /// overlap. `None` for the solvers that aim at the LCP itself.
     pub fn relaxation(self) -> Option<&'static str> {
         match self {
-            BodySolverKind::Penalty => {
-                Some("a penalty (soft-contact) model: spring-damper forces, not the rigid LCP")
-            }
-            _ => None,
+            BodySolverKind::Penalty => Some(
+                "a soft spring-damper penalty model (forces from penetration depth and closing \
+                 speed, one Jacobi pass), not the rigid LCP",
+            ),
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::AveragedImpulse => None,
         }
     }
 
@@ -322,8 +325,21 @@ pub fn body_status(
             reason: format!("the residual of the step's LCP is not finite ({rel})"),
         };
     }
+    let soft = BodySolverKind::from_name(name).and_then(BodySolverKind::relaxation);
     let outcome = match (out.stopped, residuals) {
         (false, _) if out.timed_out => Outcome::TimeLimit,
+        // A soft model is a different problem: the reason names it and its residual on the
+        // step's LCP (the status stays `Stalled` unless that residual meets the tolerance).
+        (true, None) if soft.is_some() => Outcome::Stalled(format!(
+            "{name} solved {}, not the step's LCP; the shared residual was not measured",
+            soft.unwrap_or_default()
+        )),
+        (true, Some(_)) if soft.is_some() => Outcome::Stalled(format!(
+            "{name} solved {}, not the step's LCP: relative residual on the step's LCP {rel:.3e} \
+             > tolerance {:.1e}",
+            soft.unwrap_or_default(),
+            settings.tolerance
+        )),
         (false, _) if out.stalled.is_some() => {
             Outcome::Stalled(out.stalled.clone().unwrap_or_default())
         }

@@ -168,9 +168,10 @@ fn diagnose(problem: &ConeProblem, r: &[f64], tol: f64) -> Option<String> {
     {
         let slip = u[3 * c + 1].hypot(u[3 * c + 2]);
         parts.push(format!(
-            "Anitescu's relaxation lifts off {} of {} contacts: largest normal velocity {:.3e} at \
-             contact {c} (sliding speed {slip:.3e}, mu ‖u_T‖ = {:.3e}) where Coulomb's law has \
-             u_N = 0",
+            "solved Anitescu's convex relaxation (an SOCP in which sliding contacts separate at \
+             u_N = mu ‖u_T‖), not the Coulomb problem: the relaxation lifts off {} of {} contacts, \
+             largest normal velocity {:.3e} at contact {c} (sliding speed {slip:.3e}, mu ‖u_T‖ = \
+             {:.3e}) where Coulomb's law has u_N = 0",
             lifted.len(),
             problem.contacts(),
             u[3 * c],
@@ -185,7 +186,7 @@ fn diagnose(problem: &ConeProblem, r: &[f64], tol: f64) -> Option<String> {
         ));
     }
     Some(format!(
-        "{}; cone residual {total:.3e} > tolerance {tol:.1e}",
+        "{}; relative residual on the exact Coulomb problem {total:.3e} > tolerance {tol:.1e}",
         parts.join("; ")
     ))
 }

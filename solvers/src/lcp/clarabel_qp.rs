@@ -551,10 +551,31 @@ impl Solver for ClarabelQp {
                 self.polish_if_better(problem, &qp, &mut f);
             }
         }
+        let outcome = relaxation_outcome(problem, &f, settings.tolerance, outcome);
         let mut monitor = monitor;
         monitor.record(iterations, &f);
         monitor.finish(f, iterations, outcome)
     }
+}
+
+/// With friction rows, Clarabel's `Solved` means it solved Anitescu's convex relaxation (the QP
+/// whose friction constraints are `|f_t| <= mu f_k`), not the boxed LCP. When `f` misses the
+/// tolerance on the boxed LCP's shared residual, the reason names the relaxed problem and gives
+/// that residual, instead of the generic "stopping rule met". The status stays `Stalled`: the
+/// boxed LCP is not solved. Other outcomes, and problems without friction rows, pass through.
+fn relaxation_outcome(problem: &Problem, f: &[f64], tol: f64, outcome: Outcome) -> Outcome {
+    if problem.friction().is_empty() || !matches!(outcome, Outcome::Stopped) {
+        return outcome;
+    }
+    let rel = residuals(problem, f).natural_map_rel;
+    if rel <= tol {
+        return outcome;
+    }
+    Outcome::Stalled(format!(
+        "solved Anitescu's convex relaxation of the friction rows (QP with |f_t| <= mu f_n, where \
+         sliding contacts separate), not the boxed LCP: relative residual on the boxed LCP \
+         {rel:.3e} > tolerance {tol:.1e}"
+    ))
 }
 
 impl ClarabelQp {
@@ -846,7 +867,13 @@ mod tests {
         let r = solve(&p);
         assert!((r.f[0] - 1.6).abs() < 1e-6, "{:?}", r.f);
         assert!((r.f[1] - 0.8).abs() < 1e-6, "{:?}", r.f);
-        assert!(matches!(r.status, Status::Stalled { .. }), "{}", r.status);
+        assert!(
+            matches!(&r.status, Status::Stalled { reason }
+                if reason.contains("Anitescu's convex relaxation") && reason.contains("not the boxed LCP")
+                    && reason.contains(&format!("{:.3e}", r.residuals.natural_map_rel))),
+            "{}",
+            r.status
+        );
         assert!(r.residuals.natural_map_rel > 0.1);
         // The separating velocity is mu times the sliding speed: 0.6 = 0.5 · 1.2.
         assert!((r.w[0] - 0.5 * r.w[1].abs()).abs() < 1e-6, "{:?}", r.w);

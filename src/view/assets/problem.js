@@ -3,27 +3,31 @@
 const P = DATA;
 const SOLVERS = P.solvers;
 document.getElementById('note').textContent =
-  `${P.n} rows, ${P.friction.length} friction rows · every solver with tolerance ${P.tolerance} on the relative natural-map residual.`;
+  `${P.n} rows, ${P.friction.length} friction rows · every solver (${SOLVERS.length}: the matrix solvers on the boxed LCP` +
+  (SOLVERS.some((s) => s.problem === 'Coulomb cone') ? ', the cone solvers on its Coulomb-cone form' : '') +
+  `) with tolerance ${P.tolerance} on the relative natural-map residual of the problem it solved.`;
 
 APP.append(el('h2', { text: 'Solvers' }));
 APP.append(el('div', { class: 'panel' }, [el('table', { id: 'summary' }, [
-  el('thead', {}, [el('tr', {}, ['solver', 'status', 'iterations', 'time (ms)', 'relative residual', 'history points', 'reason']
-    .map((h, i) => el('th', { class: i === 0 || i === 1 || i === 6 ? 'l' : '', text: h })))]),
+  el('thead', {}, [el('tr', {}, ['solver', 'problem solved', 'status', 'iterations', 'counted in', 'time (ms)', 'relative residual', 'history points', 'reason']
+    .map((h, i) => el('th', { class: [0, 1, 2, 4, 8].includes(i) ? 'l' : '', text: h })))]),
   el('tbody', {}, SOLVERS.map((s, k) => el('tr', {}, [
     el('td', { class: 'l' }, [el('b', { style: 'color:' + PALETTE[k % PALETTE.length], text: s.name })]),
+    el('td', { class: 'l', text: s.problem }),
     el('td', { class: 'l' + (s.status === 'converged' ? '' : ' bad'), text: s.status }),
-    el('td', { text: String(s.iterations) }), el('td', { text: fmt(s.time_s * 1e3) }), el('td', { text: fmt(s.residual_rel) }),
+    el('td', { text: String(s.iterations) }), el('td', { class: 'l muted', text: s.iteration_unit }), el('td', { text: fmt(s.time_s * 1e3) }), el('td', { text: fmt(s.residual_rel) }),
     el('td', { text: String(s.history.res.length) + (s.history.thinned_from ? ` of ${s.history.thinned_from}` : '') }),
     el('td', { class: 'l muted', text: s.reason || '' }),
   ]))),
 ])]));
 
 APP.append(el('h2', { text: 'Convergence' }));
-const plotBox = el('div', { class: 'plots' });
+const plotBox = el('div', { class: 'plots wide' });
 APP.append(plotBox);
 const curves = SOLVERS.map((s, k) => ({ label: s.name, xs: s.history.it, ys: s.history.res, color: PALETTE[k % PALETTE.length] }));
 const plotted = curves.filter((c) => c.xs.length > 0).length;
-joinedPlot(plotBox, 'relative natural-map residual per iteration (pivot)', curves, { log: true, xLabel: 'iteration', height: 260, legend: true });
+joinedPlot(plotBox, 'relative natural-map residual per iteration (each solver\'s own unit: see "counted in")', curves,
+  { log: true, xLabel: 'iteration', height: 320, legend: true, tolerance: P.tolerance });
 if (!plotted) plotBox.append(el('p', { class: 'muted', text: 'No solver recorded a history.' }));
 
 APP.append(el('h2', { text: 'Active set per pivot' }));
@@ -54,6 +58,12 @@ APP.append(el('h2', { text: 'Final f and w per row' }));
 const ROWS_SHOWN = Math.min(P.n, 500);
 const frictionOf = new Map(P.friction.map(([row, normal, mu]) => [row, [normal, mu]]));
 const bound = (x, lo) => (x === null ? (lo ? '−∞' : '∞') : fmt(x));
+// A friction row's bounds are ±mu·f_normal: they depend on the solution, so the table says so
+// instead of showing the stored placeholders.
+const frictionBound = (i, lo) => {
+  const [k, mu] = frictionOf.get(i);
+  return `${lo ? '−' : '+'}${fmt(mu)}·f${k}`;
+};
 // A row is flagged when its natural-map component exceeds the tolerance times the scale of f.
 function rowBad(s, i) {
   const f = s.f[i], w = s.w[i];
@@ -72,16 +82,17 @@ const head = [el('th', { text: 'row' }), el('th', { text: 'b' }), el('th', { tex
 const body = [];
 for (let i = 0; i < ROWS_SHOWN; i++) {
   const fr = frictionOf.get(i);
-  body.push(el('tr', {}, [el('td', { text: String(i) }), el('td', { text: fmt(P.b[i]) }), el('td', { text: bound(P.lo[i], true) }), el('td', { text: bound(P.hi[i], false) }),
+  body.push(el('tr', {}, [el('td', { text: String(i) }), el('td', { text: fmt(P.b[i]) }), el('td', { text: fr ? frictionBound(i, true) : bound(P.lo[i], true) }), el('td', { text: fr ? frictionBound(i, false) : bound(P.hi[i], false) }),
     el('td', { class: 'l', text: fr ? `row ${fr[0]}, μ ${fr[1]}` : '' })]
     .concat(SOLVERS.flatMap((s) => {
-      const cls = s.f.length === P.n && rowBad(s, i) ? 'bad' : '';
+      const cls = s.problem !== 'Coulomb cone' && s.f.length === P.n && rowBad(s, i) ? 'bad' : '';
       return [el('td', { class: cls, text: fmt(s.f[i]) }), el('td', { class: cls, text: fmt(s.w[i]) })];
     }))));
 }
 APP.append(el('div', { class: 'panel' }, [
   P.n > ROWS_SHOWN ? el('p', { class: 'muted', text: `first ${ROWS_SHOWN} of ${P.n} rows` }) : '',
-  el('p', { class: 'muted', text: 'red: the row violates its complementarity condition (natural-map component above 100 × tolerance × ‖f‖∞)' }),
+  el('p', { class: 'muted', text: 'red: the row violates its complementarity condition (natural-map component above 100 × tolerance × ‖f‖∞). ' +
+    'A friction row t of normal row k has bounds ±μ·f_k (shown as ±μ·fk): they move with the solution. Cone solvers are not flagged per row: they are judged on the cone, by the residual in the table above.' }),
   el('table', { id: 'rows' }, [el('thead', {}, [el('tr', {}, head)]), el('tbody', {}, body)]),
 ]));
 

@@ -53,6 +53,45 @@ function stepNumber(i) {
 }
 
 // ---- geometry -------------------------------------------------------------------------------
+/**
+ * A time step for people: `1/60 s (16.67 ms)` when 1/dt is a whole number of steps per second,
+ * else `16.67 ms` (as `lcpbench simulate` prints it).
+ */
+function formatStep(dt) {
+  if (!(dt > 0) || !Number.isFinite(dt)) return `${dt} s`;
+  if (dt >= 1) return `${Number(dt.toPrecision(4))} s`;
+  const ms = `${Number((dt * 1e3).toPrecision(4))} ms`;
+  const rate = 1 / dt;
+  return Math.abs(rate - Math.round(rate)) <= 1e-9 * rate && Math.round(rate) > 1 ? `1/${Math.round(rate)} s (${ms})` : ms;
+}
+
+/** A body's size: the radius of a sphere or capsule, the largest half extent of a box or mesh. */
+function geometrySize(g) {
+  if (!g) return null;
+  if (g.radius) return g.radius + (g.half_height || 0);
+  const h = g.half_extents || g.half_extent;
+  if (Array.isArray(h)) return Math.max(...h);
+  if (Array.isArray(g.vertices) && g.vertices.length >= 3) {
+    let m = 0;
+    for (const v of g.vertices) m = Math.max(m, Math.abs(v));
+    return m;
+  }
+  return null;
+}
+
+/**
+ * Contact marker radius scaled to the scene: a fixed share of the viewing distance (so markers
+ * stay visible from the default camera), but at most a sixth of the median body size (so they do
+ * not hide small bodies).
+ */
+function markerRadius(run, bounds) {
+  const view = bounds.size * 1.9 + 1;
+  const sizes = run.bodies.map((b) => run.geometries[b.geometry])
+    .filter((g) => g && g.type !== 'plane').map(geometrySize).filter((x) => x > 0).sort((a, b) => a - b);
+  const median = sizes.length ? sizes[Math.floor(sizes.length / 2)] : Infinity;
+  return Math.max(view * 0.002, Math.min(view * 0.009, median / 6));
+}
+
 function sceneBounds(run) {
   const f = run.frames[0];
   const min = [Infinity, Infinity, Infinity], max = [-Infinity, -Infinity, -Infinity];
@@ -183,7 +222,7 @@ class RunView {
     }
     this.capacity = most;
     this.fmax = fmax > 0 ? fmax : 1;
-    this.markerRadius = Math.min(0.05, Math.max(0.004, bounds.size * 0.006));
+    this.markerRadius = markerRadius(run, bounds);
     this.arrowLength = bounds.size * 0.25;
     const markerGeo = new THREE.SphereGeometry(this.markerRadius, 10, 8);
     this.markers = new THREE.InstancedMesh(markerGeo, new THREE.MeshBasicMaterial({ depthTest: false, transparent: true }), most);
@@ -340,7 +379,7 @@ RUNS.forEach((r) => {
   }
 });
 document.getElementById('note').textContent =
-  `${iso(RUNS[0].scene)} · ${RUNS.map((r) => iso(r.solver)).join(' vs ')} · ${NSTEPS} steps of ${RUNS[0].dt} s · ` +
+  `${iso(RUNS[0].scene)} · ${RUNS.map((r) => iso(r.solver)).join(' vs ')} · ${NSTEPS} steps of ${formatStep(RUNS[0].dt)} · ` +
   `${RUNS[0].bodies.length} bodies. ${notes.join(' ')} Drag to orbit, right-drag to pan, wheel to zoom; click a contact or a plot.`;
 
 const viewsEl = el('div', { class: 'views' });
@@ -416,7 +455,8 @@ const METRICS = [
 ].concat(HAS_JOINTS ? [['joint drift (max, m)', 'joint_drift', true, 1]] : []);
 const plots = METRICS.map(([title, key, log, scale]) => linePlot(plotsEl, title,
   xs, RUNS.map((r) => ({ label: r.label, values: pad((r.series[key] || []).map((v) => (v === null ? null : v * scale))) })),
-  { log, marker: () => ui.index, onPick: (i) => { setPlaying(false); setIndex(i); }, xLabel: 'step', legend: RUNS.length > 1 }));
+  { log, marker: () => ui.index, onPick: (i) => { setPlaying(false); setIndex(i); }, xLabel: 'step', legend: RUNS.length > 1,
+    tolerance: key === 'residual' ? RUNS[0].tolerance : null }));
 
 // Detail of the selected step.
 APP.append(el('h2', { text: 'Selected step' }));
@@ -448,7 +488,7 @@ function renderHistory() {
       parts.push(el('p', { class: 'muted', text: `${r.label}: active set not recorded.` }));
     }
   });
-  if (curves.length) joinedPlot(historyPanel, 'relative residual per iteration', curves, { log: true, xLabel: 'iteration', height: 180, legend: true });
+  if (curves.length) joinedPlot(historyPanel, 'relative residual per iteration', curves, { log: true, xLabel: 'iteration', height: 180, legend: true, tolerance: RUNS[0].tolerance });
   historyPanel.append(...parts);
 }
 
@@ -555,7 +595,7 @@ function update(details) {
   const j = Math.min(i, r0.step.length - 1);
   stepLabel.textContent = `step ${stepNumber(i)} / ${stepNumber(NSTEPS - 1)} · t = ${fmt(r0.time[j])} s · ` +
     RUNS.map((r) => `${r.label}: ${r.series.status[Math.min(i, r.series.status.length - 1)]}`).join(', ');
-  for (const p of plots) p.redraw(false, false);
+  for (const p of plots) if (p) p.redraw(false, false);
   if (details) { renderHistory(); renderContacts(); }
   const state = { ready: true, step: stepNumber(i), index: i, runs: RUNS.length, selected: ui.selected };
   views.forEach((v, k) => {
