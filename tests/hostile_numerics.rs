@@ -249,7 +249,7 @@ fn scene_vectors_whose_length_overflows_are_refused_at_load() {
         "simulate",
         &scene("[0.0, 0.0, 1.0]", "[0.0, 0.0, 1.0]", huge),
     ]);
-    assert_refused(&o, &["door.toml", "velocity", "length overflows"]);
+    assert_refused(&o, &["door.toml", "velocity", "at most"]);
 }
 
 #[test]

@@ -236,13 +236,6 @@ pub(super) fn check_motion(b: &BodyFile) -> Result<(), FieldError> {
             ))
         }
     };
-    for (field, v) in [
-        ("position", b.position),
-        ("velocity", b.velocity),
-        ("angular_velocity", b.angular_velocity),
-    ] {
-        finite_vector(field, v)?;
-    }
     let biggest = b.position.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if !(biggest.is_finite() && biggest <= MAX_COORDINATE) {
         return Err(err(
@@ -256,6 +249,15 @@ pub(super) fn check_motion(b: &BodyFile) -> Result<(), FieldError> {
     }
     limit("velocity", b.velocity, MAX_SPEED, "m/s")?;
     limit("angular_velocity", b.angular_velocity, MAX_SPEED, "rad/s")?;
+    // After the bounds, which name their limits: within them no length can overflow, so this
+    // holds by construction and guards the bounds' own arithmetic.
+    for (field, v) in [
+        ("position", b.position),
+        ("velocity", b.velocity),
+        ("angular_velocity", b.angular_velocity),
+    ] {
+        finite_vector(field, v)?;
+    }
     Ok(())
 }
 

@@ -80,9 +80,10 @@ fn convert_joint(i: usize, f: &JointFile, bodies: &[RigidBody]) -> Result<Joint,
         );
     }
     let point = |k: &str, p: [f64; 3]| -> Result<Point3<f64>, FieldError> {
-        let v = finite_vector(&field(k), p)?;
+        // The bound comes first, so a far anchor is refused with its limit; a vector within it
+        // cannot overflow its length.
         if p.iter().all(|x| x.abs() <= MAX_COORDINATE) {
-            Ok(Point3::from(v))
+            Ok(Point3::from(finite_vector(&field(k), p)?))
         } else {
             Err((
                 field(k),

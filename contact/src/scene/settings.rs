@@ -74,7 +74,6 @@ pub(super) fn check_clock(s: &SettingsFile) -> Result<f64, FieldError> {
             format!("must be between 1 and {MAX_STEPS}, got {}", s.steps),
         ));
     }
-    finite_vector("gravity", s.gravity).map_err(|(f, m)| err(&f, m))?;
     let g = magnitude(s.gravity);
     if !(g.is_finite() && g <= MAX_GRAVITY) {
         return Err(err(
@@ -86,6 +85,8 @@ pub(super) fn check_clock(s: &SettingsFile) -> Result<f64, FieldError> {
             ),
         ));
     }
+    // After the bound, which names the limit: within it the length cannot overflow.
+    finite_vector("gravity", s.gravity).map_err(|(f, m)| err(&f, m))?;
     Ok(dt)
 }
 

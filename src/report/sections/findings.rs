@@ -381,7 +381,7 @@ mod tests {
             "{note}"
         );
         assert!(
-            note.contains("`penalty`: a penalty (soft-contact) model"),
+            note.contains("`penalty`: a soft spring-damper penalty model"),
             "{note}"
         );
         assert!(!note.contains("`pgs`"));
