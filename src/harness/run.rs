@@ -12,7 +12,7 @@ use crate::harness::record::{
     base_record, RunOutput, RunRecord, RunStatus, WarmSource, TTA_LEVELS, WARM_PGS_SWEEPS,
 };
 use crate::harness::scene;
-use crate::harness::timing::{measure, median, Timed, TimingRule, WallClock};
+use crate::harness::timing::{measure, Timed, TimingRule, WallClock};
 use crate::harness::{NamedBudget, SolverSpec};
 use lcpbench_solvers::{
     ConeProblem, ConeSolver, HistoryPoint, ProjectedSor, Settings, SolveResult, Solver,
@@ -68,13 +68,8 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     crate::harness::isolate::signal_ready();
     // Each solve gets a fresh copy of the solver, so no repeat starts from state a previous
     // one left behind.
-    let timed = measure(
-        &TimingRule::default(),
-        &WallClock::new(),
-        || solver.clone().solve(&lcp.problem, &settings),
-        time_to_accuracy,
-    );
-    fill_from_timed(&mut record, &timed);
+    let (timed, first) = measure_with_history(&settings, |s| solver.clone().solve(&lcp.problem, s));
+    fill_from_timed(&mut record, &timed, &first);
     let result = &timed.result;
     if let (Some(star), Case::Generated { family, .. }) = (&lcp.solution, case) {
         let unique = matches!(
@@ -93,7 +88,7 @@ fn run_lcp(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOutput {
     }
     RunOutput {
         record,
-        history: thin_history(&result.history, HISTORY_POINTS),
+        history: thin_history(&first.history, HISTORY_POINTS),
     }
 }
 
@@ -116,15 +111,10 @@ fn run_cone_lcp(
         }
     };
     crate::harness::isolate::signal_ready();
-    let timed = measure(
-        &TimingRule::default(),
-        &WallClock::new(),
-        || solver.clone().solve_cone(&problem, settings),
-        time_to_accuracy,
-    );
-    fill_from_timed(&mut record, &timed);
+    let (timed, first) = measure_with_history(settings, |s| solver.clone().solve_cone(&problem, s));
+    fill_from_timed(&mut record, &timed, &first);
     RunOutput {
-        history: thin_history(&timed.result.history, HISTORY_POINTS),
+        history: thin_history(&first.history, HISTORY_POINTS),
         record,
     }
 }
@@ -144,23 +134,63 @@ pub fn fill_from_result(record: &mut RunRecord, result: &SolveResult) {
     record.certificate_bound = result.certificate.as_ref().map(|c| c.min_solution_norm);
 }
 
+/// Time a solve by the method of [`crate::harness::timing`] and keep its convergence history.
+/// Recording a history measures the residual at every iteration, which costs as much as an
+/// iteration of the cheaper solvers and disturbs the caches, although the solver's clock leaves
+/// the measurements out. So only the untimed first solve records its history (`settings` as
+/// given, `record_history` on); the timed repeats run with `record_history` off. When the first
+/// solve is itself the measurement (a slow solve), its time is the one with its history.
+/// Returns the timing and the first solve, whose history the run keeps.
+pub fn measure_with_history(
+    settings: &Settings,
+    solve: impl Fn(&Settings) -> SolveResult,
+) -> (Timed<SolveResult>, SolveResult) {
+    let mut quiet = settings.clone();
+    quiet.record_history = false;
+    let first: std::cell::RefCell<Option<SolveResult>> = std::cell::RefCell::new(None);
+    let timed = measure(
+        &TimingRule::default(),
+        &WallClock::new(),
+        || {
+            if first.borrow().is_none() {
+                let r = solve(settings);
+                *first.borrow_mut() = Some(r.clone());
+                r
+            } else {
+                solve(&quiet)
+            }
+        },
+        |_| (),
+    );
+    let first = first
+        .into_inner()
+        .expect("the timing method makes at least one solve");
+    (timed, first)
+}
+
 /// Copy a timed solve into the row ([`crate::harness::timing`]): the outcome of the last timed
 /// solve ([`fill_from_result`]), with `solve_time_s` the median of the timed solves,
-/// `solve_time_min_s` and `solve_time_max_s` their spread, `timed_solves` their count, and
-/// each time-to-accuracy column the median over the timed solves that reached the level (so
-/// these too are measured with warm caches; a deterministic solver reaches a level at the same
-/// iteration in every repeat).
-pub fn fill_from_timed(record: &mut RunRecord, timed: &Timed<SolveResult, [Option<f64>; 4]>) {
+/// `solve_time_min_s` and `solve_time_max_s` their spread and `timed_solves` their count. The
+/// time-to-accuracy columns come from the history of the `first` solve (the one that recorded
+/// it, [`measure_with_history`]): the time at which it first reached each level, scaled by the
+/// ratio of the median to that solve's own time, so they are on the median's footing (a
+/// deterministic solver reaches a level at the same iteration in every repeat); a level reached
+/// only by the final answer is the median itself.
+pub fn fill_from_timed(record: &mut RunRecord, timed: &Timed<SolveResult>, first: &SolveResult) {
     fill_from_result(record, &timed.result);
-    record.solve_time_s = Some(timed.median_s());
+    let median_s = timed.median_s();
+    record.solve_time_s = Some(median_s);
     record.solve_time_min_s = Some(timed.min_s());
     record.solve_time_max_s = Some(timed.max_s());
     record.timed_solves = Some(timed.count());
-    let levels: [Option<f64>; 4] = std::array::from_fn(|k| {
-        let reached: Vec<f64> = timed.kept.iter().filter_map(|tta| tta[k]).collect();
-        median(&reached)
-    });
-    record.set_tta(levels);
+    let first_s = first.time.as_secs_f64();
+    let scale = if first_s > 0.0 {
+        median_s / first_s
+    } else {
+        1.0
+    };
+    let tta = time_to_accuracy(first).map(|t| t.map(|t| (t * scale).min(median_s)));
+    record.set_tta(tta);
 }
 
 /// Solver time until the relative residual first reached each of [`TTA_LEVELS`]: the first

@@ -49,8 +49,8 @@ Timing (LCP, scene-step and generated cases): one untimed first solve warms the 
 first solve of at least 20 ms is the single measurement. Otherwise solves from the same start \
 are repeated, each timed, until they add up to 20 ms and at least 3 are done (at most 1000, \
 within 1 s of wall time). solve_time_s is their median, solve_time_min_s and solve_time_max_s \
-their spread, timed_solves their count; the time-to-accuracy columns are the medians over the \
-same solves. Scene steps are timed once each, in the stepping loop.
+their spread, timed_solves their count. Only the untimed first solve records a convergence \
+history; the time-to-accuracy columns are its times scaled by the median over its own time. Scene steps are timed once each, in the stepping loop.
 
 Warm starts (NAME+warm): a scene starts each step from the previous step's impulses; a problem \
 file from its `warm_start` (as `lcpbench export` writes it) when it has one; a generated case \
