@@ -15,7 +15,7 @@
 //! the output that is renamed onto it (a new name, or an empty directory) when complete, so a
 //! failure leaves no partial output.
 
-use crate::harness::outdir::{read_table, TableRow};
+use crate::harness::outdir::{cells_of, read_table, TableRow};
 use crate::harness::record::{HistoryRow, RunKey, RunRecord};
 use crate::harness::shard::{
     portable_case, read_manifest, rooted_case, sweep_id, ShardError, ShardManifest, SweepKind,
@@ -505,22 +505,10 @@ fn sweep_keys(shards: &[ShardDir], out: &Path) -> Result<Vec<RunKey>, MergeError
 
 /// A row's cells as the CSV writes them (so NaN equals NaN and a row compares as written).
 fn cells(r: &RunRecord) -> Vec<String> {
-    let mut w = csv::WriterBuilder::new()
-        .has_headers(false)
-        .from_writer(Vec::new());
-    let bytes = w
-        .serialize(r)
-        .ok()
-        .and_then(|()| w.into_inner().ok())
-        .unwrap_or_default();
-    csv::ReaderBuilder::new()
-        .has_headers(false)
-        .from_reader(&bytes[..])
-        .records()
-        .next()
-        .and_then(Result::ok)
-        .map(|rec| rec.iter().map(str::to_owned).collect())
-        .unwrap_or_default()
+    cells_of(r)
+        .into_iter()
+        .map(|c| String::from_utf8_lossy(&c).into_owned())
+        .collect()
 }
 
 /// The column names of `results.csv`.

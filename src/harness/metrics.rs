@@ -42,6 +42,7 @@
 //! on static bodies against the total weight, at the last step).
 
 use crate::harness::record::{RunRecord, RunStatus};
+use crate::harness::timing::median;
 use lcpbench_contact::body::RigidBody;
 use lcpbench_contact::joint::JointMetrics;
 use lcpbench_contact::step::{PhaseTimes, StepReport, World};
@@ -272,22 +273,6 @@ impl StepTotals {
         r.phase_residual_s = Some(p.residual);
         r.phase_integration_s = Some(p.integration);
     }
-}
-
-/// The median of `values` (the mean of the two middle ones for an even count); `None` when
-/// empty. NaNs sort last.
-fn median(values: &[f64]) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    Some(if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    })
 }
 
 /// Energy and momentum drift, speeds, non-finite steps, lift-off and the blow-up test.

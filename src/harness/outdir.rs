@@ -380,7 +380,7 @@ fn csv_problem(e: &csv::Error) -> String {
 }
 
 /// The cells of `row` as the CSV writer writes them.
-fn cells_of<T: serde::Serialize>(row: &T) -> Vec<Vec<u8>> {
+pub(crate) fn cells_of<T: serde::Serialize>(row: &T) -> Vec<Vec<u8>> {
     let mut w = csv::WriterBuilder::new()
         .has_headers(false)
         .from_writer(Vec::new());
