@@ -12,7 +12,9 @@ use lcpbench_solvers::io::{
     input::{check_input_file, read_input_file},
     MAX_PROBLEM_FILE_BYTES,
 };
-use lcpbench_solvers::{is_cone_file, parse_cone_problem, read_problem, ConeProblem, Settings};
+use lcpbench_solvers::{
+    is_cone_file, parse_cone_problem, parse_problem, read_problem, Problem, Settings,
+};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -105,10 +107,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         let (problem, name) = if first.exists() {
             // A cone file (JSON with `W`, `q`, `mu`) is shown through its box form, whose rows
             // the cone solvers take back as contact triples.
-            let p = match read_cone_file(first)? {
-                Some(cone) => cone.to_box(),
-                None => read_problem(first)?,
-            };
+            let p = read_view_problem(first)?;
             let name = p.name().map(str::to_owned).unwrap_or_else(|| {
                 first
                     .file_stem()
@@ -144,23 +143,26 @@ pub fn run(args: ViewArgs) -> Result<()> {
     write_page(&args.output, &html)
 }
 
-/// The cone problem in `path` when it is a cone JSON file (a `mu` key), else `None`.
-fn read_cone_file(path: &Path) -> Result<Option<ConeProblem>> {
+/// The problem in the file at `path`, read once: a cone JSON file (`W`, `q`, `mu`) as its box
+/// form, whose rows the cone solvers take back as contact triples; any other JSON file as an
+/// LCP; other formats by [`read_problem`].
+fn read_view_problem(path: &Path) -> Result<Problem> {
     if !path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"))
     {
-        return Ok(None);
+        return Ok(read_problem(path)?);
     }
     let bytes = read_input_file(path, MAX_PROBLEM_FILE_BYTES)
         .with_context(|| format!("cannot read {}", path.display()))?;
     let Ok(text) = std::str::from_utf8(&bytes) else {
-        return Ok(None);
+        return Ok(read_problem(path)?);
     };
-    if !is_cone_file(text) {
-        return Ok(None);
+    if is_cone_file(text) {
+        Ok(parse_cone_problem(text, path)?.to_box())
+    } else {
+        Ok(parse_problem(text, path)?)
     }
-    Ok(Some(parse_cone_problem(text, path)?))
 }
 
 /// Write a page and say where it went and how large it is.

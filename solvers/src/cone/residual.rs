@@ -152,7 +152,7 @@ pub struct NormalUnresolved {
 ///
 /// The cone residual scales contact `c` by `s_c = ‖(t_N + mu ‖(t_1, t_2)‖, t_1, t_2)‖ / d_c`
 /// (see [`crate::cone`]); as `mu` grows, `mu ‖u_T‖` dominates De Saxcé's velocity and the
-/// residual no longer sees `u_N` (at `mu = 1e5`, `r = 0` under `u = (-0.16, 0.08, 0)` meets
+/// residual is blind to `u_N` (at `mu = 1e5`, `r = 0` under `u = (-0.16, 0.08, 0)` meets
 /// `1e-9`). At every Coulomb solution `0 <= r_N ⟂ u_N >= 0` holds, whichever of take-off,
 /// sticking or sliding the contact does, so the normal row is tested alone, against the cone
 /// residual's scale with `mu` capped at 1 (`m = min(mu, 1)`):
