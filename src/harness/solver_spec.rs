@@ -5,6 +5,7 @@ use crate::harness::fault::Fault;
 use crate::harness::text::serde_as_text;
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::scene::Scene;
+use lcpbench_contact::substep::Params;
 use lcpbench_contact::ContactSolver;
 use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Solver, SolverKind};
 use std::fmt;
@@ -47,7 +48,10 @@ pub enum SolverSpec {
     Body {
         /// Which solver.
         kind: BodySolverKind,
-        /// Warm start (`si`, `body-micro`, `avg`).
+        /// Its parameters (`name@key=value,…`; the substepping solvers' `substeps`, `hertz`,
+        /// …), checked against [`BodySolverKind::param_specs`].
+        params: Params,
+        /// Warm start (`si`, `body-micro`, `avg`, the substepping solvers).
         warm: bool,
     },
     /// A solver of the exact Coulomb cone.
@@ -107,7 +111,20 @@ impl SolverSpec {
 
     /// Plain body-level solver, cold start.
     pub const fn body(kind: BodySolverKind) -> Self {
-        Self::Body { kind, warm: false }
+        Self::Body {
+            kind,
+            params: Params::defaults(kind.param_specs()),
+            warm: false,
+        }
+    }
+
+    /// A body-level solver with parameters, cold start.
+    pub const fn body_with(kind: BodySolverKind, params: Params) -> Self {
+        Self::Body {
+            kind,
+            params,
+            warm: false,
+        }
     }
 
     /// Plain cone solver, cold start.
@@ -182,7 +199,7 @@ impl SolverSpec {
     pub fn contact_solver(&self, scene: &Scene) -> Option<ContactSolver> {
         match *self {
             Self::Matrix { .. } => self.create().map(ContactSolver::Matrix),
-            Self::Body { kind, .. } => Some(scene.body_solver(kind)),
+            Self::Body { kind, params, .. } => Some(scene.body_solver_with(kind, params)),
             Self::Cone { .. } => self.create_cone().map(ContactSolver::Cone),
             Self::Fault(_) => None,
         }
@@ -237,6 +254,11 @@ impl fmt::Display for SolverSpec {
         if let Some(w) = self.omega() {
             write!(out, "@{w}")?;
         }
+        if let Self::Body { params, .. } = self {
+            if !params.is_default() {
+                write!(out, "@{params}")?;
+            }
+        }
         if self.warm() {
             out.write_str("+warm")?;
         }
@@ -256,6 +278,16 @@ impl std::str::FromStr for SolverSpec {
             Some(r) => (r, true),
             None => (spec, false),
         };
+        if let Some((kind, params)) = BodySolverKind::parse_spec(rest).map_err(err)? {
+            let out = Self::body_with(kind, params);
+            if warm && !out.is_iterative() {
+                return Err(err(format!(
+                    "+warm applies only to iterative solvers, not {}",
+                    kind.name()
+                )));
+            }
+            return Ok(if warm { out.with_warm() } else { out });
+        }
         let (name, omega) = match rest.split_once('@') {
             Some((n, w)) => {
                 let w: f64 = w
@@ -342,10 +374,7 @@ mod tests {
         let si: SolverSpec = "si+warm".parse().unwrap();
         assert_eq!(
             si,
-            SolverSpec::Body {
-                kind: BodySolverKind::SequentialImpulses,
-                warm: true
-            }
+            SolverSpec::body(BodySolverKind::SequentialImpulses).with_warm()
         );
         assert!(si.create().is_none() && si.create_cone().is_none());
         let cone: SolverSpec = "nsgs-cone".parse().unwrap();

@@ -53,6 +53,7 @@
 //! stop `Stalled` ([`lcpbench_solvers::Stagnation`]).
 
 use crate::builder::{bounces, BodyVelocity, ContactSystem, DelassusOperator};
+use crate::substep::{ParamSpec, Params, SubstepInput, SubstepOutcome};
 use lcpbench_solvers::{
     decide, judge, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals,
     Settings, SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
@@ -175,6 +176,49 @@ impl BodySolverKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
+    /// The parameters it takes (`name@key=value,…`), with defaults and ranges; empty for the
+    /// solvers whose only parameters are the shared settings (and `penalty`, whose spring is
+    /// set in the scene's `[penalty]` table).
+    pub const fn param_specs(self) -> &'static [ParamSpec] {
+        match self {
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::Penalty
+            | BodySolverKind::AveragedImpulse => &[],
+        }
+    }
+
+    /// True for the substepping solvers, which move the bodies themselves
+    /// ([`BodySolver::advance`]).
+    pub fn substeps(self) -> bool {
+        match self {
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::Penalty
+            | BodySolverKind::AveragedImpulse => false,
+        }
+    }
+
+    /// The solver with the parameters `params` (which follow [`BodySolverKind::param_specs`]).
+    pub fn create_with(self, params: Params) -> Box<dyn BodySolver + Send> {
+        let _ = params;
+        self.create()
+    }
+
+    /// The solver of a specification `name` or `name@key=value,…`, its parameters checked
+    /// against the kind's table; `Ok(None)` when no body-level solver has that name.
+    pub fn parse_spec(spec: &str) -> Result<Option<(Self, Params)>, String> {
+        let (name, text) = spec.split_once('@').unwrap_or((spec, ""));
+        let Some(kind) = Self::from_name(name) else {
+            return Ok(None);
+        };
+        if spec.contains('@') && kind.param_specs().is_empty() {
+            return Err(format!("solver `{name}` takes no parameters"));
+        }
+        let params = Params::parse(kind.param_specs(), text).map_err(|e| format!("{name}: {e}"))?;
+        Ok(Some((kind, params)))
+    }
+
     /// The solver with default parameters.
     pub fn create(self) -> Box<dyn BodySolver + Send> {
         match self {
@@ -237,9 +281,21 @@ pub trait BodySolver: dyn_clone::DynClone {
     /// The solver's own loop on the step's system; `settings.warm_start` is the warm start.
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep;
 
-    /// Short name (`si`, `body-micro`, `penalty`, `avg`).
+    /// Short name (`si`, `body-micro`, `penalty`, `avg`, …).
     fn name(&self) -> &'static str {
         self.kind().name()
+    }
+
+    /// The solver's parameters (empty for a solver that takes none).
+    fn params(&self) -> Params {
+        Params::defaults(self.kind().param_specs())
+    }
+
+    /// For a substepping solver ([`crate::substep`]), which moves the bodies itself: the
+    /// whole step, from the system at the step's start. `None` for the solvers that return
+    /// impulses only (the stepper then applies them and integrates once).
+    fn advance(&mut self, _input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
+        None
     }
 
     /// Solve and decide the status from the shared residual of `measure` ([`body_status`]),

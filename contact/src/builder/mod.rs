@@ -302,6 +302,10 @@ pub struct ContactSystem {
     /// Position-error term per row for split impulses: `(β/h) min(0, dist + slop)` on normal rows
     /// (all zero unless the correction is [`PositionCorrection::Split`]).
     pub position_bias: Vec<f64>,
+    /// Position error per row at the step's start: the gap `dist` of a normal row (negative
+    /// when penetrating), the constraint error of a joint row, 0 on friction and slack rows
+    /// (the substepping solvers' `C₀`).
+    pub position_error: Vec<f64>,
     /// Lower bounds (friction rows: ignored).
     pub lo: Vec<f64>,
     /// Upper bounds (friction rows: ignored).
@@ -467,6 +471,7 @@ pub fn build_with_joints(
         free_rate: Vec::new(),
         bias: Vec::new(),
         position_bias: Vec::new(),
+        position_error: Vec::new(),
         lo: Vec::new(),
         hi: Vec::new(),
         friction: Vec::new(),
@@ -530,6 +535,7 @@ fn add_joint(
         sys.free_rate.push(rate);
         sys.bias.push(bias);
         sys.position_bias.push(position_bias);
+        sys.position_error.push(c.error);
         sys.lo.push(f64::NEG_INFINITY);
         sys.hi.push(f64::INFINITY);
     }
@@ -590,6 +596,7 @@ fn add_contact(
     sys.free_rate.push(vn);
     sys.bias.push(bias);
     sys.position_bias.push(position_bias);
+    sys.position_error.push(ct.dist);
     sys.lo.push(0.0);
     sys.hi.push(f64::INFINITY);
 
@@ -601,6 +608,7 @@ fn add_contact(
         sys.free_rate.push(rate);
         sys.bias.push(0.0);
         sys.position_bias.push(0.0);
+        sys.position_error.push(0.0);
     }
     sys.info.push(ContactInfo {
         normal_row,

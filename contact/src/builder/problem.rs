@@ -49,6 +49,20 @@ impl ContactSystem {
         self.subset_problem(&all, self.friction.clone(), self.b(), form)
     }
 
+    /// The step's rows and bounds with another `b` (one entry per row): the LCP a substep
+    /// solved, whose `A = J M⁻¹ Jᵀ` is the step's (anchors held over the step) and whose `b` is
+    /// the substep's `J v` plus its bias.
+    pub fn problem_with_b(&self, b: Vec<f64>, form: DelassusForm) -> Result<Problem, ProblemError> {
+        let (rows, bodies) = self.identity();
+        let all = Subset {
+            rows: &rows,
+            bodies: &bodies,
+            local_row: &rows,
+            local_body: &bodies,
+        };
+        self.subset_problem(&all, self.friction.clone(), b, form)
+    }
+
     /// The LCP of island `k` of `partition` (rows and bodies renumbered in the island's order).
     pub fn island_problem(&self, partition: &Partition, k: usize) -> Result<Problem, ProblemError> {
         self.island_problem_in(partition, k, DelassusForm::Assembled)

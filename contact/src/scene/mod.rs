@@ -280,13 +280,23 @@ impl Scene {
     /// The solver of this name with default parameters, except `penalty`, which takes the
     /// scene's `penalty_*` settings.
     pub fn solver_from_name(&self, name: &str) -> Option<ContactSolver> {
-        solver_from_name(name, self.penalty)
+        solver_from_name(name, self.penalty).ok().flatten()
     }
 
     /// The body-level solver `kind` with default parameters, except `penalty`, which takes the
     /// scene's `penalty_*` settings.
     pub fn body_solver(&self, kind: crate::BodySolverKind) -> ContactSolver {
-        body_solver(kind, self.penalty)
+        body_solver(kind, None, self.penalty)
+    }
+
+    /// The body-level solver `kind` with the parameters `params` (a substepping solver's
+    /// `substeps`, `hertz`, …).
+    pub fn body_solver_with(
+        &self,
+        kind: crate::BodySolverKind,
+        params: crate::substep::Params,
+    ) -> ContactSolver {
+        body_solver(kind, Some(params), self.penalty)
     }
 
     /// A world ready to step.
@@ -318,18 +328,24 @@ pub fn default_solver(friction: FrictionModel) -> ContactSolver {
 }
 
 /// [`ContactSolver::from_name`], with `penalty` built from the given parameters.
-fn solver_from_name(name: &str, penalty: Penalty) -> Option<ContactSolver> {
-    match crate::BodySolverKind::from_name(name) {
-        Some(kind) => Some(body_solver(kind, penalty)),
-        None => ContactSolver::from_name(name),
+fn solver_from_name(name: &str, penalty: Penalty) -> Result<Option<ContactSolver>, String> {
+    match crate::BodySolverKind::parse_spec(name)? {
+        Some((kind, params)) => Ok(Some(body_solver(kind, Some(params), penalty))),
+        None => Ok(ContactSolver::from_name(name)),
     }
 }
 
-/// The body-level solver `kind`, with `penalty` built from the given parameters.
-fn body_solver(kind: crate::BodySolverKind, penalty: Penalty) -> ContactSolver {
-    match kind {
-        crate::BodySolverKind::Penalty => ContactSolver::Body(Box::new(penalty)),
-        kind => kind.into(),
+/// The body-level solver `kind` with `params` (its defaults when `None`), `penalty` built from
+/// the given parameters.
+fn body_solver(
+    kind: crate::BodySolverKind,
+    params: Option<crate::substep::Params>,
+    penalty: Penalty,
+) -> ContactSolver {
+    match (kind, params) {
+        (crate::BodySolverKind::Penalty, _) => ContactSolver::Body(Box::new(penalty)),
+        (kind, Some(params)) => ContactSolver::Body(kind.create_with(params)),
+        (kind, None) => kind.into(),
     }
 }
 

@@ -122,15 +122,17 @@ pub(super) fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty
     };
     let solver = match &s.solver {
         None => default_solver(friction_model),
-        Some(name) => solver_from_name(name, penalty).ok_or_else(|| {
-            err(
-                "solver",
-                format!(
-                    "unknown solver \"{name}\" (known: {})",
-                    ContactSolver::all_names()
-                ),
-            )
-        })?,
+        Some(name) => solver_from_name(name, penalty)
+            .map_err(|m| err("solver", m))?
+            .ok_or_else(|| {
+                err(
+                    "solver",
+                    format!(
+                        "unknown solver \"{name}\" (known: {})",
+                        ContactSolver::all_names()
+                    ),
+                )
+            })?,
     };
     check_solver(&solver, friction_model).map_err(|m| err("solver", m))?;
     let baumgarte = non_negative("baumgarte", s.baumgarte)?;

@@ -67,6 +67,11 @@ impl ContactSolver {
         }
     }
 
+    /// True for a substepping solver ([`crate::substep`]), which moves the bodies itself.
+    pub fn substeps(&self) -> bool {
+        matches!(self, ContactSolver::Body(s) if s.kind().substeps())
+    }
+
     /// True for a cone solver.
     pub fn is_cone(&self) -> bool {
         matches!(self, ContactSolver::Cone(_))
@@ -217,6 +222,7 @@ impl ContactSolver {
             cone_problem,
             history: result.history,
             warm_start: None,
+            substepped: None,
         }
     }
 }

@@ -277,6 +277,14 @@ impl World {
         solved: &mut Solved,
         solvable: bool,
     ) -> Option<f64> {
+        if let Some(sub) = &solved.substepped {
+            // A substepping solver moved the bodies itself (no split impulses, no continuous
+            // collision detection: its substeps are its answer to fast motion).
+            self.apply_motion(&sub.state);
+            self.step_index += 1;
+            self.time += self.settings.dt;
+            return None;
+        }
         let pseudo = if solvable {
             self.split_impulse_velocities(system)
         } else {
@@ -294,6 +302,21 @@ impl World {
         self.step_index += 1;
         self.time += self.settings.dt;
         toi
+    }
+
+    /// Set every dynamic body to the state a substepping solver ended the step with: its pose
+    /// moved by the solver's translation and rotation, its momenta from the solver's
+    /// velocities (`P = m v`, `L = I(q) ω` at the new orientation).
+    fn apply_motion(&mut self, state: &crate::substep::SolverState) {
+        for (body, s) in self.bodies.iter_mut().zip(&state.bodies) {
+            if body.is_static {
+                continue;
+            }
+            body.position += s.dp;
+            body.orientation = s.dq * body.orientation;
+            body.linear_momentum = s.v * body.mass;
+            body.angular_momentum = body.inertia_world() * s.w;
+        }
     }
 
     /// Split impulses: pseudo-velocities from a projected Gauss–Seidel solve of the normal rows

@@ -7,6 +7,7 @@ use super::World;
 use crate::builder::{ContactSystem, Partition};
 use crate::integrate;
 use crate::joint::{summarise_errors, JointError, JointKind};
+use crate::substep::StepCost;
 use lcpbench_solvers::{ConeProblem, HistoryPoint, Problem, Residuals, Status};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -196,8 +197,20 @@ pub struct StepReport {
     pub solver: &'static str,
     /// Solver outcome (decided by the shared residual when one was measured).
     pub status: Status,
-    /// Iterations, pivots or sweeps.
+    /// Iterations, pivots or sweeps (for a substepping solver: sweeps summed over its
+    /// substeps and passes).
     pub iterations: usize,
+    /// Substeps the solver split the step into (1 for the solvers that do not substep).
+    pub substeps: usize,
+    /// The LCP the residual and status are of: `None` for the step's LCP; for a substepping
+    /// solver, its last solve (`"relax pass of substep 4 of 4"`), whose LCP has the step's `A`
+    /// and that solve's `b`.
+    pub residual_of: Option<String>,
+    /// Work counted as Catto's solver comparison counts it: constraint-row updates and body
+    /// passes. Substepping solvers count their own; for the others it is sweeps × rows and
+    /// one body pass (pivoting and interior-point solvers' work is not row updates: their
+    /// iterations × rows is a stand-in).
+    pub cost: StepCost,
     /// Solver time, s: the sum over islands of each solver call's own time (the work; islands
     /// solved in parallel take less wall time, see `solve_wall_s`).
     pub solve_time_s: f64,
@@ -390,6 +403,15 @@ impl World {
             solver: self.settings.solver.name(),
             status: solved.status,
             iterations: solved.iterations,
+            substeps: solved.substepped.as_ref().map_or(1, |s| s.substeps),
+            residual_of: solved.substepped.as_ref().map(|s| s.residual_of.clone()),
+            cost: solved.substepped.as_ref().map_or(
+                StepCost {
+                    row_updates: (solved.iterations * system.n()) as u64,
+                    body_passes: 1,
+                },
+                |s| s.cost,
+            ),
             solve_time_s: solved.time_s,
             solve_wall_s: solved.wall_s,
             islands: partition.len(),

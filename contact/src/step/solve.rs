@@ -3,10 +3,12 @@
 //! merged into one impulse, status and residual ([`Solved`]).
 
 use super::{ContactSolver, World};
-use crate::body_solvers::Measure;
+use crate::body_solvers::{body_status, BodySweep, Measure};
 use crate::builder::{ContactSystem, DelassusForm, Partition};
+use crate::substep::{SolverState, StepCost, SubstepInput};
 use lcpbench_solvers::{
-    ConeProblem, HistoryPoint, Problem, Residuals, Settings, SolveResult, Status,
+    decide, judge, non_finite_reason, residuals_and_velocity, ConeProblem, HistoryPoint, Outcome,
+    Problem, Residuals, Settings, SolveResult, Status,
 };
 use std::time::Instant;
 
@@ -58,6 +60,17 @@ pub(super) struct Solved {
     pub(super) history: Vec<HistoryPoint>,
     /// The warm start given to a matrix or cone solver, kept with the problem.
     pub(super) warm_start: Option<Vec<f64>>,
+    /// For a substepping solver: the bodies' motion over the step and what was measured.
+    pub(super) substepped: Option<Substepped>,
+}
+
+/// What a substepping solver adds to a solve: the bodies' motion (applied instead of the
+/// stepper's own integration), the solve the residual was measured on, the cost count.
+pub(super) struct Substepped {
+    pub(super) state: SolverState,
+    pub(super) residual_of: String,
+    pub(super) cost: StepCost,
+    pub(super) substeps: usize,
 }
 
 /// Solve each island of `partition` on its own (one clone of `solver` per island, in parallel
@@ -168,6 +181,7 @@ fn solve_islands(
         cone_problem: None,
         history,
         warm_start: None,
+        substepped: None,
     }
 }
 
@@ -212,6 +226,7 @@ impl Solved {
             cone_problem: None,
             history: Vec::new(),
             warm_start: None,
+            substepped: None,
         }
     }
 
@@ -232,6 +247,7 @@ impl Solved {
             cone_problem: None,
             history: Vec::new(),
             warm_start: None,
+            substepped: None,
         }
     }
 
@@ -295,7 +311,9 @@ impl World {
                 .settings
                 .warm_start
                 .then(|| system.warm_start(&self.warm));
-            if matches!(self.settings.solver, ContactSolver::Body(_)) {
+            if self.settings.solver.substeps() {
+                self.solve_substepping(system, warm_start, deadline)
+            } else if matches!(self.settings.solver, ContactSolver::Body(_)) {
                 self.solve_on_bodies(system, warm_start, deadline)
             } else {
                 self.solve_problem(system, partition, warm_start, deadline)
@@ -401,6 +419,127 @@ impl World {
             cone_problem: None,
             history: Vec::new(),
             warm_start: None,
+            substepped: None,
         }
     }
+
+    /// The substepping path: the solver advances the bodies over the whole step
+    /// ([`crate::BodySolver::advance`]); the shared residual is measured on its last solve's
+    /// LCP (the step's `A`, that solve's `b`), and the status decided from it: `converged`
+    /// only when that residual meets the tolerance, and a solver of a soft model says which
+    /// model it solved.
+    fn solve_substepping(
+        &mut self,
+        system: &ContactSystem,
+        warm_start: Option<Vec<f64>>,
+        deadline: Option<Instant>,
+    ) -> Solved {
+        let settings = Settings {
+            warm_start,
+            ..self.solver_settings(deadline)
+        };
+        let input = SubstepInput {
+            system,
+            gravity: self.settings.gravity,
+            settings: &settings,
+        };
+        let call = Instant::now();
+        let out = match &mut self.settings.solver {
+            ContactSolver::Body(s) => s.advance(&input),
+            _ => None,
+        };
+        let own_s = call.elapsed().as_secs_f64();
+        let name = self.settings.solver.name();
+        let Some(out) = out else {
+            return Solved::unsupported(system.n(), format!("`{name}` does not substep"));
+        };
+        self.warm.store(system, &out.warm);
+        let measured = self.settings.residuals || self.settings.keep_problem;
+        let t_measure = Instant::now();
+        let problem = measured.then(|| {
+            system
+                .problem_with_b(out.last.b.clone(), DelassusForm::Factored)
+                .map_err(|e| e.to_string())
+        });
+        let sweep = BodySweep {
+            f: out.last.f.clone(),
+            warm: Vec::new(),
+            iterations: out.iterations,
+            stopped: false,
+            stalled: None,
+            timed_out: out.timed_out,
+        };
+        let (status, residuals) = match &problem {
+            Some(Ok(p)) => {
+                let mut w = vec![0.0; p.n()];
+                let r = residuals_and_velocity(p, &out.last.f, &mut w);
+                let status = substep_status(name, &out, &r, &settings);
+                let status = match status {
+                    Status::Converged => {
+                        judge(p, &out.last.f, &w, &r, Outcome::Stopped, settings.tolerance).0
+                    }
+                    s => s,
+                };
+                (status, Some(r))
+            }
+            Some(Err(e)) => (body_status(name, &sweep, None, Some(e), &settings), None),
+            None => (body_status(name, &sweep, None, None, &settings), None),
+        };
+        let measure_s = t_measure.elapsed().as_secs_f64();
+        Solved {
+            f: out.f_step,
+            status,
+            iterations: out.iterations,
+            time_s: own_s,
+            wall_s: 0.0,
+            assembly_s: 0.0,
+            measure_s,
+            residuals,
+            problem: problem.and_then(Result::ok),
+            cone_problem: None,
+            history: Vec::new(),
+            warm_start: None,
+            substepped: Some(Substepped {
+                state: out.state,
+                residual_of: out.last.what,
+                cost: out.cost,
+                substeps: out.substeps,
+            }),
+        }
+    }
+}
+
+/// The status of a substepping solver's step from the residual `r` of its last solve on that
+/// solve's LCP: a non-finite impulse or residual is a numerical failure; otherwise `converged`
+/// when the residual meets the tolerance, else a time limit, or for a solver of a soft model a
+/// stall that names the model, or the iteration limit (these solvers run a set number of
+/// iterations per substep).
+fn substep_status(
+    name: &str,
+    out: &crate::substep::SubstepOutcome,
+    r: &Residuals,
+    settings: &Settings,
+) -> Status {
+    if let Some(reason) = non_finite_reason(&out.last.f, "impulse", "f") {
+        return Status::NumericalFailure { reason };
+    }
+    let rel = r.natural_map_rel;
+    if !rel.is_finite() {
+        return Status::NumericalFailure {
+            reason: format!("the residual of the last solve's LCP is not finite ({rel})"),
+        };
+    }
+    let soft = crate::BodySolverKind::from_name(name).and_then(crate::BodySolverKind::relaxation);
+    let outcome = if out.timed_out {
+        Outcome::TimeLimit
+    } else if let Some(soft) = soft {
+        Outcome::Stalled(format!(
+            "{name} solves {soft}: its last solve ({}) is at relative residual {rel:.3e} > \
+             tolerance {:.1e} on that solve's LCP",
+            out.last.what, settings.tolerance
+        ))
+    } else {
+        Outcome::IterationLimit
+    };
+    decide(outcome, rel, settings.tolerance)
 }
