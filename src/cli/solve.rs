@@ -556,6 +556,25 @@ pub fn solvers_table() -> String {
         out.push_str(&line(row.each_ref().map(String::as_str)));
         out.push('\n');
     }
+    let with_params: Vec<_> = catalogue()
+        .into_iter()
+        .filter(|e| !e.params.is_empty())
+        .collect();
+    if !with_params.is_empty() {
+        out.push_str(
+            "\nparameters (NAME@key=value,... on --solver, in a scene's solver field and in \
+             sweeps; sor takes sor@OMEGA):\n",
+        );
+        for e in with_params {
+            out.push_str(&format!("{}\n", e.name));
+            for p in e.params {
+                out.push_str(&format!(
+                    "  {:<18} default {:<8} in [{}, {}]  {}\n",
+                    p.key, p.default, p.min, p.max, p.doc
+                ));
+            }
+        }
+    }
     out
 }
 

@@ -2,6 +2,7 @@
 //! applies (what `lcpbench solvers` lists).
 
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::substep::ParamSpec;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 
 /// The level a solver works at.
@@ -37,6 +38,8 @@ pub struct CatalogueEntry {
     pub problem_classes: &'static str,
     /// Whether `+warm` applies.
     pub iterative: bool,
+    /// Its parameters (`name@key=value,…`) with defaults and ranges; empty for most.
+    pub params: &'static [ParamSpec],
 }
 
 /// Every solver, matrix solvers first, then the body-level and the cone solvers (the order of
@@ -47,18 +50,21 @@ pub fn catalogue() -> Vec<CatalogueEntry> {
         level: SolverLevel::Matrix,
         problem_classes: k.problem_classes(),
         iterative: k.is_iterative(),
+        params: &[],
     });
     let body = BodySolverKind::ALL.into_iter().map(|k| CatalogueEntry {
         name: k.name(),
         level: SolverLevel::Body,
         problem_classes: k.problem_classes(),
         iterative: k.is_iterative(),
+        params: k.param_specs(),
     });
     let cone = ConeSolverKind::ALL.into_iter().map(|k| CatalogueEntry {
         name: k.name(),
         level: SolverLevel::Cone,
         problem_classes: k.problem_classes(),
         iterative: k.is_iterative(),
+        params: &[],
     });
     matrix.chain(body).chain(cone).collect()
 }
