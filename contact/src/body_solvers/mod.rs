@@ -76,15 +76,21 @@ pub enum BodySolverKind {
     Penalty,
     /// One averaged impulse per body pair.
     AveragedImpulse,
+    /// Substeps with soft contacts and joints, relax and restitution passes (Box2D v3).
+    SoftStep,
+    /// Temporal Gauss–Seidel: substeps with Baumgarte bias, rigid rows, no relax.
+    Tgs,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 4] = [
+    pub const ALL: [BodySolverKind; 6] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
         BodySolverKind::AveragedImpulse,
+        BodySolverKind::SoftStep,
+        BodySolverKind::Tgs,
     ];
 
     /// Name used on the command line and in scene files.
@@ -94,6 +100,8 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => "body-micro",
             BodySolverKind::Penalty => "penalty",
             BodySolverKind::AveragedImpulse => "avg",
+            BodySolverKind::SoftStep => "soft-step",
+            BodySolverKind::Tgs => "tgs",
         }
     }
 
@@ -115,6 +123,14 @@ impl BodySolverKind {
                 "averaged impulses: one contact per body pair at the averaged point and normal, \
                  swept as si"
             }
+            BodySolverKind::SoftStep => {
+                "soft step (Box2D v3): substeps with soft contacts and joints, a rigid relax pass \
+                 and a restitution pass"
+            }
+            BodySolverKind::Tgs => {
+                "temporal Gauss-Seidel (PhysX TGS, Rapier): substeps of rigid sweeps with \
+                 Baumgarte bias, no relax"
+            }
         }
     }
 
@@ -133,16 +149,25 @@ impl BodySolverKind {
                 "a soft spring-damper penalty model (forces from penetration depth and closing \
                  speed, one Jacobi pass), not the rigid LCP",
             ),
+            BodySolverKind::SoftStep => Some(
+                "soft contacts and joints: damped springs of `hertz`, `zeta` (contacts) and \
+                 `joint_hertz`, `joint_zeta` (joints) per substep, which stretch under load and \
+                 let contacts sink, not the rigid LCP (its last solve, the relax pass, is rigid)",
+            ),
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
-            | BodySolverKind::AveragedImpulse => None,
+            | BodySolverKind::AveragedImpulse
+            | BodySolverKind::Tgs => None,
         }
     }
 
     /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
     /// them as engines do; the others resolve contacts only.
     pub fn takes_joints(self) -> bool {
-        matches!(self, BodySolverKind::SequentialImpulses)
+        matches!(
+            self,
+            BodySolverKind::SequentialImpulses | BodySolverKind::SoftStep | BodySolverKind::Tgs
+        )
     }
 
     /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
@@ -168,6 +193,16 @@ impl BodySolverKind {
                  warm-startable; exact only for convex single-normal contact regions: separated \
                  supports, off-centre loads and non-convex meshes tilt or sink"
             }
+            BodySolverKind::SoftStep => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of one soft sweep and one rigid relax sweep, warm-started from substep \
+                 to substep: a soft model (contacts sink, joints stretch under load)"
+            }
+            BodySolverKind::Tgs => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of rigid Gauss-Seidel sweeps with Baumgarte bias, warm-started from \
+                 substep to substep; pushes out of penetration with some energy gain"
+            }
         }
     }
 
@@ -181,6 +216,8 @@ impl BodySolverKind {
     /// set in the scene's `[penalty]` table).
     pub const fn param_specs(self) -> &'static [ParamSpec] {
         match self {
+            BodySolverKind::SoftStep => crate::substep::soft_step::SOFT_STEP_PARAMS,
+            BodySolverKind::Tgs => crate::substep::tgs::TGS_PARAMS,
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
@@ -192,6 +229,7 @@ impl BodySolverKind {
     /// ([`BodySolver::advance`]).
     pub fn substeps(self) -> bool {
         match self {
+            BodySolverKind::SoftStep | BodySolverKind::Tgs => true,
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
@@ -201,8 +239,14 @@ impl BodySolverKind {
 
     /// The solver with the parameters `params` (which follow [`BodySolverKind::param_specs`]).
     pub fn create_with(self, params: Params) -> Box<dyn BodySolver + Send> {
-        let _ = params;
-        self.create()
+        match self {
+            BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::new(params)),
+            BodySolverKind::Tgs => Box::new(crate::substep::Tgs::new(params)),
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::Penalty
+            | BodySolverKind::AveragedImpulse => self.create(),
+        }
     }
 
     /// The solver of a specification `name` or `name@key=value,…`, its parameters checked
@@ -226,6 +270,8 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
             BodySolverKind::Penalty => Box::new(Penalty::default()),
             BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
+            BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::default()),
+            BodySolverKind::Tgs => Box::new(crate::substep::Tgs::default()),
         }
     }
 }

@@ -29,12 +29,16 @@
 //! of the whole step; the stepper always takes [`crate::BodySolver::advance`].
 
 pub mod params;
+pub mod soft_step;
 pub mod softness;
 pub mod state;
+pub mod tgs;
 
 pub use params::{ParamSpec, Params};
+pub use soft_step::SoftStep;
 pub use softness::Softness;
 pub use state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
+pub use tgs::Tgs;
 
 use crate::builder::ContactSystem;
 use lcpbench_solvers::Settings;

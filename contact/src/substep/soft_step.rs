@@ -1,0 +1,646 @@
+//! `soft-step`: substeps with soft contacts and joints, a relax pass and a restitution pass
+//! (Box2D v3's soft step, Catto, "Solver2D", 2024; Rapier's TGS-soft is the same scheme).
+//!
+//! Source: Box2D v3.1 (`src/solver.c`: `b2SolverStep` and its stages
+//! `b2_stageIntegrateVelocities`, `b2_stageWarmStart`, `b2_stageSolve`,
+//! `b2_stageIntegratePositions`, `b2_stageRelax`, `b2_stageRestitution`,
+//! `b2_stageStoreImpulses`; `src/contact_solver.c`: `b2PrepareOverflowContacts`,
+//! `b2WarmStartOverflowContacts`, `b2SolveOverflowContacts`, `b2ApplyOverflowRestitution`;
+//! `src/world.c`: `b2World_Step`, which makes the softness of the substep; joints in
+//! `src/joint.c`, `b2SolveJoint`, with `useBias`). The code here is lcpbench's own, on the rows
+//! of [`SolverState`].
+//!
+//! # The loop
+//!
+//! With `h = dt / substeps`, for each substep:
+//!
+//! 1. integrate velocities: `v += h g` (dynamic bodies);
+//! 2. warm start: apply every row's accumulated impulse `λ` (from the previous substep; the
+//!    first substep from the previous step's stored impulses, `settings.warm_start`);
+//! 3. solve with bias, `iterations` sweeps, joint rows first, then each contact's normal row
+//!    and its friction rows. A row's position error `s = C₀ + J Δx` (its gap for a normal
+//!    row) gives the velocity bias:
+//!    * normal row, `s > 0` (a speculative contact, still apart): `bias = s / h`, rigid
+//!      (`mass_scale = 1`, `impulse_scale = 0`): the contact may close the gap in the
+//!      substep, no more;
+//!    * normal row, `s ≤ 0`: the soft contact of [`Softness::new`]`(hertz, zeta, h)`,
+//!      `bias = max(bias_rate · s, −push_out)`; a contact with a static body takes
+//!      `static_scale · hertz`;
+//!    * joint row: the soft joint of `(joint_hertz, joint_zeta)`, `bias = bias_rate · C`;
+//!    * friction row: rigid, no bias, the accumulated impulse clamped to `±μ λ_n` of its
+//!      normal row.
+//!
+//!    The impulse of a row is `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`
+//!    (`m = 1 / (J M⁻¹ Jᵀ)`), clamped on the accumulated impulse (`λ ≥ 0` for normal rows);
+//! 4. integrate positions: `Δx += h v`;
+//! 5. relax, `relax_iterations` sweeps in the same order with the rigid rows
+//!    ([`Softness::RIGID`]) and no position bias but the speculative `s / h` of an open
+//!    contact: it takes out the velocity the soft bias added (Box2D's `useBias = false`).
+//!
+//! After the substeps, one restitution pass: a normal row with restitution `e > 0` whose
+//! normal velocity at the step's start (before gravity) was `approach < −threshold`
+//! ([`crate::builder::ContactSystem::restitution_threshold`]) and that carried a positive
+//! accumulated impulse in some solve of the step gets `Δλ = −m (J v + e · approach)`, the
+//! accumulated impulse clamped `≥ 0` (`b2ApplyOverflowRestitution`). The impulses then stored
+//! for the next step's warm start are the accumulated ones of the last substep, restitution
+//! included (`b2_stageStoreImpulses`).
+//!
+//! Box2D lowers the stiffness for large substeps (`b2World_Step`): the contact hertz is at
+//! most a quarter of the substep rate and the joint hertz at most an eighth; this solver does
+//! the same (`hertz ≤ 0.25 / h`, `joint_hertz ≤ 0.125 / h`, before `static_scale`).
+//!
+//! # Parameters (`soft-step@key=value,…`)
+//!
+//! | key | default | source |
+//! | --- | --- | --- |
+//! | `substeps` | 4 | Box2D v3 `b2WorldDef` sample default `subStepCount = 4` |
+//! | `iterations` | 1 | Box2D v3: one biased sweep per substep (`ITERATIONS`) |
+//! | `relax_iterations` | 1 | Box2D v3: one relax sweep per substep (`RELAX_ITERATIONS`) |
+//! | `hertz` | 30 | `b2DefaultWorldDef`: `contactHertz` |
+//! | `zeta` | 10 | `b2DefaultWorldDef`: `contactDampingRatio` |
+//! | `static_scale` | 2 | `b2World_Step`: `staticSoftness = b2MakeSoft(2 · contactHertz, …)` |
+//! | `joint_hertz` | 60 | `b2DefaultWorldDef`: `jointHertz` |
+//! | `joint_zeta` | 2 | `b2DefaultWorldDef`: `jointDampingRatio` (v3.0, v3.1) |
+//! | `push_out` | 3 m/s | `b2DefaultWorldDef`: `contactPushMaxVelocity` (`maxContactPushSpeed`) |
+//!
+//! `hertz = 0` makes the contacts rigid with no position feedback (only the speculative bias);
+//! `joint_hertz = 0` the joints likewise.
+//!
+//! # What it does not solve
+//!
+//! It does not solve the step's LCP: its contacts and joints are damped springs (a soft joint
+//! of stiffness `m ω²` carrying a load `F` stretches by `F / (m ω²)` at rest, a soft contact
+//! sinks likewise until the push-out bias holds it), its friction is the box model swept once
+//! per pass, and one relax sweep per substep leaves whatever Gauss–Seidel residual one sweep
+//! leaves. [`crate::BodySolverKind::relaxation`] says so, and the stepper measures the shared
+//! residual of the **last solve**: the relax pass of the last substep, a rigid pass on the
+//! LCP `w = A λ + b`, `b = J v` (the velocities after that substep's velocity integration,
+//! before its warm start) `+` the speculative bias `max(s, 0) / h`, `λ` the substep's
+//! accumulated impulse after the pass (the pass sweeps on `λ`, so its LCP is the substep's
+//! whole impulse, not the pass's increment). `w` is then the post-relax normal velocity plus
+//! the speculative bias. The restitution pass after it is not part of that LCP.
+//!
+//! # Cost
+//!
+//! Per substep: two body passes (velocity and position integration) and, per sweep, one row
+//! update for each swept row; the warm start counts one row update per row it applies. The
+//! workspace (impulses, per-row bias and softness, saved velocities) is allocated once per
+//! step; the substep loop allocates nothing.
+
+use super::params::{ParamSpec, Params};
+use super::softness::{self, Softness};
+use super::state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
+use super::{LastSolve, SubstepInput, SubstepOutcome};
+use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
+use crate::builder::ContactSystem;
+use lcpbench_solvers::Settings;
+use nalgebra::Vector3;
+use std::time::Instant;
+
+/// The parameters of `soft-step`, with Box2D v3's defaults.
+pub const SOFT_STEP_PARAMS: &[ParamSpec] = &[
+    ParamSpec::count("substeps", 4, 1, 1024, "substeps per step"),
+    ParamSpec::count("iterations", 1, 1, 1000, "biased (soft) sweeps per substep"),
+    ParamSpec::count(
+        "relax_iterations",
+        1,
+        0,
+        1000,
+        "rigid sweeps without position bias per substep, after the position update",
+    ),
+    ParamSpec::real(
+        "hertz",
+        softness::CONTACT_HERTZ,
+        0.0,
+        1e6,
+        "contact stiffness, Hz (0: rigid, no position feedback)",
+    ),
+    ParamSpec::real(
+        "zeta",
+        softness::CONTACT_ZETA,
+        0.0,
+        1e6,
+        "contact damping ratio",
+    ),
+    ParamSpec::real(
+        "static_scale",
+        2.0,
+        0.0,
+        1e3,
+        "stiffness factor of contacts with a static body",
+    ),
+    ParamSpec::real(
+        "joint_hertz",
+        softness::JOINT_HERTZ,
+        0.0,
+        1e6,
+        "joint stiffness, Hz (0: rigid, no position feedback)",
+    ),
+    ParamSpec::real(
+        "joint_zeta",
+        softness::JOINT_ZETA,
+        0.0,
+        1e6,
+        "joint damping ratio",
+    ),
+    ParamSpec::real(
+        "push_out",
+        softness::PUSH_OUT,
+        0.0,
+        1e6,
+        "largest separating speed the contact position bias asks for, m/s",
+    ),
+];
+
+/// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoftStep {
+    params: Params,
+}
+
+impl SoftStep {
+    /// The solver with `params` (which follow [`SOFT_STEP_PARAMS`]).
+    pub fn new(params: Params) -> Self {
+        Self { params }
+    }
+
+    /// The scheme the parameters describe over a step of `dt`.
+    fn scheme(&self) -> Scheme {
+        let p = &self.params;
+        Scheme {
+            substeps: p.count("substeps"),
+            iterations: p.count("iterations"),
+            relax_iterations: p.count("relax_iterations"),
+            bias: BiasRule::Soft {
+                hertz: p.get("hertz"),
+                zeta: p.get("zeta"),
+                static_scale: p.get("static_scale"),
+                joint_hertz: p.get("joint_hertz"),
+                joint_zeta: p.get("joint_zeta"),
+                push_out: p.get("push_out"),
+                box2d_caps: true,
+            },
+        }
+    }
+}
+
+impl Default for SoftStep {
+    fn default() -> Self {
+        Self::new(Params::defaults(SOFT_STEP_PARAMS))
+    }
+}
+
+impl BodySolver for SoftStep {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::SoftStep
+    }
+
+    fn params(&self) -> Params {
+        self.params
+    }
+
+    fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
+        Some(run(input, &self.scheme()))
+    }
+
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
+        sweep_alone(system, settings, &self.scheme())
+    }
+}
+
+/// How the biased solve turns a row's position error into a velocity bias.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum BiasRule {
+    /// Soft contacts and joints ([`Softness::new`] per substep).
+    Soft {
+        /// Contact stiffness, Hz.
+        hertz: f64,
+        /// Contact damping ratio.
+        zeta: f64,
+        /// Stiffness factor of a contact with a static body.
+        static_scale: f64,
+        /// Joint stiffness, Hz.
+        joint_hertz: f64,
+        /// Joint damping ratio.
+        joint_zeta: f64,
+        /// Largest push-out speed of the contact bias, m/s.
+        push_out: f64,
+        /// Lower the stiffness as Box2D's `b2World_Step` does for large substeps
+        /// (contacts ≤ 0.25 / h, joints ≤ 0.125 / h).
+        box2d_caps: bool,
+    },
+    /// Baumgarte stabilisation on rigid rows: `bias = (β / h) min(0, s + slop)` on a normal
+    /// row in contact, `(β / h) C` on a joint row.
+    Baumgarte {
+        /// `β`.
+        beta: f64,
+        /// Penetration left uncorrected, m.
+        slop: f64,
+    },
+}
+
+/// One substepping scheme: the loop of this module with a bias rule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Scheme {
+    /// Substeps per step.
+    pub(crate) substeps: usize,
+    /// Biased sweeps per substep.
+    pub(crate) iterations: usize,
+    /// Relax sweeps per substep (0: none).
+    pub(crate) relax_iterations: usize,
+    /// The biased solve's rule.
+    pub(crate) bias: BiasRule,
+}
+
+/// The softness of each kind of row over a substep `h` (rigid for Baumgarte).
+#[derive(Debug, Clone, Copy)]
+struct Coefficients {
+    contact: Softness,
+    static_contact: Softness,
+    joint: Softness,
+    /// Lower bound of a contact's position bias (−push-out speed).
+    min_bias: f64,
+    /// Baumgarte `(β / h, slop)` instead of the soft contact rule.
+    baumgarte: Option<(f64, f64)>,
+}
+
+impl Coefficients {
+    fn new(rule: &BiasRule, h: f64) -> Self {
+        match *rule {
+            BiasRule::Soft {
+                hertz,
+                zeta,
+                static_scale,
+                joint_hertz,
+                joint_zeta,
+                push_out,
+                box2d_caps,
+            } => {
+                let (hertz, joint_hertz) = if box2d_caps {
+                    (hertz.min(0.25 / h), joint_hertz.min(0.125 / h))
+                } else {
+                    (hertz, joint_hertz)
+                };
+                Coefficients {
+                    contact: Softness::new(hertz, zeta, h),
+                    static_contact: Softness::new(static_scale * hertz, zeta, h),
+                    joint: Softness::new(joint_hertz, joint_zeta, h),
+                    min_bias: -push_out,
+                    baumgarte: None,
+                }
+            }
+            BiasRule::Baumgarte { beta, slop } => {
+                let b = Softness::baumgarte(beta, h);
+                Coefficients {
+                    contact: b,
+                    static_contact: b,
+                    joint: b,
+                    min_bias: f64::NEG_INFINITY,
+                    baumgarte: Some((b.bias_rate, slop)),
+                }
+            }
+        }
+    }
+}
+
+/// A row's coefficients for one pass: `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`.
+#[derive(Debug, Clone, Copy, Default)]
+struct RowCoefficients {
+    bias: f64,
+    mass_scale: f64,
+    impulse_scale: f64,
+}
+
+const RIGID_ROW: RowCoefficients = RowCoefficients {
+    bias: 0.0,
+    mass_scale: 1.0,
+    impulse_scale: 0.0,
+};
+
+/// True when the row's only dynamic body is on one side (the other is static or the world).
+fn touches_static(row: &SolverRow, bodies: &[SolverBody]) -> bool {
+    row.sides < 2
+        || row.blocks[..row.sides as usize]
+            .iter()
+            .any(|b| bodies[b.body].is_static())
+}
+
+/// The biased pass's coefficients of every row, from the position errors now.
+fn biased_coefficients(
+    state: &SolverState,
+    c: &Coefficients,
+    inv_h: f64,
+    out: &mut [RowCoefficients],
+) {
+    for (row, o) in state.rows.iter().zip(out.iter_mut()) {
+        *o = match row.role {
+            RowRole::Normal(_) => {
+                let s = row.position_error(&state.bodies);
+                if s > 0.0 {
+                    RowCoefficients {
+                        bias: s * inv_h,
+                        ..RIGID_ROW
+                    }
+                } else if let Some((rate, slop)) = c.baumgarte {
+                    RowCoefficients {
+                        bias: rate * (s + slop).min(0.0),
+                        ..RIGID_ROW
+                    }
+                } else {
+                    let soft = if touches_static(row, &state.bodies) {
+                        c.static_contact
+                    } else {
+                        c.contact
+                    };
+                    RowCoefficients {
+                        bias: (soft.bias_rate * s).max(c.min_bias),
+                        mass_scale: soft.mass_scale,
+                        impulse_scale: soft.impulse_scale,
+                    }
+                }
+            }
+            RowRole::Joint => RowCoefficients {
+                bias: c.joint.bias_rate * row.position_error(&state.bodies),
+                mass_scale: c.joint.mass_scale,
+                impulse_scale: c.joint.impulse_scale,
+            },
+            RowRole::Friction { .. } | RowRole::Other => RIGID_ROW,
+        };
+    }
+}
+
+/// The relax pass's coefficients: rigid rows, only the speculative bias of an open contact.
+fn relax_coefficients(state: &SolverState, inv_h: f64, out: &mut [RowCoefficients]) {
+    for (row, o) in state.rows.iter().zip(out.iter_mut()) {
+        *o = match row.role {
+            RowRole::Normal(_) => RowCoefficients {
+                bias: row.position_error(&state.bodies).max(0.0) * inv_h,
+                ..RIGID_ROW
+            },
+            _ => RIGID_ROW,
+        };
+    }
+}
+
+/// The rows a sweep visits, in order: joint rows first, then each contact's normal row and
+/// its friction rows (the system's order). Rows no dynamic body moves and pyramid rows are
+/// skipped.
+fn sweep_order(system: &ContactSystem, state: &SolverState) -> Vec<usize> {
+    let joints = system.joint_rows_start().min(state.rows.len());
+    (joints..state.rows.len())
+        .chain(0..joints)
+        .filter(|&i| {
+            let r = &state.rows[i];
+            r.mass > 0.0 && r.role != RowRole::Other
+        })
+        .collect()
+}
+
+/// One Gauss–Seidel sweep over `order` with the coefficients `k`, on the accumulated impulses
+/// `lambda`. Marks in `hit` the normal rows left with a positive impulse.
+fn sweep_rows(
+    state: &mut SolverState,
+    order: &[usize],
+    k: &[RowCoefficients],
+    lambda: &mut [f64],
+    hit: &mut [bool],
+) {
+    let SolverState { bodies, rows } = state;
+    for &i in order {
+        let row = &rows[i];
+        let c = k[i];
+        let vn = row.rate(bodies);
+        let d = -row.mass * c.mass_scale * (vn + c.bias) - c.impulse_scale * lambda[i];
+        let new = match row.role {
+            RowRole::Normal(_) => (lambda[i] + d).max(0.0),
+            RowRole::Friction { normal } => {
+                let bound = row.mu * lambda[normal];
+                (lambda[i] + d).clamp(-bound, bound)
+            }
+            RowRole::Joint => lambda[i] + d,
+            RowRole::Other => lambda[i],
+        };
+        let applied = new - lambda[i];
+        if applied != 0.0 && applied.is_finite() {
+            row.apply(applied, bodies);
+            lambda[i] = new;
+        }
+        if matches!(row.role, RowRole::Normal(_)) && lambda[i] > 0.0 {
+            hit[i] = true;
+        }
+    }
+}
+
+/// The warm start of the step: the stored impulses projected onto the rows' bounds (normal
+/// `≥ 0`, friction within `±μ λ_n`), zero where none is stored.
+fn initial_impulses(state: &SolverState, warm: Option<&[f64]>, lambda: &mut [f64]) {
+    let warm = warm.unwrap_or(&[]);
+    for (i, row) in state.rows.iter().enumerate() {
+        let w = warm
+            .get(i)
+            .copied()
+            .filter(|v| v.is_finite())
+            .unwrap_or(0.0);
+        lambda[i] = match row.role {
+            _ if row.mass <= 0.0 => 0.0,
+            RowRole::Normal(_) => w.max(0.0),
+            RowRole::Joint => w,
+            RowRole::Friction { .. } | RowRole::Other => 0.0,
+        };
+    }
+    for (i, row) in state.rows.iter().enumerate() {
+        if let RowRole::Friction { normal } = row.role {
+            if row.mass > 0.0 {
+                let w = warm
+                    .get(i)
+                    .copied()
+                    .filter(|v| v.is_finite())
+                    .unwrap_or(0.0);
+                let bound = row.mu * lambda[normal];
+                lambda[i] = w.clamp(-bound, bound);
+            }
+        }
+    }
+}
+
+/// Run the scheme over the step of `input`.
+pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
+    let system = input.system;
+    let settings = input.settings;
+    let deadline = settings.time_budget.map(|b| Instant::now() + b);
+    let mut state = SolverState::new(system, &input.gravity);
+    let n = state.rows.len();
+    let substeps = scheme.substeps.max(1);
+    let h = system.h / substeps as f64;
+    let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
+    let coefficients = Coefficients::new(&scheme.bias, h);
+
+    // The step's workspace, allocated once.
+    let order = sweep_order(system, &state);
+    let mut lambda = vec![0.0; n];
+    initial_impulses(&state, settings.warm_start.as_deref(), &mut lambda);
+    let mut f_step = vec![0.0; n];
+    let mut k = vec![RowCoefficients::default(); n];
+    let mut hit = vec![false; n];
+    // Velocities at the start of the last substep that solved (after its velocity
+    // integration, before its warm start): the last solve's `b` is `J` of them plus its bias.
+    let mut saved: Vec<(Vector3<f64>, Vector3<f64>)> =
+        state.bodies.iter().map(|b| (b.v, b.w)).collect();
+    let mut last_solve: Option<(usize, &'static str)> = None;
+
+    let mut cost = StepCost::default();
+    let mut sweeps = 0usize;
+    let mut timed_out = false;
+    let mut solving = true;
+    let per_pass = order.len() as u64;
+
+    for step in 0..substeps {
+        state.integrate_velocities(&input.gravity, h);
+        cost.body_passes += 1;
+        if solving && sweeps >= settings.max_iterations {
+            solving = false;
+        }
+        if solving {
+            for (s, b) in saved.iter_mut().zip(&state.bodies) {
+                *s = (b.v, b.w);
+            }
+            // Warm start: the accumulated impulses of the previous substep.
+            for &i in &order {
+                if lambda[i] != 0.0 {
+                    state.rows[i].apply(lambda[i], &mut state.bodies);
+                }
+            }
+            cost.row_updates += per_pass;
+            // Biased solve.
+            biased_coefficients(&state, &coefficients, inv_h, &mut k);
+            let mut passes = 0;
+            while passes < scheme.iterations && sweeps < settings.max_iterations {
+                sweep_rows(&mut state, &order, &k, &mut lambda, &mut hit);
+                passes += 1;
+                sweeps += 1;
+                cost.row_updates += per_pass;
+                last_solve = Some((step, "biased solve"));
+            }
+        }
+        state.integrate_positions(h);
+        cost.body_passes += 1;
+        if solving && scheme.relax_iterations > 0 && sweeps < settings.max_iterations {
+            relax_coefficients(&state, inv_h, &mut k);
+            let mut passes = 0;
+            while passes < scheme.relax_iterations && sweeps < settings.max_iterations {
+                sweep_rows(&mut state, &order, &k, &mut lambda, &mut hit);
+                passes += 1;
+                sweeps += 1;
+                cost.row_updates += per_pass;
+                last_solve = Some((step, "relax pass"));
+            }
+        }
+        if solving {
+            for (f, l) in f_step.iter_mut().zip(&lambda) {
+                *f += l;
+            }
+        }
+        if solving && step + 1 < substeps && deadline.is_some_and(|d| Instant::now() >= d) {
+            timed_out = true;
+            solving = false;
+        }
+    }
+
+    // The last solve's LCP, before the restitution pass changes the impulses.
+    let last = match last_solve {
+        Some((step, pass)) => {
+            let b = state
+                .rows
+                .iter()
+                .zip(&k)
+                .map(|(row, c)| {
+                    let mut r = 0.0;
+                    for blk in &row.blocks[..row.sides as usize] {
+                        let (v, w) = &saved[blk.body];
+                        r += blk.linear.dot(v) + blk.angular.dot(w);
+                    }
+                    r + c.bias
+                })
+                .collect();
+            let soft = pass == "biased solve" && matches!(scheme.bias, BiasRule::Soft { .. });
+            LastSolve {
+                f: lambda.clone(),
+                b,
+                what: format!(
+                    "{pass}{} of substep {} of {substeps}",
+                    if soft { " (soft rows)" } else { "" },
+                    step + 1
+                ),
+            }
+        }
+        None => LastSolve {
+            f: vec![0.0; n],
+            b: state.rates(),
+            what: "no solve: the step's final velocities with zero impulse".to_owned(),
+        },
+    };
+
+    // Restitution: Newton's law on the contacts that closed fast and were hit this step.
+    let threshold = system.restitution_threshold;
+    let mut bounced = false;
+    if last_solve.is_some() {
+        for &i in &order {
+            let row = &state.rows[i];
+            if !matches!(row.role, RowRole::Normal(_))
+                || row.restitution <= 0.0
+                || row.approach >= -threshold
+                || !hit[i]
+            {
+                continue;
+            }
+            let vn = row.rate(&state.bodies);
+            let d = -row.mass * (vn + row.restitution * row.approach);
+            let new = (lambda[i] + d).max(0.0);
+            let applied = new - lambda[i];
+            if applied != 0.0 && applied.is_finite() {
+                row.apply(applied, &mut state.bodies);
+                lambda[i] = new;
+                f_step[i] += applied;
+            }
+            cost.row_updates += 1;
+            bounced = true;
+        }
+    }
+    if bounced {
+        sweeps += 1;
+    }
+
+    SubstepOutcome {
+        state,
+        f_step,
+        warm: lambda,
+        last,
+        iterations: sweeps,
+        substeps,
+        cost,
+        timed_out,
+    }
+}
+
+/// A substepping scheme on a system alone (no world): the system's free velocities already
+/// hold gravity, so the scheme runs with none; the impulse is the whole step's.
+pub(crate) fn sweep_alone(
+    system: &ContactSystem,
+    settings: &Settings,
+    scheme: &Scheme,
+) -> BodySweep {
+    let input = SubstepInput {
+        system,
+        gravity: Vector3::zeros(),
+        settings,
+    };
+    let out = run(&input, scheme);
+    BodySweep {
+        f: out.f_step,
+        warm: out.warm,
+        iterations: out.iterations,
+        stopped: false,
+        stalled: None,
+        timed_out: out.timed_out,
+    }
+}

@@ -1,0 +1,144 @@
+//! `tgs`: temporal Gauss–Seidel, substeps with rigid rows and Baumgarte bias, no relax pass.
+//!
+//! Source: the TGS solver of PhysX 4 (NVIDIA PhysX 4.0 SDK guide, "Rigid Body Dynamics:
+//! Temporal Gauss-Seidel"; Macklin et al., "Small Steps in Physics Simulation", SCA 2019, for
+//! why many substeps of one sweep beat one step of many sweeps) and Rapier's substepping
+//! velocity solver (`dynamics/solver/velocity_solver.rs`, `solve_constraints` with
+//! `num_substeps`). It is the loop of [`super::soft_step`] (same stages, same row order, same
+//! warm start from substep to substep, same restitution pass) with a different bias and
+//! without the relax pass:
+//!
+//! With `h = dt / substeps`, for each substep: integrate velocities (`v += h g`), warm start
+//! (apply the accumulated impulses), `iterations` projected Gauss–Seidel sweeps (joint rows
+//! first, then each contact's normal and friction rows) with the bias
+//!
+//! * normal row, gap `s > 0` (speculative): `bias = s / h`;
+//! * normal row, `s ≤ 0`: `bias = (β / h) · min(0, s + slop)` (Baumgarte with a slop);
+//! * joint row: `bias = (β / h) · C`;
+//! * friction row: none, the impulse within `±μ λ_n`;
+//!
+//! every row rigid (`Δλ = −m (J v + bias)`, accumulated impulse clamped), then integrate
+//! positions (`Δx += h v`). After the substeps, the restitution pass of `soft-step` (Newton's
+//! law `J v = −e · approach` on the contacts that closed faster than the threshold and were
+//! hit in the step; Box2D's `b2ApplyOverflowRestitution`), not a restitution term in the bias.
+//!
+//! `hertz > 0` makes the rows soft instead (the soft contact and joint rule of `soft-step`
+//! with `hertz`, `zeta` for contacts and joints alike, push-out 3 m/s, no static scale and no
+//! cap on the hertz): soft constraints as an option of any substepping solver.
+//!
+//! # Parameters (`tgs@key=value,…`)
+//!
+//! | key | default | source |
+//! | --- | --- | --- |
+//! | `substeps` | 4 | PhysX's and Rapier's usual 4 position iterations / substeps |
+//! | `iterations` | 1 | one sweep per substep (Macklin et al. 2019) |
+//! | `baumgarte` | 0.2 | `β`, as lcpbench's step-level Baumgarte correction |
+//! | `slop` | 0.005 m | allowed penetration (Rapier's `allowed_linear_error`, 5 mm) |
+//! | `hertz` | 0 | 0: rigid rows with Baumgarte; `> 0`: soft rows |
+//! | `zeta` | 1 | damping ratio of the soft rows |
+//!
+//! # What it solves
+//!
+//! With `hertz = 0` every sweep is a projected Gauss–Seidel sweep on a rigid LCP: the last
+//! solve (the last sweep of the last substep) works on `w = A λ + b`, `b = J v` (the
+//! velocities after that substep's velocity integration, before its warm start) `+` the bias
+//! above, `λ` the substep's accumulated impulse. The stepper measures the shared residual on
+//! that LCP; one sweep per substep rarely meets a tight tolerance, and the status then says
+//! `iteration_limit`. The Baumgarte bias adds velocity that no relax pass takes out, so
+//! penetrating contacts are pushed out with some energy gain (a box dropped into the ground
+//! pops out), and resting contacts settle at the slop depth. With `hertz > 0` the biased
+//! sweeps are those of a soft model (the step report's `residual_of` says `soft rows`).
+
+use super::params::{ParamSpec, Params};
+use super::soft_step::{run, sweep_alone, BiasRule, Scheme};
+use super::softness::PUSH_OUT;
+use super::{SubstepInput, SubstepOutcome};
+use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
+use crate::builder::ContactSystem;
+use lcpbench_solvers::Settings;
+
+/// The parameters of `tgs`.
+pub const TGS_PARAMS: &[ParamSpec] = &[
+    ParamSpec::count("substeps", 4, 1, 1024, "substeps per step"),
+    ParamSpec::count("iterations", 1, 1, 1000, "sweeps per substep"),
+    ParamSpec::real(
+        "baumgarte",
+        0.2,
+        0.0,
+        1.0,
+        "Baumgarte factor: share of the position error corrected per substep",
+    ),
+    ParamSpec::real("slop", 0.005, 0.0, 1.0, "penetration left uncorrected, m"),
+    ParamSpec::real(
+        "hertz",
+        0.0,
+        0.0,
+        1e6,
+        "0: rigid rows with Baumgarte bias; > 0: soft rows of this stiffness, Hz",
+    ),
+    ParamSpec::real("zeta", 1.0, 0.0, 1e6, "damping ratio of the soft rows"),
+];
+
+/// The `tgs` solver: its parameters ([`TGS_PARAMS`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tgs {
+    params: Params,
+}
+
+impl Tgs {
+    /// The solver with `params` (which follow [`TGS_PARAMS`]).
+    pub fn new(params: Params) -> Self {
+        Self { params }
+    }
+
+    fn scheme(&self) -> Scheme {
+        let p = &self.params;
+        let hertz = p.get("hertz");
+        let bias = if hertz > 0.0 {
+            BiasRule::Soft {
+                hertz,
+                zeta: p.get("zeta"),
+                static_scale: 1.0,
+                joint_hertz: hertz,
+                joint_zeta: p.get("zeta"),
+                push_out: PUSH_OUT,
+                box2d_caps: false,
+            }
+        } else {
+            BiasRule::Baumgarte {
+                beta: p.get("baumgarte"),
+                slop: p.get("slop"),
+            }
+        };
+        Scheme {
+            substeps: p.count("substeps"),
+            iterations: p.count("iterations"),
+            relax_iterations: 0,
+            bias,
+        }
+    }
+}
+
+impl Default for Tgs {
+    fn default() -> Self {
+        Self::new(Params::defaults(TGS_PARAMS))
+    }
+}
+
+impl BodySolver for Tgs {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::Tgs
+    }
+
+    fn params(&self) -> Params {
+        self.params
+    }
+
+    fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
+        Some(run(input, &self.scheme()))
+    }
+
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
+        sweep_alone(system, settings, &self.scheme())
+    }
+}
