@@ -76,15 +76,21 @@ pub enum BodySolverKind {
     Penalty,
     /// One averaged impulse per body pair.
     AveragedImpulse,
+    /// Box2D 2.x: sequential impulses on velocities, nonlinear Gauss–Seidel on positions.
+    PgsNgs,
+    /// Projected Jacobi with mass splitting: every row from the same velocities.
+    Jacobi,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 4] = [
+    pub const ALL: [BodySolverKind; 6] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
         BodySolverKind::AveragedImpulse,
+        BodySolverKind::PgsNgs,
+        BodySolverKind::Jacobi,
     ];
 
     /// Name used on the command line and in scene files.
@@ -94,6 +100,8 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => "body-micro",
             BodySolverKind::Penalty => "penalty",
             BodySolverKind::AveragedImpulse => "avg",
+            BodySolverKind::PgsNgs => "pgs-ngs",
+            BodySolverKind::Jacobi => "jacobi",
         }
     }
 
@@ -114,6 +122,14 @@ impl BodySolverKind {
             BodySolverKind::AveragedImpulse => {
                 "averaged impulses: one contact per body pair at the averaged point and normal, \
                  swept as si"
+            }
+            BodySolverKind::PgsNgs => {
+                "Box2D 2.x step: velocity sweeps of sequential impulses (no position bias), then \
+                 nonlinear Gauss-Seidel position sweeps"
+            }
+            BodySolverKind::Jacobi => {
+                "projected Jacobi: every row's impulse from the same velocities, applied together, \
+                 mass splitting (Tonge et al. 2012), Baumgarte bias"
             }
         }
     }
@@ -136,13 +152,21 @@ impl BodySolverKind {
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => None,
+            // The default is rigid; `hertz > 0` makes the velocity solve soft (said in the
+            // step report's `residual_of`).
+            BodySolverKind::PgsNgs => None,
+            // Relaxed Jacobi has the LCP's solution as its fixed point.
+            BodySolverKind::Jacobi => None,
         }
     }
 
     /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
     /// them as engines do; the others resolve contacts only.
     pub fn takes_joints(self) -> bool {
-        matches!(self, BodySolverKind::SequentialImpulses)
+        matches!(
+            self,
+            BodySolverKind::SequentialImpulses | BodySolverKind::PgsNgs | BodySolverKind::Jacobi
+        )
     }
 
     /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
@@ -168,6 +192,17 @@ impl BodySolverKind {
                  warm-startable; exact only for convex single-normal contact regions: separated \
                  supports, off-centre loads and non-convex meshes tilt or sink"
             }
+            BodySolverKind::PgsNgs => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of velocity sweeps (rarely converged), \
+                 penetration corrected by position sweeps that keep a slop; warm-startable"
+            }
+            BodySolverKind::Jacobi => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of Jacobi sweeps, order-independent and \
+                 parallel, slower per sweep than Gauss-Seidel (mass splitting keeps it \
+                 convergent); warm-startable"
+            }
         }
     }
 
@@ -185,6 +220,8 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => &[],
+            BodySolverKind::PgsNgs => crate::substep::pgs_ngs::PARAMS,
+            BodySolverKind::Jacobi => crate::substep::jacobi::PARAMS,
         }
     }
 
@@ -196,13 +233,18 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => false,
+            BodySolverKind::PgsNgs => true,
+            BodySolverKind::Jacobi => true,
         }
     }
 
     /// The solver with the parameters `params` (which follow [`BodySolverKind::param_specs`]).
     pub fn create_with(self, params: Params) -> Box<dyn BodySolver + Send> {
-        let _ = params;
-        self.create()
+        match self {
+            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::new(params)),
+            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::new(params)),
+            _ => self.create(),
+        }
     }
 
     /// The solver of a specification `name` or `name@key=value,…`, its parameters checked
@@ -226,6 +268,8 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
             BodySolverKind::Penalty => Box::new(Penalty::default()),
             BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
+            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::default()),
+            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::default()),
         }
     }
 }

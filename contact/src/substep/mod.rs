@@ -28,11 +28,16 @@
 //! starts from the system's free velocities, gravity already in them, and returns the impulse
 //! of the whole step; the stepper always takes [`crate::BodySolver::advance`].
 
+pub mod bias;
+pub mod jacobi;
 pub mod params;
+pub mod pgs_ngs;
 pub mod softness;
 pub mod state;
 
+pub use jacobi::Jacobi;
 pub use params::{ParamSpec, Params};
+pub use pgs_ngs::PgsNgs;
 pub use softness::Softness;
 pub use state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
 
