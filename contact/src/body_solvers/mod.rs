@@ -129,7 +129,7 @@ impl BodySolverKind {
             }
             BodySolverKind::Jacobi => {
                 "projected Jacobi: every row's impulse from the same velocities, applied together, \
-                 mass splitting (Tonge et al. 2012), Baumgarte bias"
+                 scaled by |A|'s row sums (or mass splitting) to converge, Baumgarte bias"
             }
         }
     }
@@ -200,8 +200,8 @@ impl BodySolverKind {
             BodySolverKind::Jacobi => {
                 "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
                  the bodies (substeps); a fixed number of Jacobi sweeps, order-independent and \
-                 parallel, slower per sweep than Gauss-Seidel (mass splitting keeps it \
-                 convergent); warm-startable"
+                 parallel, slower per sweep than Gauss-Seidel (its row scaling keeps it \
+                 convergent): stacks sink and jitter at few sweeps; warm-startable"
             }
         }
     }

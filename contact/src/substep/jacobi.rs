@@ -1,8 +1,9 @@
 //! `jacobi`: projected Jacobi on accumulated impulses, the parallel baseline of Catto's solver
 //! comparison (Solver2D, `s2Solve_Jacobi` in `src/solve_jacobi.c`, which is Jacobi across
 //! contacts and Gauss–Seidel within one contact's points; here every row is Jacobi), made
-//! convergent by mass splitting (Tonge, Benevolenski and Voroshilov, "Mass splitting for
-//! jitter-free parallel rigid body simulation", SIGGRAPH 2012).
+//! convergent by a row scaling: the absolute row sums of `A` (default) or mass splitting
+//! (Tonge, Benevolenski and Voroshilov, "Mass splitting for jitter-free parallel rigid body
+//! simulation", SIGGRAPH 2012).
 //!
 //! Each of `substeps` substeps of `h = dt / substeps` runs, in order:
 //!
@@ -14,26 +15,37 @@
 //!    scales, Catto 2011);
 //! 3. **warm start**: apply the accumulated impulses `λ` together (one body pass);
 //! 4. **`iterations` Jacobi sweeps**: from the same velocities `v`, every row's candidate
-//!    `λᵢ* = proj(λᵢ − mᵢ (Jᵢ v + biasᵢ))` (normal `≥ 0`, friction within `±μ λ_n` of the
+//!    `λᵢ* = proj(λᵢ − mᵢ (Jᵢ v + biasᵢ))`, `mᵢ = 1/Dᵢ` of the row scaling below (normal `≥ 0`, friction within `±μ λ_n` of the
 //!    previous sweep's normal impulse, joint unbounded), the increment `Δᵢ = ω (λᵢ* − λᵢ)`, then
 //!    all increments applied together, `v += Σᵢ M⁻¹ Jᵢᵀ Δᵢ` (one body pass per sweep);
 //! 5. **integrate positions**: `Δx += h v` (one body pass).
 //!
-//! **Why mass splitting.** Plain Jacobi (`mᵢ = 1 / Aᵢᵢ`, `ω = 1`) is the iteration
-//! `λ ← proj(λ − D⁻¹ (A λ + b))`, which converges for a symmetric `A` only when `2D − A` is
-//! positive definite; a box resting on four contacts already breaks that (four normal rows
-//! pushing the same body each remove the whole approach speed, so the sweep overshoots by four
-//! and diverges), and stacks diverge. Mass splitting gives each body `b` touched by `n_b` swept
-//! rows the mass `m_b / n_b` in every row it shares:
-//! `mᵢ = 1 / Σ_b n_b Jᵢ_b M_b⁻¹ Jᵢ_bᵀ`. With `D_s = diag(1/mᵢ)`, `A = Σ_b J_b M_b⁻¹ J_bᵀ` and
-//! each body's term a Gram matrix of `n_b` vectors, Cauchy–Schwarz gives
-//! `xᵀ J_b M_b⁻¹ J_bᵀ x ≤ n_b Σᵢ xᵢ² Jᵢ_b M_b⁻¹ Jᵢ_bᵀ`, so `A ≼ D_s` and `2D_s/ω − A ≻ 0` for
-//! every `ω ∈ (0, 2)`: the projected iteration converges (Cottle, Pang and Stone 1992, the
-//! symmetric splitting theorem) whatever the stack. The defaults are `split = 1`, `ω = 1`;
-//! `split = 0` is plain Jacobi, relaxed by `omega` (divergent on stacks at `ω = 1`, kept for
-//! the comparison). A body's count `n_b` is the number of swept rows (normal, friction, joint)
-//! with that body, counted on the whole step's system.
+//! **Why a row scaling.** Plain Jacobi (`mᵢ = 1 / Aᵢᵢ`, `ω = 1`) is the iteration
+//! `λ ← proj(λ − D⁻¹ (A λ + b))` with `D = diag(A)`, which converges for a symmetric `A` only
+//! when `2D − A` is positive definite; a box resting on four contacts already breaks that (four
+//! normal rows pushing the same body each remove the whole approach speed, so a sweep
+//! overshoots) and stacks diverge. Any diagonal `D ≽ A` makes `2D/ω − A ≻ 0` for every
+//! `ω ∈ (0, 2)`, so the projected iteration converges (Cottle, Pang and Stone 1992, the
+//! symmetric splitting theorem) whatever the stack. Two such `D` (`split`):
 //!
+//! * `split = 2` (default), **row sums**: `Dᵢ = Σ_b Σ_j |Jᵢ_b M_b⁻¹ J_j_bᵀ|` over the dynamic
+//!   bodies `b` of row `i` and the swept rows `j` on `b`. `A = Σ_b J_b M_b⁻¹ J_bᵀ`, and each
+//!   body's term `P_b` is dominated by the diagonal of its absolute row sums
+//!   (`diag(Σ_j |P_ij|) − P` is diagonally dominant, hence positive semidefinite), so
+//!   `A ≼ D`. Rows that do not couple (a sphere's normal and friction rows) keep their full
+//!   mass: one sweep solves a lone contact exactly.
+//! * `split = 1`, **mass splitting** (Tonge et al. 2012): each body touched by `n_b` swept rows
+//!   lends each of them the mass `m_b / n_b`: `Dᵢ = Σ_b n_b Jᵢ_b M_b⁻¹ Jᵢ_bᵀ`. Each `P_b` is the
+//!   Gram matrix of `n_b` vectors, and Cauchy–Schwarz gives `xᵀ P_b x ≤ n_b Σᵢ xᵢ² (P_b)ᵢᵢ`,
+//!   so `A ≼ D` too; it counts rows that do not couple as if they did, and is slower.
+//! * `split = 0`: plain Jacobi, relaxed by `omega` (divergent on stacks at `ω = 1`, kept for
+//!   the comparison).
+//!
+//! Convergent is not fast: a sweep moves each row by a share of its own correction, so a body
+//! with many rows (a box in a tower has 24) or a long chain of joints with a mass ratio needs
+//! many more sweeps than Gauss–Seidel, and at a fixed 8 sweeps per step stacks sink and jitter
+//! (Catto's comparison finds the same).
+
 //! **What it solves.** With `hertz = 0` the fixed point of the sweeps is the step's LCP with
 //! the bias above (relaxation and splitting change the path, not the fixed point). The reported
 //! last solve ([`SubstepOutcome::last`]) is the last substep's: `f` its accumulated impulses,
@@ -82,17 +94,18 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
     ParamSpec::count(
         "split",
-        1,
+        2,
         0,
-        1,
-        "1: mass splitting (Tonge et al. 2012, convergent); 0: plain Jacobi",
+        2,
+        "row scaling: 2 row sums of |A| (convergent), 1 mass splitting (Tonge et al. 2012, \
+         convergent), 0 plain Jacobi (diverges on stacks)",
     ),
     ParamSpec::real(
         "omega",
         1.0,
         0.01,
         1.99,
-        "relaxation of each increment (with split = 1 convergent on (0, 2))",
+        "relaxation of each increment (with split = 1 or 2 convergent on (0, 2))",
     ),
     ParamSpec::real(
         "hertz",
@@ -144,10 +157,10 @@ impl Jacobi {
         let mut state = SolverState::new(system, &gravity);
         let n = state.rows.len();
         let swept: Vec<usize> = (0..n).filter(|&i| is_swept(&state.rows[i])).collect();
-        let mass = if p.count("split") == 1 {
-            split_masses(&state)
-        } else {
-            state.rows.iter().map(|r| r.mass).collect()
+        let mass = match p.count("split") {
+            2 => row_sum_masses(&state),
+            1 => split_masses(&state),
+            _ => state.rows.iter().map(|r| r.mass).collect(),
         };
         let mut lambda = warm_impulses(&state, settings.warm_start.as_deref());
         let mut delta = vec![0.0; n];
@@ -273,6 +286,36 @@ pub fn split_masses(state: &SolverState) -> Vec<f64> {
                 0.0
             }
         })
+        .collect()
+}
+
+/// The row masses of the row-sum scaling: `mᵢ = 1 / Σ_b Σ_j |Jᵢ_b M_b⁻¹ J_j_bᵀ|`, the sum
+/// over the dynamic bodies `b` of row `i` and every swept row `j` on `b` (`j = i` included);
+/// 0 for a row that is not swept.
+pub fn row_sum_masses(state: &SolverState) -> Vec<f64> {
+    let mut on_body: Vec<Vec<(usize, usize)>> = vec![Vec::new(); state.bodies.len()];
+    for (i, row) in state.rows.iter().enumerate().filter(|(_, r)| is_swept(r)) {
+        for (side, b) in row.blocks[..row.sides as usize].iter().enumerate() {
+            if !state.bodies[b.body].is_static() {
+                on_body[b.body].push((i, side));
+            }
+        }
+    }
+    let mut sum = vec![0.0; state.rows.len()];
+    for rows in &on_body {
+        for &(i, si) in rows {
+            let bi = &state.rows[i].blocks[si];
+            sum[i] += rows
+                .iter()
+                .map(|&(j, sj)| {
+                    let (lin, ang) = &state.rows[j].response[sj];
+                    (bi.linear.dot(lin) + bi.angular.dot(ang)).abs()
+                })
+                .sum::<f64>();
+        }
+    }
+    sum.iter()
+        .map(|&d| if d > 0.0 { 1.0 / d } else { 0.0 })
         .collect()
 }
 
