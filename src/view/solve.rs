@@ -125,9 +125,10 @@ pub fn iteration_unit(name: &str) -> Option<&'static str> {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
             BodySolverKind::Penalty => "passes (always 1)",
-            BodySolverKind::SoftStep | BodySolverKind::Tgs => {
-                "sweeps over the rows, summed over the substeps"
-            }
+            BodySolverKind::SoftStep
+            | BodySolverKind::Tgs
+            | BodySolverKind::PgsNgs
+            | BodySolverKind::Jacobi => "sweeps over the rows, summed over the substeps and passes",
         });
     }
     ConeSolverKind::from_name(name).map(|kind| match kind {

@@ -80,17 +80,23 @@ pub enum BodySolverKind {
     SoftStep,
     /// Temporal Gauss–Seidel: substeps with Baumgarte bias, rigid rows, no relax.
     Tgs,
+    /// Box2D 2.x: sequential impulses on velocities, nonlinear Gauss–Seidel on positions.
+    PgsNgs,
+    /// Projected Jacobi with mass splitting: every row from the same velocities.
+    Jacobi,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 6] = [
+    pub const ALL: [BodySolverKind; 8] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
         BodySolverKind::AveragedImpulse,
         BodySolverKind::SoftStep,
         BodySolverKind::Tgs,
+        BodySolverKind::PgsNgs,
+        BodySolverKind::Jacobi,
     ];
 
     /// Name used on the command line and in scene files.
@@ -102,6 +108,8 @@ impl BodySolverKind {
             BodySolverKind::AveragedImpulse => "avg",
             BodySolverKind::SoftStep => "soft-step",
             BodySolverKind::Tgs => "tgs",
+            BodySolverKind::PgsNgs => "pgs-ngs",
+            BodySolverKind::Jacobi => "jacobi",
         }
     }
 
@@ -131,6 +139,14 @@ impl BodySolverKind {
                 "temporal Gauss-Seidel (PhysX TGS, Rapier): substeps of rigid sweeps with \
                  Baumgarte bias, no relax"
             }
+            BodySolverKind::PgsNgs => {
+                "Box2D 2.x step: velocity sweeps of sequential impulses (no position bias), then \
+                 nonlinear Gauss-Seidel position sweeps"
+            }
+            BodySolverKind::Jacobi => {
+                "projected Jacobi: every row's impulse from the same velocities, applied together, \
+                 scaled by |A|'s row sums (or mass splitting) to converge, Baumgarte bias"
+            }
         }
     }
 
@@ -158,6 +174,11 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse
             | BodySolverKind::Tgs => None,
+            // The default is rigid; `hertz > 0` makes the velocity solve soft (said in the
+            // step report's `residual_of`).
+            BodySolverKind::PgsNgs => None,
+            // Relaxed Jacobi has the LCP's solution as its fixed point.
+            BodySolverKind::Jacobi => None,
         }
     }
 
@@ -166,7 +187,11 @@ impl BodySolverKind {
     pub fn takes_joints(self) -> bool {
         matches!(
             self,
-            BodySolverKind::SequentialImpulses | BodySolverKind::SoftStep | BodySolverKind::Tgs
+            BodySolverKind::SequentialImpulses
+                | BodySolverKind::SoftStep
+                | BodySolverKind::Tgs
+                | BodySolverKind::PgsNgs
+                | BodySolverKind::Jacobi
         )
     }
 
@@ -203,6 +228,17 @@ impl BodySolverKind {
                  substeps of rigid Gauss-Seidel sweeps with Baumgarte bias, warm-started from \
                  substep to substep; pushes out of penetration with some energy gain"
             }
+            BodySolverKind::PgsNgs => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of velocity sweeps (rarely converged), \
+                 penetration corrected by position sweeps that keep a slop; warm-startable"
+            }
+            BodySolverKind::Jacobi => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of Jacobi sweeps, order-independent and \
+                 parallel, slower per sweep than Gauss-Seidel (its row scaling keeps it \
+                 convergent): stacks sink and jitter at few sweeps; warm-startable"
+            }
         }
     }
 
@@ -222,6 +258,8 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => &[],
+            BodySolverKind::PgsNgs => crate::substep::pgs_ngs::PARAMS,
+            BodySolverKind::Jacobi => crate::substep::jacobi::PARAMS,
         }
     }
 
@@ -234,6 +272,8 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => false,
+            BodySolverKind::PgsNgs => true,
+            BodySolverKind::Jacobi => true,
         }
     }
 
@@ -242,6 +282,8 @@ impl BodySolverKind {
         match self {
             BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::new(params)),
             BodySolverKind::Tgs => Box::new(crate::substep::Tgs::new(params)),
+            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::new(params)),
+            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::new(params)),
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
@@ -272,6 +314,8 @@ impl BodySolverKind {
             BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
             BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::default()),
             BodySolverKind::Tgs => Box::new(crate::substep::Tgs::default()),
+            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::default()),
+            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::default()),
         }
     }
 }

@@ -28,13 +28,18 @@
 //! starts from the system's free velocities, gravity already in them, and returns the impulse
 //! of the whole step; the stepper always takes [`crate::BodySolver::advance`].
 
+pub mod bias;
+pub mod jacobi;
 pub mod params;
+pub mod pgs_ngs;
 pub mod soft_step;
 pub mod softness;
 pub mod state;
 pub mod tgs;
 
+pub use jacobi::Jacobi;
 pub use params::{ParamSpec, Params};
+pub use pgs_ngs::PgsNgs;
 pub use soft_step::SoftStep;
 pub use softness::Softness;
 pub use state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};

@@ -1,0 +1,352 @@
+//! `pgs-ngs`: sequential impulses on velocities, then nonlinear Gauss–Seidel on positions, the
+//! step of Box2D 2.x (Box2D v2.4.1, `src/dynamics/b2_island.cpp` `b2Island::Solve`,
+//! `src/dynamics/b2_contact_solver.cpp` `b2ContactSolver::WarmStart`,
+//! `SolveVelocityConstraints`, `SolvePositionConstraints`).
+//!
+//! Each of `substeps` substeps of `h = dt / substeps` (Box2D 2.x takes one) runs, in order:
+//!
+//! 1. **integrate velocities**: `v += h g`;
+//! 2. **warm start**: apply the accumulated impulses `λ` (the previous substep's, or the
+//!    previous step's for the first substep, projected onto the bounds);
+//! 3. **`iterations` velocity sweeps** (Gauss–Seidel on accumulated impulses): the joint rows
+//!    first (equalities, no bias), then per contact its friction rows (bounded by `±μ λ_n` of
+//!    the contact's current normal impulse; Box2D solves them first "because non-penetration is
+//!    more important than friction") and its normal row (`λ_n ≥ 0`). A normal row's velocity
+//!    target has no position term: `w = J v + bias ≥ 0` with `bias = e v⁻` for a bouncing
+//!    contact (`v⁻ < −restitution_threshold`, Box2D's `velocityBias = −e vRel`), `C/h` for an
+//!    open contact (speculative), 0 otherwise ([`super::bias`]); with `hertz > 0` a penetrating
+//!    contact is a soft spring instead (`bias = max(bias_rate C, −3 m/s)`, mass and impulse
+//!    scales of [`super::Softness`]: Box2D v3's soft contact);
+//! 4. **integrate positions**: `Δx += h v`;
+//! 5. **`position_iterations` nonlinear Gauss–Seidel position sweeps**: per normal row (in the
+//!    contacts' order) its separation `C` at the current pose, the correction
+//!    `clamp(β (C + slop), −max_correction, 0)` and the position impulse `δ = −correction / k`
+//!    applied to the poses only (`Δx += M⁻¹ Jᵀ δ`; velocities untouched); then per joint row
+//!    `δ = −clamp(C, −max_correction, max_correction) / k` (no slop, no `β`, as Box2D's joints'
+//!    `SolvePositionConstraints`). The passes stop early once the smallest separation seen in a
+//!    pass is `≥ −3 slop` and every joint row's error is within `slop` (Box2D's test: "we can't
+//!    expect minSeparation ≥ −linearSlop because we don't push the separation above
+//!    −linearSlop").
+//!
+//! Defaults are Box2D 2.x's: 8 velocity and 3 position iterations (`b2World::Step` in the
+//! testbed), `b2_baumgarte = 0.2`, `b2_linearSlop = 0.005` m, `b2_maxLinearCorrection = 0.2` m.
+//!
+//! **What it solves.** The velocity sweeps aim at the step's rigid LCP with the bias above; the
+//! reported last solve ([`SubstepOutcome::last`]) is the velocity solve of the last substep
+//! that solved: `f` = its accumulated impulses (warm start included), `b` = `J v` after gravity
+//! and before the warm start, plus its bias, so `w = A f + b` is the velocity after the sweeps
+//! plus the bias. Eight sweeps rarely meet a tight tolerance: the status is then
+//! `iteration_limit`, never `converged` unless the shared residual of that LCP meets it. The
+//! position pass is positional (it moves the bodies, applies no impulse and is not part of any
+//! LCP): penetration is corrected there, not by the velocity solve. With `hertz > 0` the
+//! velocity solve is that of a soft (regularised) problem, measured against the rigid LCP
+//! (the report's `residual_of` says `soft`).
+//!
+//! **Not done**: Box2D's block solver of two-point manifolds (each row is swept alone), its
+//! clamp of the translation and rotation per step (`b2_maxTranslation`, `b2_maxRotation`), and
+//! the update of contact points and normals within the position pass (the rows keep the
+//! step's anchors and normals; the separation is `C₀ + J Δx`, exact for a translation and to
+//! first order in the rotation). Pyramid friction rows are not swept (the pyramid model is
+//! refused for body solvers).
+//!
+//! **Budgets.** `settings.max_iterations` caps the velocity and position sweeps of the whole
+//! step; once spent, the remaining substeps apply their warm start and integrate, without
+//! sweeps. `settings.time_budget` is checked between substeps: once spent, the remaining
+//! substeps only integrate (no constraint work) and the outcome says `timed_out`.
+
+use super::bias::{is_swept, projected_update, row_targets, warm_impulses, Feedback};
+use super::params::{ParamSpec, Params};
+use super::state::{RowRole, SolverState, StepCost};
+use super::{LastSolve, SubstepInput, SubstepOutcome};
+use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
+use crate::builder::ContactSystem;
+use lcpbench_solvers::Settings;
+use nalgebra::Vector3;
+use std::time::Instant;
+
+/// The parameters of `pgs-ngs`, with Box2D 2.x's defaults.
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::count("substeps", 1, 1, 64, "substeps per step (Box2D 2.x: 1)"),
+    ParamSpec::count(
+        "iterations",
+        8,
+        1,
+        10_000,
+        "velocity sweeps per substep (Box2D 2.x: 8)",
+    ),
+    ParamSpec::count(
+        "position_iterations",
+        3,
+        0,
+        10_000,
+        "nonlinear Gauss-Seidel position sweeps per substep (Box2D 2.x: 3)",
+    ),
+    ParamSpec::real(
+        "baumgarte",
+        0.2,
+        0.0,
+        1.0,
+        "share of a contact's penetration corrected per position sweep (b2_baumgarte)",
+    ),
+    ParamSpec::real(
+        "slop",
+        0.005,
+        0.0,
+        1.0,
+        "penetration left uncorrected, m (b2_linearSlop)",
+    ),
+    ParamSpec::real(
+        "max_correction",
+        0.2,
+        0.0,
+        100.0,
+        "largest position correction of one row per sweep, m (b2_maxLinearCorrection)",
+    ),
+    ParamSpec::real(
+        "hertz",
+        0.0,
+        0.0,
+        1e4,
+        "soft contact stiffness in the velocity sweeps, Hz (0: rigid)",
+    ),
+    ParamSpec::real("zeta", 1.0, 0.0, 1e3, "soft contact damping ratio"),
+];
+
+/// The `pgs-ngs` solver with its parameters ([`PARAMS`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PgsNgs {
+    params: Params,
+}
+
+impl Default for PgsNgs {
+    fn default() -> Self {
+        Self::new(Params::defaults(PARAMS))
+    }
+}
+
+impl PgsNgs {
+    /// The solver with `params` (which follow [`PARAMS`]).
+    pub fn new(params: Params) -> Self {
+        Self { params }
+    }
+
+    /// Advance the bodies over the step of `system` (see the module doc).
+    pub fn step(
+        &self,
+        system: &ContactSystem,
+        gravity: Vector3<f64>,
+        settings: &Settings,
+    ) -> SubstepOutcome {
+        let p = &self.params;
+        let substeps = p.count("substeps").max(1);
+        let iterations = p.count("iterations");
+        let position_iterations = p.count("position_iterations");
+        let ngs = NgsParams {
+            beta: p.get("baumgarte"),
+            slop: p.get("slop"),
+            max_correction: p.get("max_correction"),
+        };
+        let h = system.h / substeps as f64;
+        let feedback = Feedback::soft_or(p.get("hertz"), p.get("zeta"), h, Feedback::None);
+        let deadline = settings.time_budget.map(|b| Instant::now() + b);
+
+        let mut state = SolverState::new(system, &gravity);
+        let n = state.rows.len();
+        let order = velocity_order(&state);
+        let mut lambda = warm_impulses(&state, settings.warm_start.as_deref());
+        let mut f_step = vec![0.0; n];
+        let mut cost = StepCost::default();
+        let mut budget = settings.max_iterations;
+        let mut sweeps_done = 0;
+        let mut last = None;
+        let mut timed_out = false;
+
+        for s in 0..substeps {
+            if s > 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+                timed_out = true;
+            }
+            state.integrate_velocities(&gravity, h);
+            cost.body_passes += 1;
+            if !timed_out {
+                let targets = row_targets(&state, feedback, h, system.restitution_threshold);
+                let b: Vec<f64> = state
+                    .rates()
+                    .iter()
+                    .zip(&targets)
+                    .map(|(r, t)| r + t.bias)
+                    .collect();
+                // Warm start.
+                for &i in &order {
+                    if lambda[i] != 0.0 {
+                        state.rows[i].apply(lambda[i], &mut state.bodies);
+                    }
+                }
+                cost.row_updates += order.len() as u64;
+                let sweeps = iterations.min(budget);
+                for _ in 0..sweeps {
+                    for &i in &order {
+                        let row = &state.rows[i];
+                        let bound = match row.role {
+                            RowRole::Friction { normal } => row.mu * lambda[normal],
+                            _ => 0.0,
+                        };
+                        let rate = row.rate(&state.bodies);
+                        let new = projected_update(
+                            row.role,
+                            lambda[i],
+                            rate,
+                            &targets[i],
+                            row.mass,
+                            bound,
+                        );
+                        let d = new - lambda[i];
+                        if d != 0.0 {
+                            row.apply(d, &mut state.bodies);
+                            lambda[i] = new;
+                        }
+                    }
+                    cost.row_updates += order.len() as u64;
+                }
+                budget -= sweeps;
+                sweeps_done += sweeps;
+                for (total, l) in f_step.iter_mut().zip(&lambda) {
+                    *total += l;
+                }
+                let soft = matches!(feedback, Feedback::Soft(_));
+                last = Some(LastSolve {
+                    f: lambda.clone(),
+                    b,
+                    what: format!(
+                        "{}velocity sweeps of substep {} of {substeps} ({sweeps} sweeps)",
+                        if soft { "soft " } else { "" },
+                        s + 1
+                    ),
+                });
+            }
+            state.integrate_positions(h);
+            cost.body_passes += 1;
+            if !timed_out {
+                let passes = position_iterations.min(budget);
+                let mut used = 0;
+                for _ in 0..passes {
+                    used += 1;
+                    let (ok, updates) = position_pass(&mut state, &ngs);
+                    cost.row_updates += updates;
+                    if ok {
+                        break;
+                    }
+                }
+                budget -= used;
+                sweeps_done += used;
+            }
+        }
+        // The first substep always solves (the deadline is checked from the second on).
+        let last = last.unwrap_or_else(|| LastSolve {
+            f: vec![0.0; n],
+            b: state.rates(),
+            what: "no solve".into(),
+        });
+        SubstepOutcome {
+            state,
+            f_step,
+            warm: lambda,
+            last,
+            iterations: sweeps_done,
+            substeps,
+            cost,
+            timed_out,
+        }
+    }
+}
+
+/// The order of the velocity sweeps: joint rows, then per contact its friction rows and its
+/// normal row (rows without a dynamic body and pyramid rows left out).
+fn velocity_order(state: &SolverState) -> Vec<usize> {
+    let rows = &state.rows;
+    let mut friction: Vec<Vec<usize>> = vec![Vec::new(); rows.len()];
+    for (i, row) in rows.iter().enumerate() {
+        if let (true, RowRole::Friction { normal }) = (is_swept(row), row.role) {
+            friction[normal].push(i);
+        }
+    }
+    let mut order: Vec<usize> = (0..rows.len())
+        .filter(|&i| rows[i].role == RowRole::Joint && is_swept(&rows[i]))
+        .collect();
+    for (i, row) in rows.iter().enumerate() {
+        if let RowRole::Normal(_) = row.role {
+            order.extend_from_slice(&friction[i]);
+            if is_swept(row) {
+                order.push(i);
+            }
+        }
+    }
+    order
+}
+
+/// The nonlinear Gauss–Seidel pass's constants.
+struct NgsParams {
+    beta: f64,
+    slop: f64,
+    max_correction: f64,
+}
+
+/// One position pass: contacts, then joints (Box2D 2.x's order). Returns whether the pass
+/// found the positions good enough to stop (smallest separation `≥ −3 slop`, every joint
+/// error within `slop`) and the rows it visited.
+fn position_pass(state: &mut SolverState, p: &NgsParams) -> (bool, u64) {
+    let mut min_separation: f64 = 0.0;
+    let mut joints_ok = true;
+    let mut visited = 0;
+    let SolverState { bodies, rows } = state;
+    for row in rows.iter().filter(|r| is_swept(r)) {
+        if let RowRole::Normal(_) = row.role {
+            visited += 1;
+            let c = row.position_error(bodies);
+            min_separation = min_separation.min(c);
+            let correction = (p.beta * (c + p.slop)).clamp(-p.max_correction, 0.0);
+            if correction != 0.0 {
+                row.apply_position(-correction * row.mass, bodies);
+            }
+        }
+    }
+    for row in rows.iter().filter(|r| is_swept(r)) {
+        if row.role == RowRole::Joint {
+            visited += 1;
+            let c = row.position_error(bodies);
+            joints_ok &= c.abs() <= p.slop;
+            let correction = c.clamp(-p.max_correction, p.max_correction);
+            if correction != 0.0 {
+                row.apply_position(-correction * row.mass, bodies);
+            }
+        }
+    }
+    (min_separation >= -3.0 * p.slop && joints_ok, visited)
+}
+
+impl BodySolver for PgsNgs {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind::PgsNgs
+    }
+
+    fn params(&self) -> Params {
+        self.params
+    }
+
+    /// The step on the system alone: its free velocities already hold gravity, so gravity is
+    /// zero here; the impulse is the step's total.
+    fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
+        let out = self.step(system, Vector3::zeros(), settings);
+        BodySweep {
+            f: out.f_step,
+            warm: out.warm,
+            iterations: out.iterations,
+            stopped: false,
+            stalled: None,
+            timed_out: out.timed_out,
+        }
+    }
+
+    fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
+        Some(self.step(input.system, input.gravity, input.settings))
+    }
+}
