@@ -30,6 +30,21 @@ fn scene_rows_carry_step_metrics_and_analytic_errors() {
         assert!(r.symmetry_error.unwrap() < 1e-6, "{r:?}");
         assert_eq!(r.blow_up, Some(false));
         assert_eq!(r.no_solution_steps, Some(0), "{r:?}");
+        // Cost: no substeps, one body pass, at most the sweeps times the largest row count;
+        // the residual columns are of the step's LCP; the step time without the residual
+        // phase is the step time less that phase.
+        assert_eq!(r.substeps_per_step, Some(1.0), "{r:?}");
+        assert_eq!(r.body_passes_per_step, Some(1.0), "{r:?}");
+        let updates = r.row_updates_per_step.unwrap();
+        let bound = r.iterations_per_step.unwrap() * r.n.unwrap() as f64;
+        assert!(updates > 0.0 && updates <= bound * (1.0 + 1e-12), "{r:?}");
+        assert!(r.residual_of.is_empty(), "{r:?}");
+        let without = r.step_time_no_residual_s.unwrap();
+        let expected = r.step_time_s.unwrap() - r.phase_residual_s.unwrap();
+        assert!(
+            (without - expected).abs() <= 1e-9 + 1e-9 * expected,
+            "{r:?}"
+        );
     }
 }
 
