@@ -36,6 +36,11 @@
 //!   warm-started iterative solvers under [`JOINT_ITERATION_BUDGETS`] (10, 20 and 50
 //!   iterations per step): joint drift, sag and cost.
 //!
+//! * **engine solvers**: the scenes of [`ENGINE_SCENES`] (after Solver2D's set) × every
+//!   substepping solver at its defaults and two more costs, and `pgs+warm` and `si+warm` at
+//!   iteration caps of about the same cost ([`engine_runs`]): cost, time and error at equal
+//!   cost.
+//!
 //! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
 //! the generated families at 8 rows, two members of the scene scaling family and the smallest
 //! FCLIB file.
@@ -43,6 +48,7 @@
 use crate::harness::case::GenFamily;
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::substep::Params;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
@@ -350,6 +356,11 @@ pub struct Suite {
     /// The budgets of the joint scenes: [`SCENE_BUDGETS`], then [`JOINT_ITERATION_BUDGETS`]
     /// (warm-started iterative solvers only).
     pub joint_budgets: Vec<NamedBudget>,
+    /// The scenes of the engine-solver comparison ([`ENGINE_SCENES`] found beside the scene
+    /// files), each with its steps.
+    pub engine_cases: Vec<Case>,
+    /// Its runs: each solver with its budget ([`engine_runs`]).
+    pub engine_runs: Vec<(SolverSpec, NamedBudget)>,
 }
 
 /// A preset budget with its name.
@@ -491,7 +502,134 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     };
     fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
     joint_jobs(&mut suite, all_scenes, quick, plan.scene_steps);
+    engine_jobs(&mut suite, all_scenes, quick);
     suite
+}
+
+/// The scenes of the engine-solver comparison (paths under the scene directory, without
+/// `.toml`), after Solver2D's set (Catto's solver comparison; `bench_scenes/README.md` maps
+/// them), with the steps each runs (`None`: the whole run). The big pyramid runs a few steps
+/// only: each costs a few hundred milliseconds at the largest costs.
+pub const ENGINE_SCENES: [(&str, Option<usize>); 15] = [
+    ("tower_40_60hz", None),
+    ("pyramid_20", Some(120)),
+    ("pyramid_3d_1015", Some(3)),
+    ("house_of_cards", Some(120)),
+    ("arch", Some(120)),
+    ("confined", Some(100)),
+    ("friction_ramp", Some(120)),
+    ("mass_ratio_heavy_on_light_1e3", Some(120)),
+    ("overlap_25", Some(120)),
+    ("joints/chain_20_1e3", None),
+    ("joints/rope_bridge", Some(240)),
+    ("joints/ragdoll_pile", Some(120)),
+    ("rush", None),
+    ("double_domino", None),
+    ("sphere_stack", None),
+];
+
+/// The engine scenes of the quick suite, and their steps.
+pub const QUICK_ENGINE_SCENES: [&str; 2] = ["tower_40_60hz", "joints/chain_20_1e3"];
+
+/// Steps of a quick engine run.
+pub const QUICK_ENGINE_STEPS: usize = 5;
+
+/// Budget of the substepping solvers in the engine comparison: their own parameters set the
+/// work (substeps, iterations); 1000 sweeps per step is above any of their costs here, so the
+/// cap does not cut them, and the tolerance 1e-6 only decides a step's status.
+pub const ENGINE_BUDGET: &str = "1e-6:1000:1";
+
+/// The costs the substepping solvers run at besides their defaults: these values of their
+/// `substeps` key (or of `iterations`, for a solver that does not substep by default), the
+/// first two that differ from the default and are in the key's range.
+pub const ENGINE_COSTS: [usize; 4] = [4, 8, 20, 2];
+
+/// Iteration caps of the Gauss–Seidel baselines (`pgs+warm`, `si+warm`, tolerance 1e-6): the
+/// sweeps per step of a substepping solver with one solve and one relax pass per substep at
+/// 4, 8 and 20 substeps.
+pub const ENGINE_BASELINE_ITERATIONS: [usize; 3] = [8, 16, 40];
+
+/// The substepping solvers (every [`BodySolverKind`] with [`BodySolverKind::substeps`]) at
+/// their defaults and at two more costs ([`ENGINE_COSTS`]), warm-started when they iterate.
+pub fn engine_solver_specs() -> Vec<SolverSpec> {
+    let mut out = Vec::new();
+    for kind in BodySolverKind::ALL.into_iter().filter(|k| k.substeps()) {
+        let specs = kind.param_specs();
+        let default_of = |key: &str| specs.iter().find(|s| s.key == key).map(|s| s.default);
+        // The key that sets the cost: substeps, unless the solver does not substep by
+        // default and takes an iteration count.
+        let key = match (default_of("substeps"), default_of("iterations")) {
+            (Some(d), Some(_)) if d <= 1.0 => Some("iterations"),
+            (Some(_), _) => Some("substeps"),
+            (None, Some(_)) => Some("iterations"),
+            (None, None) => None,
+        };
+        let mut specs_of_kind = vec![SolverSpec::body(kind)];
+        if let Some(key) = key {
+            let default = default_of(key).unwrap_or(0.0);
+            let more = ENGINE_COSTS
+                .iter()
+                .filter(|&&c| c as f64 != default)
+                .filter_map(|c| Params::parse(specs, &format!("{key}={c}")).ok())
+                .take(2)
+                .map(|p| SolverSpec::body_with(kind, p));
+            specs_of_kind.extend(more);
+        }
+        out.extend(specs_of_kind.into_iter().map(|s| {
+            if s.is_iterative() {
+                s.with_warm()
+            } else {
+                s
+            }
+        }));
+    }
+    out
+}
+
+/// The runs of the engine comparison: [`engine_solver_specs`] under [`ENGINE_BUDGET`], and
+/// `pgs+warm` and `si+warm` under each of [`ENGINE_BASELINE_ITERATIONS`].
+pub fn engine_runs() -> Vec<(SolverSpec, NamedBudget)> {
+    let mut out: Vec<(SolverSpec, NamedBudget)> = engine_solver_specs()
+        .into_iter()
+        .map(|s| (s, custom_budget(ENGINE_BUDGET)))
+        .collect();
+    for baseline in [
+        SolverSpec::plain(SolverKind::Pgs).with_warm(),
+        SolverSpec::body(BodySolverKind::SequentialImpulses).with_warm(),
+    ] {
+        for n in ENGINE_BASELINE_ITERATIONS {
+            out.push((baseline.clone(), custom_budget(&format!("1e-6:{n}:1"))));
+        }
+    }
+    out
+}
+
+/// The engine comparison: each scene of [`ENGINE_SCENES`] found beside the scene files (the
+/// quick suite: those of [`QUICK_ENGINE_SCENES`], [`QUICK_ENGINE_STEPS`] steps) × its runs
+/// ([`engine_runs`]).
+fn engine_jobs(suite: &mut Suite, scenes: &[PathBuf], quick: bool) {
+    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
+        return;
+    };
+    suite.engine_cases = ENGINE_SCENES
+        .iter()
+        .filter(|(name, _)| !quick || QUICK_ENGINE_SCENES.contains(name))
+        .filter_map(|(name, steps)| {
+            let path = dir.join(format!("{name}.toml"));
+            let steps = if quick {
+                Some(QUICK_ENGINE_STEPS)
+            } else {
+                *steps
+            };
+            path.is_file().then(|| Case::scene(&path, steps))
+        })
+        .collect();
+    suite.engine_runs = engine_runs();
+    for case in suite.engine_cases.clone() {
+        for (solver, budget) in suite.engine_runs.clone() {
+            push(suite, std::slice::from_ref(&case), &[solver], &[budget]);
+        }
+    }
 }
 
 /// The scenes of [`joint_scenes`] (the quick suite: those of [`QUICK_JOINT_SCENES`], for
