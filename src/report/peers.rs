@@ -168,10 +168,7 @@ fn parse_value(cell: &str) -> Result<Option<PeerValue>, String> {
     if cell.is_empty() {
         return Ok(None);
     }
-    let (text, bound) = match cell
-        .strip_prefix("<=")
-        .or_else(|| cell.strip_prefix('≤'))
-    {
+    let (text, bound) = match cell.strip_prefix("<=").or_else(|| cell.strip_prefix('≤')) {
         Some(rest) => (rest.trim(), true),
         None => (cell, false),
     };

@@ -48,7 +48,7 @@
 use crate::harness::case::GenFamily;
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_contact::substep::Params;
+use lcpbench_contact::substep::{ParamSpec, Params};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
@@ -535,9 +535,10 @@ pub const QUICK_ENGINE_SCENES: [&str; 2] = ["tower_40_60hz", "joints/chain_20_1e
 pub const QUICK_ENGINE_STEPS: usize = 5;
 
 /// Budget of the substepping solvers in the engine comparison: their own parameters set the
-/// work (substeps, iterations); 1000 sweeps per step is above any of their costs here, so the
-/// cap does not cut them, and the tolerance 1e-6 only decides a step's status.
-pub const ENGINE_BUDGET: &str = "1e-6:1000:1";
+/// work (substeps, iterations); 500 sweeps per step is above any of their costs here, so the
+/// cap does not cut them, and the tolerance 1e-6 only decides a step's status. (Not
+/// [`SCENE_MID_BUDGET`], whose runs are the warm iterative solvers' on every scene.)
+pub const ENGINE_BUDGET: &str = "1e-6:500:1";
 
 /// The costs the substepping solvers run at besides their defaults: these values of their
 /// `substeps` key (or of `iterations`, for a solver that does not substep by default), the
@@ -550,40 +551,39 @@ pub const ENGINE_COSTS: [usize; 4] = [4, 8, 20, 2];
 pub const ENGINE_BASELINE_ITERATIONS: [usize; 3] = [8, 16, 40];
 
 /// The substepping solvers (every [`BodySolverKind`] with [`BodySolverKind::substeps`]) at
-/// their defaults and at two more costs ([`ENGINE_COSTS`]), warm-started when they iterate.
+/// their defaults and at two more costs ([`cost_variants`]), warm-started when they iterate.
 pub fn engine_solver_specs() -> Vec<SolverSpec> {
     let mut out = Vec::new();
     for kind in BodySolverKind::ALL.into_iter().filter(|k| k.substeps()) {
-        let specs = kind.param_specs();
-        let default_of = |key: &str| specs.iter().find(|s| s.key == key).map(|s| s.default);
-        // The key that sets the cost: substeps, unless the solver does not substep by
-        // default and takes an iteration count.
-        let key = match (default_of("substeps"), default_of("iterations")) {
-            (Some(d), Some(_)) if d <= 1.0 => Some("iterations"),
-            (Some(_), _) => Some("substeps"),
-            (None, Some(_)) => Some("iterations"),
-            (None, None) => None,
-        };
-        let mut specs_of_kind = vec![SolverSpec::body(kind)];
-        if let Some(key) = key {
-            let default = default_of(key).unwrap_or(0.0);
-            let more = ENGINE_COSTS
-                .iter()
-                .filter(|&&c| c as f64 != default)
-                .filter_map(|c| Params::parse(specs, &format!("{key}={c}")).ok())
-                .take(2)
-                .map(|p| SolverSpec::body_with(kind, p));
-            specs_of_kind.extend(more);
-        }
-        out.extend(specs_of_kind.into_iter().map(|s| {
-            if s.is_iterative() {
-                s.with_warm()
-            } else {
-                s
-            }
-        }));
+        let specs = std::iter::once(SolverSpec::body(kind)).chain(
+            cost_variants(kind.param_specs())
+                .into_iter()
+                .map(|p| SolverSpec::body_with(kind, p)),
+        );
+        out.extend(specs.map(|s| if s.is_iterative() { s.with_warm() } else { s }));
     }
     out
+}
+
+/// The parameter sets of a solver's two more costs: its `substeps` key (or its `iterations`
+/// key, when it does not substep by default or has no `substeps` key) set to the first two
+/// values of [`ENGINE_COSTS`] that differ from the default and are in the key's range; none
+/// for a solver with neither key.
+pub fn cost_variants(specs: &'static [ParamSpec]) -> Vec<Params> {
+    let default_of = |key: &str| specs.iter().find(|s| s.key == key).map(|s| s.default);
+    let key = match (default_of("substeps"), default_of("iterations")) {
+        (Some(d), Some(_)) if d <= 1.0 => "iterations",
+        (Some(_), _) => "substeps",
+        (None, Some(_)) => "iterations",
+        (None, None) => return Vec::new(),
+    };
+    let default = default_of(key).unwrap_or(0.0);
+    ENGINE_COSTS
+        .iter()
+        .filter(|&&c| c as f64 != default)
+        .filter_map(|c| Params::parse(specs, &format!("{key}={c}")).ok())
+        .take(2)
+        .collect()
 }
 
 /// The runs of the engine comparison: [`engine_solver_specs`] under [`ENGINE_BUDGET`], and
@@ -994,6 +994,106 @@ mod tests {
             .filter(|j| s.scene_cases.contains(&j.case))
             .count();
         assert!(mid.len() * 6 < presets, "{} of {presets}", mid.len());
+    }
+
+    /// The two more costs of a substepping solver: its substeps at the first two of 4, 8, 20,
+    /// 2 other than the default and within range; its iterations when it takes one substep by
+    /// default; nothing without either key.
+    #[test]
+    fn engine_costs_vary_substeps_or_iterations() {
+        const SUBSTEPPING: &[ParamSpec] = &[
+            ParamSpec::count("substeps", 4, 1, 64, "substeps"),
+            ParamSpec::count("iterations", 1, 1, 100, "iterations"),
+        ];
+        const ONE_STEP: &[ParamSpec] = &[
+            ParamSpec::count("substeps", 1, 1, 64, "substeps"),
+            ParamSpec::count("iterations", 8, 1, 100, "iterations"),
+        ];
+        const SMALL: &[ParamSpec] = &[ParamSpec::count("substeps", 8, 1, 10, "substeps")];
+        const NONE: &[ParamSpec] = &[ParamSpec::real("hertz", 30.0, 0.0, 1e4, "stiffness")];
+        let text = |specs| -> Vec<String> {
+            cost_variants(specs)
+                .iter()
+                .map(ToString::to_string)
+                .collect()
+        };
+        assert_eq!(text(SUBSTEPPING), ["substeps=8", "substeps=20"]);
+        assert_eq!(text(ONE_STEP), ["iterations=4", "iterations=20"]);
+        // 20 is out of range: the next value stands in.
+        assert_eq!(text(SMALL), ["substeps=4", "substeps=2"]);
+        assert!(text(NONE).is_empty());
+    }
+
+    /// The engine comparison runs every substepping solver (its defaults first, warm-started
+    /// when it iterates) and the warm Gauss–Seidel baselines at 8, 16 and 40 sweeps, on the
+    /// engine scenes present, each with its steps.
+    #[test]
+    fn the_engine_comparison_runs_the_substepping_solvers_and_the_baselines() {
+        let specs = engine_solver_specs();
+        let kinds: Vec<BodySolverKind> = BodySolverKind::ALL
+            .into_iter()
+            .filter(|k| k.substeps())
+            .collect();
+        for spec in &specs {
+            let SolverSpec::Body { kind, .. } = spec else {
+                panic!("{spec} is not a body-level solver");
+            };
+            assert!(kinds.contains(kind), "{spec}");
+            assert_eq!(spec.warm(), kind.is_iterative(), "{spec}");
+        }
+        for kind in &kinds {
+            let first = specs
+                .iter()
+                .find(|s| matches!(s, SolverSpec::Body { kind: k, .. } if k == kind))
+                .unwrap();
+            assert_eq!(first.clone().cold(), SolverSpec::body(*kind));
+        }
+        let runs: Vec<String> = engine_runs()
+            .iter()
+            .filter(|(s, _)| !specs.contains(s))
+            .map(|(s, b)| format!("{s} {}", b.name))
+            .collect();
+        assert_eq!(
+            runs,
+            [
+                "pgs+warm 1e-6:8:1",
+                "pgs+warm 1e-6:16:1",
+                "pgs+warm 1e-6:40:1",
+                "si+warm 1e-6:8:1",
+                "si+warm 1e-6:16:1",
+                "si+warm 1e-6:40:1",
+            ]
+        );
+        let scenes = [
+            PathBuf::from("bench_scenes/tower_40_60hz.toml"),
+            PathBuf::from("bench_scenes/rush.toml"),
+        ];
+        let s = default_suite(false, &scenes, &[]);
+        let keys: Vec<String> = s.engine_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(keys.len(), ENGINE_SCENES.len(), "{keys:?}");
+        assert!(keys.contains(&"scene:bench_scenes/tower_40_60hz.toml".to_string()));
+        assert!(keys.contains(&"scene:bench_scenes/pyramid_3d_1015.toml?steps=3".to_string()));
+        assert!(keys.contains(&"scene:bench_scenes/joints/chain_20_1e3.toml".to_string()));
+        for case in &s.engine_cases {
+            for (solver, budget) in &s.engine_runs {
+                assert!(
+                    s.jobs.iter().any(|j| j.case == *case
+                        && j.solver == *solver
+                        && j.budget.name == budget.name),
+                    "{case} {solver} {}",
+                    budget.name
+                );
+            }
+        }
+        let quick = default_suite(true, &scenes, &[]);
+        let quick_keys: Vec<String> = quick.engine_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(
+            quick_keys,
+            [
+                "scene:bench_scenes/tower_40_60hz.toml?steps=5",
+                "scene:bench_scenes/joints/chain_20_1e3.toml?steps=5",
+            ]
+        );
     }
 
     #[test]

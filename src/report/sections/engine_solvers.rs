@@ -89,7 +89,7 @@ impl Section for EngineSolvers {
              solvers` entry whose kind substeps) on the scenes of Catto's Solver2D comparison \
              (`bench_scenes/README.md` maps them), each at its defaults and at two more costs \
              (its `substeps`, or `iterations`, set to the first two of 4, 8, 20, 2 that differ \
-             from the default), warm-started, tolerance 1e-6 and 1000 sweeps per step (a cap \
+             from the default), warm-started, tolerance 1e-6 and 500 sweeps per step (a cap \
              none of them reaches: their parameters set the work); beside them `pgs+warm` and \
              `si+warm` capped at 8, 16 and 40 sweeps per step, the sweeps of one solve and one \
              relax pass per substep at 4, 8 and 20 substeps. Work is counted as Catto counts it: \
