@@ -118,7 +118,7 @@ impl Section for EngineSolvers {
              time is Rapier's whole step on the machine and date given; compare ratios measured \
              in the same minutes, not times from different days.\n",
             substepping_names(),
-            peer_source(RAPIER_TEXT)
+            sentence(&peer_source(RAPIER_TEXT))
         );
         let mut figures = Vec::new();
         for case in &suite.engine_cases {
@@ -136,6 +136,16 @@ impl Section for EngineSolvers {
             }
         }
         Ok(figures)
+    }
+}
+
+/// `text` ending with a full stop.
+fn sentence(text: &str) -> String {
+    let t = text.trim_end();
+    if t.ends_with('.') {
+        t.to_owned()
+    } else {
+        format!("{t}.")
     }
 }
 
