@@ -12,7 +12,8 @@
 //! * **warm**: the iterative solvers warm and cold on four problems.
 //! * **scenes**: every scene file × every matrix and body-level solver, cold, and the iterative
 //!   ones warm-started too, × budgets [`SCENE_BUDGETS`] (`realtime`, `loose`, `default`; a
-//!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps,
+//!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps
+//!   (those of [`SMALL_SCENE_STEP_EXCEPTIONS`] their whole run),
 //!   large ones [`large_scene_steps`]; and the LCPs exported from the scenes (`file:` cases) ×
 //!   every matrix solver × budgets `default`, `tight`.
 //! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
@@ -96,14 +97,16 @@ pub const LARGE_SCENE_STEPS: usize = 20;
 /// first 17 steps (no contacts), so 50 steps are 33 with contacts (40 for the 1,000-sphere pile,
 /// whose steps cost most); the 1,016-box pyramid, 10; the 5,525-box pyramid (80,900 contacts)
 /// and the 5,291-sphere packing (touching from the first step, 29,760 contacts), whose steps
-/// take half a second and a fifth of one at 20 warm PGS sweeps, 5.
-pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 6] = [
+/// take half a second and a fifth of one at 20 warm PGS sweeps, 5; the rush, whose spheres
+/// fly for its first 25 steps (no contacts) and meet each other from about step 50, 60.
+pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 7] = [
     ("sphere_pile_100", 50),
     ("sphere_pile_200", 50),
     ("sphere_pile_1000", 40),
     ("pyramid_3d_1015", 10),
     ("pyramid_3d_5525", 5),
     ("sphere_pile_5291", 5),
+    ("rush", 60),
 ];
 
 /// Scenes with more dynamic bodies than this are *huge*: they run only
@@ -137,8 +140,25 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
         .unwrap_or(false)
 }
 
-/// Steps of each scene run in the full suite (the scene's own count when smaller).
+/// Steps of each scene run in the full suite (the scene's own count when smaller), except the
+/// scenes of [`SMALL_SCENE_STEP_EXCEPTIONS`].
 pub const SCENE_STEPS: usize = 100;
+
+/// The small scenes that run more steps in the full suite, to the end of their run: the
+/// sphere stack (its top sphere lands after 94 steps and the stack settles after that, 300)
+/// and the double domino (the fifteen dominoes fall one after another for about 8 s, 720).
+pub const SMALL_SCENE_STEP_EXCEPTIONS: [(&str, usize); 2] =
+    [("sphere_stack", 300), ("double_domino", 720)];
+
+/// Steps of a small scene's runs in the full suite: [`SCENE_STEPS`] unless
+/// [`SMALL_SCENE_STEP_EXCEPTIONS`] names the scene (by file stem).
+pub fn small_scene_steps(path: &std::path::Path) -> usize {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    SMALL_SCENE_STEP_EXCEPTIONS
+        .iter()
+        .find(|(name, _)| stem.as_deref() == Some(*name))
+        .map_or(SCENE_STEPS, |(_, steps)| *steps)
+}
 
 /// The scenes of the quick suite (file stems): two small analytic scenes, a scene whose steps
 /// have no solution, the 60 Hz tower of the tower and friction sections, and a large scene.
@@ -424,6 +444,9 @@ struct Plan {
     fc3d_scene_steps: &'static [usize],
     /// Whether the FC3D collection takes the steps of the scenes of [`fc3d_scenes`].
     fc3d_only_scenes: bool,
+    /// Whether the small scenes of [`SMALL_SCENE_STEP_EXCEPTIONS`] run their steps (otherwise
+    /// `scene_steps`).
+    small_scene_exceptions: bool,
 }
 
 const QUICK: Plan = Plan {
@@ -442,6 +465,7 @@ const QUICK: Plan = Plan {
     fclib_files: 1,
     fc3d_scene_steps: &[1],
     fc3d_only_scenes: false,
+    small_scene_exceptions: false,
 };
 
 const FULL: Plan = Plan {
@@ -462,6 +486,7 @@ const FULL: Plan = Plan {
     fclib_files: usize::MAX,
     fc3d_scene_steps: &[1, 10],
     fc3d_only_scenes: true,
+    small_scene_exceptions: true,
 };
 
 /// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
@@ -508,30 +533,30 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
 
 /// The scenes of the engine-solver comparison (paths under the scene directory, without
 /// `.toml`), after Solver2D's set (Catto's solver comparison; `bench_scenes/README.md` maps
-/// them), with the steps each runs (`None`: the whole run). The big pyramid runs a few steps
-/// only: each costs a few hundred milliseconds at the largest costs.
-pub const ENGINE_SCENES: [(&str, Option<usize>); 15] = [
-    ("tower_40_60hz", None),
-    ("pyramid_20", Some(120)),
-    ("pyramid_3d_1015", Some(3)),
-    ("house_of_cards", Some(120)),
-    ("arch", Some(120)),
-    ("confined", Some(100)),
-    ("friction_ramp", Some(120)),
-    ("mass_ratio_heavy_on_light_1e3", Some(120)),
-    ("overlap_25", Some(120)),
-    ("joints/chain_20_1e3", None),
-    ("joints/rope_bridge", Some(240)),
-    ("joints/ragdoll_pile", Some(120)),
-    ("rush", None),
-    ("double_domino", None),
-    ("sphere_stack", None),
+/// them). Each runs as the case the suite already has for it ([`engine_jobs`]), so the
+/// families Findings ranks over keep their cases.
+pub const ENGINE_SCENES: [&str; 15] = [
+    "tower_40_60hz",
+    "pyramid_20",
+    "pyramid_3d_1015",
+    "house_of_cards",
+    "arch",
+    "confined",
+    "friction_ramp",
+    "mass_ratio_heavy_on_light_1e3",
+    "overlap_25",
+    "joints/chain_20_1e3",
+    "joints/rope_bridge",
+    "joints/ragdoll_pile",
+    "rush",
+    "double_domino",
+    "sphere_stack",
 ];
 
-/// The engine scenes of the quick suite, and their steps.
+/// The engine scenes of the quick suite.
 pub const QUICK_ENGINE_SCENES: [&str; 2] = ["tower_40_60hz", "joints/chain_20_1e3"];
 
-/// Steps of a quick engine run.
+/// Steps of a quick engine run of a scene the quick suite has no case for.
 pub const QUICK_ENGINE_STEPS: usize = 5;
 
 /// Budget of the substepping solvers in the engine comparison: their own parameters set the
@@ -605,23 +630,42 @@ pub fn engine_runs() -> Vec<(SolverSpec, NamedBudget)> {
 }
 
 /// The engine comparison: each scene of [`ENGINE_SCENES`] found beside the scene files (the
-/// quick suite: those of [`QUICK_ENGINE_SCENES`], [`QUICK_ENGINE_STEPS`] steps) × its runs
-/// ([`engine_runs`]).
+/// quick suite: those of [`QUICK_ENGINE_SCENES`]) × its runs ([`engine_runs`]). A scene runs
+/// as the case the suite already has for it, so the engine runs add rows to cases every scene
+/// solver ran, not cases of their own: a tower's whole run (the tower comparison), a joint
+/// scene's (the joints part), otherwise the scene part's steps (100, a large scene
+/// [`large_scene_steps`]). A scene the suite has no case for (the quick suite's) runs
+/// [`QUICK_ENGINE_STEPS`] steps, or in the full suite as the scene part would run it.
 fn engine_jobs(suite: &mut Suite, scenes: &[PathBuf], quick: bool) {
     let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
         return;
     };
+    let existing: Vec<Case> = suite
+        .tower_cases
+        .iter()
+        .chain(&suite.joint_cases)
+        .chain(&suite.scene_cases)
+        .cloned()
+        .collect();
     suite.engine_cases = ENGINE_SCENES
         .iter()
-        .filter(|(name, _)| !quick || QUICK_ENGINE_SCENES.contains(name))
-        .filter_map(|(name, steps)| {
-            let path = dir.join(format!("{name}.toml"));
-            let steps = if quick {
-                Some(QUICK_ENGINE_STEPS)
-            } else {
-                *steps
-            };
-            path.is_file().then(|| Case::scene(&path, steps))
+        .filter(|name| !quick || QUICK_ENGINE_SCENES.contains(name))
+        .map(|name| dir.join(format!("{name}.toml")))
+        .filter(|path| path.is_file())
+        .map(|path| {
+            let same = existing
+                .iter()
+                .find(|c| matches!(c, Case::Scene { path: p, friction: None, .. } if *p == path));
+            same.cloned().unwrap_or_else(|| {
+                let steps = if quick {
+                    QUICK_ENGINE_STEPS
+                } else if is_large_scene(&path) {
+                    large_scene_steps(&path)
+                } else {
+                    small_scene_steps(&path)
+                };
+                Case::scene(&path, Some(steps))
+            })
         })
         .collect();
     suite.engine_runs = engine_runs();
@@ -705,6 +749,8 @@ fn scene_cases(suite: &mut Suite, plan: &Plan, scenes: &[PathBuf]) -> Vec<Case> 
         let large = is_large_scene(path);
         let steps = if large {
             large_scene_steps(path).min(plan.large_scene_steps)
+        } else if plan.small_scene_exceptions {
+            small_scene_steps(path)
         } else {
             plan.scene_steps
         };
@@ -1067,23 +1113,42 @@ mod tests {
         let scenes = [
             PathBuf::from("bench_scenes/tower_40_60hz.toml"),
             PathBuf::from("bench_scenes/rush.toml"),
+            PathBuf::from("bench_scenes/pyramid_3d_1015.toml"),
+            PathBuf::from("bench_scenes/sphere_stack.toml"),
         ];
         let s = default_suite(false, &scenes, &[]);
         let keys: Vec<String> = s.engine_cases.iter().map(|c| c.to_string()).collect();
         assert_eq!(keys.len(), ENGINE_SCENES.len(), "{keys:?}");
-        assert!(keys.contains(&"scene:bench_scenes/tower_40_60hz.toml".to_string()));
-        assert!(keys.contains(&"scene:bench_scenes/pyramid_3d_1015.toml?steps=3".to_string()));
-        assert!(keys.contains(&"scene:bench_scenes/joints/chain_20_1e3.toml".to_string()));
-        for case in &s.engine_cases {
-            for (solver, budget) in &s.engine_runs {
-                assert!(
-                    s.jobs.iter().any(|j| j.case == *case
-                        && j.solver == *solver
-                        && j.budget.name == budget.name),
-                    "{case} {solver} {}",
-                    budget.name
-                );
-            }
+        // The suite's own cases: the tower's whole run, the joint scenes' whole runs, the
+        // scene part's steps (100; large scenes and the sphere stack their own); a scene not
+        // among the scene files
+        // given (pyramid_20, 210 boxes: large) as the scene part would run it.
+        for key in [
+            "scene:bench_scenes/tower_40_60hz.toml",
+            "scene:bench_scenes/joints/chain_20_1e3.toml",
+            "scene:bench_scenes/pyramid_3d_1015.toml?steps=10",
+            "scene:bench_scenes/rush.toml?steps=60",
+            "scene:bench_scenes/sphere_stack.toml?steps=300",
+            "scene:bench_scenes/pyramid_20.toml?steps=20",
+        ] {
+            assert!(keys.contains(&key.to_string()), "{key} in {keys:?}");
+        }
+        let own: Vec<&Case> = s
+            .tower_cases
+            .iter()
+            .chain(&s.joint_cases)
+            .chain(&s.scene_cases)
+            .collect();
+        let given = |c: &Case| {
+            scenes
+                .iter()
+                .any(|p| c.short_name() == p.file_stem().unwrap().to_string_lossy())
+        };
+        for case in s.engine_cases.iter().filter(|c| given(c)) {
+            assert!(
+                own.contains(&case),
+                "{case} is not one of the suite's cases"
+            );
         }
         let quick = default_suite(true, &scenes, &[]);
         let quick_keys: Vec<String> = quick.engine_cases.iter().map(|c| c.to_string()).collect();

@@ -1,7 +1,8 @@
 //! Report section: the engine (substepping) solvers at equal cost.
 //!
 //! The scenes of [`ENGINE_SCENES`](crate::report::suite::ENGINE_SCENES) (after Solver2D's set,
-//! Catto's comparison of the solvers shipping engines use) with every substepping solver at its
+//! Catto's comparison of the solvers shipping engines use; each as the suite's own case of it)
+//! with every substepping solver at its
 //! defaults and two more costs, and the Gauss–Seidel baselines `pgs+warm` and `si+warm` at
 //! iteration caps of about the same work ([`engine_runs`](crate::report::suite::engine_runs)).
 //! Work is counted as Catto counts it: constraint-row updates and body passes per step (the
@@ -87,7 +88,10 @@ impl Section for EngineSolvers {
             md,
             "## Engine solvers\n\nThe substepping solvers engines ship (each `lcpbench \
              solvers` entry whose kind substeps) on the scenes of Catto's Solver2D comparison \
-             (`bench_scenes/README.md` maps them), each at its defaults and at two more costs \
+             (`bench_scenes/README.md` maps them), each scene as the suite's own case of it (the \
+             tower and the joint scenes their whole runs, the others the steps of the scene \
+             runs, listed under [Scenes](#scenes)), so the engine runs join cases every scene \
+             solver ran; each solver at its defaults and at two more costs \
              (its `substeps`, or `iterations`, set to the first two of 4, 8, 20, 2 that differ \
              from the default), warm-started, tolerance 1e-6 and 500 sweeps per step (a cap \
              none of them reaches: their parameters set the work); beside them `pgs+warm` and \
