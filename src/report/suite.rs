@@ -377,7 +377,7 @@ pub struct Suite {
     /// (warm-started iterative solvers only).
     pub joint_budgets: Vec<NamedBudget>,
     /// The scenes of the engine-solver comparison ([`ENGINE_SCENES`] found beside the scene
-    /// files), each with its steps.
+    /// files), each as the suite's own case of it (see `engine_jobs`).
     pub engine_cases: Vec<Case>,
     /// Its runs: each solver with its budget ([`engine_runs`]).
     pub engine_runs: Vec<(SolverSpec, NamedBudget)>,
@@ -533,7 +533,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
 
 /// The scenes of the engine-solver comparison (paths under the scene directory, without
 /// `.toml`), after Solver2D's set (Catto's solver comparison; `bench_scenes/README.md` maps
-/// them). Each runs as the case the suite already has for it ([`engine_jobs`]), so the
+/// them). Each runs as the case the suite already has for it (see `engine_jobs`), so the
 /// families Findings ranks over keep their cases.
 pub const ENGINE_SCENES: [&str; 15] = [
     "tower_40_60hz",
