@@ -93,8 +93,9 @@ impl Section for EngineSolvers {
              runs, listed under [Scenes](#scenes)), so the engine runs join cases every scene \
              solver ran; each solver at its defaults and at two more costs \
              (its `substeps`, or `iterations`, set to the first two of 4, 8, 20, 2 that differ \
-             from the default), warm-started, tolerance 1e-6 and 500 sweeps per step (a cap \
-             none of them reaches: their parameters set the work); beside them `pgs+warm` and \
+             from the default), warm-started when it iterates, tolerance 1e-6 and a cap of 500 \
+             sweeps per step (above the sweeps their parameters ask for here, so the parameters \
+             set the work); beside them `pgs+warm` and \
              `si+warm` capped at 8, 16 and 40 sweeps per step, the sweeps of one solve and one \
              relax pass per substep at 4, 8 and 20 substeps. Work is counted as Catto counts it: \
              **row updates per step** (a substepping solver counts each update of a row in any \
