@@ -30,6 +30,21 @@ fn scene_rows_carry_step_metrics_and_analytic_errors() {
         assert!(r.symmetry_error.unwrap() < 1e-6, "{r:?}");
         assert_eq!(r.blow_up, Some(false));
         assert_eq!(r.no_solution_steps, Some(0), "{r:?}");
+        // Cost: no substeps, one body pass, at most the sweeps times the largest row count;
+        // the residual columns are of the step's LCP; the step time without the residual
+        // phase is the step time less that phase.
+        assert_eq!(r.substeps_per_step, Some(1.0), "{r:?}");
+        assert_eq!(r.body_passes_per_step, Some(1.0), "{r:?}");
+        let updates = r.row_updates_per_step.unwrap();
+        let bound = r.iterations_per_step.unwrap() * r.n.unwrap() as f64;
+        assert!(updates > 0.0 && updates <= bound * (1.0 + 1e-12), "{r:?}");
+        assert!(r.residual_of.is_empty(), "{r:?}");
+        let without = r.step_time_no_residual_s.unwrap();
+        let expected = r.step_time_s.unwrap() - r.phase_residual_s.unwrap();
+        assert!(
+            (without - expected).abs() <= 1e-9 + 1e-9 * expected,
+            "{r:?}"
+        );
     }
 }
 
@@ -151,4 +166,49 @@ fn steps_without_a_solution_are_counted() {
     assert_eq!(rows[0].status.as_str(), "diverged", "{:?}", rows[0]);
     assert_eq!(rows[0].no_solution_steps, Some(5));
     assert_eq!(rows[0].nonconverged_steps, Some(5));
+}
+
+/// The scenes after Solver2D's rush, double domino and circle stack, stepped whole with
+/// `pgs+warm` (50 sweeps per step): the sphere stack ends standing at its analytic height
+/// (centres 1, 3, …, 19 m) with no sideways drift; the dominoes all come to rest, having lost
+/// potential energy; the rush's pile forms without a blow-up and with overlaps below half a
+/// radius, no sphere faster than its throw plus its fall (2 m/s and 2.45 m: under 10 m/s).
+#[test]
+fn the_solver2d_scenes_settle_as_they_should() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let cases: Vec<String> = ["sphere_stack", "double_domino", "rush"]
+        .iter()
+        .map(|s| format!("scene:{root}/bench_scenes/{s}.toml"))
+        .collect();
+    let status = Command::new(EXE)
+        .args(["bench", "--no-progress", "--solvers", "pgs+warm"])
+        .args(["--budgets", "1e-6:50:1", "--out"])
+        .arg(&out)
+        .arg("--lcps")
+        .arg(cases.join(","))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    let row = |name: &str| {
+        rows.iter()
+            .find(|r| r.case.ends_with(&format!("/{name}.toml")))
+            .unwrap_or_else(|| panic!("no row for {name}"))
+    };
+    let stack = row("sphere_stack");
+    assert_eq!(stack.steps, Some(300), "{stack:?}");
+    assert!(stack.sag.unwrap().abs() < 5e-3, "{stack:?}");
+    assert!(stack.lateral_drift.unwrap() < 1e-6, "{stack:?}");
+    let dominoes = row("double_domino");
+    assert_eq!(dominoes.steps, Some(720), "{dominoes:?}");
+    assert!(dominoes.creep_speed.unwrap() < 1e-3, "{dominoes:?}");
+    assert!(dominoes.energy_drift.unwrap() < -0.1, "{dominoes:?}");
+    let rush = row("rush");
+    assert_eq!(rush.steps, Some(180), "{rush:?}");
+    assert_eq!(rush.blow_up, Some(false), "{rush:?}");
+    assert!(rush.penetration_max.unwrap() < 0.125, "{rush:?}");
+    assert!(rush.max_speed.unwrap() < 10.0, "{rush:?}");
+    assert!(rush.contacts_mean.unwrap() > 100.0, "{rush:?}");
 }

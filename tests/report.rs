@@ -130,6 +130,8 @@ fn fixture_suite() -> Suite {
         joint_cases: vec![chain, heavy_chain, cradle],
         joint_solvers: vec![SolverSpec::plain(SolverKind::Lemke), pgs().with_warm()],
         joint_budgets: vec![preset(BudgetName::Realtime), "1e-6:20:1".parse().unwrap()],
+        engine_cases: Vec::new(),
+        engine_runs: Vec::new(),
     }
 }
 
@@ -590,4 +592,135 @@ fn report_from_a_users_sweep_covers_its_cases_only() {
         .unwrap();
     assert!(!empty.status.success());
     assert!(String::from_utf8_lossy(&empty.stderr).contains("no results.csv"));
+}
+
+/// An engine run of 10 steps: `updates` row updates per step, `time_s` of step time without
+/// the residual phase, `sag` (or joint drift, on a chain) as its error.
+fn engine_run(
+    case: &Case,
+    solver: &SolverSpec,
+    budget: &NamedBudget,
+    updates: f64,
+    time_s: f64,
+    error: f64,
+) -> RunRecord {
+    let mut r = scene_run(case, solver, budget, 7, time_s);
+    r.substeps_per_step = Some(1.0);
+    r.row_updates_per_step = Some(updates);
+    r.body_passes_per_step = Some(1.0);
+    r.step_time_no_residual_s = Some(time_s);
+    r.time_limit_steps = Some(0);
+    if case.short_name().starts_with("chain") {
+        r.joint_drift_max = Some(error);
+    } else {
+        r.sag = Some(error);
+        r.lateral_drift = Some(error / 10.0);
+    }
+    r
+}
+
+/// The engine section from hand-made rows: one table per scene with the runs by increasing
+/// row updates per step (the cost over the cheapest beside), the residual's LCP, the steps'
+/// statuses, Rapier's quoted rows with their date on the scenes it was measured on, and the
+/// figures of sag and joint drift against time per step.
+#[test]
+fn the_engine_section_lists_runs_at_equal_cost_beside_the_peer() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let tower = Case::scene("bench_scenes/tower_40_60hz.toml", None);
+    let chain = Case::scene("bench_scenes/joints/chain_20_1e3.toml", None);
+    let stack = Case::scene("bench_scenes/sphere_stack.toml", None);
+    let pgs_warm = pgs().with_warm();
+    let si_warm = SolverSpec::body(BodySolverKind::SequentialImpulses).with_warm();
+    let cap = |n: usize| -> NamedBudget { format!("1e-6:{n}:1").parse().unwrap() };
+    let runs = vec![
+        (pgs_warm.clone(), cap(8)),
+        (pgs_warm.clone(), cap(40)),
+        (si_warm.clone(), cap(16)),
+    ];
+    let suite = Suite {
+        engine_cases: vec![tower.clone(), chain.clone(), stack.clone()],
+        engine_runs: runs,
+        ..Suite::default()
+    };
+    let mut rows = Vec::new();
+    for case in [&tower, &chain, &stack] {
+        // Listed out of cost order: the table sorts them.
+        rows.push(engine_run(case, &pgs_warm, &cap(40), 19_200.0, 4e-4, 1e-3));
+        rows.push(engine_run(case, &pgs_warm, &cap(8), 3_840.0, 1e-4, 0.2));
+        rows.push(engine_run(case, &si_warm, &cap(16), 7_680.0, 2e-4, 0.05));
+    }
+    // A run outside the section's list is not shown.
+    rows.push(engine_run(&tower, &pgs(), &cap(8), 3_000.0, 1e-4, 0.3));
+    write_csv(&out.join("data/results.csv"), &rows);
+    let header = Header {
+        cpu: "cpu".into(),
+        cores: 2,
+        os: "os".into(),
+        commit: "abc".into(),
+        date: "today".into(),
+        command: "lcpbench report".into(),
+        workers: 2,
+    };
+    let readme = write_report(out, &suite, &header, 3.0).unwrap();
+    let md = std::fs::read_to_string(readme).unwrap();
+    for heading in [
+        "## Engine solvers",
+        "### tower_40_60hz",
+        "### chain_20_1e3",
+        "### sphere_stack",
+    ] {
+        assert!(md.lines().any(|l| l == heading), "missing {heading}");
+    }
+    assert!(md.contains("These 9 runs took"), "{md}");
+    let table = read(out, "engine_tower_40_60hz");
+    let lines: Vec<&str> = table.lines().collect();
+    assert!(
+        lines[0].starts_with("solver,budget,substeps,row updates/step,× cheapest,"),
+        "{table}"
+    );
+    // By cost: 3,840, then 7,680, then 19.2 k row updates per step; each 10 steps, 7
+    // converged; residual of the step's LCP.
+    assert!(
+        lines[1].starts_with("pgs+warm,1e-6:8:1,1,3840,1.0×,1,100.0 µs,2.0e-1,2.0e-2,"),
+        "{table}"
+    );
+    assert!(
+        lines[2].starts_with("si+warm,1e-6:16:1,1,7680,2.0×,"),
+        "{table}"
+    );
+    assert!(
+        lines[3].starts_with("pgs+warm,1e-6:40:1,1,19.2 k,5.0×,"),
+        "{table}"
+    );
+    for line in &lines[1..4] {
+        assert!(line.contains(",step,7/10 converged,"), "{line}");
+    }
+    assert!(!table.contains("\npgs,"), "{table}");
+    // Rapier's quoted row on the tower: 54 µs per step, sag 0.434 m, dated.
+    let rapier = lines
+        .iter()
+        .find(|l| l.starts_with("Rapier 0.36,"))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert!(rapier.contains(",54.0 µs,4.3e-1,"), "{rapier}");
+    assert!(rapier.contains("measured 2026-12-05"), "{rapier}");
+    // The chain: Rapier's two rows (20 and 4 substeps); the sphere stack: none.
+    let chain_table = read(out, "engine_chain_20_1e3");
+    let peer_rows = chain_table
+        .lines()
+        .filter(|l| l.starts_with("Rapier 0.36,"))
+        .count();
+    assert_eq!(peer_rows, 2, "{chain_table}");
+    assert!(chain_table.contains(",2.7e-2,"), "{chain_table}");
+    assert!(!read(out, "engine_sphere_stack").contains("Rapier"));
+    assert!(md.contains("rapier_scenes.rs"), "{md}");
+    // The figures: sag on the tower, joint drift on the chain, with their points.
+    let points = std::fs::read_to_string(out.join("plots/engine_tower_40_60hz.csv")).unwrap();
+    assert!(points.contains("pgs+warm,1e-4,2e-1"), "{points}");
+    assert!(
+        points.contains("\"Rapier 0.36 (quoted, see table)\",5.4e-5,4.34e-1"),
+        "{points}"
+    );
+    assert!(out.join("plots/engine_chain_20_1e3.svg").exists());
+    assert!(!out.join("plots/engine_sphere_stack.svg").exists());
 }

@@ -55,6 +55,7 @@ fn is_measured(column: &str) -> bool {
         || column.starts_with("tta_")
         || column.starts_with("phase_")
         || column == "time_per_step_s"
+        || column == "step_time_no_residual_s"
         || column == "solve_wall_max_s"
         || column.starts_with("solve_time_")
         || column == "timed_solves"
@@ -152,6 +153,32 @@ fn three_shards_merge_into_the_rows_of_the_unsharded_sweep() {
     let full_rows = read_results(&dir("full").join("results.csv")).unwrap();
     assert_eq!(merged_rows.len(), 12);
     assert_eq!(deterministic(&merged_rows), deterministic(&full_rows));
+    // The cost columns survive the merge: each merged scene row carries its shard row's cost,
+    // the measured step time without the residual phase included.
+    let shard_rows: Vec<RunRecord> = shards
+        .iter()
+        .flat_map(|s| read_results(&s.join("results.csv")).unwrap())
+        .collect();
+    let cost = |r: &RunRecord| {
+        (
+            r.substeps_per_step,
+            r.row_updates_per_step,
+            r.body_passes_per_step,
+            r.step_time_no_residual_s,
+            r.residual_of.clone(),
+        )
+    };
+    let scene_rows: Vec<&RunRecord> = merged_rows.iter().filter(|r| r.steps.is_some()).collect();
+    assert_eq!(scene_rows.len(), 3);
+    for r in scene_rows {
+        let from = shard_rows.iter().find(|s| s.key() == r.key()).unwrap();
+        assert_eq!(cost(r), cost(from), "{}", r.key());
+        assert_eq!(r.substeps_per_step, Some(1.0), "{r:?}");
+        assert!(
+            r.row_updates_per_step.is_some() && r.step_time_no_residual_s.is_some(),
+            "{r:?}"
+        );
+    }
     // Merged rows come in the sweep's order and say where they ran.
     let keys: Vec<String> = merged_rows.iter().map(|r| r.key().to_string()).collect();
     let mut in_order: Vec<(usize, String)> = manifests

@@ -95,6 +95,41 @@ fn simulate_json_summary() {
     assert!(v["time_per_step_s"].as_f64().unwrap() > 0.0);
 }
 
+/// The cost figures: a solver that does not substep takes one substep and one body pass per
+/// step, and its row updates are its sweeps times the rows (box_on_ground: four contacts of
+/// three rows each in every step, 7 PGS sweeps each, the tolerance 1e-14 out of their reach); the step time
+/// without the residual phase is the step time less that phase.
+#[test]
+fn simulate_json_reports_the_cost_per_step() {
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--steps",
+        "6",
+        "--tol",
+        "1e-14",
+        "--max-iter",
+        "7",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["mean_rows"], 12.0, "{v}");
+    assert_eq!(v["mean_iterations"], 7.0, "{v}");
+    assert_eq!(v["substeps_per_step"], 1.0, "{v}");
+    assert_eq!(v["body_passes_per_step"], 1.0, "{v}");
+    assert_eq!(v["row_updates_per_step"], 84.0, "{v}");
+    assert!(v["residual_of"].is_null(), "{v}");
+    let step = v["time_per_step_s"].as_f64().unwrap();
+    let residual = v["phases_per_step_s"]["residual"].as_f64().unwrap();
+    let without = v["time_per_step_without_residual_s"].as_f64().unwrap();
+    assert!(
+        (without - (step - residual)).abs() <= 1e-12 + 1e-9 * step,
+        "{v}"
+    );
+    assert!(without > 0.0 && without <= step, "{v}");
+}
+
 /// `--time-budget` bounds each step's solve: steps that run out end `time_limit` and the run
 /// takes every step; the phase keys name the phases and add up to the step time.
 #[test]

@@ -6,7 +6,8 @@
 //!
 //! * [`StepTotals`]: solver time, iterations, contacts, rows, residuals, penetration,
 //!   friction-cone violation, non-converged, fallback and no-solution steps, the first
-//!   non-converged status;
+//!   non-converged status, and the cost counts (substeps, row updates and body passes per
+//!   step, the step time without the residual phase, which LCP the residuals are of);
 //! * [`Stability`]: energy and momentum drift, largest speed, non-finite steps, lift-off at
 //!   sliding contacts, and the blow-up test;
 //! * [`Rest`]: creep speed, kinetic energy at rest and the support error of resting scenes;
@@ -188,6 +189,12 @@ pub struct StepTotals {
     /// Relative residual of each step with rows, for the median.
     step_residuals: Vec<f64>,
     phases: PhaseTimes,
+    /// Substeps, row updates and body passes summed over the steps.
+    substeps: usize,
+    row_updates: u64,
+    body_passes: u64,
+    /// Which LCP the residuals are of, at the last step with rows (empty: the step's LCP).
+    residual_of: String,
 }
 
 impl StepTotals {
@@ -196,6 +203,9 @@ impl StepTotals {
         self.solve_time += report.solve_time_s;
         self.step_time += report.step_time_s;
         self.phases.add(&report.phases);
+        self.substeps += report.substeps;
+        self.row_updates += report.cost.row_updates;
+        self.body_passes += report.cost.body_passes;
         self.solve_wall_max = self.solve_wall_max.max(report.solve_wall_s);
         self.iterations += report.iterations;
         self.contacts += report.contacts;
@@ -208,6 +218,7 @@ impl StepTotals {
             return;
         }
         self.solved += 1;
+        self.residual_of = report.residual_of.clone().unwrap_or_default();
         if matches!(report.status, Status::Unsupported { .. }) {
             self.unsupported += 1;
         }
@@ -272,6 +283,11 @@ impl StepTotals {
         r.phase_solve_s = Some(p.solve);
         r.phase_residual_s = Some(p.residual);
         r.phase_integration_s = Some(p.integration);
+        r.substeps_per_step = Some(self.substeps as f64 / n);
+        r.row_updates_per_step = Some(self.row_updates as f64 / n);
+        r.body_passes_per_step = Some(self.body_passes as f64 / n);
+        r.step_time_no_residual_s = Some(((self.step_time - self.phases.residual) / n).max(0.0));
+        r.residual_of = self.residual_of.clone();
     }
 }
 

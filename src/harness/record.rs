@@ -214,6 +214,28 @@ pub struct RunRecord {
     /// ([`crate::harness::timing`]); not part of `solve_time_s`. Empty when the start costs
     /// nothing the solver would pay (cold, file, previous step, perturbed planted solution).
     pub warm_time_s: Option<f64>,
+    /// Scene: mean over the steps of the substeps the solver split each step into (1 for the
+    /// solvers that do not substep).
+    pub substeps_per_step: Option<f64>,
+    /// Scene: mean over the steps of the constraint-row updates, counted as Catto's solver
+    /// comparison counts them: a substepping solver counts its own (every row update of every
+    /// pass of every substep); for the others it is sweeps × rows (pivoting and
+    /// interior-point solvers: iterations × rows, a stand-in). See
+    /// [`lcpbench_contact::substep::StepCost`].
+    pub row_updates_per_step: Option<f64>,
+    /// Scene: mean over the steps of the passes over the bodies (velocity and position
+    /// integration, Jacobi applies; 1 for the solvers that do not substep).
+    pub body_passes_per_step: Option<f64>,
+    /// Scene: mean wall time per step with the residual phase left out
+    /// (`step_time_s − phase_residual_s`): what the step costs a simulation that does not
+    /// measure the shared residual, seconds.
+    pub step_time_no_residual_s: Option<f64>,
+    /// Scene: which LCP the residual columns are of. Empty for the step's LCP; for a
+    /// substepping solver the last solve of the last step with rows (`relax pass of substep 4
+    /// of 4`), whose LCP has the step's `A` and that solve's `b`
+    /// ([`lcpbench_contact::step::StepReport::residual_of`]).
+    #[serde(default)]
+    pub residual_of: String,
 }
 
 impl RunRecord {

@@ -31,6 +31,8 @@
 //!   large_scenes       best solver per budget on the large scenes, worst-residual plots
 //!   pipeline           phase times of a step on the large scenes, stacked bars
 //!   towers             60 Hz towers under low iteration budgets: sag, drift, time, steps short
+//!   engine_solvers     the substepping solvers and the Gauss–Seidel baselines at equal cost
+//!                      (row updates per step) on Solver2D's scenes, with a peer engine's rows
 //!   friction           box, pyramid and cone friction on the same scenes
 //!   robustness         converged / runs per solver and problem class
 //!   fastest            fastest solver to 1e-4 and 1e-8 per problem
@@ -43,6 +45,7 @@
 //!   scaling            log–log slopes of time against rows and against contacts
 //!   fclib              the FCLIB problems of Siconos' test data: time to 1e-6 per solver
 //! table.rs, plots.rs   Markdown/CSV tables and cell formats; SVG figures with their points
+//! peers.rs             peer engines' figures (`docs/peers/*.csv`), read and checked
 //! summary.rs           the one rule that ranks solvers over a group of cases, and its means
 //! palette.rs           the plots' (colour, marker) pairs: fixed per shipped solver, distinct
 //!                      for any number of series
@@ -59,6 +62,7 @@ mod context;
 pub mod machine;
 mod machines;
 pub mod palette;
+pub mod peers;
 pub mod plots;
 pub mod replays;
 mod sections;

@@ -12,7 +12,8 @@
 //! * **warm**: the iterative solvers warm and cold on four problems.
 //! * **scenes**: every scene file × every matrix and body-level solver, cold, and the iterative
 //!   ones warm-started too, × budgets [`SCENE_BUDGETS`] (`realtime`, `loose`, `default`; a
-//!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps,
+//!   budget's seconds bound each step's solve): small scenes at most [`SCENE_STEPS`] steps
+//!   (those of [`SMALL_SCENE_STEP_EXCEPTIONS`] their whole run),
 //!   large ones [`large_scene_steps`]; and the LCPs exported from the scenes (`file:` cases) ×
 //!   every matrix solver × budgets `default`, `tight`.
 //! * **friction models**: [`FRICTION_SCENES`] (those present among the scene files) under the
@@ -36,6 +37,11 @@
 //!   warm-started iterative solvers under [`JOINT_ITERATION_BUDGETS`] (10, 20 and 50
 //!   iterations per step): joint drift, sag and cost.
 //!
+//! * **engine solvers**: the scenes of [`ENGINE_SCENES`] (after Solver2D's set) × every
+//!   substepping solver at its defaults and two more costs, and `pgs+warm` and `si+warm` at
+//!   iteration caps of about the same cost ([`engine_runs`]): cost, time and error at equal
+//!   cost.
+//!
 //! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
 //! the generated families at 8 rows, two members of the scene scaling family and the smallest
 //! FCLIB file.
@@ -43,6 +49,7 @@
 use crate::harness::case::GenFamily;
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::substep::{ParamSpec, Params};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
@@ -90,14 +97,16 @@ pub const LARGE_SCENE_STEPS: usize = 20;
 /// first 17 steps (no contacts), so 50 steps are 33 with contacts (40 for the 1,000-sphere pile,
 /// whose steps cost most); the 1,016-box pyramid, 10; the 5,525-box pyramid (80,900 contacts)
 /// and the 5,291-sphere packing (touching from the first step, 29,760 contacts), whose steps
-/// take half a second and a fifth of one at 20 warm PGS sweeps, 5.
-pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 6] = [
+/// take half a second and a fifth of one at 20 warm PGS sweeps, 5; the rush, whose spheres
+/// fly for its first 25 steps (no contacts) and meet each other from about step 50, 60.
+pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 7] = [
     ("sphere_pile_100", 50),
     ("sphere_pile_200", 50),
     ("sphere_pile_1000", 40),
     ("pyramid_3d_1015", 10),
     ("pyramid_3d_5525", 5),
     ("sphere_pile_5291", 5),
+    ("rush", 60),
 ];
 
 /// Scenes with more dynamic bodies than this are *huge*: they run only
@@ -131,8 +140,25 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
         .unwrap_or(false)
 }
 
-/// Steps of each scene run in the full suite (the scene's own count when smaller).
+/// Steps of each scene run in the full suite (the scene's own count when smaller), except the
+/// scenes of [`SMALL_SCENE_STEP_EXCEPTIONS`].
 pub const SCENE_STEPS: usize = 100;
+
+/// The small scenes that run more steps in the full suite, to the end of their run: the
+/// sphere stack (its top sphere lands after 94 steps and the stack settles after that, 300)
+/// and the double domino (the fifteen dominoes fall one after another for about 8 s, 720).
+pub const SMALL_SCENE_STEP_EXCEPTIONS: [(&str, usize); 2] =
+    [("sphere_stack", 300), ("double_domino", 720)];
+
+/// Steps of a small scene's runs in the full suite: [`SCENE_STEPS`] unless
+/// [`SMALL_SCENE_STEP_EXCEPTIONS`] names the scene (by file stem).
+pub fn small_scene_steps(path: &std::path::Path) -> usize {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    SMALL_SCENE_STEP_EXCEPTIONS
+        .iter()
+        .find(|(name, _)| stem.as_deref() == Some(*name))
+        .map_or(SCENE_STEPS, |(_, steps)| *steps)
+}
 
 /// The scenes of the quick suite (file stems): two small analytic scenes, a scene whose steps
 /// have no solution, the 60 Hz tower of the tower and friction sections, and a large scene.
@@ -350,6 +376,11 @@ pub struct Suite {
     /// The budgets of the joint scenes: [`SCENE_BUDGETS`], then [`JOINT_ITERATION_BUDGETS`]
     /// (warm-started iterative solvers only).
     pub joint_budgets: Vec<NamedBudget>,
+    /// The scenes of the engine-solver comparison ([`ENGINE_SCENES`] found beside the scene
+    /// files), each as the suite's own case of it (see `engine_jobs`).
+    pub engine_cases: Vec<Case>,
+    /// Its runs: each solver with its budget ([`engine_runs`]).
+    pub engine_runs: Vec<(SolverSpec, NamedBudget)>,
 }
 
 /// A preset budget with its name.
@@ -413,6 +444,9 @@ struct Plan {
     fc3d_scene_steps: &'static [usize],
     /// Whether the FC3D collection takes the steps of the scenes of [`fc3d_scenes`].
     fc3d_only_scenes: bool,
+    /// Whether the small scenes of [`SMALL_SCENE_STEP_EXCEPTIONS`] run their steps (otherwise
+    /// `scene_steps`).
+    small_scene_exceptions: bool,
 }
 
 const QUICK: Plan = Plan {
@@ -431,6 +465,7 @@ const QUICK: Plan = Plan {
     fclib_files: 1,
     fc3d_scene_steps: &[1],
     fc3d_only_scenes: false,
+    small_scene_exceptions: false,
 };
 
 const FULL: Plan = Plan {
@@ -451,6 +486,7 @@ const FULL: Plan = Plan {
     fclib_files: usize::MAX,
     fc3d_scene_steps: &[1, 10],
     fc3d_only_scenes: true,
+    small_scene_exceptions: true,
 };
 
 /// The generated families of the robustness matrix besides SPD (PSD of the default rank), each
@@ -491,7 +527,153 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     };
     fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
     joint_jobs(&mut suite, all_scenes, quick, plan.scene_steps);
+    engine_jobs(&mut suite, all_scenes, quick);
     suite
+}
+
+/// The scenes of the engine-solver comparison (paths under the scene directory, without
+/// `.toml`), after Solver2D's set (Catto's solver comparison; `bench_scenes/README.md` maps
+/// them). Each runs as the case the suite already has for it (see `engine_jobs`), so the
+/// families Findings ranks over keep their cases.
+pub const ENGINE_SCENES: [&str; 15] = [
+    "tower_40_60hz",
+    "pyramid_20",
+    "pyramid_3d_1015",
+    "house_of_cards",
+    "arch",
+    "confined",
+    "friction_ramp",
+    "mass_ratio_heavy_on_light_1e3",
+    "overlap_25",
+    "joints/chain_20_1e3",
+    "joints/rope_bridge",
+    "joints/ragdoll_pile",
+    "rush",
+    "double_domino",
+    "sphere_stack",
+];
+
+/// The engine scenes of the quick suite.
+pub const QUICK_ENGINE_SCENES: [&str; 2] = ["tower_40_60hz", "joints/chain_20_1e3"];
+
+/// Steps of a quick engine run of a scene the quick suite has no case for.
+pub const QUICK_ENGINE_STEPS: usize = 5;
+
+/// Budget of the substepping solvers in the engine comparison: their own parameters set the
+/// work (substeps, iterations); 500 sweeps per step is above any of their costs here, so the
+/// cap does not cut them, and the tolerance 1e-6 only decides a step's status. (Not
+/// [`SCENE_MID_BUDGET`], whose runs are the warm iterative solvers' on every scene.)
+pub const ENGINE_BUDGET: &str = "1e-6:500:1";
+
+/// The costs the substepping solvers run at besides their defaults: these values of their
+/// `substeps` key (or of `iterations`, for a solver that does not substep by default), the
+/// first two that differ from the default and are in the key's range.
+pub const ENGINE_COSTS: [usize; 4] = [4, 8, 20, 2];
+
+/// Iteration caps of the Gauss–Seidel baselines (`pgs+warm`, `si+warm`, tolerance 1e-6): the
+/// sweeps per step of a substepping solver with one solve and one relax pass per substep at
+/// 4, 8 and 20 substeps.
+pub const ENGINE_BASELINE_ITERATIONS: [usize; 3] = [8, 16, 40];
+
+/// The substepping solvers (every [`BodySolverKind`] with [`BodySolverKind::substeps`]) at
+/// their defaults and at two more costs ([`cost_variants`]), warm-started when they iterate.
+pub fn engine_solver_specs() -> Vec<SolverSpec> {
+    let mut out = Vec::new();
+    for kind in BodySolverKind::ALL.into_iter().filter(|k| k.substeps()) {
+        let specs = std::iter::once(SolverSpec::body(kind)).chain(
+            cost_variants(kind.param_specs())
+                .into_iter()
+                .map(|p| SolverSpec::body_with(kind, p)),
+        );
+        out.extend(specs.map(|s| if s.is_iterative() { s.with_warm() } else { s }));
+    }
+    out
+}
+
+/// The parameter sets of a solver's two more costs: its `substeps` key (or its `iterations`
+/// key, when it does not substep by default or has no `substeps` key) set to the first two
+/// values of [`ENGINE_COSTS`] that differ from the default and are in the key's range; none
+/// for a solver with neither key.
+pub fn cost_variants(specs: &'static [ParamSpec]) -> Vec<Params> {
+    let default_of = |key: &str| specs.iter().find(|s| s.key == key).map(|s| s.default);
+    let key = match (default_of("substeps"), default_of("iterations")) {
+        (Some(d), Some(_)) if d <= 1.0 => "iterations",
+        (Some(_), _) => "substeps",
+        (None, Some(_)) => "iterations",
+        (None, None) => return Vec::new(),
+    };
+    let default = default_of(key).unwrap_or(0.0);
+    ENGINE_COSTS
+        .iter()
+        .filter(|&&c| c as f64 != default)
+        .filter_map(|c| Params::parse(specs, &format!("{key}={c}")).ok())
+        .take(2)
+        .collect()
+}
+
+/// The runs of the engine comparison: [`engine_solver_specs`] under [`ENGINE_BUDGET`], and
+/// `pgs+warm` and `si+warm` under each of [`ENGINE_BASELINE_ITERATIONS`].
+pub fn engine_runs() -> Vec<(SolverSpec, NamedBudget)> {
+    let mut out: Vec<(SolverSpec, NamedBudget)> = engine_solver_specs()
+        .into_iter()
+        .map(|s| (s, custom_budget(ENGINE_BUDGET)))
+        .collect();
+    for baseline in [
+        SolverSpec::plain(SolverKind::Pgs).with_warm(),
+        SolverSpec::body(BodySolverKind::SequentialImpulses).with_warm(),
+    ] {
+        for n in ENGINE_BASELINE_ITERATIONS {
+            out.push((baseline.clone(), custom_budget(&format!("1e-6:{n}:1"))));
+        }
+    }
+    out
+}
+
+/// The engine comparison: each scene of [`ENGINE_SCENES`] found beside the scene files (the
+/// quick suite: those of [`QUICK_ENGINE_SCENES`]) × its runs ([`engine_runs`]). A scene runs
+/// as the case the suite already has for it, so the engine runs add rows to cases every scene
+/// solver ran, not cases of their own: a tower's whole run (the tower comparison), a joint
+/// scene's (the joints part), otherwise the scene part's steps (100, a large scene
+/// [`large_scene_steps`]). A scene the suite has no case for (the quick suite's) runs
+/// [`QUICK_ENGINE_STEPS`] steps, or in the full suite as the scene part would run it.
+fn engine_jobs(suite: &mut Suite, scenes: &[PathBuf], quick: bool) {
+    let Some(dir) = scenes.first().and_then(|p| p.parent()) else {
+        return;
+    };
+    let existing: Vec<Case> = suite
+        .tower_cases
+        .iter()
+        .chain(&suite.joint_cases)
+        .chain(&suite.scene_cases)
+        .cloned()
+        .collect();
+    suite.engine_cases = ENGINE_SCENES
+        .iter()
+        .filter(|name| !quick || QUICK_ENGINE_SCENES.contains(name))
+        .map(|name| dir.join(format!("{name}.toml")))
+        .filter(|path| path.is_file())
+        .map(|path| {
+            let same = existing
+                .iter()
+                .find(|c| matches!(c, Case::Scene { path: p, friction: None, .. } if *p == path));
+            same.cloned().unwrap_or_else(|| {
+                let steps = if quick {
+                    QUICK_ENGINE_STEPS
+                } else if is_large_scene(&path) {
+                    large_scene_steps(&path)
+                } else {
+                    small_scene_steps(&path)
+                };
+                Case::scene(&path, Some(steps))
+            })
+        })
+        .collect();
+    suite.engine_runs = engine_runs();
+    for case in suite.engine_cases.clone() {
+        for (solver, budget) in suite.engine_runs.clone() {
+            push(suite, std::slice::from_ref(&case), &[solver], &[budget]);
+        }
+    }
 }
 
 /// The scenes of [`joint_scenes`] (the quick suite: those of [`QUICK_JOINT_SCENES`], for
@@ -567,6 +749,8 @@ fn scene_cases(suite: &mut Suite, plan: &Plan, scenes: &[PathBuf]) -> Vec<Case> 
         let large = is_large_scene(path);
         let steps = if large {
             large_scene_steps(path).min(plan.large_scene_steps)
+        } else if plan.small_scene_exceptions {
+            small_scene_steps(path)
         } else {
             plan.scene_steps
         };
@@ -856,6 +1040,125 @@ mod tests {
             .filter(|j| s.scene_cases.contains(&j.case))
             .count();
         assert!(mid.len() * 6 < presets, "{} of {presets}", mid.len());
+    }
+
+    /// The two more costs of a substepping solver: its substeps at the first two of 4, 8, 20,
+    /// 2 other than the default and within range; its iterations when it takes one substep by
+    /// default; nothing without either key.
+    #[test]
+    fn engine_costs_vary_substeps_or_iterations() {
+        const SUBSTEPPING: &[ParamSpec] = &[
+            ParamSpec::count("substeps", 4, 1, 64, "substeps"),
+            ParamSpec::count("iterations", 1, 1, 100, "iterations"),
+        ];
+        const ONE_STEP: &[ParamSpec] = &[
+            ParamSpec::count("substeps", 1, 1, 64, "substeps"),
+            ParamSpec::count("iterations", 8, 1, 100, "iterations"),
+        ];
+        const SMALL: &[ParamSpec] = &[ParamSpec::count("substeps", 8, 1, 10, "substeps")];
+        const NONE: &[ParamSpec] = &[ParamSpec::real("hertz", 30.0, 0.0, 1e4, "stiffness")];
+        let text = |specs| -> Vec<String> {
+            cost_variants(specs)
+                .iter()
+                .map(ToString::to_string)
+                .collect()
+        };
+        assert_eq!(text(SUBSTEPPING), ["substeps=8", "substeps=20"]);
+        assert_eq!(text(ONE_STEP), ["iterations=4", "iterations=20"]);
+        // 20 is out of range: the next value stands in.
+        assert_eq!(text(SMALL), ["substeps=4", "substeps=2"]);
+        assert!(text(NONE).is_empty());
+    }
+
+    /// The engine comparison runs every substepping solver (its defaults first, warm-started
+    /// when it iterates) and the warm Gauss–Seidel baselines at 8, 16 and 40 sweeps, on the
+    /// engine scenes present, each with its steps.
+    #[test]
+    fn the_engine_comparison_runs_the_substepping_solvers_and_the_baselines() {
+        let specs = engine_solver_specs();
+        let kinds: Vec<BodySolverKind> = BodySolverKind::ALL
+            .into_iter()
+            .filter(|k| k.substeps())
+            .collect();
+        for spec in &specs {
+            let SolverSpec::Body { kind, .. } = spec else {
+                panic!("{spec} is not a body-level solver");
+            };
+            assert!(kinds.contains(kind), "{spec}");
+            assert_eq!(spec.warm(), kind.is_iterative(), "{spec}");
+        }
+        for kind in &kinds {
+            let first = specs
+                .iter()
+                .find(|s| matches!(s, SolverSpec::Body { kind: k, .. } if k == kind))
+                .unwrap();
+            assert_eq!(first.clone().cold(), SolverSpec::body(*kind));
+        }
+        let runs: Vec<String> = engine_runs()
+            .iter()
+            .filter(|(s, _)| !specs.contains(s))
+            .map(|(s, b)| format!("{s} {}", b.name))
+            .collect();
+        assert_eq!(
+            runs,
+            [
+                "pgs+warm 1e-6:8:1",
+                "pgs+warm 1e-6:16:1",
+                "pgs+warm 1e-6:40:1",
+                "si+warm 1e-6:8:1",
+                "si+warm 1e-6:16:1",
+                "si+warm 1e-6:40:1",
+            ]
+        );
+        let scenes = [
+            PathBuf::from("bench_scenes/tower_40_60hz.toml"),
+            PathBuf::from("bench_scenes/rush.toml"),
+            PathBuf::from("bench_scenes/pyramid_3d_1015.toml"),
+            PathBuf::from("bench_scenes/sphere_stack.toml"),
+        ];
+        let s = default_suite(false, &scenes, &[]);
+        let keys: Vec<String> = s.engine_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(keys.len(), ENGINE_SCENES.len(), "{keys:?}");
+        // The suite's own cases: the tower's whole run, the joint scenes' whole runs, the
+        // scene part's steps (100; large scenes and the sphere stack their own); a scene not
+        // among the scene files
+        // given (pyramid_20, 210 boxes: large) as the scene part would run it.
+        for key in [
+            "scene:bench_scenes/tower_40_60hz.toml",
+            "scene:bench_scenes/joints/chain_20_1e3.toml",
+            "scene:bench_scenes/pyramid_3d_1015.toml?steps=10",
+            "scene:bench_scenes/rush.toml?steps=60",
+            "scene:bench_scenes/sphere_stack.toml?steps=300",
+            "scene:bench_scenes/pyramid_20.toml?steps=20",
+        ] {
+            assert!(keys.contains(&key.to_string()), "{key} in {keys:?}");
+        }
+        let own: Vec<&Case> = s
+            .tower_cases
+            .iter()
+            .chain(&s.joint_cases)
+            .chain(&s.scene_cases)
+            .collect();
+        let given = |c: &Case| {
+            scenes
+                .iter()
+                .any(|p| c.short_name() == p.file_stem().unwrap().to_string_lossy())
+        };
+        for case in s.engine_cases.iter().filter(|c| given(c)) {
+            assert!(
+                own.contains(&case),
+                "{case} is not one of the suite's cases"
+            );
+        }
+        let quick = default_suite(true, &scenes, &[]);
+        let quick_keys: Vec<String> = quick.engine_cases.iter().map(|c| c.to_string()).collect();
+        assert_eq!(
+            quick_keys,
+            [
+                "scene:bench_scenes/tower_40_60hz.toml?steps=5",
+                "scene:bench_scenes/joints/chain_20_1e3.toml?steps=5",
+            ]
+        );
     }
 
     #[test]

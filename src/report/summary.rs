@@ -269,7 +269,7 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
             "budget {budget} (tolerance {tolerance:.0e}), {} {what}:",
             cases.len()
         );
-        let _ = writeln!(
+        let _ = write!(
             out,
             "  {:<22} {:>14} {:>8} {:>22}",
             "solver",
@@ -281,6 +281,15 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
                 "shifted geo. mean"
             }
         );
+        let _ = writeln!(
+            out,
+            "{}",
+            if scene {
+                format!(" {:>16}", "row updates/step")
+            } else {
+                String::new()
+            }
+        );
         for c in &ranked {
             let name = c.solver.to_string();
             let mean = if c.no_work {
@@ -288,7 +297,7 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
             } else {
                 format_seconds(c.mean_s)
             };
-            let _ = writeln!(
+            let _ = write!(
                 out,
                 "  {:<22} {:>14} {:>8} {:>22}",
                 name,
@@ -296,15 +305,43 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
                 best_on.get(&name).copied().unwrap_or(0),
                 mean
             );
+            let cost = if scene {
+                format!(" {:>16}", format_count(mean_row_updates(&c.runs)))
+            } else {
+                String::new()
+            };
+            let _ = writeln!(out, "{cost}");
         }
     }
     if !out.is_empty() {
         let _ = writeln!(
             out,
-            "ranked by {RULE}; `fastest`: cases on which the solver is best by that rule"
+            "ranked by {RULE}; `fastest`: cases on which the solver is best by that rule{}",
+            if rows.iter().any(is_scene) {
+                "; `row updates/step`: the mean over the solver's scene runs of the constraint-row \
+                 updates per step (sweeps × rows, or a substepping solver's own count)"
+            } else {
+                ""
+            }
         );
     }
     out
+}
+
+/// Mean over `runs` of the row updates per step (`None` when no run records them).
+fn mean_row_updates(runs: &[&RunRecord]) -> Option<f64> {
+    let counts: Vec<f64> = runs.iter().filter_map(|r| r.row_updates_per_step).collect();
+    (!counts.is_empty()).then(|| counts.iter().sum::<f64>() / counts.len() as f64)
+}
+
+/// A count with thousands written as `k` and millions as `M`; `–` for none.
+fn format_count(v: Option<f64>) -> String {
+    match v {
+        None => "–".into(),
+        Some(v) if v >= 1e6 => format!("{:.2} M", v / 1e6),
+        Some(v) if v >= 1e4 => format!("{:.1} k", v / 1e3),
+        Some(v) => format!("{v:.0}"),
+    }
 }
 
 /// Seconds as `µs`, `ms` or `s`.
@@ -464,5 +501,31 @@ mod tests {
         assert_eq!(names, ["pgs+warm", "lemke", "nsgs"]);
         assert_eq!(ranked[0].solved, 10);
         assert!((ranked[0].mean_s - 3e-4).abs() < 1e-15);
+    }
+
+    /// The closing summary of scene runs gives each solver's mean row updates per step over
+    /// its eligible runs; LCP groups have no such column.
+    #[test]
+    fn the_scene_summary_shows_row_updates_per_step() {
+        let mut a = scene(SpecName("pgs+warm"), 1e-6, 10, 3e-4);
+        a.row_updates_per_step = Some(1200.0);
+        let mut b = scene(SpecName("si+warm"), 1e-6, 10, 2e-4);
+        b.case = "scene:other.toml".into();
+        b.row_updates_per_step = Some(48_000.0);
+        let mut c = scene(SpecName("si+warm"), 1e-6, 10, 2e-4);
+        c.row_updates_per_step = Some(2_000.0);
+        let text = sweep_summary(&[a, b, c]);
+        let line = |name: &str| {
+            text.lines()
+                .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+                .unwrap()
+                .to_owned()
+        };
+        assert!(text.contains("row updates/step"), "{text}");
+        assert!(line("pgs+warm").trim_end().ends_with(" 1200"), "{text}");
+        // si+warm: (48,000 + 2,000) / 2 over its two scenes.
+        assert!(line("si+warm").trim_end().ends_with(" 25.0 k"), "{text}");
+        let lcp_only = sweep_summary(&[lcp("easy", SolverKind::Pgs, Some(1e-3))]);
+        assert!(!lcp_only.contains("row updates"), "{lcp_only}");
     }
 }

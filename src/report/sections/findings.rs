@@ -66,11 +66,11 @@ pub(crate) fn family_of(r: &RunRecord) -> Option<&'static str> {
                 .map(|s| s.to_string_lossy().to_lowercase())
                 .unwrap_or_default();
             let has = |w: &str| stem.contains(w);
-            if has("tower") {
+            if has("tower") || has("stack") {
                 "towers"
             } else if has("pyramid") {
                 "pyramids"
-            } else if has("pile") || has("sphere") {
+            } else if has("pile") || has("sphere") || has("rush") {
                 "piles"
             } else if has("wall") {
                 "walls"
@@ -318,6 +318,8 @@ mod tests {
             Some("pyramids")
         );
         assert_eq!(f("scene:x/sphere_pile_100.toml", "pgs"), Some("piles"));
+        assert_eq!(f("scene:x/sphere_stack.toml", "pgs"), Some("towers"));
+        assert_eq!(f("scene:x/rush.toml", "pgs"), Some("piles"));
         assert_eq!(f("scene:x/scaling/wall_5x3.toml", "pgs"), Some("walls"));
         assert_eq!(
             f("scene:x/joints/chain_20_1e3.toml", "si"),

@@ -9,6 +9,7 @@ mod averaged_impulse;
 mod budgets;
 mod cone_profiles;
 mod convergence;
+mod engine_solvers;
 mod fastest;
 mod fclib;
 mod findings;
@@ -47,6 +48,7 @@ const SECTIONS: &[&dyn Section] = &[
     &pipeline::Pipeline,
     &towers::Towers,
     &joints::Joints,
+    &engine_solvers::EngineSolvers,
     &averaged_impulse::AveragedImpulse,
     &friction::FrictionModels,
     &robustness::Robustness,

@@ -81,9 +81,11 @@ impl Section for PerCase {
             "## {HEADING}\n\nEvery case of the sweep, each run (solver × budget) with its status; \
              its time (LCP and cone cases: the median of the timed solves, with the fastest and \
              slowest and their count; scenes: solver time per step); its warm start (where it \
-             came from and what it cost, not part of the time); iterations; the largest relative \
-             residual (scenes: of a step, then the median step's); and, for scenes, the steps \
-             that converged. All rows in [`tables/per_case.csv`](tables/per_case.csv). The best \
+             came from and what it cost, not part of the time); iterations (scenes: per step, \
+             with the constraint-row updates per step and a substepping solver's substeps); the \
+             largest relative residual (scenes: of a step, then the median step's; for a \
+             substepping solver, of its last solve's LCP); and, for scenes, the steps that \
+             converged. All rows in [`tables/per_case.csv`](tables/per_case.csv). The best \
              solver per family and accuracy is in [Findings](#{}).\n",
             super::findings::anchor(super::findings::HEADING)
         );
@@ -120,11 +122,7 @@ impl Section for PerCase {
                     r.status.to_string(),
                     time_cell(r),
                     warm_cell(r),
-                    match (r.iterations_per_step, r.iterations) {
-                        (Some(i), _) => format!("{i:.1}/step"),
-                        (None, Some(i)) => i.to_string(),
-                        _ => "–".into(),
-                    },
+                    iterations_cell(r),
                     fmt_sci(r.residual_rel),
                     fmt_sci(r.residual_rel_median),
                     match (converged_steps(r), r.steps_planned.or(r.steps)) {
@@ -167,6 +165,22 @@ impl Section for PerCase {
         figures.extend(profiles(ctx, &rows, &lcp_cases)?);
         Ok(figures)
     }
+}
+
+/// Iterations of a run: an LCP's count; a scene's mean per step, with its row updates per
+/// step and, when the solver substeps, its substeps per step.
+fn iterations_cell(r: &RunRecord) -> String {
+    let Some(i) = r.iterations_per_step else {
+        return r.iterations.map_or("–".into(), |i| i.to_string());
+    };
+    let mut cell = format!("{i:.1}/step");
+    if let Some(u) = r.row_updates_per_step {
+        let _ = write!(cell, ", {u:.0} row updates");
+    }
+    if let Some(s) = r.substeps_per_step.filter(|&s| s > 1.0) {
+        let _ = write!(cell, ", {s:.1} substeps");
+    }
+    cell
 }
 
 /// The budgets of `runs`, in order of first appearance.
@@ -235,6 +249,34 @@ fn profiles(ctx: &ReportContext, rows: &[&RunRecord], cases: &[Case]) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An LCP run gives its count; a scene run its mean per step with the row updates, and the
+    /// substeps only when the solver substeps.
+    #[test]
+    fn iterations_show_the_cost_per_step_of_scenes() {
+        let lcp = RunRecord {
+            iterations: Some(12),
+            ..RunRecord::default()
+        };
+        assert_eq!(iterations_cell(&lcp), "12");
+        let scene = RunRecord {
+            iterations: Some(200),
+            iterations_per_step: Some(20.0),
+            row_updates_per_step: Some(2400.0),
+            substeps_per_step: Some(1.0),
+            ..RunRecord::default()
+        };
+        assert_eq!(iterations_cell(&scene), "20.0/step, 2400 row updates");
+        let substepping = RunRecord {
+            substeps_per_step: Some(4.0),
+            ..scene.clone()
+        };
+        assert_eq!(
+            iterations_cell(&substepping),
+            "20.0/step, 2400 row updates, 4.0 substeps"
+        );
+        assert_eq!(iterations_cell(&RunRecord::default()), "–");
+    }
 
     #[test]
     fn times_show_their_spread_and_nothing_for_runs_that_did_not_run() {

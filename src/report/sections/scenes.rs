@@ -62,7 +62,7 @@ impl Section for Scenes {
              out of them ends `time_limit` with the solver's best point and the run goes on; a \
              run stops early only at twice its steps times those seconds, or after three \
              consecutive steps over them (the solver cannot keep up). Scenes run at most {} \
-             steps; the large ones (more than {} dynamic bodies) {} steps, except {} (see the \
+             steps (except {}, whose runs take that long to settle); the large ones (more than {} dynamic bodies) {} steps, except {} (see the \
              large-scene section). Scenes with more than {} dynamic bodies run only {} (cold \
              and warm): the other solvers read rows of the assembled Delassus matrix, tens of \
              millions of entries there. Budget `tight` is not run on scenes: at 10 s per step \
@@ -77,6 +77,11 @@ impl Section for Scenes {
              up here too).\n",
             suite::SCENE_MID_BUDGET,
             suite::SCENE_STEPS,
+            suite::SMALL_SCENE_STEP_EXCEPTIONS
+                .iter()
+                .map(|(name, steps)| format!("{name} ({steps})"))
+                .collect::<Vec<_>>()
+                .join(", "),
             suite::LARGE_SCENE_BODIES,
             suite::LARGE_SCENE_STEPS,
             suite::LARGE_SCENE_STEP_EXCEPTIONS
