@@ -21,6 +21,7 @@ pub mod integrate;
 pub mod joint;
 pub mod scene;
 pub mod step;
+pub mod timewarp;
 
 pub use body::{MassSpec, RigidBody};
 pub use collision::{candidate_pairs, CollisionPipeline, Contact};
