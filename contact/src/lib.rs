@@ -17,6 +17,7 @@ pub mod shape;
 // Dynamics: builder, solvers on bodies, stepping, scenes.
 pub mod body_solvers;
 pub mod builder;
+pub mod discontinuity;
 pub mod integrate;
 pub mod joint;
 pub mod scene;
