@@ -41,11 +41,12 @@
 //! FCLIB file.
 
 use crate::harness::case::GenFamily;
+use crate::harness::impact::{ImpactCase, ImpactMode};
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Budgets of the scene runs (the points of the speed–accuracy plots), on every scene, each
 /// solver cold and the iterative ones warm-started too. A budget's seconds bound each step's
@@ -350,6 +351,8 @@ pub struct Suite {
     /// The budgets of the joint scenes: [`SCENE_BUDGETS`], then [`JOINT_ITERATION_BUDGETS`]
     /// (warm-started iterative solvers only).
     pub joint_budgets: Vec<NamedBudget>,
+    /// The time-of-impact runs ([`impact_cases`]).
+    pub impact_cases: Vec<ImpactCase>,
 }
 
 /// A preset budget with its name.
@@ -491,7 +494,52 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     };
     fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
     joint_jobs(&mut suite, all_scenes, quick, plan.scene_steps);
+    suite.impact_cases = impact_cases(all_scenes, quick);
     suite
+}
+
+/// The time-of-impact runs: every scene of `impact/` beside the first scene file under every
+/// [`ImpactMode`] its size allows ([`impact_mode_runs`]).
+pub fn impact_cases(scenes: &[PathBuf], quick: bool) -> Vec<ImpactCase> {
+    let mut cases = Vec::new();
+    for scene in files_beside(scenes, "impact", "*.toml") {
+        let balls = bouncing_balls(&scene);
+        for mode in ImpactMode::ALL {
+            if impact_mode_runs(mode, balls, quick) {
+                cases.push(ImpactCase {
+                    scene: scene.clone(),
+                    mode,
+                });
+            }
+        }
+    }
+    cases
+}
+
+/// The ball count `N` of a `bouncing_N.toml` scene.
+pub fn bouncing_balls(scene: &Path) -> Option<usize> {
+    scene
+        .file_stem()?
+        .to_str()?
+        .strip_prefix("bouncing_")?
+        .parse()
+        .ok()
+}
+
+/// The runtime budget of the time-of-impact runs (2 s of simulated time each): Timewarp and
+/// the 60 Hz fixed step run every scene; 240 Hz and the backtracking methods (whose every step
+/// is a pass over all bodies' swept boxes, the motion cut at the first impact) up to 1,000
+/// balls; 1 kHz (2,000 steps) up to 100 balls. The quick suite stops at 100 balls.
+pub fn impact_mode_runs(mode: ImpactMode, balls: Option<usize>, quick: bool) -> bool {
+    let n = balls.unwrap_or(0);
+    if quick && n > 100 {
+        return false;
+    }
+    match mode {
+        ImpactMode::Timewarp | ImpactMode::Fixed { hz: 60 } => true,
+        ImpactMode::Fixed { hz: 1000 } => n <= 100,
+        _ => n <= 1000,
+    }
 }
 
 /// The scenes of [`joint_scenes`] (the quick suite: those of [`QUICK_JOINT_SCENES`], for

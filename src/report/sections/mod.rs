@@ -23,6 +23,7 @@ mod robustness;
 mod scaling;
 mod scenes;
 mod sor_omega;
+mod time_of_impact;
 mod time_to_accuracy;
 mod towers;
 mod warm_start;
@@ -47,6 +48,7 @@ const SECTIONS: &[&dyn Section] = &[
     &pipeline::Pipeline,
     &towers::Towers,
     &joints::Joints,
+    &time_of_impact::TimeOfImpact,
     &averaged_impulse::AveragedImpulse,
     &friction::FrictionModels,
     &robustness::Robustness,
