@@ -130,6 +130,7 @@ fn fixture_suite() -> Suite {
         joint_cases: vec![chain, heavy_chain, cradle],
         joint_solvers: vec![SolverSpec::plain(SolverKind::Lemke), pgs().with_warm()],
         joint_budgets: vec![preset(BudgetName::Realtime), "1e-6:20:1".parse().unwrap()],
+        impact_cases: Vec::new(),
     }
 }
 

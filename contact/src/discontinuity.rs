@@ -198,8 +198,7 @@ impl DiscontinuityMeter {
             self.collision_queries += p.len() as u64;
         }
         if s.ccd.is_some() {
-            if let Ok(p) = candidate_pairs_with_boxes(&world.bodies, |b| swept_aabb(b, s.dt), 0.0)
-            {
+            if let Ok(p) = candidate_pairs_with_boxes(&world.bodies, |b| swept_aabb(b, s.dt), 0.0) {
                 self.toi_queries += p.len() as u64;
             }
         }
@@ -236,8 +235,8 @@ impl DiscontinuityMeter {
             let k = ball.detected.len();
             if k > ball.energy_checked && ball.energy0 > 0.0 {
                 let height = body.position.coords.dot(&self.up) - ball.rest_height;
-                let energy = 0.5 * body.mass * body.velocity().norm_squared()
-                    + body.mass * self.g * height;
+                let energy =
+                    0.5 * body.mass * body.velocity().norm_squared() + body.mass * self.g * height;
                 let expected = match ball.impacts.get(k - 1) {
                     Some(&(_, true)) => ball.energy0 * ball.restitution.powi(2 * k as i32),
                     Some(&(_, false)) => 0.0,
@@ -405,12 +404,7 @@ fn tunnelled(world: &World, previous: &[Point3<f64>]) -> Option<usize> {
         boxes.push(Aabb::new(p0.inf(&p1), p0.sup(&p1)));
     }
     let nb = bounded.len();
-    let pairs = sweep_and_prune_at_most(
-        &boxes,
-        |a, b| (a < nb) == (b < nb),
-        MAX_PAIRS,
-    )
-    .ok()?;
+    let pairs = sweep_and_prune_at_most(&boxes, |a, b| (a < nb) == (b < nb), MAX_PAIRS).ok()?;
     for (a, b) in pairs {
         let (shape_k, seg_k) = if a < nb { (a, b - nb) } else { (b, a - nb) };
         let (j, i) = (bounded[shape_k], moving[seg_k]);

@@ -214,7 +214,11 @@ fn the_fast_sphere_tunnels_only_under_the_plain_fixed_step() {
     let modes = [
         (Stepping::Fixed, None, true),
         (Stepping::Fixed, Some(ToiMethod::Bisection), false),
-        (Stepping::Fixed, Some(ToiMethod::ConservativeAdvancement), false),
+        (
+            Stepping::Fixed,
+            Some(ToiMethod::ConservativeAdvancement),
+            false,
+        ),
         (Stepping::Timewarp, None, false),
     ];
     for (stepping, ccd, tunnels) in modes {

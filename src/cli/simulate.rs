@@ -3,11 +3,11 @@
 use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench_contact::joint::{JointMetrics, JointSummary};
-use lcpbench_contact::scene::{LoadOptions, Scene};
 use lcpbench_contact::collision::toi::ToiMethod;
 use lcpbench_contact::discontinuity::{DiscontinuityMeter, DiscontinuityMetrics};
+use lcpbench_contact::joint::{JointMetrics, JointSummary};
 use lcpbench_contact::scene::DT_RANGE;
+use lcpbench_contact::scene::{LoadOptions, Scene};
 use lcpbench_contact::step::{PhaseTimes, StepReport, World};
 use lcpbench_contact::timewarp::{Stepper, Stepping};
 use serde_json::json;
@@ -313,8 +313,8 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         Some(name) => Stepping::from_name(name).map_err(|m| anyhow!("--stepping: {m}"))?,
         None => scene.stepping,
     };
-    let mut stepper = Stepper::new(world, stepping)
-        .map_err(|m| anyhow!("{}: {m}", args.scene.display()))?;
+    let mut stepper =
+        Stepper::new(world, stepping).map_err(|m| anyhow!("{}: {m}", args.scene.display()))?;
     let min = lcpbench::view::min_page_bytes(true);
     if args.html.is_some() && args.max_bytes < min {
         bail!(

@@ -208,9 +208,8 @@ pub fn run_cases(cases: &[ImpactCase], path: &Path, resume: bool) -> Result<Vec<
         if rows.iter().any(|r| r.scene == stem && r.mode == mode) {
             continue;
         }
-        let row = run_case(case).with_context(|| {
-            format!("time-of-impact run {} under {mode}", case.scene.display())
-        })?;
+        let row = run_case(case)
+            .with_context(|| format!("time-of-impact run {} under {mode}", case.scene.display()))?;
         rows.push(row);
         write_rows(path, &rows)?;
     }

@@ -243,7 +243,7 @@ fn toi(
             if vn <= 0.0 {
                 return Some((t, d));
             }
-            if !(mu > 0.0) {
+            if mu.is_nan() || mu <= 0.0 {
                 return None;
             }
             t += (4.0 * tol).max(d) / mu;
@@ -254,7 +254,7 @@ fn toi(
         }
         first = false;
         let step = if arel == 0.0 {
-            if !(mu > 0.0) {
+            if mu.is_nan() || mu <= 0.0 {
                 return None;
             }
             d / mu

@@ -390,7 +390,7 @@ impl Stepping {
 /// A world with its stepping mode.
 pub enum Stepper {
     /// Fixed steps.
-    Fixed(World),
+    Fixed(Box<World>),
     /// Timewarp.
     Timewarp(Box<Timewarp>),
 }
@@ -400,7 +400,7 @@ impl Stepper {
     /// (it would have to roll them back too).
     pub fn new(world: World, stepping: Stepping) -> Result<Self, String> {
         match stepping {
-            Stepping::Fixed => Ok(Self::Fixed(world)),
+            Stepping::Fixed => Ok(Self::Fixed(Box::new(world))),
             Stepping::Timewarp => {
                 if !world.events.is_empty() {
                     return Err(

@@ -428,6 +428,9 @@ mod impact_tests {
         let md = std::fs::read_to_string(readme).unwrap();
         assert!(md.contains("## Time of impact"));
         assert!(md.contains("| bouncing_10 | timewarp |"), "{md}");
-        assert!(dir.path().join("tables/time_of_impact_scaling.csv").exists());
+        assert!(dir
+            .path()
+            .join("tables/time_of_impact_scaling.csv")
+            .exists());
     }
 }

@@ -58,7 +58,10 @@ impl Section for TimeOfImpact {
              a shared machine.\n"
         );
         if rows.is_empty() {
-            let _ = writeln!(md, "No time-of-impact runs were recorded (`data/{IMPACT_TABLE}`).\n");
+            let _ = writeln!(
+                md,
+                "No time-of-impact runs were recorded (`data/{IMPACT_TABLE}`).\n"
+            );
             return Ok(Vec::new());
         }
         let t = accuracy_table(&rows);
@@ -168,10 +171,7 @@ fn scaling(rows: &[ImpactRow]) -> (Table, Vec<Series>) {
         let mut row = vec![name.clone()];
         let mut points = Vec::new();
         for &n in &ns {
-            match rows
-                .iter()
-                .find(|r| r.mode == name && balls(r) == Some(n))
-            {
+            match rows.iter().find(|r| r.mode == name && balls(r) == Some(n)) {
                 Some(r) => {
                     row.push(fmt_sci(r.queries_per_impact));
                     row.push(fmt_time(r.wall_time_per_impact_s));
