@@ -1003,3 +1003,37 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod impact_budget_tests {
+    use super::*;
+
+    /// The time-of-impact runs of the shipped scenes keep to the stated budget: every scene
+    /// under Timewarp and 60 Hz, no 1 kHz run past 100 balls, no 240 Hz or backtracking run past
+    /// 1,000, and the quick suite nothing past 100 balls.
+    #[test]
+    fn impact_runs_keep_to_their_budget() {
+        let scenes =
+            vec![PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/tower_5.toml")];
+        let full = impact_cases(&scenes, false);
+        let quick = impact_cases(&scenes, true);
+        let count = |cases: &[ImpactCase], stem: &str| {
+            cases
+                .iter()
+                .filter(|c| c.scene.file_stem().is_some_and(|s| s == stem))
+                .map(|c| c.mode)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(count(&full, "bouncing_10").len(), 6);
+        assert_eq!(count(&full, "fast_sphere_walls").len(), 6);
+        assert_eq!(count(&full, "bouncing_1000").len(), 5);
+        assert_eq!(
+            count(&full, "bouncing_9999"),
+            [ImpactMode::Fixed { hz: 60 }, ImpactMode::Timewarp]
+        );
+        assert!(count(&quick, "bouncing_1000").is_empty());
+        assert_eq!(count(&quick, "bouncing_100").len(), 6);
+        assert_eq!(bouncing_balls(Path::new("x/bouncing_42.toml")), Some(42));
+        assert_eq!(bouncing_balls(Path::new("x/cradle.toml")), None);
+    }
+}
