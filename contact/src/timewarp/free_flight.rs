@@ -631,7 +631,7 @@ impl<'a> Window<'a> {
     fn rollback(&mut self, j: usize, t: f64) {
         let n = self.free.len();
         let mut stack = vec![(j, t)];
-        while let Some((k, mut t)) = stack.pop() {
+        while let Some((k, t)) = stack.pop() {
             if self.tracks[k].clock <= t {
                 continue;
             }
@@ -641,13 +641,8 @@ impl<'a> Window<'a> {
                 tr.saved.pop_back();
                 undone += 1;
             }
-            // A group step that began before `t` is replayed as a whole.
-            if let Some(last) = tr.saved.back_mut() {
-                if matches!(last.segment, Segment::Stepped { .. }) {
-                    t = last.time;
-                    last.segment = Segment::Ballistic;
-                }
-            }
+            // Within a landing's group step the body keeps that step's velocities up to `t`
+            // (the state an impact at `t` meets).
             self.cost.rollbacks += 1;
             self.cost.rolled_back_steps += undone + 1;
             tr.clock = t;
