@@ -76,7 +76,8 @@ pub struct TimewarpSettings {
     /// Longest impact step, s \[`1e-6`\].
     pub max_impact_step: f64,
     /// Impacts of one body within one frame before it is stepped with the group to the end of
-    /// the frame (a Zeno guard) \[`1000`\].
+    /// the frame (a Zeno guard) \[`1000`\]. It also bounds the states a body saves within a
+    /// frame (one per impact, two for a landing, and the frame's start).
     pub max_events_per_frame: usize,
     /// Processing order \[ascending\].
     pub scheduling: Scheduling,
