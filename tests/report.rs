@@ -132,6 +132,7 @@ fn fixture_suite() -> Suite {
         joint_budgets: vec![preset(BudgetName::Realtime), "1e-6:20:1".parse().unwrap()],
         engine_cases: Vec::new(),
         engine_runs: Vec::new(),
+        impact_cases: Vec::new(),
     }
 }
 

@@ -609,3 +609,50 @@ fn simulate_says_what_it_wrote() {
     serde_json::from_str::<serde_json::Value>(&out).expect("stdout is one JSON document");
     assert!(err.contains(&format!("wrote {}", page.display())), "{err}");
 }
+
+/// `--stepping timewarp` on the bouncing balls: every analytic impact located to round-off in
+/// the JSON summary; the 60 Hz fixed step misses by a good part of a step. `--dt` keeps the
+/// scene's duration; bad modes and a Timewarp scene with events are refused by name.
+#[test]
+fn simulate_stepping_modes_report_their_impact_figures() {
+    let json = |args: &[&str]| -> serde_json::Value {
+        let o = lcpbench(args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let scene = "bench_scenes/impact/bouncing_10.toml";
+    let tw = json(&["simulate", scene, "--stepping", "timewarp", "--json"]);
+    assert_eq!(tw["stepping"], "timewarp");
+    let d = &tw["discontinuity"];
+    assert_eq!(d["missed_impacts"], 0);
+    assert!(d["analytic_impacts"].as_u64().unwrap() >= 10);
+    assert!(d["impact_time_error_max"].as_f64().unwrap() < 1e-9, "{d}");
+    assert_eq!(d["tunnelling"], 0);
+    let fixed = json(&["simulate", scene, "--dt", "0.004", "--json"]);
+    assert_eq!(fixed["steps"], 500);
+    assert_eq!(fixed["stepping"], "fixed");
+    assert!(
+        fixed["discontinuity"]["impact_time_error_max"]
+            .as_f64()
+            .unwrap()
+            > 1e-4
+    );
+    let ccd = json(&["simulate", scene, "--ccd", "bisection", "--json"]);
+    assert_eq!(ccd["stepping"], "bisection");
+
+    let o = lcpbench(&["simulate", scene, "--stepping", "warp"]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("--stepping: unknown stepping \"warp\""));
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/heavy_removed.toml",
+        "--stepping",
+        "timewarp",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o.stderr).contains("does not take scheduled events"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -17,11 +17,13 @@ pub mod shape;
 // Dynamics: builder, solvers on bodies, stepping, scenes.
 pub mod body_solvers;
 pub mod builder;
+pub mod discontinuity;
 pub mod integrate;
 pub mod joint;
 pub mod scene;
 pub mod step;
 pub mod substep;
+pub mod timewarp;
 
 pub use body::{MassSpec, RigidBody};
 pub use collision::{candidate_pairs, CollisionPipeline, Contact};

@@ -1,11 +1,15 @@
 //! `lcpbench simulate`: step a scene and print per-run figures.
 
 use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use lcpbench_contact::collision::toi::ToiMethod;
+use lcpbench_contact::discontinuity::{DiscontinuityMeter, DiscontinuityMetrics};
 use lcpbench_contact::joint::{JointMetrics, JointSummary};
+use lcpbench_contact::scene::DT_RANGE;
 use lcpbench_contact::scene::{LoadOptions, Scene};
 use lcpbench_contact::step::{PhaseTimes, StepReport, World};
+use lcpbench_contact::timewarp::{Stepper, Stepping};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
@@ -64,6 +68,18 @@ pub struct SimulateArgs {
     /// Print the run's figures as one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Stepping mode (overrides the scene's `stepping`): `fixed` steps, or `timewarp`
+    /// (free bodies advance asynchronously between impacts; docs/scenes.md).
+    #[arg(long)]
+    pub stepping: Option<String>,
+    /// Continuous collision detection of the fixed step (overrides the scene's `ccd`): `none`,
+    /// `bisection` or `conservative`.
+    #[arg(long)]
+    pub ccd: Option<String>,
+    /// Time step, s (overrides the scene's `dt`; without `--steps` the number of steps is
+    /// scaled to keep the scene's duration). Within the scene file's limits on `dt`.
+    #[arg(long)]
+    pub dt: Option<f64>,
     /// Read mesh files outside the scene file's directory tree (absolute paths, `..`, links
     /// leading out), which are refused otherwise.
     #[arg(long)]
@@ -299,9 +315,18 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             allow_outside_paths: args.allow_outside_paths,
         },
     )?;
-    let steps = args.steps.unwrap_or(scene.settings.steps);
+    let steps = apply_clock(&args, &scene, &mut world)?;
     check_steps("--steps", steps)?;
     apply_overrides(&args, &mut world)?;
+    if let Some(name) = &args.ccd {
+        world.settings.ccd = ToiMethod::from_ccd_name(name).map_err(|m| anyhow!("--ccd: {m}"))?;
+    }
+    let stepping = match &args.stepping {
+        Some(name) => Stepping::from_name(name).map_err(|m| anyhow!("--stepping: {m}"))?,
+        None => scene.stepping,
+    };
+    let mut stepper =
+        Stepper::new(world, stepping).map_err(|m| anyhow!("{}: {m}", args.scene.display()))?;
     let min = lcpbench::view::min_page_bytes(true);
     if args.html.is_some() && args.max_bytes < min {
         bail!(
@@ -311,27 +336,39 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         );
     }
     let mut recorder = Recorder::new(&args)?;
-    recorder.push(lcpbench::view::header(&scene.name, &world))?;
-    let mut totals = SimTotals::new(&world);
-    let top = TopBody::of(&scene, &world);
-    let mut joints = JointMetrics::new(&world, scene.metrics.sag_body.as_deref());
+    recorder.push(lcpbench::view::header(&scene.name, stepper.world()))?;
+    let mut totals = SimTotals::new(stepper.world());
+    let top = TopBody::of(&scene, stepper.world());
+    let mut joints = JointMetrics::new(stepper.world(), scene.metrics.sag_body.as_deref());
+    let duration = steps as f64 * stepper.world().settings.dt;
+    let mut meter = DiscontinuityMeter::new(
+        &stepper,
+        scene.metrics.analytic_impacts == Some(true),
+        duration,
+    );
     let bar = step_progress(steps as u64, &scene.name);
     for _ in 0..steps {
         bar.inc(1);
-        let report = world.step();
+        meter.before_step(&stepper);
+        let report = stepper.step();
         check_supported(&args, &report)?;
+        meter.after_step(&stepper, &report);
+        let world = stepper.world();
         if recorder.is_active() {
-            recorder.push(lcpbench::view::recording::step_line(&report, &world))?;
+            recorder.push(lcpbench::view::recording::step_line(&report, world))?;
         }
         totals.observe(&report);
-        joints.observe(&report, &world);
+        joints.observe(&report, world);
     }
     bar.finish_and_clear();
+    let discontinuity = meter.finish(&stepper);
+    let world = stepper.world();
     let wrote = recorder.finish(&args)?;
-    let top = top.as_ref().map_or((None, None), |t| t.measure(&world));
+    let top = top.as_ref().map_or((None, None), |t| t.measure(world));
     let run = SimRun {
         scene: &scene,
-        world: &world,
+        world,
+        discontinuity,
         steps,
         top,
         joints: joints.summary(),
@@ -386,6 +423,8 @@ struct SimRun<'a> {
     top: (Option<f64>, Option<f64>),
     /// Joint drift and the sag body's drop.
     joints: JointSummary,
+    /// Impact timing, energy, penetration, tunnelling and cost of the stepping mode.
+    discontinuity: DiscontinuityMetrics,
 }
 
 fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
@@ -441,6 +480,8 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "sag_body_max": run.joints.sag_max,
         "sag_body_final": run.joints.sag_final,
         "energy_drift": t.last_energy - t.energy0,
+        "stepping": run.discontinuity.stepping,
+        "discontinuity": run.discontinuity,
     });
     println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
@@ -548,4 +589,74 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         t.last_energy,
         t.last_energy - t.energy0
     );
+    print_discontinuity(&run.discontinuity);
+}
+
+/// The stepping mode's impact figures, as text.
+fn print_discontinuity(d: &DiscontinuityMetrics) {
+    let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3e}"));
+    println!("stepping          {}", d.stepping);
+    if d.analytic_impacts > 0 {
+        println!(
+            "impacts           {} analytic, {} found ({} missed, {} extra); time error max {} s, \
+             mean {} s",
+            d.analytic_impacts,
+            d.detected_impacts,
+            d.missed_impacts,
+            d.extra_impacts,
+            opt(d.impact_time_error_max),
+            opt(d.impact_time_error_mean)
+        );
+        println!(
+            "impact energy     relative error max {}, mean {}",
+            opt(d.energy_error_max),
+            opt(d.energy_error_mean)
+        );
+    }
+    if let Some(n) = d.recorded_impacts {
+        println!(
+            "free flight       {n} impacts, {} rollbacks ({} body-steps undone), {} distance \
+             queries",
+            d.rollbacks,
+            d.rolled_back_steps,
+            d.distance_queries.unwrap_or(0)
+        );
+    }
+    println!(
+        "tunnelling        {} body-steps{}",
+        d.tunnelling,
+        if d.tunnelling_unchecked_steps > 0 {
+            format!(" ({} steps not checked)", d.tunnelling_unchecked_steps)
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "queries           {} collision, {} time of impact{}",
+        d.collision_queries,
+        d.toi_queries,
+        d.queries_per_impact
+            .map(|q| format!(" ({q:.1} per impact)"))
+            .unwrap_or_default()
+    );
+}
+
+/// Apply `--dt` (scaling the scene's step count to keep its duration unless `--steps` is given)
+/// and return the number of steps.
+fn apply_clock(args: &SimulateArgs, scene: &Scene, world: &mut World) -> Result<usize> {
+    let Some(dt) = args.dt else {
+        return Ok(args.steps.unwrap_or(scene.settings.steps));
+    };
+    if !(dt.is_finite() && (DT_RANGE.0..=DT_RANGE.1).contains(&dt)) {
+        bail!(
+            "--dt must be between {} and {} s, got {dt}",
+            DT_RANGE.0,
+            DT_RANGE.1
+        );
+    }
+    world.settings.dt = dt;
+    let duration = scene.settings.dt * scene.settings.steps as f64;
+    Ok(args
+        .steps
+        .unwrap_or_else(|| (duration / dt).round().max(1.0) as usize))
 }

@@ -26,6 +26,7 @@ pub mod case;
 pub mod catalogue;
 pub mod export;
 pub mod fault;
+pub mod impact;
 pub mod isolate;
 pub mod machine;
 pub mod merge;

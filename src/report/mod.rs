@@ -113,6 +113,9 @@ pub struct ReportSummary {
     pub readme: PathBuf,
 }
 
+/// The time-of-impact runs' table in the data directory.
+pub const IMPACT_TABLE: &str = "impact.csv";
+
 /// Run the default suite into `out_dir/data` and write the report.
 pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     let data = options.out_dir.join("data");
@@ -142,6 +145,12 @@ pub fn run(options: &ReportOptions) -> Result<ReportSummary> {
     config.keep_histories = true;
     let start = Instant::now();
     let sweep = run_sweep_locked(&config, suite.jobs.clone(), &lock)?;
+    // The time-of-impact runs, in this process after the sweep (section "Time of impact").
+    crate::harness::impact::run_cases(
+        &suite.impact_cases,
+        &config.out_dir.join(IMPACT_TABLE),
+        options.resume,
+    )?;
     drop(lock);
     let sweep_seconds = start.elapsed().as_secs_f64();
     let header = Header::collect(&options.command, options.sweep.jobs, &options.out_dir);

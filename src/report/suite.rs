@@ -47,12 +47,13 @@
 //! FCLIB file.
 
 use crate::harness::case::GenFamily;
+use crate::harness::impact::{ImpactCase, ImpactMode};
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::substep::{ParamSpec, Params};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Budgets of the scene runs (the points of the speed–accuracy plots), on every scene, each
 /// solver cold and the iterative ones warm-started too. A budget's seconds bound each step's
@@ -381,6 +382,8 @@ pub struct Suite {
     pub engine_cases: Vec<Case>,
     /// Its runs: each solver with its budget ([`engine_runs`]).
     pub engine_runs: Vec<(SolverSpec, NamedBudget)>,
+    /// The time-of-impact runs ([`impact_cases`]).
+    pub impact_cases: Vec<ImpactCase>,
 }
 
 /// A preset budget with its name.
@@ -528,6 +531,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     fc3d_jobs(&mut suite, &large_scenes, &fc3d_only, plan.fc3d_scene_steps);
     joint_jobs(&mut suite, all_scenes, quick, plan.scene_steps);
     engine_jobs(&mut suite, all_scenes, quick);
+    suite.impact_cases = impact_cases(all_scenes, quick);
     suite
 }
 
@@ -673,6 +677,50 @@ fn engine_jobs(suite: &mut Suite, scenes: &[PathBuf], quick: bool) {
         for (solver, budget) in suite.engine_runs.clone() {
             push(suite, std::slice::from_ref(&case), &[solver], &[budget]);
         }
+    }
+}
+
+/// The time-of-impact runs: every scene of `impact/` beside the first scene file under every
+/// [`ImpactMode`] its size allows ([`impact_mode_runs`]).
+pub fn impact_cases(scenes: &[PathBuf], quick: bool) -> Vec<ImpactCase> {
+    let mut cases = Vec::new();
+    for scene in files_beside(scenes, "impact", "*.toml") {
+        let balls = bouncing_balls(&scene);
+        for mode in ImpactMode::ALL {
+            if impact_mode_runs(mode, balls, quick) {
+                cases.push(ImpactCase {
+                    scene: scene.clone(),
+                    mode,
+                });
+            }
+        }
+    }
+    cases
+}
+
+/// The ball count `N` of a `bouncing_N.toml` scene.
+pub fn bouncing_balls(scene: &Path) -> Option<usize> {
+    scene
+        .file_stem()?
+        .to_str()?
+        .strip_prefix("bouncing_")?
+        .parse()
+        .ok()
+}
+
+/// The runtime budget of the time-of-impact runs (2 s of simulated time each): Timewarp and
+/// the 60 Hz fixed step run every scene; 240 Hz and the backtracking methods (whose every step
+/// is a pass over all bodies' swept boxes, the motion cut at the first impact) up to 1,000
+/// balls; 1 kHz (2,000 steps) up to 100 balls. The quick suite stops at 100 balls.
+pub fn impact_mode_runs(mode: ImpactMode, balls: Option<usize>, quick: bool) -> bool {
+    let n = balls.unwrap_or(0);
+    if quick && n > 100 {
+        return false;
+    }
+    match mode {
+        ImpactMode::Timewarp | ImpactMode::Fixed { hz: 60 } => true,
+        ImpactMode::Fixed { hz: 1000 } => n <= 100,
+        _ => n <= 1000,
     }
 }
 
@@ -1256,5 +1304,39 @@ mod tests {
             cone_jobs,
             ["nsgs-cone+warm", "newton-ac+warm", "clarabel-socp"]
         );
+    }
+}
+
+#[cfg(test)]
+mod impact_budget_tests {
+    use super::*;
+
+    /// The time-of-impact runs of the shipped scenes keep to the stated budget: every scene
+    /// under Timewarp and 60 Hz, no 1 kHz run past 100 balls, no 240 Hz or backtracking run past
+    /// 1,000, and the quick suite nothing past 100 balls.
+    #[test]
+    fn impact_runs_keep_to_their_budget() {
+        let scenes =
+            vec![PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/tower_5.toml")];
+        let full = impact_cases(&scenes, false);
+        let quick = impact_cases(&scenes, true);
+        let count = |cases: &[ImpactCase], stem: &str| {
+            cases
+                .iter()
+                .filter(|c| c.scene.file_stem().is_some_and(|s| s == stem))
+                .map(|c| c.mode)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(count(&full, "bouncing_10").len(), 6);
+        assert_eq!(count(&full, "fast_sphere_walls").len(), 6);
+        assert_eq!(count(&full, "bouncing_1000").len(), 5);
+        assert_eq!(
+            count(&full, "bouncing_9999"),
+            [ImpactMode::Fixed { hz: 60 }, ImpactMode::Timewarp]
+        );
+        assert!(count(&quick, "bouncing_1000").is_empty());
+        assert_eq!(count(&quick, "bouncing_100").len(), 6);
+        assert_eq!(bouncing_balls(Path::new("x/bouncing_42.toml")), Some(42));
+        assert_eq!(bouncing_balls(Path::new("x/cradle.toml")), None);
     }
 }

@@ -63,6 +63,10 @@ pub struct SceneMetrics {
     /// Body whose sag (drop below its initial height) the joint metrics report: the end mass
     /// of a hanging chain, the load of a bridge.
     pub sag_body: Option<String>,
+    /// Every sphere that starts at rest above a plane bounces on it alone: the impact-time and
+    /// energy metrics compare each sphere's impacts with the analytic ones
+    /// ([`crate::discontinuity::bouncing_ball_impacts`]).
+    pub analytic_impacts: Option<bool>,
     /// Informational: height a body is dropped from, m.
     pub drop_height: Option<f64>,
     /// Informational: slope of the incline, degrees.
@@ -125,6 +129,7 @@ pub(super) struct SettingsFile {
     pub(super) penalty_damping_ratio: f64,
     pub(super) penalty_stiffness: Option<f64>,
     pub(super) ccd: String,
+    pub(super) stepping: String,
 }
 
 impl Default for SettingsFile {
@@ -152,6 +157,7 @@ impl Default for SettingsFile {
             penalty_damping_ratio: b.damping_ratio,
             penalty_stiffness: None,
             ccd: "none".into(),
+            stepping: "fixed".into(),
         }
     }
 }

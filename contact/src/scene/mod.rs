@@ -28,6 +28,7 @@ use crate::body_solvers::Penalty;
 use crate::builder::{FrictionModel, Material};
 use crate::joint::Joint;
 use crate::step::{ContactSolver, Event, SimSettings, World};
+use crate::timewarp::Stepping;
 use bodies::{check_initial_overlap, convert_bodies, convert_materials, count_bodies, MeshFiles};
 use events::convert_events;
 use file::{key_at, line_column, table_context, SceneFile};
@@ -178,6 +179,8 @@ pub struct Scene {
     pub penalty: Penalty,
     /// The `[metrics]` table.
     pub metrics: SceneMetrics,
+    /// How the scene is stepped (`stepping` in `[settings]`) \[`fixed`\].
+    pub stepping: Stepping,
 }
 
 impl Scene {
@@ -258,6 +261,14 @@ impl Scene {
         let joints = convert_joints(&file.joints, &bodies).map_err(|(f, m)| invalid(f, m))?;
         check_initial_overlap(&bodies, &groups, &file.bodies, settings.prediction_distance)
             .map_err(|(f, m)| invalid(f, m))?;
+        let stepping = Stepping::from_name(&file.settings.stepping)
+            .map_err(|m| invalid("settings.stepping".into(), m))?;
+        if stepping == Stepping::Timewarp && !(events.is_empty() && joints.is_empty()) {
+            return Err(invalid(
+                "settings.stepping".into(),
+                "\"timewarp\" does not take scheduled events or joints (use \"fixed\")".into(),
+            ));
+        }
         let name = file.name.unwrap_or_else(|| {
             path.file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned())
@@ -274,6 +285,7 @@ impl Scene {
             joints,
             penalty,
             metrics: file.metrics,
+            stepping,
         })
     }
 

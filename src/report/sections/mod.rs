@@ -24,6 +24,7 @@ mod robustness;
 mod scaling;
 mod scenes;
 mod sor_omega;
+mod time_of_impact;
 mod time_to_accuracy;
 mod towers;
 mod warm_start;
@@ -49,6 +50,7 @@ const SECTIONS: &[&dyn Section] = &[
     &towers::Towers,
     &joints::Joints,
     &engine_solvers::EngineSolvers,
+    &time_of_impact::TimeOfImpact,
     &averaged_impulse::AveragedImpulse,
     &friction::FrictionModels,
     &robustness::Robustness,
@@ -379,5 +381,58 @@ mod tests {
         assert_eq!(by_budget.lines().count(), 5, "{by_budget}");
         assert!(dir.path().join("plots/pipeline_phases.svg").exists());
         assert!(dir.path().join("plots/large_worst_tower_40.svg").exists());
+    }
+}
+
+#[cfg(test)]
+mod impact_tests {
+    use super::write_report;
+    use crate::harness::impact::{run_cases, ImpactCase, ImpactMode};
+    use crate::report::machine::Header;
+    use crate::report::suite::Suite;
+    use crate::report::write_results_for_tests;
+    use std::path::PathBuf;
+
+    /// The time-of-impact runs of a small scene under two modes, through their CSV, into the
+    /// section: Timewarp finds every analytic impact to round-off, the 60 Hz step does not.
+    #[test]
+    fn the_time_of_impact_section_reads_the_impact_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        write_results_for_tests(dir.path(), &[]);
+        let scene: PathBuf = [env!("CARGO_MANIFEST_DIR"), "bench_scenes", "impact"]
+            .iter()
+            .collect::<PathBuf>()
+            .join("bouncing_10.toml");
+        let cases: Vec<ImpactCase> = [ImpactMode::Fixed { hz: 60 }, ImpactMode::Timewarp]
+            .into_iter()
+            .map(|mode| ImpactCase {
+                scene: scene.clone(),
+                mode,
+            })
+            .collect();
+        let rows = run_cases(&cases, &dir.path().join("data/impact.csv"), false).unwrap();
+        assert_eq!(rows.len(), 2);
+        let (fixed, tw) = (&rows[0], &rows[1]);
+        assert_eq!(tw.analytic_impacts, fixed.analytic_impacts);
+        assert!(tw.analytic_impacts >= 10);
+        assert_eq!(tw.missed_impacts, 0);
+        assert!(tw.impact_time_error_max.unwrap() < 1e-9, "{tw:?}");
+        assert!(fixed.impact_time_error_max.unwrap() > 1e-3, "{fixed:?}");
+        // Resumed: nothing runs again, the rows read back equal.
+        let again = run_cases(&cases, &dir.path().join("data/impact.csv"), true).unwrap();
+        assert_eq!(again, rows);
+        let suite = Suite {
+            impact_cases: cases,
+            ..Suite::default()
+        };
+        let header = Header::for_tests("lcpbench report", 1);
+        let readme = write_report(dir.path(), &suite, &header, 1.0).unwrap();
+        let md = std::fs::read_to_string(readme).unwrap();
+        assert!(md.contains("## Time of impact"));
+        assert!(md.contains("| bouncing_10 | timewarp |"), "{md}");
+        assert!(dir
+            .path()
+            .join("tables/time_of_impact_scaling.csv")
+            .exists());
     }
 }
