@@ -125,6 +125,7 @@ pub fn iteration_unit(name: &str) -> Option<&'static str> {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
             BodySolverKind::Penalty => "passes (always 1)",
+            BodySolverKind::Xpbd => "position and velocity passes, summed over the substeps",
         });
     }
     ConeSolverKind::from_name(name).map(|kind| match kind {

@@ -76,15 +76,18 @@ pub enum BodySolverKind {
     Penalty,
     /// One averaged impulse per body pair.
     AveragedImpulse,
+    /// Extended position-based dynamics with small steps ([`crate::substep::xpbd`]).
+    Xpbd,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 4] = [
+    pub const ALL: [BodySolverKind; 5] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
         BodySolverKind::AveragedImpulse,
+        BodySolverKind::Xpbd,
     ];
 
     /// Name used on the command line and in scene files.
@@ -94,6 +97,7 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => "body-micro",
             BodySolverKind::Penalty => "penalty",
             BodySolverKind::AveragedImpulse => "avg",
+            BodySolverKind::Xpbd => "xpbd",
         }
     }
 
@@ -115,6 +119,10 @@ impl BodySolverKind {
                 "averaged impulses: one contact per body pair at the averaged point and normal, \
                  swept as si"
             }
+            BodySolverKind::Xpbd => {
+                "extended position-based dynamics with small steps (Macklin et al. 2019, Mueller \
+                 et al. 2020): position corrections per substep, velocities from positions"
+            }
         }
     }
 
@@ -133,6 +141,10 @@ impl BodySolverKind {
                 "a soft spring-damper penalty model (forces from penetration depth and closing \
                  speed, one Jacobi pass), not the rigid LCP",
             ),
+            BodySolverKind::Xpbd => Some(
+                "position-level constraints over small substeps (XPBD), compliant when \
+                 compliance > 0; not the step's velocity LCP",
+            ),
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => None,
@@ -142,7 +154,10 @@ impl BodySolverKind {
     /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
     /// them as engines do; the others resolve contacts only.
     pub fn takes_joints(self) -> bool {
-        matches!(self, BodySolverKind::SequentialImpulses)
+        matches!(
+            self,
+            BodySolverKind::SequentialImpulses | BodySolverKind::Xpbd
+        )
     }
 
     /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
@@ -168,6 +183,13 @@ impl BodySolverKind {
                  warm-startable; exact only for convex single-normal contact regions: separated \
                  supports, off-centre loads and non-convex meshes tilt or sink"
             }
+            BodySolverKind::Xpbd => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of Gauss-Seidel position corrections on rows linearised at the step's \
+                 start, warm-startable; rigid or compliant contacts (compliance, hertz); solves a \
+                 position-level problem per substep, not the step's LCP; slow on mass ratios and \
+                 long chains"
+            }
         }
     }
 
@@ -185,6 +207,7 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => &[],
+            BodySolverKind::Xpbd => crate::substep::xpbd::XPBD_PARAMS,
         }
     }
 
@@ -196,13 +219,19 @@ impl BodySolverKind {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
             | BodySolverKind::AveragedImpulse => false,
+            BodySolverKind::Xpbd => true,
         }
     }
 
     /// The solver with the parameters `params` (which follow [`BodySolverKind::param_specs`]).
     pub fn create_with(self, params: Params) -> Box<dyn BodySolver + Send> {
-        let _ = params;
-        self.create()
+        match self {
+            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::new(params)),
+            BodySolverKind::SequentialImpulses
+            | BodySolverKind::MicroImpulses
+            | BodySolverKind::Penalty
+            | BodySolverKind::AveragedImpulse => self.create(),
+        }
     }
 
     /// The solver of a specification `name` or `name@key=value,…`, its parameters checked
@@ -226,6 +255,7 @@ impl BodySolverKind {
             BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
             BodySolverKind::Penalty => Box::new(Penalty::default()),
             BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
+            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::default()),
         }
     }
 }

@@ -31,10 +31,12 @@
 pub mod params;
 pub mod softness;
 pub mod state;
+pub mod xpbd;
 
 pub use params::{ParamSpec, Params};
 pub use softness::Softness;
 pub use state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
+pub use xpbd::Xpbd;
 
 use crate::builder::ContactSystem;
 use lcpbench_solvers::Settings;
