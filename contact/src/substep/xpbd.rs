@@ -14,8 +14,10 @@
 //!    `C_prev` (both at the substep's start);
 //! 2. integrate velocities: `v += h g`;
 //! 3. predict positions: `Δx += h v` ([`SolverState::integrate_positions`]);
-//! 4. warm start: apply the multipliers `λ` of the previous substep (of the previous step for
-//!    the first substep, `λ = h f_warm`) as position corrections `Δx += M⁻¹Jᵀ λ`;
+//! 4. the multipliers start at `λ = 0` (the papers'); with `warm = 1` instead, the multipliers
+//!    of the previous substep (of the previous step for the first substep, `λ = h f_warm`) are
+//!    applied first as position corrections `Δx += M⁻¹Jᵀ λ` (Box2D v3's warm start, carried
+//!    over to positions; see "Warm starting" below for why it is not the default);
 //! 5. `iterations` position passes, rows in the system's order (each contact's normal row, then
 //!    its friction rows, then the joint rows), a Gauss–Seidel sweep on the accumulated
 //!    multipliers:
@@ -38,7 +40,9 @@
 //!    §3.6): restitution, `v_n ← −e · approach` when the contact approached (at the step's
 //!    start, [`SolverRow::approach`]) faster than both the builder's restitution threshold and
 //!    `2 |g| h` (eq. 34/35), else `v_n ← 0` (the paper's `e = 0`, which also removes the
-//!    separating speed that pushing out an overlap produced); then dynamic friction on each
+//!    separating speed that pushing out an overlap produced; rigid contacts only: a soft
+//!    contact's spring and damping set its normal velocity, and zeroing it every substep would
+//!    turn the spring into a slow creep); then dynamic friction on each
 //!    friction row, the friction impulse of the substep (`λ_t / h` from the position pass plus
 //!    this pass's) brought towards stopping the tangential velocity and kept within
 //!    `±μ λ_n / h` (eq. 30 with the bound on the impulse — the paper's `h μ_d |f_n|` is an
@@ -58,6 +62,21 @@
 //! with a widened margin); the price is that the constraints are linear over the step: a
 //! pendulum's rod keeps its direction of the step's start, and a body that rotates a lot in
 //! one step sees its contacts at their old lever arms.
+//!
+//! # Warm starting
+//! Box2D v3 warm-starts each substep with the previous substep's impulses; in a position-level
+//! method that is a position correction the bodies' velocity (read back from their motion)
+//! already carries once, so it acts as momentum on the solver's error. On one row with a pass
+//! that removes a share `ω` of the error (one Gauss–Seidel pass on coupled rows removes less
+//! than all of it), the error `(C, h v, λ)` of a substep maps to the next by
+//! `[[1−ω, 1−ω, 1−ω], [−ω, 1−ω, 1−ω], [−ω, −ω, 1−ω]]`, whose spectral radius exceeds 1 for
+//! `ω < 1/2` (1.10 at `ω = 0.3`): warm-started, a hanging chain of two links blows up within
+//! a few steps. Started from `λ = 0` the map is `[[1−ω, 1−ω], [−ω, 1−ω]]`, of spectral radius
+//! `√(1−ω) < 1` for `0 < ω ≤ 1`. So `warm = 0` is the default: the step ignores
+//! `settings.warm_start` and each substep starts from zero multipliers, as in Macklin et al.
+//! 2019 and Müller et al. 2020. `warm = 1` is there to compare, for scenes where one pass
+//! resolves each row (a single contact, a single joint). Either way the step returns its last
+//! substep's multipliers as impulses for the stepper to store.
 //!
 //! # Soft contacts
 //! `compliance` (`α`, m/N; 0: rigid) makes every contact a spring of stiffness `1/α`: at rest a
@@ -99,21 +118,22 @@
 //! each), `iterations` (1, the paper's recommendation), `compliance` (0), `joint_compliance`
 //! (0), `hertz` (0: the contact spring from `compliance`), `zeta` (10, Box2D v3's contact
 //! damping ratio, used with `hertz`), `restitution` (1: the velocity pass's normal update on;
-//! 0: off, normal velocities stay as the position pass left them).
+//! 0: off, normal velocities stay as the position pass left them), `warm` (0: each substep
+//! from zero multipliers; 1: Box2D's warm start, see above).
 //!
 //! # Cost and limits
 //! Per substep: three body passes (velocities, positions, velocities from positions), one row
-//! update per row in the warm start and in each position pass, one per contact row in the
+//! update per row in each position pass (and per row warm-started with `warm = 1`), one per contact row in the
 //! velocity pass. Sweeps (`iterations` in the step report) count the position passes and the
 //! velocity passes, so the default takes `2 × 20 = 40` sweeps a step; `max_iterations` caps
 //! them (the remaining substeps only integrate), and the time budget is checked between
 //! substeps. Failure modes: Gauss–Seidel with one pass per substep converges slowly on large
-//! mass ratios and long chains (the warm start carries the multipliers across substeps and
-//! steps, which makes a resting configuration a fixed point), and large rotations within one
-//! step break the linearisation.
+//! mass ratios and long chains, which then stretch (at rest the multipliers still balance the
+//! weights: a body that does not move over a substep has its gravity displacement undone
+//! exactly), and large rotations within one step break the linearisation.
 
-use super::{LastSolve, ParamSpec, Params, RowRole, SolverState, StepCost, SubstepInput};
 use super::{softness, SubstepOutcome};
+use super::{LastSolve, ParamSpec, Params, RowRole, SolverState, StepCost, SubstepInput};
 use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
 use crate::builder::ContactSystem;
 use lcpbench_solvers::Settings;
@@ -171,6 +191,13 @@ pub const XPBD_PARAMS: &[ParamSpec] = &[
         1,
         "1: velocity pass sets normal velocities (Mueller 2020 eq. 34); 0: off",
     ),
+    ParamSpec::count(
+        "warm",
+        0,
+        0,
+        1,
+        "1: warm-start each substep with the previous one's multipliers (unstable on chains)",
+    ),
 ];
 
 /// Extended position-based dynamics with small steps (module doc).
@@ -191,6 +218,8 @@ pub struct Xpbd {
     pub zeta: f64,
     /// The velocity pass's normal update (restitution) \[true\].
     pub restitution: bool,
+    /// Warm-start each substep with the previous substep's multipliers \[false\].
+    pub warm: bool,
 }
 
 impl Default for Xpbd {
@@ -211,7 +240,13 @@ impl Xpbd {
             hertz: params.get("hertz"),
             zeta: params.get("zeta"),
             restitution: params.count("restitution") == 1,
+            warm: params.count("warm") == 1,
         }
+    }
+
+    /// True when contacts are springs (`compliance > 0` or `hertz > 0`).
+    pub fn soft_contacts(&self) -> bool {
+        self.compliance > 0.0 || self.hertz > 0.0
     }
 
     /// Each row's `(α̃, γ)` over a substep of `h`: the contact spring on normal rows, the joint
@@ -222,9 +257,10 @@ impl Xpbd {
             .rows
             .iter()
             .map(|row| match row.role {
-                RowRole::Normal(_) if self.hertz > 0.0 => {
-                    (row.k / (omega * omega) / (h * h), 2.0 * self.zeta / (omega * h))
-                }
+                RowRole::Normal(_) if self.hertz > 0.0 => (
+                    row.k / (omega * omega) / (h * h),
+                    2.0 * self.zeta / (omega * h),
+                ),
                 RowRole::Normal(_) => (self.compliance / (h * h), 0.0),
                 RowRole::Joint => (self.joint_compliance / (h * h), 0.0),
                 RowRole::Friction { .. } | RowRole::Other => (0.0, 0.0),
@@ -245,10 +281,11 @@ impl Xpbd {
         let n = state.rows.len();
         let soft = self.softness(&state, h);
 
-        // The previous step's impulses as this step's first multipliers, projected onto the
-        // bounds (normal ≥ 0, friction within ±μ λ_n, nothing on rows not swept).
+        // With `warm`: the previous step's impulses as this step's first multipliers,
+        // projected onto the bounds (normal ≥ 0, friction within ±μ λ_n, nothing on rows not
+        // swept).
         let mut lambda = vec![0.0; n];
-        if let Some(warm) = settings.warm_start.as_deref() {
+        if let Some(warm) = settings.warm_start.as_deref().filter(|_| self.warm) {
             for (l, &w) in lambda.iter_mut().zip(warm) {
                 if w.is_finite() {
                     *l = w * h;
@@ -291,13 +328,18 @@ impl Xpbd {
             cost.body_passes += 2;
 
             if solving {
-                // 4. Warm start from the previous substep's (or step's) multipliers.
-                let (rows, bodies) = (&state.rows, &mut state.bodies);
-                for (row, &l) in rows.iter().zip(&lambda) {
-                    if l != 0.0 {
-                        row.apply_position(l, bodies);
-                        cost.row_updates += 1;
+                // 4. Zero multipliers, or with `warm` the previous substep's (or step's)
+                // applied first.
+                if self.warm {
+                    let (rows, bodies) = (&state.rows, &mut state.bodies);
+                    for (row, &l) in rows.iter().zip(&lambda) {
+                        if l != 0.0 {
+                            row.apply_position(l, bodies);
+                            cost.row_updates += 1;
+                        }
                     }
+                } else {
+                    lambda.iter_mut().for_each(|l| *l = 0.0);
                 }
                 // 5. Position passes.
                 for _ in 0..self.iterations {
@@ -396,7 +438,7 @@ impl Xpbd {
             if lambda[i] <= 0.0 || normal.k == 0.0 || !matches!(normal.role, RowRole::Normal(_)) {
                 continue;
             }
-            if self.restitution {
+            if self.restitution && !self.soft_contacts() {
                 let e = if normal.approach < -bounce_floor {
                     normal.restitution
                 } else {
@@ -408,8 +450,8 @@ impl Xpbd {
                 f_vel[i] += d;
                 updates += 1;
             }
-            // The substep's normal impulse, `λ_n / h`.
-            let bound = lambda[i] / h;
+            // The substep's normal impulse: `λ_n / h` and this pass's normal update.
+            let bound = (lambda[i] / h + f_vel[i]).max(0.0);
             for r in info.friction_rows.clone() {
                 let row = &rows[r];
                 if row.k == 0.0 || !matches!(row.role, RowRole::Friction { .. }) {
@@ -458,7 +500,18 @@ fn position_pass(
 ) -> u64 {
     let (rows, bodies) = (&state.rows, &mut state.bodies);
     let mut updates = 0;
-    for (i, row) in rows.iter().enumerate() {
+    // Normal and joint rows first, then the friction rows against this pass's normal
+    // multipliers.
+    let order = rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| !matches!(r.role, RowRole::Friction { .. }))
+        .chain(
+            rows.iter()
+                .enumerate()
+                .filter(|(_, r)| matches!(r.role, RowRole::Friction { .. })),
+        );
+    for (i, row) in order {
         if row.k == 0.0 {
             continue;
         }
