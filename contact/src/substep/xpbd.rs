@@ -18,9 +18,12 @@
 //!    of the previous substep (of the previous step for the first substep, `λ = h f_warm`) are
 //!    applied first as position corrections `Δx += M⁻¹Jᵀ λ` (Box2D v3's warm start, carried
 //!    over to positions; see "Warm starting" below for why it is not the default);
-//! 5. `iterations` position passes, rows in the system's order (each contact's normal row, then
-//!    its friction rows, then the joint rows), a Gauss–Seidel sweep on the accumulated
-//!    multipliers:
+//! 5. `iterations` position passes, each a Gauss–Seidel sweep on the accumulated multipliers
+//!    over the normal and joint rows in the system's order, then over the friction rows, each
+//!    against its normal multiplier of this pass (sweeping a contact's friction right after
+//!    its normal lets the first of a box's four contacts, which takes most of the correction
+//!    in a pass from zero, push the box sideways: a resting box then drifts 2.4 mm in 5 s,
+//!    against 4e-7 m with friction last):
 //!    * normal row: `C = C₀ + J Δx`;
 //!      `Δλ = (−C − α̃ λ − γ (C − C_prev)) / ((1 + γ) k + α̃)`, `λ ← max(0, λ + Δλ)`, with
 //!      `k = J M⁻¹ Jᵀ`, `α̃ = α / h²` (`α` the contact compliance) and `γ` the damping (0 unless
@@ -30,7 +33,8 @@
 //!      displacement over the substep `d = J_t (Δx − Δx_prev) = C − C_prev`, corrected to zero
 //!      by `Δλ_t = −d / k_t`, the accumulated `λ_t` clamped to `±μ λ_n` (the box friction
 //!      bound on the multiplier of the same substep: a contact that would need more slides,
-//!      and the clamped multiplier is the kinetic friction `μ f_n`);
+//!      and the clamped multiplier is the kinetic friction `μ f_n`; Müller 2020 applies the
+//!      static correction whole or not at all and leaves sliding to the velocity pass);
 //!    * joint row: `Δλ = (−C − α̃_j λ) / (k + α̃_j)`, `λ += Δλ` (no clamp), `α̃_j =
 //!      joint_compliance / h²`;
 //!
@@ -42,13 +46,16 @@
 //!    `2 |g| h` (eq. 34/35), else `v_n ← 0` (the paper's `e = 0`, which also removes the
 //!    separating speed that pushing out an overlap produced; rigid contacts only: a soft
 //!    contact's spring and damping set its normal velocity, and zeroing it every substep would
-//!    turn the spring into a slow creep); then dynamic friction on each
-//!    friction row, the friction impulse of the substep (`λ_t / h` from the position pass plus
-//!    this pass's) brought towards stopping the tangential velocity and kept within
-//!    `±μ λ_n / h` (eq. 30 with the bound on the impulse — the paper's `h μ_d |f_n|` is an
-//!    impulse, divided by `k_t` to give a velocity change — and counting what the position pass
-//!    already applied, so friction is not applied twice: with the clamped position pass it acts
-//!    on the tangential velocity left within the cone, e.g. by the restitution update).
+//!    turn the spring into a slow creep); then dynamic friction on each friction row: the
+//!    friction impulse of the substep (`λ_t / h` from the position pass plus this pass's)
+//!    brought towards stopping the tangential velocity and kept within `±μ p_n`, with `p_n`
+//!    the substep's normal impulse, `λ_n / h` plus this pass's normal update (eq. 30 with the
+//!    bound on the impulse — the paper's `h μ_d |f_n|` is an impulse, divided by `k_t` to give
+//!    a velocity change — counting what the position pass already applied, so friction is not
+//!    applied twice, and the normal impulse of the whole substep: without the normal update in
+//!    the bound, a box sliding on an incline accelerates 2 % too fast). With the clamped
+//!    position pass it acts on the tangential velocity left within the cone, e.g. by the
+//!    normal update.
 //!
 //! There is one friction coefficient per contact, used as both `μ_s` and `μ_d`. Joints get no
 //! velocity pass (no joint damping).
@@ -123,14 +130,24 @@
 //!
 //! # Cost and limits
 //! Per substep: three body passes (velocities, positions, velocities from positions), one row
-//! update per row in each position pass (and per row warm-started with `warm = 1`), one per contact row in the
-//! velocity pass. Sweeps (`iterations` in the step report) count the position passes and the
+//! update per row in each position pass (and per row warm-started with `warm = 1`), one per
+//! contact row in the velocity pass. Sweeps (`iterations` in the step report) count the position passes and the
 //! velocity passes, so the default takes `2 × 20 = 40` sweeps a step; `max_iterations` caps
 //! them (the remaining substeps only integrate), and the time budget is checked between
 //! substeps. Failure modes: Gauss–Seidel with one pass per substep converges slowly on large
 //! mass ratios and long chains, which then stretch (at rest the multipliers still balance the
 //! weights: a body that does not move over a substep has its gravity displacement undone
 //! exactly), and large rotations within one step break the linearisation.
+//!
+//! # Accuracy (defaults, `dt = 0.01`; `contact/tests/substep_xpbd.rs`)
+//! A box resting on the ground: drift 4e-7 m and 8e-7 rad over 5 s. A box on a 30° incline
+//! with `μ = 0.7`: a creep of first order in the substep (1.6e-4 m in 2 s; 5.3e-5 m with 60
+//! substeps); with `μ = 0.3` the sliding acceleration `g (sin α − μ cos α)` to 1e-8. A
+//! simple pendulum's period to 2.5e-4. A hanging 20:1 chain: joint impulses equal to the
+//! weights below them to 1e-12 once its start-up oscillation has died (3 s), stretched by
+//! 6e-5 m. A compliant contact's overlap `α m g` to 1.5e-4, a `hertz` contact's `g / ω²` to
+//! 1e-15. A ball dropped with `e = 0.8` rebounds to `e²` of its height within 2.3e-3 at
+//! `dt = 1 ms` (6.8e-3 at 10 ms: the approach speed is that of the step's start).
 
 use super::{softness, SubstepOutcome};
 use super::{LastSolve, ParamSpec, Params, RowRole, SolverState, StepCost, SubstepInput};
