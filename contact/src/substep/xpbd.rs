@@ -137,7 +137,14 @@
 //! substeps. Failure modes: Gauss–Seidel with one pass per substep converges slowly on large
 //! mass ratios and long chains, which then stretch (at rest the multipliers still balance the
 //! weights: a body that does not move over a substep has its gravity displacement undone
-//! exactly), and large rotations within one step break the linearisation.
+//! exactly), and large rotations within one step break the linearisation. Large mass ratios
+//! crush the light bodies (in the 1e6:1 heavy-on-light stack the heavy box sinks 0.35 m into
+//! them within 0.3 s). Overlaps no
+//! position can resolve (the `confined` scene: a block pressed from every side by a box 1 mm
+//! too small) blow apart: each substep's corrections, which cannot all be met, are read back
+//! as velocities, and the bodies leave at hundreds of m/s within 0.15 s; there is no cap on
+//! the push-out speed (Box2D's `contactPushMaxVelocity`, PhysX's maximum depenetration
+//! velocity).
 //!
 //! # Accuracy (defaults, `dt = 0.01`; `contact/tests/substep_xpbd.rs`)
 //! A box resting on the ground: drift 4e-7 m and 8e-7 rad over 5 s. A box on a 30° incline
