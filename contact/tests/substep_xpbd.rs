@@ -329,6 +329,8 @@ fn the_spec_takes_its_parameters_and_refuses_bad_ones() {
     assert!(BodySolverKind::Xpbd.substeps());
     assert!(BodySolverKind::Xpbd.takes_joints());
     assert!(BodySolverKind::Xpbd.relaxation().is_some());
+    // Every substep starts from zero multipliers by default: no `+warm` variant.
+    assert!(!BodySolverKind::Xpbd.is_iterative());
     for (bad, says) in [
         ("xpbd@substeps=0", "substeps must be in"),
         ("xpbd@iterations=1.5", "whole number"),

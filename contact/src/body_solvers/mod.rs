@@ -126,10 +126,11 @@ impl BodySolverKind {
         }
     }
 
-    /// True for the solvers that sweep until a stopping rule (`si`, `body-micro`, `avg`);
-    /// `penalty` takes one pass.
+    /// True for the solvers that sweep until a stopping rule and take the previous step's
+    /// impulses (`si`, `body-micro`, `avg`); `penalty` takes one pass, and `xpbd` starts every
+    /// substep from zero multipliers unless `warm=1` (see [`crate::substep::xpbd`]).
     pub fn is_iterative(self) -> bool {
-        !matches!(self, BodySolverKind::Penalty)
+        !matches!(self, BodySolverKind::Penalty | BodySolverKind::Xpbd)
     }
 
     /// The relaxed problem the solver solves in place of the step's LCP, for a solver that
@@ -186,9 +187,10 @@ impl BodySolverKind {
             BodySolverKind::Xpbd => {
                 "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
                  substeps of Gauss-Seidel position corrections on rows linearised at the step's \
-                 start, warm-startable; rigid or compliant contacts (compliance, hertz); solves a \
-                 position-level problem per substep, not the step's LCP; slow on mass ratios and \
-                 long chains"
+                 start, each substep from zero multipliers (warm=1: from the previous substep's and \
+                 step's); rigid or compliant contacts (compliance, hertz); solves a position-level \
+                 problem per substep, not the step's LCP; slow on mass ratios and long chains; \
+                 overlaps it cannot resolve blow apart"
             }
         }
     }

@@ -83,7 +83,10 @@
 //! `settings.warm_start` and each substep starts from zero multipliers, as in Macklin et al.
 //! 2019 and Müller et al. 2020. `warm = 1` is there to compare, for scenes where one pass
 //! resolves each row (a single contact, a single joint). Either way the step returns its last
-//! substep's multipliers as impulses for the stepper to store.
+//! substep's multipliers as impulses for the stepper to store. The kind is not listed as
+//! warm-startable ([`crate::BodySolverKind::is_iterative`] is false: a `+warm` run of the
+//! default would repeat the cold one); with `warm = 1` the stored impulses reach the first
+//! substep whenever the world's warm start is on ([`crate::SimSettings::warm_start`]).
 //!
 //! # Soft contacts
 //! `compliance` (`α`, m/N; 0: rigid) makes every contact a spring of stiffness `1/α`: at rest a
