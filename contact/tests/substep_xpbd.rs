@@ -627,3 +627,89 @@ fn ball_rebounds_to_about_e_squared_of_its_height() {
     // Without the velocity pass's normal update the position pass only stops the ball.
     assert_eq!(rebound_ratio("xpbd@restitution=0", 1e-3), None);
 }
+
+/// A 1 kg ball resting on the ground at the step's start, as a system alone (its free
+/// velocity `−g h` holds the step's gravity).
+fn resting_ball_system(h: f64) -> lcpbench_contact::builder::ContactSystem {
+    let ball = RigidBody::new(
+        "ball",
+        Shape::sphere(0.1).unwrap(),
+        MassSpec::Mass(1.0),
+        Point3::new(0.0, 0.0, 0.1),
+        UnitQuaternion::identity(),
+        Vector3::zeros(),
+        Vector3::zeros(),
+        0,
+        false,
+    )
+    .unwrap();
+    let ground = cuboid("ground", [0.0, 0.0, -1.0], [0.0; 3], [0.0; 3], true);
+    let bodies = vec![ground, ball];
+    let contact = Contact {
+        body_a: 0,
+        body_b: 1,
+        point: Point3::origin(),
+        normal: Vector3::z(),
+        dist: 0.0,
+        key: 1,
+    };
+    let materials = [Material {
+        name: "m".into(),
+        mu: 0.5,
+        restitution: 0.0,
+    }];
+    let params = BuilderParams {
+        friction_model: FrictionModel::Box,
+        ..BuilderParams::default()
+    };
+    let free = builder::free_velocities(&bodies, &Vector3::new(0.0, 0.0, -G), h);
+    builder::build(&bodies, &materials, &[contact], free, &params, h)
+}
+
+#[test]
+fn on_a_system_alone_the_step_impulse_is_the_lcp_answer() {
+    // Without a world the sweep starts from the free velocities (gravity in them) and adds no
+    // gravity: the first substep stops the ball with the impulse m g h, the LCP's answer.
+    let h = 0.01;
+    let sys = resting_ball_system(h);
+    let problem = sys.problem().unwrap();
+    let mut solver = BodySolverKind::Xpbd.create();
+    let out = solver.solve(
+        &sys,
+        &Settings::default(),
+        lcpbench_contact::body_solvers::Measure::Lcp(&problem),
+    );
+    let normal = sys.info[0].normal_row;
+    let expected = 1.0 * G * h;
+    println!(
+        "ball alone (xpbd): normal impulse {:.12}, expected {expected:.12}, status {:?}",
+        out.result.f[normal], out.result.status
+    );
+    assert!((out.result.f[normal] - expected).abs() < 1e-12 * expected);
+    assert_eq!(out.result.iterations, 40);
+    // Measured on the step's LCP, the answer meets the tolerance.
+    assert!(out.result.status.is_converged(), "{:?}", out.result.status);
+}
+
+#[test]
+fn a_spent_time_budget_leaves_the_remaining_substeps_integrating() {
+    // The budget is checked between substeps: with none left the first substep solves, the
+    // others only integrate, and the step says it timed out.
+    let h = 0.01;
+    let sys = resting_ball_system(h);
+    let settings = Settings {
+        time_budget: Some(std::time::Duration::ZERO),
+        ..Settings::default()
+    };
+    let out = Xpbd::default().step(&SubstepInput {
+        system: &sys,
+        gravity: Vector3::new(0.0, 0.0, -G),
+        settings: &settings,
+    });
+    assert!(out.timed_out);
+    assert_eq!(out.last.what, "position pass of substep 1 of 20");
+    assert_eq!(out.iterations, 2);
+    // Gravity over the 19 unsolved substeps sinks the ball.
+    let ball = &out.state.bodies[1];
+    assert!(ball.dp.z < 0.0 && ball.v.z < 0.0, "{ball:?}");
+}
