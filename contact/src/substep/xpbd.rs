@@ -124,8 +124,8 @@
 //! residual meets the tolerance.
 //!
 //! # Parameters
-//! [`XPBD_PARAMS`]: `substeps` (20; Macklin et al. 2019 use 20–100 substeps, one iteration
-//! each), `iterations` (1, the paper's recommendation), `compliance` (0), `joint_compliance`
+//! [`XPBD_PARAMS`]: `substeps` (20), `iterations` (1: Macklin et al. 2019 trade iterations
+//! for substeps, one iteration each), `compliance` (0), `joint_compliance`
 //! (0), `hertz` (0: the contact spring from `compliance`), `zeta` (10, Box2D v3's contact
 //! damping ratio, used with `hertz`), `restitution` (1: the velocity pass's normal update on;
 //! 0: off, normal velocities stay as the position pass left them), `warm` (0: each substep
@@ -169,13 +169,7 @@ use std::time::Instant;
 
 /// The parameters of `xpbd`, with their defaults (module doc for their sources).
 pub const XPBD_PARAMS: &[ParamSpec] = &[
-    ParamSpec::count(
-        "substeps",
-        20,
-        1,
-        1000,
-        "substeps per step (Macklin et al. 2019: 20-100)",
-    ),
+    ParamSpec::count("substeps", 20, 1, 1000, "substeps per step"),
     ParamSpec::count(
         "iterations",
         1,
