@@ -129,6 +129,7 @@ pub fn iteration_unit(name: &str) -> Option<&'static str> {
             | BodySolverKind::Tgs
             | BodySolverKind::PgsNgs
             | BodySolverKind::Jacobi => "sweeps over the rows, summed over the substeps and passes",
+            BodySolverKind::Xpbd => "position and velocity passes, summed over the substeps",
         });
     }
     ConeSolverKind::from_name(name).map(|kind| match kind {

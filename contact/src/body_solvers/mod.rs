@@ -84,11 +84,13 @@ pub enum BodySolverKind {
     PgsNgs,
     /// Projected Jacobi with mass splitting: every row from the same velocities.
     Jacobi,
+    /// Extended position-based dynamics with small steps ([`crate::substep::xpbd`]).
+    Xpbd,
 }
 
 impl BodySolverKind {
     /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 8] = [
+    pub const ALL: [BodySolverKind; 9] = [
         BodySolverKind::SequentialImpulses,
         BodySolverKind::MicroImpulses,
         BodySolverKind::Penalty,
@@ -97,6 +99,7 @@ impl BodySolverKind {
         BodySolverKind::Tgs,
         BodySolverKind::PgsNgs,
         BodySolverKind::Jacobi,
+        BodySolverKind::Xpbd,
     ];
 
     /// Name used on the command line and in scene files.
@@ -110,6 +113,7 @@ impl BodySolverKind {
             BodySolverKind::Tgs => "tgs",
             BodySolverKind::PgsNgs => "pgs-ngs",
             BodySolverKind::Jacobi => "jacobi",
+            BodySolverKind::Xpbd => "xpbd",
         }
     }
 
@@ -147,13 +151,18 @@ impl BodySolverKind {
                 "projected Jacobi: every row's impulse from the same velocities, applied together, \
                  scaled by |A|'s row sums (or mass splitting) to converge, Baumgarte bias"
             }
+            BodySolverKind::Xpbd => {
+                "extended position-based dynamics with small steps (Macklin et al. 2019, Mueller \
+                 et al. 2020): position corrections per substep, velocities from positions"
+            }
         }
     }
 
-    /// True for the solvers that sweep until a stopping rule (`si`, `body-micro`, `avg`);
-    /// `penalty` takes one pass.
+    /// True for the solvers that sweep until a stopping rule and take the previous step's
+    /// impulses (`si`, `body-micro`, `avg`); `penalty` takes one pass, and `xpbd` starts every
+    /// substep from zero multipliers unless `warm=1` (see [`crate::substep::xpbd`]).
     pub fn is_iterative(self) -> bool {
-        !matches!(self, BodySolverKind::Penalty)
+        !matches!(self, BodySolverKind::Penalty | BodySolverKind::Xpbd)
     }
 
     /// The relaxed problem the solver solves in place of the step's LCP, for a solver that
@@ -169,6 +178,10 @@ impl BodySolverKind {
                 "soft contacts and joints: damped springs of `hertz`, `zeta` (contacts) and \
                  `joint_hertz`, `joint_zeta` (joints) per substep, which stretch under load and \
                  let contacts sink, not the rigid LCP (its last solve, the relax pass, is rigid)",
+            ),
+            BodySolverKind::Xpbd => Some(
+                "position-level constraints over small substeps (XPBD), compliant when \
+                 compliance > 0; not the step's velocity LCP",
             ),
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
@@ -192,6 +205,7 @@ impl BodySolverKind {
                 | BodySolverKind::Tgs
                 | BodySolverKind::PgsNgs
                 | BodySolverKind::Jacobi
+                | BodySolverKind::Xpbd
         )
     }
 
@@ -239,6 +253,14 @@ impl BodySolverKind {
                  parallel, slower per sweep than Gauss-Seidel (its row scaling keeps it \
                  convergent): stacks sink and jitter at few sweeps; warm-startable"
             }
+            BodySolverKind::Xpbd => {
+                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of Gauss-Seidel position corrections on rows linearised at the step's \
+                 start, each substep from zero multipliers (warm=1: from the previous substep's and \
+                 step's); rigid or compliant contacts (compliance, hertz); solves a position-level \
+                 problem per substep, not the step's LCP; slow on mass ratios and long chains; \
+                 overlaps it cannot resolve blow apart"
+            }
         }
     }
 
@@ -260,6 +282,7 @@ impl BodySolverKind {
             | BodySolverKind::AveragedImpulse => &[],
             BodySolverKind::PgsNgs => crate::substep::pgs_ngs::PARAMS,
             BodySolverKind::Jacobi => crate::substep::jacobi::PARAMS,
+            BodySolverKind::Xpbd => crate::substep::xpbd::XPBD_PARAMS,
         }
     }
 
@@ -274,6 +297,7 @@ impl BodySolverKind {
             | BodySolverKind::AveragedImpulse => false,
             BodySolverKind::PgsNgs => true,
             BodySolverKind::Jacobi => true,
+            BodySolverKind::Xpbd => true,
         }
     }
 
@@ -284,6 +308,7 @@ impl BodySolverKind {
             BodySolverKind::Tgs => Box::new(crate::substep::Tgs::new(params)),
             BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::new(params)),
             BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::new(params)),
+            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::new(params)),
             BodySolverKind::SequentialImpulses
             | BodySolverKind::MicroImpulses
             | BodySolverKind::Penalty
@@ -316,6 +341,7 @@ impl BodySolverKind {
             BodySolverKind::Tgs => Box::new(crate::substep::Tgs::default()),
             BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::default()),
             BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::default()),
+            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::default()),
         }
     }
 }

@@ -36,6 +36,7 @@ pub mod soft_step;
 pub mod softness;
 pub mod state;
 pub mod tgs;
+pub mod xpbd;
 
 pub use jacobi::Jacobi;
 pub use params::{ParamSpec, Params};
@@ -44,6 +45,7 @@ pub use soft_step::SoftStep;
 pub use softness::Softness;
 pub use state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
 pub use tgs::Tgs;
+pub use xpbd::Xpbd;
 
 use crate::builder::ContactSystem;
 use lcpbench_solvers::Settings;
