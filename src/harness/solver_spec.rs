@@ -310,7 +310,12 @@ impl std::str::FromStr for SolverSpec {
             (None, Some(cone)) => Self::cone(cone),
             (None, None) => Self::plain(name.parse().map_err(|e: String| {
                 err(format!(
-                    "{e}; body-level solvers: si, body-micro, penalty, avg; cone solvers: {}",
+                    "{e}; body-level solvers: {}; cone solvers: {}",
+                    BodySolverKind::ALL
+                        .iter()
+                        .map(|k| k.name())
+                        .collect::<Vec<_>>()
+                        .join(", "),
                     ContactSolver::cone_names()
                 ))
             })?),
