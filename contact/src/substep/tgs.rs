@@ -61,6 +61,13 @@ use lcpbench_solvers::Settings;
 pub const TGS_PARAMS: &[ParamSpec] = &[
     ParamSpec::count("substeps", 4, 1, 1024, "substeps per step"),
     ParamSpec::count("iterations", 1, 1, 1000, "sweeps per substep"),
+    ParamSpec::count(
+        "relax_iterations",
+        0,
+        0,
+        1000,
+        "rigid sweeps without position bias per substep, after the position update",
+    ),
     ParamSpec::real(
         "baumgarte",
         0.2,
@@ -113,7 +120,7 @@ impl Tgs {
         Scheme {
             substeps: p.count("substeps"),
             iterations: p.count("iterations"),
-            relax_iterations: 0,
+            relax_iterations: p.count("relax_iterations"),
             bias,
         }
     }
