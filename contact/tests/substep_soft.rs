@@ -643,3 +643,57 @@ fn tower_40_60hz_stands_when_its_contacts_are_stiff_enough() {
     assert!(top0 - top < 1e-2, "sag {}", top0 - top);
     assert!(lateral < 3e-2, "lateral {lateral}");
 }
+
+#[test]
+fn iteration_cap_and_time_budget_end_the_solves() {
+    let sys = sphere_on_ground(-1e-3, -0.5, 0.0);
+    let gravity = Vector3::new(0.0, 0.0, -G);
+    let (kind, params) = BodySolverKind::parse_spec("soft-step@substeps=4")
+        .unwrap()
+        .unwrap();
+    let mut s = kind.create_with(params);
+    // 3 sweeps: the biased and relax sweeps of substep 1, the biased sweep of substep 2; the
+    // last two substeps only integrate.
+    let capped = Settings {
+        max_iterations: 3,
+        ..Settings::default()
+    };
+    let input = SubstepInput {
+        system: &sys,
+        gravity,
+        settings: &capped,
+    };
+    let out = s.advance(&input).unwrap();
+    assert_eq!(out.iterations, 3);
+    assert_eq!(out.substeps, 4);
+    assert_eq!(out.last.what, "biased solve (soft rows) of substep 2 of 4");
+    assert!(!out.timed_out);
+    assert_eq!(out.cost.body_passes, 8);
+    // A spent time budget: the first substep solves, the others only integrate.
+    let spent = Settings {
+        time_budget: Some(std::time::Duration::ZERO),
+        ..Settings::default()
+    };
+    let input = SubstepInput {
+        system: &sys,
+        gravity,
+        settings: &spent,
+    };
+    let out = s.advance(&input).unwrap();
+    assert!(out.timed_out);
+    assert_eq!(out.iterations, 2);
+    assert_eq!(out.last.what, "relax pass of substep 1 of 4");
+    // Through the stepper, a spent budget is a time limit, never `converged`.
+    let scene = scene("box_on_ground");
+    let mut w = world(&scene, "soft-step");
+    w.settings.step_time_budget = Some(std::time::Duration::ZERO);
+    let r = w.step();
+    println!("spent budget: {:?}", r.status);
+    let rel = r.residuals.as_ref().map_or(f64::NAN, |x| x.natural_map_rel);
+    assert!(
+        matches!(r.status, Status::TimeLimit)
+            || (r.status.is_converged() && rel <= w.settings.tolerance),
+        "{:?}",
+        r.status
+    );
+}
