@@ -288,11 +288,12 @@ fn static_chain_joints_carry_the_weight_below_them() {
 }
 
 #[test]
-fn tower_10_stands_2_s_under_soft_step() {
+fn tower_10_stands_10_s_under_soft_step() {
     // Soft contacts sag: the contact under k boxes of weight W settles by k W / (m_eff ω²)
     // (ω = 2π · 30 Hz, m_eff about half a box's mass between two boxes), 2.5 cm summed over
     // the tower; a one-sweep relax leaves an order-dependent torque that leans the tower by
-    // about 1 cm at the top in 2 s. The bounds are those observations with margin.
+    // about 1 cm at the top in 2 s, where it settles (7.5 mm at 10 s). The bounds are those
+    // observations with margin, over the scene's 10 s.
     let s = scene("tower_10");
     let spec = "soft-step@substeps=4";
     let mut w = world(&s, spec);
@@ -301,7 +302,7 @@ fn tower_10_stands_2_s_under_soft_step() {
         .iter()
         .map(|b| b.position.z)
         .fold(f64::MIN, f64::max);
-    for _ in 0..200 {
+    for _ in 0..1000 {
         let r = w.step();
         check_status(spec, &w, &r);
     }
@@ -696,4 +697,24 @@ fn iteration_cap_and_time_budget_end_the_solves() {
         "{:?}",
         r.status
     );
+}
+
+#[test]
+fn pyramid_3d_1015_holds_for_1_s_under_soft_step() {
+    // Observed: no box moves more than 4.4 mm in 1 s.
+    let s = scene("pyramid_3d_1015");
+    let mut w = world(&s, "soft-step");
+    let p0: Vec<_> = w.bodies.iter().map(|b| b.position).collect();
+    for _ in 0..((1.0 / s.settings.dt).round() as usize) {
+        let r = w.step();
+        check_status("soft-step", &w, &r);
+    }
+    let moved = w
+        .bodies
+        .iter()
+        .zip(&p0)
+        .map(|(b, p)| (b.position - p).norm())
+        .fold(0.0, f64::max);
+    println!("soft-step: pyramid_3d_1015: largest move in 1 s {moved:.3e} m");
+    assert!(moved < 1e-2, "moved {moved}");
 }
