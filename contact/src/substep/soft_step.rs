@@ -1,7 +1,7 @@
 //! `soft-step`: substeps with soft contacts and joints, a relax pass and a restitution pass
 //! (Box2D v3's soft step, Catto, "Solver2D", 2024; Rapier's TGS-soft is the same scheme).
 //!
-//! Source: Box2D v3.1 (`src/solver.c`: `b2SolverStep` and its stages
+//! Source: Box2D v3.1 (`src/solver.c`: `b2SolverTask` and its stages
 //! `b2_stageIntegrateVelocities`, `b2_stageWarmStart`, `b2_stageSolve`,
 //! `b2_stageIntegratePositions`, `b2_stageRelax`, `b2_stageRestitution`,
 //! `b2_stageStoreImpulses`; `src/contact_solver.c`: `b2PrepareOverflowContacts`,
@@ -53,7 +53,7 @@
 //!
 //! | key | default | source |
 //! | --- | --- | --- |
-//! | `substeps` | 4 | Box2D v3 `b2WorldDef` sample default `subStepCount = 4` |
+//! | `substeps` | 4 | Box2D v3: `b2World_Step(world, dt, subStepCount)`, 4 in its samples |
 //! | `iterations` | 1 | Box2D v3: one biased sweep per substep (`ITERATIONS`) |
 //! | `relax_iterations` | 1 | Box2D v3: one relax sweep per substep (`RELAX_ITERATIONS`) |
 //! | `hertz` | 30 | `b2DefaultWorldDef`: `contactHertz` |
@@ -61,7 +61,7 @@
 //! | `static_scale` | 2 | `b2World_Step`: `staticSoftness = b2MakeSoft(2 · contactHertz, …)` |
 //! | `joint_hertz` | 60 | `b2DefaultWorldDef`: `jointHertz` |
 //! | `joint_zeta` | 2 | `b2DefaultWorldDef`: `jointDampingRatio` (v3.0, v3.1) |
-//! | `push_out` | 3 m/s | `b2DefaultWorldDef`: `contactPushMaxVelocity` (`maxContactPushSpeed`) |
+//! | `push_out` | 3 m/s | `b2DefaultWorldDef`: `maxContactPushSpeed` (v3.1; `contactPushoutVelocity` in v3.0) |
 //!
 //! `hertz = 0` makes the contacts rigid with no position feedback (only the speculative bias);
 //! `joint_hertz = 0` the joints likewise.
