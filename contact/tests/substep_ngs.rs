@@ -351,7 +351,7 @@ fn pgs_ngs_corrects_an_initial_overlap() {
     let depth = 0.5 - w.bodies[b].position.z;
     println!("pgs-ngs: box 5 cm into the ground within 3 slop after {reached:?} s; depth after 1 s {depth:.3e} m; top speed {top_speed:.3e} m/s");
     assert!(reached.is_some(), "still {depth} m deep after 1 s");
-    assert!(depth <= 3.0 * 0.005 && depth >= 0.0, "depth {depth}");
+    assert!((0.0..=3.0 * 0.005).contains(&depth), "depth {depth}");
     assert!(top_speed < 0.1, "thrown at {top_speed} m/s");
 
     // Three boxes stacked with 25 % overlap: separated to within 3 slop per contact in 1 s.
@@ -459,7 +459,7 @@ fn status_is_converged_only_when_the_residual_says_so() {
         assert!(!r.status.is_converged(), "{name}: {:?}", r.status);
         assert!(rel > w.settings.tolerance);
         assert!(
-            matches!(r.status, Status::IterationLimit { .. }),
+            matches!(r.status, Status::IterationLimit),
             "{name}: {:?}",
             r.status
         );
