@@ -125,6 +125,8 @@ pub fn iteration_unit(name: &str) -> Option<&'static str> {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
             BodySolverKind::Penalty => "passes (always 1)",
+            BodySolverKind::PgsNgs => "velocity and position sweeps, summed over the substeps",
+            BodySolverKind::Jacobi => "Jacobi sweeps, summed over the substeps",
         });
     }
     ConeSolverKind::from_name(name).map(|kind| match kind {

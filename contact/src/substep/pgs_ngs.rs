@@ -42,6 +42,10 @@
 //! velocity solve is that of a soft (regularised) problem, measured against the rigid LCP
 //! (the report's `residual_of` says `soft`).
 //!
+//! Friction rows are swept before their normal row, as Box2D does: a later normal update can
+//! leave a friction impulse above `μ λ_n` of the final normal impulse until the next sweep
+//! (the shared residual of the last solve sees what is left at the end).
+//!
 //! **Not done**: Box2D's block solver of two-point manifolds (each row is swept alone), its
 //! clamp of the translation and rotation per step (`b2_maxTranslation`, `b2_maxRotation`), and
 //! the update of contact points and normals within the position pass (the rows keep the
