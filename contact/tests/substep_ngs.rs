@@ -626,3 +626,75 @@ fn jacobi_does_not_depend_on_row_order() {
         worst[0]
     );
 }
+
+/// Substeps, the sweep cap and the cost counts: a box resting on the ground (4 contacts, 12
+/// rows) with 4 substeps of 3 sweeps. pgs-ngs per substep: 2 body passes (velocities,
+/// positions), 12 warm-start row updates, 3 × 12 sweep updates and one position pass over the
+/// 4 normal rows (the box is within the slop, so the first pass stops them); jacobi per
+/// substep: 2 + 1 (warm start) + 3 (one per sweep) body passes and 12 + 3 × 12 row updates.
+#[test]
+fn substeps_sweep_cap_and_cost_counts() {
+    let s = scene("box_on_ground");
+    let mut w = world(&s, "pgs-ngs@substeps=4,iterations=3");
+    w.step();
+    let r = w.step();
+    assert_eq!(r.substeps, 4);
+    assert_eq!(r.rows, 12);
+    assert_eq!(r.iterations, 4 * (3 + 1));
+    assert_eq!(r.cost.body_passes, 4 * 2);
+    assert_eq!(r.cost.row_updates, 4 * (12 + 3 * 12 + 4));
+    assert!(r.residual_of.as_deref().unwrap().contains("substep 4 of 4"));
+
+    let mut w = world(&s, "jacobi@substeps=4,iterations=3");
+    w.step();
+    let r = w.step();
+    assert_eq!(r.substeps, 4);
+    assert_eq!(r.iterations, 4 * 3);
+    assert_eq!(r.cost.body_passes, 4 * (2 + 1 + 3));
+    assert_eq!(r.cost.row_updates, 4 * (12 + 3 * 12));
+
+    // `max_iterations` caps the sweeps of the whole step: 3 + 1 in the first substep, 1 in the
+    // second, none after (the bodies are still integrated and keep resting on the warm start).
+    for (name, expected) in [("pgs-ngs", 5), ("jacobi", 5)] {
+        let mut w = world(&s, &format!("{name}@substeps=4,iterations=3"));
+        w.settings.max_iterations = 5;
+        let mut r = w.step();
+        for _ in 0..50 {
+            r = w.step();
+        }
+        assert_eq!(r.iterations, expected, "{name}");
+        assert!(r.residual_of.as_deref().unwrap().contains("substep 4 of 4"));
+        let z = w.bodies[body(&w, "box")].position.z;
+        assert!((0.5 - z).abs() < 0.005, "{name}: box at {z}");
+    }
+}
+
+/// The soft option (`hertz > 0`): contacts become a damped spring, so a resting box settles at
+/// the spring's static deflection `g / ω²` (0.28 mm at 30 Hz) instead of the slop, and the
+/// report names the soft solve (its residual is measured against the rigid LCP).
+#[test]
+fn soft_contacts_settle_at_the_spring_deflection() {
+    let s = scene("box_on_ground");
+    let omega = 2.0 * std::f64::consts::PI * 30.0;
+    let deflection = G / (omega * omega);
+    for name in [
+        "pgs-ngs@hertz=30,zeta=1,position_iterations=0",
+        "jacobi@hertz=30,zeta=1",
+    ] {
+        let mut w = world(&s, name);
+        let mut r = w.step();
+        for _ in 0..300 {
+            r = w.step();
+        }
+        let sink = 0.5 - w.bodies[body(&w, "box")].position.z;
+        let what = r.residual_of.clone().unwrap();
+        println!(
+            "{name}: resting sink {sink:.4e} m, spring deflection {deflection:.4e} m ({what})"
+        );
+        assert!(what.starts_with("soft "), "{what}");
+        assert!(
+            (sink - deflection).abs() < 0.01 * deflection,
+            "{name}: sink {sink}"
+        );
+    }
+}
