@@ -354,3 +354,88 @@ impl BodySolver for PgsNgs {
         Some(self.step(input.system, input.gravity, input.settings))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::builder::JacobianBlock;
+    use crate::substep::state::{SolverBody, SolverRow};
+    use nalgebra::{Matrix3, UnitQuaternion};
+
+    /// One dynamic body (unit mass, unit inertia) and one row along `z` at the body's centre.
+    fn one_row(role: RowRole, c0: f64) -> SolverState {
+        let body = SolverBody {
+            v: Vector3::zeros(),
+            w: Vector3::zeros(),
+            inv_mass: 1.0,
+            inv_inertia: Matrix3::identity(),
+            dp: Vector3::zeros(),
+            dtheta: Vector3::zeros(),
+            dq: UnitQuaternion::identity(),
+        };
+        let row = SolverRow {
+            role,
+            blocks: [
+                JacobianBlock {
+                    body: 0,
+                    linear: Vector3::z(),
+                    angular: Vector3::zeros(),
+                },
+                JacobianBlock::default(),
+            ],
+            response: [
+                (Vector3::z(), Vector3::zeros()),
+                (Vector3::zeros(), Vector3::zeros()),
+            ],
+            sides: 1,
+            k: 1.0,
+            mass: 1.0,
+            c0,
+            mu: 0.0,
+            restitution: 0.0,
+            approach: 0.0,
+        };
+        SolverState {
+            bodies: vec![body],
+            rows: vec![row],
+        }
+    }
+
+    const BOX2D: NgsParams = NgsParams {
+        beta: 0.2,
+        slop: 0.005,
+        max_correction: 0.2,
+    };
+
+    /// Box2D's contact correction: `C = −0.05` moves by `−clamp(0.2 (C + slop), −0.2, 0) / k =
+    /// 0.009`, the pass is not good enough (`C < −3 slop`); a deep `C = −2` is clamped to 0.2.
+    #[test]
+    fn contact_correction_is_box2d_s() {
+        let mut s = one_row(RowRole::Normal(0), -0.05);
+        let (ok, visited) = position_pass(&mut s, &BOX2D);
+        assert_eq!((ok, visited), (false, 1));
+        assert!((s.bodies[0].dp.z - 0.009).abs() < 1e-15);
+        let mut s = one_row(RowRole::Normal(0), -2.0);
+        position_pass(&mut s, &BOX2D);
+        assert!((s.bodies[0].dp.z - 0.2).abs() < 1e-15);
+        // Within 3 slop: good enough, and within the slop nothing moves.
+        let mut s = one_row(RowRole::Normal(0), -0.012);
+        assert!(position_pass(&mut s, &BOX2D).0);
+        let mut s = one_row(RowRole::Normal(0), -0.004);
+        position_pass(&mut s, &BOX2D);
+        assert_eq!(s.bodies[0].dp.z, 0.0);
+    }
+
+    /// A joint row is corrected fully (no slop, no β) up to `max_correction`.
+    #[test]
+    fn joint_correction_is_full_and_clamped() {
+        let mut s = one_row(RowRole::Joint, 0.03);
+        let (ok, _) = position_pass(&mut s, &BOX2D);
+        assert!(!ok);
+        assert!((s.bodies[0].dp.z + 0.03).abs() < 1e-15);
+        assert!(position_pass(&mut s, &BOX2D).0);
+        let mut s = one_row(RowRole::Joint, -0.5);
+        position_pass(&mut s, &BOX2D);
+        assert!((s.bodies[0].dp.z - 0.2).abs() < 1e-15);
+    }
+}
