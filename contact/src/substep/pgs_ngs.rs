@@ -14,7 +14,8 @@
 //!    more important than friction") and its normal row (`λ_n ≥ 0`). A normal row's velocity
 //!    target has no position term: `w = J v + bias ≥ 0` with `bias = e v⁻` for a bouncing
 //!    contact (`v⁻ < −restitution_threshold`, Box2D's `velocityBias = −e vRel`), `C/h` for an
-//!    open contact (speculative), 0 otherwise ([`super::bias`]); with `hertz > 0` a penetrating
+//!    open contact (speculative: Box2D 2.x has none, but the stepper's contacts include gaps up
+//!    to `prediction_distance`), 0 otherwise ([`super::bias`]); with `hertz > 0` a penetrating
 //!    contact is a soft spring instead (`bias = max(bias_rate C, −3 m/s)`, mass and impulse
 //!    scales of [`super::Softness`]: Box2D v3's soft contact);
 //! 4. **integrate positions**: `Δx += h v`;
