@@ -47,6 +47,11 @@
 //! leave a friction impulse above `μ λ_n` of the final normal impulse until the next sweep
 //! (the shared residual of the last solve sees what is left at the end).
 //!
+//! **Failure modes** (those of Gauss–Seidel at a fixed sweep count): tall stacks and long
+//! chains with mass ratios are under-solved each step, so they sag and sway (the position pass
+//! hides the sag of contacts beyond the slop, not the velocity error); a deep initial overlap is
+//! removed at most `max_correction` per row and sweep, without adding velocity.
+//!
 //! **Not done**: Box2D's block solver of two-point manifolds (each row is swept alone), its
 //! clamp of the translation and rotation per step (`b2_maxTranslation`, `b2_maxRotation`), and
 //! the update of contact points and normals within the position pass (the rows keep the
