@@ -74,6 +74,8 @@ fn solvers_names_each_solver_level() {
         ("body-micro", "body"),
         ("penalty", "body"),
         ("avg", "body"),
+        ("pgs-ngs", "body"),
+        ("jacobi", "body"),
         ("nsgs-cone", "cone"),
         ("newton-fb-cone", "cone"),
         ("newton-nm-cone", "cone"),

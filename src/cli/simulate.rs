@@ -21,7 +21,8 @@ pub struct SimulateArgs {
     /// Scene file (TOML; format in docs/scenes.md).
     pub scene: PathBuf,
     /// Contact solver (overrides the scene's): a matrix solver, a body-level one (on scenes
-    /// with joints only si), or, for friction model cone, a cone solver (listed below from the
+    /// with joints si or a substepping one; `NAME@key=value,…` sets a substepping solver's
+    /// parameters), or, for friction model cone, a cone solver (listed below from the
     /// solver table; `lcpbench solvers` says what each takes). A solver that does not take the
     /// friction model is refused. `NAME` starts every step cold and `NAME+warm` from the
     /// previous step's impulses, as in `bench` (without `--solver`, the scene's `warm_start`

@@ -125,10 +125,11 @@ pub fn iteration_unit(name: &str) -> Option<&'static str> {
             | BodySolverKind::MicroImpulses
             | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
             BodySolverKind::Penalty => "passes (always 1)",
-            BodySolverKind::SoftStep
-            | BodySolverKind::Tgs
-            | BodySolverKind::PgsNgs
-            | BodySolverKind::Jacobi => "sweeps over the rows, summed over the substeps and passes",
+            BodySolverKind::SoftStep | BodySolverKind::Tgs => {
+                "sweeps over the rows, summed over the substeps and passes"
+            }
+            BodySolverKind::PgsNgs => "velocity and position sweeps, summed over the substeps",
+            BodySolverKind::Jacobi => "Jacobi sweeps, summed over the substeps",
             BodySolverKind::Xpbd => "position and velocity passes, summed over the substeps",
         });
     }

@@ -13,6 +13,9 @@
 //!    Baumgarte `β/h · min(0, C + slop)` (joint rows `β/h · C`); with `hertz > 0`, soft contacts
 //!    instead of Baumgarte (`bias = max(bias_rate C, −3 m/s)` with the spring's mass and impulse
 //!    scales, Catto 2011);
+//!    A soft row is a row of the regularised LCP `A + Γ` (`γ = k · impulse_scale / mass_scale`,
+//!    the fixed point of Box2D v3's soft update) and is scaled by `D + γ`, so the spring is
+//!    Box2D v3's whatever the row scaling;
 //! 3. **warm start**: apply the accumulated impulses `λ` together (one body pass);
 //! 4. **`iterations` Jacobi sweeps**: from the same velocities `v`, every row's candidate
 //!    `λᵢ* = proj(λᵢ − mᵢ (Jᵢ v + biasᵢ))`, `mᵢ = 1/Dᵢ` of the row scaling below (normal `≥ 0`, friction within `±μ λ_n` of the
@@ -56,6 +59,13 @@
 //! rigid LCP (`residual_of` says `soft`). Row order does not change the answer beyond
 //! round-off (the sum of the increments on a body is the only order-dependent operation).
 //!
+//! **Failure modes.** Few sweeps per step on many rows per body: stacks sink by centimetres and
+//! jitter (a 5-box tower at 8 sweeps), and long chains of joints stretch. On chains the
+//! Baumgarte term of the joint rows, fed through a solve that is far from converged and
+//! integrated over the steps by the warm start, can grow into an oscillation that tears the
+//! chain (a 20-link chain at 8 sweeps; `baumgarte = 0` keeps it bounded but sagging; more
+//! substeps make the per-substep `β/h` stiffer and it worse).
+//!
 //! **Not done**: graph colouring or threads (the sweep is serial code of a parallel method),
 //! Tonge's per-body velocity copies (the splitting is applied through the row masses, which
 //! gives the same fixed point and the same convergence bound), and pyramid friction rows.
@@ -64,8 +74,9 @@
 //! remaining substeps apply their warm start and integrate); `settings.time_budget` is checked
 //! between substeps (once spent, the remaining substeps only integrate; `timed_out`).
 
-use super::bias::{is_swept, projected_update, row_targets, warm_impulses, Feedback};
+use super::bias::{is_swept, projected_update, row_targets, warm_impulses, Feedback, RowTarget};
 use super::params::{ParamSpec, Params};
+use super::softness::Softness;
 use super::state::{RowRole, SolverState, StepCost};
 use super::{LastSolve, SubstepInput, SubstepOutcome};
 use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
@@ -179,6 +190,7 @@ impl Jacobi {
             cost.body_passes += 1;
             if !timed_out {
                 let targets = row_targets(&state, feedback, h, system.restitution_threshold);
+                let (targets, row_mass) = regularised(&state, &targets, &mass);
                 let b: Vec<f64> = state
                     .rates()
                     .iter()
@@ -204,7 +216,7 @@ impl Jacobi {
                             lambda[i],
                             rate,
                             &targets[i],
-                            mass[i],
+                            row_mass[i],
                             bound,
                         );
                         delta[i] = omega * (new - lambda[i]);
@@ -255,6 +267,43 @@ impl Jacobi {
             timed_out,
         }
     }
+}
+
+/// The soft rows as rows of a regularised LCP under the row scaling. A soft row's update
+/// (Box2D v3) `Δ = −m s_m (J v + bias) − s_i λ` with `m = 1/k` has the fixed point
+/// `J v + bias + γ λ = 0`, `γ = k s_i / s_m`: the row of `A + Γ`. Jacobi on `A + Γ` with the
+/// dominating diagonal `D + Γ` is `λ ← λ − (J v + bias + γ λ) / (D + γ)`, i.e. the update with
+/// `m' = 1/(D + γ)`, `s_m' = 1`, `s_i' = γ/(D + γ)` (for `D = k` it is Box2D's own); scaling
+/// the soft update's `m` instead would solve a softer spring. Rigid rows keep `1/D`.
+fn regularised(
+    state: &SolverState,
+    targets: &[RowTarget],
+    mass: &[f64],
+) -> (Vec<RowTarget>, Vec<f64>) {
+    let mut row_mass = mass.to_vec();
+    let targets = targets
+        .iter()
+        .zip(&state.rows)
+        .zip(row_mass.iter_mut())
+        .map(|((t, row), m)| {
+            let s = t.softness;
+            if s.impulse_scale == 0.0 || s.mass_scale <= 0.0 || *m <= 0.0 {
+                return *t;
+            }
+            let gamma = row.k * s.impulse_scale / s.mass_scale;
+            let d = 1.0 / *m + gamma;
+            *m = 1.0 / d;
+            RowTarget {
+                bias: t.bias,
+                softness: Softness {
+                    bias_rate: s.bias_rate,
+                    mass_scale: 1.0,
+                    impulse_scale: gamma / d,
+                },
+            }
+        })
+        .collect();
+    (targets, row_mass)
 }
 
 /// The row masses under mass splitting: `mᵢ = 1 / Σ_b n_b Jᵢ_b M_b⁻¹ Jᵢ_bᵀ`, `n_b` the number

@@ -14,7 +14,8 @@
 //!    more important than friction") and its normal row (`λ_n ≥ 0`). A normal row's velocity
 //!    target has no position term: `w = J v + bias ≥ 0` with `bias = e v⁻` for a bouncing
 //!    contact (`v⁻ < −restitution_threshold`, Box2D's `velocityBias = −e vRel`), `C/h` for an
-//!    open contact (speculative), 0 otherwise ([`super::bias`]); with `hertz > 0` a penetrating
+//!    open contact (speculative: Box2D 2.x has none, but the stepper's contacts include gaps up
+//!    to `prediction_distance`), 0 otherwise ([`super::bias`]); with `hertz > 0` a penetrating
 //!    contact is a soft spring instead (`bias = max(bias_rate C, −3 m/s)`, mass and impulse
 //!    scales of [`super::Softness`]: Box2D v3's soft contact);
 //! 4. **integrate positions**: `Δx += h v`;
@@ -41,6 +42,15 @@
 //! LCP): penetration is corrected there, not by the velocity solve. With `hertz > 0` the
 //! velocity solve is that of a soft (regularised) problem, measured against the rigid LCP
 //! (the report's `residual_of` says `soft`).
+//!
+//! Friction rows are swept before their normal row, as Box2D does: a later normal update can
+//! leave a friction impulse above `μ λ_n` of the final normal impulse until the next sweep
+//! (the shared residual of the last solve sees what is left at the end).
+//!
+//! **Failure modes** (those of Gauss–Seidel at a fixed sweep count): tall stacks and long
+//! chains with mass ratios are under-solved each step, so they sag and sway (the position pass
+//! hides the sag of contacts beyond the slop, not the velocity error); a deep initial overlap is
+//! removed at most `max_correction` per row and sweep, without adding velocity.
 //!
 //! **Not done**: Box2D's block solver of two-point manifolds (each row is swept alone), its
 //! clamp of the translation and rotation per step (`b2_maxTranslation`, `b2_maxRotation`), and
@@ -348,5 +358,90 @@ impl BodySolver for PgsNgs {
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
         Some(self.step(input.system, input.gravity, input.settings))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::builder::JacobianBlock;
+    use crate::substep::state::{SolverBody, SolverRow};
+    use nalgebra::{Matrix3, UnitQuaternion};
+
+    /// One dynamic body (unit mass, unit inertia) and one row along `z` at the body's centre.
+    fn one_row(role: RowRole, c0: f64) -> SolverState {
+        let body = SolverBody {
+            v: Vector3::zeros(),
+            w: Vector3::zeros(),
+            inv_mass: 1.0,
+            inv_inertia: Matrix3::identity(),
+            dp: Vector3::zeros(),
+            dtheta: Vector3::zeros(),
+            dq: UnitQuaternion::identity(),
+        };
+        let row = SolverRow {
+            role,
+            blocks: [
+                JacobianBlock {
+                    body: 0,
+                    linear: Vector3::z(),
+                    angular: Vector3::zeros(),
+                },
+                JacobianBlock::default(),
+            ],
+            response: [
+                (Vector3::z(), Vector3::zeros()),
+                (Vector3::zeros(), Vector3::zeros()),
+            ],
+            sides: 1,
+            k: 1.0,
+            mass: 1.0,
+            c0,
+            mu: 0.0,
+            restitution: 0.0,
+            approach: 0.0,
+        };
+        SolverState {
+            bodies: vec![body],
+            rows: vec![row],
+        }
+    }
+
+    const BOX2D: NgsParams = NgsParams {
+        beta: 0.2,
+        slop: 0.005,
+        max_correction: 0.2,
+    };
+
+    /// Box2D's contact correction: `C = −0.05` moves by `−clamp(0.2 (C + slop), −0.2, 0) / k =
+    /// 0.009`, the pass is not good enough (`C < −3 slop`); a deep `C = −2` is clamped to 0.2.
+    #[test]
+    fn contact_correction_is_box2d_s() {
+        let mut s = one_row(RowRole::Normal(0), -0.05);
+        let (ok, visited) = position_pass(&mut s, &BOX2D);
+        assert_eq!((ok, visited), (false, 1));
+        assert!((s.bodies[0].dp.z - 0.009).abs() < 1e-15);
+        let mut s = one_row(RowRole::Normal(0), -2.0);
+        position_pass(&mut s, &BOX2D);
+        assert!((s.bodies[0].dp.z - 0.2).abs() < 1e-15);
+        // Within 3 slop: good enough, and within the slop nothing moves.
+        let mut s = one_row(RowRole::Normal(0), -0.012);
+        assert!(position_pass(&mut s, &BOX2D).0);
+        let mut s = one_row(RowRole::Normal(0), -0.004);
+        position_pass(&mut s, &BOX2D);
+        assert_eq!(s.bodies[0].dp.z, 0.0);
+    }
+
+    /// A joint row is corrected fully (no slop, no β) up to `max_correction`.
+    #[test]
+    fn joint_correction_is_full_and_clamped() {
+        let mut s = one_row(RowRole::Joint, 0.03);
+        let (ok, _) = position_pass(&mut s, &BOX2D);
+        assert!(!ok);
+        assert!((s.bodies[0].dp.z + 0.03).abs() < 1e-15);
+        assert!(position_pass(&mut s, &BOX2D).0);
+        let mut s = one_row(RowRole::Joint, -0.5);
+        position_pass(&mut s, &BOX2D);
+        assert!((s.bodies[0].dp.z - 0.2).abs() < 1e-15);
     }
 }
