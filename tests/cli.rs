@@ -577,7 +577,18 @@ fn solvers_prints_a_header_and_aligned_columns() {
     let o = lcpbench(&["solvers"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();
-    let lines: Vec<&str> = text.lines().collect();
+    // The table, then after a blank line each parameterised solver's keys.
+    let lines: Vec<&str> = text.lines().take_while(|l| !l.is_empty()).collect();
+    let params: Vec<&str> = text.lines().skip_while(|l| !l.is_empty()).collect();
+    for key in ["substeps", "hertz", "joint_hertz"] {
+        assert!(
+            params
+                .iter()
+                .any(|l| l.trim_start().starts_with(key) && l.contains("default")),
+            "no `{key}` parameter listed: {params:?}"
+        );
+    }
+    assert!(params.iter().any(|l| *l == "soft-step"), "{params:?}");
     let header = lines[0];
     assert!(
         header.starts_with("solver") && header.contains("iterations count"),
@@ -625,6 +636,7 @@ fn help_texts_list_every_solver_of_the_table() {
     let table = String::from_utf8(o.stdout).unwrap();
     let rows: Vec<(String, String)> = table
         .lines()
+        .take_while(|l| !l.is_empty())
         .skip(1)
         .map(|l| {
             let mut w = l.split_whitespace();

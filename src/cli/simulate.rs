@@ -428,11 +428,25 @@ struct SimRun<'a> {
     discontinuity: DiscontinuityMetrics,
 }
 
+/// The largest distance any dynamic body ended from where the scene started it (`None` when
+/// events removed bodies, so the lists no longer pair up): "no box moves more than 1 cm".
+fn max_displacement(run: &SimRun) -> Option<f64> {
+    let start = &run.scene.bodies;
+    (start.len() == run.world.bodies.len()).then(|| {
+        start
+            .iter()
+            .zip(&run.world.bodies)
+            .filter(|(a, _)| !a.is_static)
+            .map(|(a, b)| (b.position - a.position).norm())
+            .fold(0.0, f64::max)
+    })
+}
+
 fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
     let (world, steps) = (run.world, run.steps);
     let n = steps.max(1) as f64;
     let p = t.phases.scaled(1.0 / n);
-    let out = json!({
+    let mut out = json!({
         "scene": run.scene.name,
         "solver": world.settings.solver.name(),
         "warm_start": world.settings.warm_start,
@@ -484,6 +498,7 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "stepping": run.discontinuity.stepping,
         "discontinuity": run.discontinuity,
     });
+    out["max_displacement"] = json!(max_displacement(run));
     println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
 }

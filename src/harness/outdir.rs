@@ -279,6 +279,48 @@ impl TableRow for crate::harness::record::HistoryRow {
     }
 }
 
+/// The column names lcpbench writes for `T`, in order (the header of a sample row).
+fn column_names<T: TableRow>() -> Vec<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    if w.serialize(T::sample()).is_err() {
+        return Vec::new();
+    }
+    let bytes = w.into_inner().unwrap_or_default();
+    let mut r = csv::Reader::from_reader(&bytes[..]);
+    r.headers()
+        .map(|h| h.iter().map(str::to_owned).collect())
+        .unwrap_or_default()
+}
+
+/// A table's header must be lcpbench's columns for `T` in order, or a leading part of them (a
+/// file written before later columns were added): a damaged or foreign column name is an
+/// error naming the column, not a column silently read as empty.
+fn check_header<T: TableRow>(path: &Path, headers: &csv::ByteRecord) -> Result<()> {
+    let known = column_names::<T>();
+    if known.is_empty() {
+        return Ok(());
+    }
+    if headers.len() > known.len() {
+        bail!(
+            "{}: line 1: the header has {} columns where lcpbench writes {}",
+            path.display(),
+            headers.len(),
+            known.len()
+        );
+    }
+    for (k, (got, want)) in headers.iter().zip(&known).enumerate() {
+        if got != want.as_bytes() {
+            bail!(
+                "{}: line 1: column {} is `{}` where lcpbench writes `{want}`",
+                path.display(),
+                k + 1,
+                String::from_utf8_lossy(got)
+            );
+        }
+    }
+    Ok(())
+}
+
 /// The rows of a table, read strictly, and whether its last row was torn.
 #[derive(Debug, Clone)]
 pub struct Table<T> {
@@ -308,6 +350,7 @@ pub fn read_table<T: TableRow>(path: &Path) -> Result<Table<T>> {
         .byte_headers()
         .with_context(|| format!("{}: line 1: not a CSV header", path.display()))?
         .clone();
+    check_header::<T>(path, &headers)?;
     let mut rows = Vec::new();
     let mut record = csv::ByteRecord::new();
     loop {
