@@ -588,7 +588,7 @@ fn solvers_prints_a_header_and_aligned_columns() {
             "no `{key}` parameter listed: {params:?}"
         );
     }
-    assert!(params.iter().any(|l| *l == "soft-step"), "{params:?}");
+    assert!(params.contains(&"soft-step"), "{params:?}");
     let header = lines[0];
     assert!(
         header.starts_with("solver") && header.contains("iterations count"),
