@@ -326,6 +326,14 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         Some(name) => Stepping::from_name(name).map_err(|m| anyhow!("--stepping: {m}"))?,
         None => scene.stepping,
     };
+    if stepping == Stepping::Timewarp {
+        if let Some(why) = Stepper::one_group_reason(&world) {
+            eprintln!(
+                "{}: stepping \"timewarp\" runs the scene as one group, the fixed step: {why}",
+                args.scene.display()
+            );
+        }
+    }
     let mut stepper =
         Stepper::new(world, stepping).map_err(|m| anyhow!("{}: {m}", args.scene.display()))?;
     let min = lcpbench::view::min_page_bytes(true);

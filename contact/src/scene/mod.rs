@@ -263,12 +263,6 @@ impl Scene {
             .map_err(|(f, m)| invalid(f, m))?;
         let stepping = Stepping::from_name(&file.settings.stepping)
             .map_err(|m| invalid("settings.stepping".into(), m))?;
-        if stepping == Stepping::Timewarp && !(events.is_empty() && joints.is_empty()) {
-            return Err(invalid(
-                "settings.stepping".into(),
-                "\"timewarp\" does not take scheduled events or joints (use \"fixed\")".into(),
-            ));
-        }
         let name = file.name.unwrap_or_else(|| {
             path.file_stem()
                 .map_or("scene".into(), |s| s.to_string_lossy().into_owned())

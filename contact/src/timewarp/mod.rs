@@ -31,7 +31,8 @@
 //! The trajectory is sampled at the frame times, one [`StepReport`] per frame, so recordings,
 //! replays and metrics read it like a fixed-step run.
 //!
-//! Limits: scheduled events and joints are refused ([`Stepper::new`]); a free body sped up by
+//! Limits: a scene with scheduled events or joints runs as one group, the fixed step
+//! ([`Stepper::new`]); a free body sped up by
 //! an impact beyond the speed its swept box was sized for is only re-paired at the next
 //! frame; free-flight rotation is at constant angular velocity (exact for spheres).
 
@@ -397,25 +398,31 @@ pub enum Stepper {
 }
 
 impl Stepper {
-    /// `world` stepped by `stepping`. Timewarp refuses scenes with scheduled events or joints
-    /// (it would have to roll them back too).
+    /// `world` stepped by `stepping`. On a scene with scheduled events or joints Timewarp
+    /// falls back to one group, which is the fixed step (a joint ties its bodies' clocks
+    /// together, and events are dated on the one clock): [`Stepper::one_group_reason`] says
+    /// why.
     pub fn new(world: World, stepping: Stepping) -> Result<Self, String> {
         match stepping {
             Stepping::Fixed => Ok(Self::Fixed(Box::new(world))),
-            Stepping::Timewarp => {
-                if !world.events.is_empty() {
-                    return Err(
-                        "stepping \"timewarp\" does not take scheduled events ([[events]])".into(),
-                    );
-                }
-                if !world.joints.is_empty() {
-                    return Err("stepping \"timewarp\" does not take joints ([[joints]])".into());
-                }
-                Ok(Self::Timewarp(Box::new(Timewarp::new(
-                    world,
-                    TimewarpSettings::default(),
-                ))))
+            Stepping::Timewarp if Self::one_group_reason(&world).is_some() => {
+                Ok(Self::Fixed(Box::new(world)))
             }
+            Stepping::Timewarp => Ok(Self::Timewarp(Box::new(Timewarp::new(
+                world,
+                TimewarpSettings::default(),
+            )))),
+        }
+    }
+
+    /// Why Timewarp runs `world` as one group (fixed steps): it has scheduled events or joints.
+    pub fn one_group_reason(world: &World) -> Option<&'static str> {
+        if !world.events.is_empty() {
+            Some("the scene has scheduled events ([[events]]), dated on one clock")
+        } else if !world.joints.is_empty() {
+            Some("the scene has joints ([[joints]]), which tie their bodies' clocks together")
+        } else {
+            None
         }
     }
 
