@@ -124,6 +124,8 @@ impl Tgs {
                 joint_zeta: p.get("zeta"),
                 push_out: PUSH_OUT,
                 box2d_caps: false,
+                joint_cap: 0.0,
+                friction_anchor: 0.0,
             }
         } else {
             BiasRule::Baumgarte {
@@ -136,6 +138,8 @@ impl Tgs {
             iterations: p.count("iterations"),
             relax_iterations: p.count("relax_iterations"),
             bias,
+            normals_first: false,
+            block_pairs: false,
         }
     }
 }
