@@ -339,6 +339,11 @@ pub(crate) enum BiasRule {
         beta: f64,
         /// Penetration left uncorrected, m.
         slop: f64,
+        /// `> 0`: joint rows soft of this stiffness (at most [`JOINT_CAP`]` / h`) instead of
+        /// the Baumgarte bias on rigid rows.
+        joint_hertz: f64,
+        /// Damping ratio of the soft joint rows.
+        joint_zeta: f64,
     },
 }
 
@@ -406,12 +411,21 @@ impl Coefficients {
                     friction_rate: if h > 0.0 { friction_anchor / h } else { 0.0 },
                 }
             }
-            BiasRule::Baumgarte { beta, slop } => {
+            BiasRule::Baumgarte {
+                beta,
+                slop,
+                joint_hertz,
+                joint_zeta,
+            } => {
                 let b = Softness::baumgarte(beta, h);
                 Coefficients {
                     contact: b,
                     static_contact: b,
-                    joint: b,
+                    joint: if joint_hertz > 0.0 {
+                        Softness::new(joint_hertz.min(JOINT_CAP / h), joint_zeta, h)
+                    } else {
+                        b
+                    },
                     min_bias: f64::NEG_INFINITY,
                     baumgarte: Some((b.bias_rate, slop)),
                     friction_rate: 0.0,
@@ -831,7 +845,11 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
                     r + c.bias
                 })
                 .collect();
-            let soft = pass == "biased solve" && matches!(scheme.bias, BiasRule::Soft { .. });
+            let soft = pass == "biased solve"
+                && match scheme.bias {
+                    BiasRule::Soft { .. } => true,
+                    BiasRule::Baumgarte { joint_hertz, .. } => joint_hertz > 0.0,
+                };
             LastSolve {
                 f: lambda.clone(),
                 b,
