@@ -134,6 +134,15 @@
 //!   rows are rebuilt every step, so a slow creep is not pulled back. More sweeps do not
 //!   save it either (`iterations=4,relax_iterations=4` falls; rigid contacts, `hertz=0`,
 //!   fall). `tower_10` stands, leaning about 1 cm in 2 s.
+//!
+//!   The springs' figures say the 30 Hz tower cannot stand statically: a corner row of two
+//!   unit boxes of 1000 kg has `m = 125 kg` (`1/m = 2 (1/1000 + 0.5 / 166.7)`), a stiffness
+//!   `m ω² = 4.4e6 N/m` at 30 Hz; four of them hold 1.8e7 N/m vertically (the 0.434 m sag of
+//!   the tower is `Σ_k k · 9810 / 1.8e7` over its 39 box-box contacts) and resist a tilt with
+//!   `Σ k x² = 4.4e6 N·m/rad`, while the 38 boxes above the second contact (3.7e5 N, centre
+//!   of mass 19 m above it) overturn it with 7.1e6 N·m/rad. The tilt is an unstable mode of
+//!   any solver with these per-row springs; the heavily damped springs (ζ = 10) only set how
+//!   fast it grows. A tower that stands with these springs grows it more slowly.
 //! * One sweep per pass leaves an order-dependent distribution of impulses over the four
 //!   coplanar points of a face: a small torque that leans stacks (above).
 //!
