@@ -635,7 +635,7 @@ fn solve_pair(
     let (ra, rb) = (&rows[a], &rows[b]);
     let (k11, k22, k12) = (ra.k, rb.k, coupling(ra, rb));
     let (ka, kb) = (k[a], k[b]);
-    if !(ka.mass_scale > 0.0 && kb.mass_scale > 0.0 && k11 > 0.0 && k22 > 0.0) {
+    if ka.mass_scale <= 0.0 || kb.mass_scale <= 0.0 || k11 <= 0.0 || k22 <= 0.0 {
         return None;
     }
     let (pa, pb) = (lambda[a], lambda[b]);
@@ -644,8 +644,9 @@ fn solve_pair(
     let kp11 = k11 / ka.mass_scale;
     let kp22 = k22 / kb.mass_scale;
     let det = kp11 * kp22 - k12 * k12;
-    // Nearly parallel rows (two points on one line through the bodies): no block solve.
-    if !(det > 1e-9 * kp11 * kp22) {
+    // Nearly parallel rows (two points on one line through the bodies), or a NaN: no block
+    // solve.
+    if det.is_nan() || det <= 1e-9 * kp11 * kp22 {
         return None;
     }
     let both = ((k12 * q2 - kp22 * q1) / det, (k12 * q1 - kp11 * q2) / det);
