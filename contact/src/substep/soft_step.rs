@@ -135,14 +135,18 @@
 //!   save it either (`iterations=4,relax_iterations=4` falls; rigid contacts, `hertz=0`,
 //!   fall). `tower_10` stands, leaning about 1 cm in 2 s.
 //!
-//!   The springs' figures say the 30 Hz tower cannot stand statically: a corner row of two
+//!   The springs' figures put `tower_40_60hz` past the static limit: a corner row of two
 //!   unit boxes of 1000 kg has `m = 125 kg` (`1/m = 2 (1/1000 + 0.5 / 166.7)`), a stiffness
 //!   `m ω² = 4.4e6 N/m` at 30 Hz; four of them hold 1.8e7 N/m vertically (the 0.434 m sag of
 //!   the tower is `Σ_k k · 9810 / 1.8e7` over its 39 box-box contacts) and resist a tilt with
 //!   `Σ k x² = 4.4e6 N·m/rad`, while the 38 boxes above the second contact (3.7e5 N, centre
-//!   of mass 19 m above it) overturn it with 7.1e6 N·m/rad. The tilt is an unstable mode of
-//!   any solver with these per-row springs; the heavily damped springs (ζ = 10) only set how
-//!   fast it grows. A tower that stands with these springs grows it more slowly.
+//!   of mass 19 m above it) overturn it with 7.1e6 N·m/rad. That is not the whole story: a
+//!   20-box tower at 60 Hz steps (1.6e6 N·m/rad against the same 4.4e6) also leans and falls
+//!   under the defaults (top 0.02 m off at 2 s, 0.16 m at 6 s, 2 m at 10 s), and at
+//!   `hertz=60` it stands (1.3 cm at 10 s); none of `relax_iterations=0`, `zeta` 1 or 30,
+//!   `static_scale=1`, `push_out=0.1`, `normals_first`, `friction_anchor=1`, `block_pairs=1`
+//!   keeps it up (0.95–3.7 m at 10 s; the last two lean least). So part of the lean is the
+//!   solver's, and what makes Rapier's tower stand was not found.
 //! * One sweep per pass leaves an order-dependent distribution of impulses over the four
 //!   coplanar points of a face: a small torque that leans stacks (above).
 //!
