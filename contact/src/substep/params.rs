@@ -74,7 +74,7 @@ impl ParamSpec {
 }
 
 /// Largest number of parameters a solver takes.
-pub const MAX_PARAMS: usize = 12;
+pub const MAX_PARAMS: usize = 16;
 
 /// The parameter values of one solver: its [`ParamSpec`] list and a value for each key.
 /// `Copy`, so a solver specification that carries it stays `Copy`.

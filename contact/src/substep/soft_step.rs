@@ -27,8 +27,18 @@
 //!      `bias = max(bias_rate · s, −push_out)`; a contact with a static body takes
 //!      `static_scale · hertz`;
 //!    * joint row: the soft joint of `(joint_hertz, joint_zeta)`, `bias = bias_rate · C`;
-//!    * friction row: rigid, no bias, the accumulated impulse clamped to `±μ λ_n` of its
-//!      normal row.
+//!    * friction row: rigid, the accumulated impulse clamped to `±μ λ_n` of its normal row;
+//!      no bias (Box2D), or with `friction_anchor = a > 0` the bias `a · s / h`, `s` the
+//!      tangential slip of the contact points since the step's start (Rapier 0.36,
+//!      `ContactWithCoulombFrictionBuilder::update`: the tangent `rhs` is
+//!      `rhs_wo_bias + (p1 − p2)·t / dt`, the anchors `p1`, `p2` fixed on each body).
+//!
+//!    The rows are swept joint rows first, then contact by contact (normal row, then its
+//!    friction rows: Box2D's `b2SolveContact`); `normals_first = 1` takes each manifold
+//!    (consecutive contacts between the same two bodies) normal rows first, then its friction
+//!    rows (Rapier's `ContactWithCoulombFriction::solve`), and `block_pairs = 1` solves a
+//!    manifold's normal rows two by two as a compliant 2×2 LCP (Rapier's `block-solver`
+//!    feature, `ContactConstraintNormalPart::solve_mlcp_two_constraints`; see [`solve_pair`]).
 //!
 //!    The impulse of a row is `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`
 //!    (`m = 1 / (J M⁻¹ Jᵀ)`), clamped on the accumulated impulse (`λ ≥ 0` for normal rows);
@@ -46,8 +56,32 @@
 //! included (`b2_stageStoreImpulses`).
 //!
 //! Box2D lowers the stiffness for large substeps (`b2World_Step`): the contact hertz is at
-//! most a quarter of the substep rate and the joint hertz at most an eighth; this solver does
-//! the same (`hertz ≤ 0.25 / h`, `joint_hertz ≤ 0.125 / h`, before `static_scale`).
+//! most a quarter of the substep rate and the joint hertz at most an eighth. This solver caps
+//! the contact hertz likewise (`hertz ≤ 0.25 / h`, before `static_scale`) and the joint hertz
+//! at `joint_cap / h`.
+//!
+//! # Joints: the default and Box2D's
+//!
+//! The default joints are Rapier's near-rigid ones (`SpringCoefficients::joint_defaults`:
+//! 1e6 Hz) held to a quarter of the substep rate (`joint_cap = 0.25`), with Box2D's damping
+//! ratio 2: at 4 substeps of a 60 Hz step that is 60 Hz, at 20 substeps 300 Hz, so a loaded
+//! joint stretches less as the substeps grow (`F / (m ω²)`, `ω ∝ 1 / h`). Box2D's joints are
+//! `joint_hertz=60,joint_cap=0.125`. Rapier's own rows (erp ≈ 1, cfm ≈ 0: a full `C / h`
+//! bias on a rigid row) are `joint_cap=0` with the default `joint_hertz`; with one sweep per
+//! substep they blow up on `chain_20_1e3` (below). Measured on `chain_20_1e3` (20 links of
+//! 1 kg, 1000 kg end mass, 60 Hz steps, warm started, largest joint drift over the run):
+//!
+//! | joints | 4 substeps | 8 | 20 | 40 |
+//! | --- | --- | --- | --- | --- |
+//! | default (cap 0.25 / h, ζ = 2) | 0.275 m | 6.9 cm | 1.1 cm | 2.7 mm |
+//! | Box2D (60 Hz, cap 0.125 / h) | 0.71 m | | 0.27 m | |
+//! | 1e6 Hz, no cap (Rapier's rows) | 273 m (unstable) | | 1e8 m (unstable) | |
+//! | Rapier 0.36 itself (reported) | 0.68 m | | 2.7 cm | |
+//!
+//! Without a cap, at 4 substeps (`h = 1/240`) 120 Hz drifts 2–4 m and 240 Hz blows up; at 20
+//! substeps (`h = 1/1200`) 240 Hz holds (1.7 cm), 480 Hz holds with ζ = 2 (5.8 mm) and not
+//! with ζ = 1, 1000 Hz blows up: one Gauss–Seidel sweep per substep keeps a joint path with a
+//! 1000 : 1 mass ratio only up to about a quarter to a half of the substep rate.
 //!
 //! # Parameters (`soft-step@key=value,…`)
 //!
@@ -59,9 +93,13 @@
 //! | `hertz` | 30 | `b2DefaultWorldDef`: `contactHertz` |
 //! | `zeta` | 10 | `b2DefaultWorldDef`: `contactDampingRatio` |
 //! | `static_scale` | 2 | `b2World_Step`: `staticSoftness = b2MakeSoft(2 · contactHertz, …)` |
-//! | `joint_hertz` | 60 | `b2DefaultWorldDef`: `jointHertz` |
-//! | `joint_zeta` | 2 | `b2DefaultWorldDef`: `jointDampingRatio` (v3.0, v3.1) |
+//! | `joint_hertz` | 1e6 | Rapier: `SpringCoefficients::joint_defaults` (Box2D: 60, `jointHertz`) |
+//! | `joint_zeta` | 2 | `b2DefaultWorldDef`: `jointDampingRatio` (v3.0, v3.1; Rapier: 1) |
 //! | `push_out` | 3 m/s | `b2DefaultWorldDef`: `maxContactPushSpeed` (v3.1; `contactPushoutVelocity` in v3.0) |
+//! | `joint_cap` | 0.25 | joint hertz at most `joint_cap / h` (Box2D `b2World_Step`: 0.125; 0: none) |
+//! | `friction_anchor` | 0 | friction rows' slip bias factor (Box2D: none; Rapier: 1) |
+//! | `normals_first` | 0 | 1: a manifold's normal rows before its friction rows (Rapier) |
+//! | `block_pairs` | 0 | 1: normal rows two by two as 2×2 blocks (Rapier's `block-solver`) |
 //!
 //! `hertz = 0` makes the contacts rigid with no position feedback (only the speculative bias);
 //! `joint_hertz = 0` the joints likewise.
@@ -82,15 +120,33 @@
 //!
 //! # Failure modes (observed)
 //!
-//! * Soft joints stretch under load by `F / (m ω²)`, whatever the substeps: `chain_20_1e3`
-//!   (1000 kg on 1 kg links, 60 Hz steps) drifts 0.27 m at 20 substeps with the 60 Hz joints
-//!   and 4.3 cm with `joint_hertz=150` (the cap at 20 substeps); 0.71 m at 4 substeps, where
-//!   the cap holds the joints at 30 Hz.
+//! * Soft joints stretch under load by `F / (m ω²)`: the table above.
 //! * Soft contacts make a stack a column of rotational springs, which buckles when the weight
 //!   above a contact times its height exceeds the springs' rotational stiffness
 //!   (`Σ m ω² y²` over its points): `tower_40_60hz` sags 0.44 m in its first 2 s at 30 Hz
-//!   (the static deflection), then leans and falls after about 4 s; with
-//!   `substeps=20,hertz=300` it stands. `tower_10` stands, leaning about 1 cm in 2 s.
+//!   (the static deflection; Rapier 0.36 with the same softness: 0.434 m), then leans and
+//!   falls after about 4 s (lateral drift of the top 0.049 m at 2 s, 0.79 m at 4 s); with
+//!   `substeps=20,hertz=300` it stands. Rapier's tower stands at 4 substeps; its friction
+//!   anchors and block pairs (`friction_anchor=1,block_pairs=1`) slow the lean here (0.027 m
+//!   at 2 s, 0.30 m at 4 s) but the tower still falls, so they are not the default. Rapier
+//!   keeps its contact anchors across steps (a contact's tangential slip accumulates from
+//!   when it was made); here the slip is measured from each step's start, as the contact
+//!   rows are rebuilt every step, so a slow creep is not pulled back. More sweeps do not
+//!   save it either (`iterations=4,relax_iterations=4` falls; rigid contacts, `hertz=0`,
+//!   fall). `tower_10` stands, leaning about 1 cm in 2 s.
+//!
+//!   The springs' figures put `tower_40_60hz` past the static limit: a corner row of two
+//!   unit boxes of 1000 kg has `m = 125 kg` (`1/m = 2 (1/1000 + 0.5 / 166.7)`), a stiffness
+//!   `m ω² = 4.4e6 N/m` at 30 Hz; four of them hold 1.8e7 N/m vertically (the 0.434 m sag of
+//!   the tower is `Σ_k k · 9810 / 1.8e7` over its 39 box-box contacts) and resist a tilt with
+//!   `Σ k x² = 4.4e6 N·m/rad`, while the 38 boxes above the second contact (3.7e5 N, centre
+//!   of mass 19 m above it) overturn it with 7.1e6 N·m/rad. That is not the whole story: a
+//!   20-box tower at 60 Hz steps (1.6e6 N·m/rad against the same 4.4e6) also leans and falls
+//!   under the defaults (top 0.02 m off at 2 s, 0.16 m at 6 s, 2 m at 10 s), and at
+//!   `hertz=60` it stands (1.3 cm at 10 s); none of `relax_iterations=0`, `zeta` 1 or 30,
+//!   `static_scale=1`, `push_out=0.1`, `normals_first`, `friction_anchor=1`, `block_pairs=1`
+//!   keeps it up (0.95–3.7 m at 10 s; the last two lean least). So part of the lean is the
+//!   solver's, and what makes Rapier's tower stand was not found.
 //! * One sweep per pass leaves an order-dependent distribution of impulses over the four
 //!   coplanar points of a face: a small torque that leans stacks (above).
 //!
@@ -145,10 +201,10 @@ pub const SOFT_STEP_PARAMS: &[ParamSpec] = &[
     ),
     ParamSpec::real(
         "joint_hertz",
-        softness::JOINT_HERTZ,
+        JOINT_HERTZ,
         0.0,
         1e6,
-        "joint stiffness, Hz (0: rigid, no position feedback)",
+        "joint stiffness, Hz, before the joint_cap (0: rigid, no position feedback)",
     ),
     ParamSpec::real(
         "joint_zeta",
@@ -164,7 +220,44 @@ pub const SOFT_STEP_PARAMS: &[ParamSpec] = &[
         1e6,
         "largest separating speed the contact position bias asks for, m/s",
     ),
+    ParamSpec::real(
+        "joint_cap",
+        JOINT_CAP,
+        0.0,
+        1e6,
+        "joint hertz at most joint_cap / h (Box2D: 0.125; 0: no cap)",
+    ),
+    ParamSpec::real(
+        "friction_anchor",
+        FRICTION_ANCHOR,
+        0.0,
+        1e3,
+        "friction rows' position bias: factor on (tangential slip since the step's start) / h (0: none)",
+    ),
+    ParamSpec::count(
+        "normals_first",
+        0,
+        0,
+        1,
+        "1: each manifold's normal rows before its friction rows (0: contact by contact)",
+    ),
+    ParamSpec::count(
+        "block_pairs",
+        0,
+        0,
+        1,
+        "1: a manifold's normal rows solved two by two as 2x2 blocks (implies normals_first)",
+    ),
 ];
+
+/// Default of `joint_hertz`: Rapier's `SpringCoefficients::joint_defaults` (1e6 Hz, near
+/// rigid); with [`JOINT_CAP`] the joints run at a quarter of the substep rate.
+pub const JOINT_HERTZ: f64 = 1e6;
+/// Default of `joint_cap`: a quarter of the substep rate, the largest joint stiffness that
+/// held `chain_20_1e3` at one sweep per substep (Box2D caps its joints at 0.125).
+pub const JOINT_CAP: f64 = 0.25;
+/// Default of `friction_anchor`.
+pub const FRICTION_ANCHOR: f64 = 0.0;
 
 /// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -193,7 +286,11 @@ impl SoftStep {
                 joint_zeta: p.get("joint_zeta"),
                 push_out: p.get("push_out"),
                 box2d_caps: true,
+                joint_cap: p.get("joint_cap"),
+                friction_anchor: p.get("friction_anchor"),
             },
+            normals_first: p.count("normals_first") > 0,
+            block_pairs: p.count("block_pairs") > 0,
         }
     }
 }
@@ -239,9 +336,14 @@ pub(crate) enum BiasRule {
         joint_zeta: f64,
         /// Largest push-out speed of the contact bias, m/s.
         push_out: f64,
-        /// Lower the stiffness as Box2D's `b2World_Step` does for large substeps
-        /// (contacts ≤ 0.25 / h, joints ≤ 0.125 / h).
+        /// Lower the contact stiffness as Box2D's `b2World_Step` does for large substeps
+        /// (contacts ≤ 0.25 / h).
         box2d_caps: bool,
+        /// Joint stiffness at most `joint_cap / h` (Box2D: 0.125); 0: no cap.
+        joint_cap: f64,
+        /// Friction rows' position bias `friction_anchor · s / h`, `s` the tangential slip of
+        /// the contact points since the step's start (Rapier's friction anchors); 0: none.
+        friction_anchor: f64,
     },
     /// Baumgarte stabilisation on rigid rows: `bias = (β / h) min(0, s + slop)` on a normal
     /// row in contact, `(β / h) C` on a joint row.
@@ -250,6 +352,11 @@ pub(crate) enum BiasRule {
         beta: f64,
         /// Penetration left uncorrected, m.
         slop: f64,
+        /// `> 0`: joint rows soft of this stiffness (at most [`JOINT_CAP`]` / h`) instead of
+        /// the Baumgarte bias on rigid rows.
+        joint_hertz: f64,
+        /// Damping ratio of the soft joint rows.
+        joint_zeta: f64,
     },
 }
 
@@ -264,6 +371,10 @@ pub(crate) struct Scheme {
     pub(crate) relax_iterations: usize,
     /// The biased solve's rule.
     pub(crate) bias: BiasRule,
+    /// Each manifold's normal rows before its friction rows (else contact by contact).
+    pub(crate) normals_first: bool,
+    /// A manifold's normal rows solved two by two as 2×2 blocks (implies `normals_first`).
+    pub(crate) block_pairs: bool,
 }
 
 /// The softness of each kind of row over a substep `h` (rigid for Baumgarte).
@@ -276,6 +387,8 @@ struct Coefficients {
     min_bias: f64,
     /// Baumgarte `(β / h, slop)` instead of the soft contact rule.
     baumgarte: Option<(f64, f64)>,
+    /// Friction rows' bias rate (`friction_anchor / h`; 0: none).
+    friction_rate: f64,
 }
 
 impl Coefficients {
@@ -289,11 +402,18 @@ impl Coefficients {
                 joint_zeta,
                 push_out,
                 box2d_caps,
+                joint_cap,
+                friction_anchor,
             } => {
-                let (hertz, joint_hertz) = if box2d_caps {
-                    (hertz.min(0.25 / h), joint_hertz.min(0.125 / h))
+                let hertz = if box2d_caps {
+                    hertz.min(0.25 / h)
                 } else {
-                    (hertz, joint_hertz)
+                    hertz
+                };
+                let joint_hertz = if joint_cap > 0.0 {
+                    joint_hertz.min(joint_cap / h)
+                } else {
+                    joint_hertz
                 };
                 Coefficients {
                     contact: Softness::new(hertz, zeta, h),
@@ -301,16 +421,27 @@ impl Coefficients {
                     joint: Softness::new(joint_hertz, joint_zeta, h),
                     min_bias: -push_out,
                     baumgarte: None,
+                    friction_rate: if h > 0.0 { friction_anchor / h } else { 0.0 },
                 }
             }
-            BiasRule::Baumgarte { beta, slop } => {
+            BiasRule::Baumgarte {
+                beta,
+                slop,
+                joint_hertz,
+                joint_zeta,
+            } => {
                 let b = Softness::baumgarte(beta, h);
                 Coefficients {
                     contact: b,
                     static_contact: b,
-                    joint: b,
+                    joint: if joint_hertz > 0.0 {
+                        Softness::new(joint_hertz.min(JOINT_CAP / h), joint_zeta, h)
+                    } else {
+                        b
+                    },
                     min_bias: f64::NEG_INFINITY,
                     baumgarte: Some((b.bias_rate, slop)),
+                    friction_rate: 0.0,
                 }
             }
         }
@@ -378,6 +509,13 @@ fn biased_coefficients(
                 mass_scale: c.joint.mass_scale,
                 impulse_scale: c.joint.impulse_scale,
             },
+            // A friction row's position error is the tangential slip of its contact points
+            // since the step's start (its `c0` is 0): the bias asks the sticking points back
+            // to where they touched (Rapier's tangent `rhs`, `(p1 − p2)·t / dt`).
+            RowRole::Friction { .. } if c.friction_rate > 0.0 => RowCoefficients {
+                bias: c.friction_rate * row.position_error(&state.bodies),
+                ..RIGID_ROW
+            },
             RowRole::Friction { .. } | RowRole::Other => RIGID_ROW,
         };
     }
@@ -396,31 +534,176 @@ fn relax_coefficients(state: &SolverState, inv_h: f64, out: &mut [RowCoefficient
     }
 }
 
-/// The rows a sweep visits, in order: joint rows first, then each contact's normal row and
-/// its friction rows (the system's order). Rows no dynamic body moves and pyramid rows are
-/// skipped.
-fn sweep_order(system: &ContactSystem, state: &SolverState) -> Vec<usize> {
+/// The rows a sweep visits, in order: joint rows first, then the contacts. With
+/// `normals_first` false, each contact's normal row and its friction rows (the system's
+/// order, Box2D's `b2SolveContact`); with it true, the contacts are taken in runs of
+/// consecutive contacts between the same two bodies (a manifold) and each run's normal rows
+/// come before its friction rows (Rapier's `ContactWithCoulombFriction::solve`: normal parts,
+/// then tangent parts). Rows no dynamic body moves and pyramid rows are skipped.
+///
+/// With `block_pairs` (which implies `normals_first`), consecutive normal rows of a manifold
+/// are taken two by two as blocks (Rapier's `block-solver` feature): `pairs[p]` is true when
+/// `order[p]` and `order[p + 1]` are solved together by [`solve_pair`].
+fn sweep_order(
+    system: &ContactSystem,
+    state: &SolverState,
+    normals_first: bool,
+    block_pairs: bool,
+) -> (Vec<usize>, Vec<bool>) {
+    let normals_first = normals_first || block_pairs;
     let joints = system.joint_rows_start().min(state.rows.len());
-    (joints..state.rows.len())
-        .chain(0..joints)
-        .filter(|&i| {
+    let keep = |i: &usize| {
+        let r = &state.rows[*i];
+        r.mass > 0.0 && r.role != RowRole::Other
+    };
+    let mut order: Vec<usize> = (joints..state.rows.len()).filter(keep).collect();
+    let mut pairs = vec![false; order.len()];
+    if normals_first {
+        // The contact rows (0..joints) in runs of one body pair.
+        let pair = |i: usize| {
             let r = &state.rows[i];
-            r.mass > 0.0 && r.role != RowRole::Other
-        })
-        .collect()
+            let mut p = [usize::MAX; 2];
+            for (k, b) in r.blocks[..r.sides as usize].iter().enumerate() {
+                p[k] = b.body;
+            }
+            p
+        };
+        let contact_of = |i: usize| match state.rows[i].role {
+            RowRole::Normal(_) => i,
+            RowRole::Friction { normal } => normal,
+            _ => i,
+        };
+        let mut start = 0;
+        while start < joints {
+            let key = pair(contact_of(start));
+            let mut end = start + 1;
+            while end < joints && pair(contact_of(end)) == key {
+                end += 1;
+            }
+            let first = order.len();
+            order.extend(
+                (start..end)
+                    .filter(|&i| matches!(state.rows[i].role, RowRole::Normal(_)))
+                    .filter(keep),
+            );
+            pairs.resize(order.len(), false);
+            if block_pairs {
+                let mut p = first;
+                while p + 1 < order.len() {
+                    pairs[p] = true;
+                    p += 2;
+                }
+            }
+            order.extend(
+                (start..end)
+                    .filter(|&i| !matches!(state.rows[i].role, RowRole::Normal(_)))
+                    .filter(keep),
+            );
+            pairs.resize(order.len(), false);
+            start = end;
+        }
+    } else {
+        order.extend((0..joints).filter(keep));
+        pairs.resize(order.len(), false);
+    }
+    (order, pairs)
+}
+
+/// `J_a M⁻¹ J_bᵀ`: the coupling of two rows (the off-diagonal entry of `A`).
+fn coupling(a: &SolverRow, b: &SolverRow) -> f64 {
+    let mut k = 0.0;
+    for ba in &a.blocks[..a.sides as usize] {
+        for (bb, (lin, ang)) in b.blocks[..b.sides as usize].iter().zip(&b.response) {
+            if ba.body == bb.body {
+                k += ba.linear.dot(lin) + ba.angular.dot(ang);
+            }
+        }
+    }
+    k
+}
+
+/// The new accumulated impulses of two normal rows `a`, `b` solved as one block: the
+/// compliant 2×2 LCP `0 ≤ λ ⟂ K' λ + q ≥ 0`, `q = J v + bias − K λ_prev`, `K` the rows' 2×2
+/// block of `A`, `K'` it with its diagonal divided by each row's `mass_scale` (Rapier's
+/// `ContactConstraintNormalPart::solve_mlcp_two_constraints`). For one row alone it is the
+/// soft update of [`sweep_rows`] (`mass_scale + impulse_scale = 1`). The four cases (both
+/// active, one, none) are tried in turn; `None` when the block is singular (the caller then
+/// solves the rows one after the other).
+fn solve_pair(
+    rows: &[SolverRow],
+    bodies: &[SolverBody],
+    (a, b): (usize, usize),
+    k: &[RowCoefficients],
+    lambda: &[f64],
+) -> Option<(f64, f64)> {
+    let (ra, rb) = (&rows[a], &rows[b]);
+    let (k11, k22, k12) = (ra.k, rb.k, coupling(ra, rb));
+    let (ka, kb) = (k[a], k[b]);
+    if ka.mass_scale <= 0.0 || kb.mass_scale <= 0.0 || k11 <= 0.0 || k22 <= 0.0 {
+        return None;
+    }
+    let (pa, pb) = (lambda[a], lambda[b]);
+    let q1 = ra.rate(bodies) + ka.bias - k11 * pa - k12 * pb;
+    let q2 = rb.rate(bodies) + kb.bias - k12 * pa - k22 * pb;
+    let kp11 = k11 / ka.mass_scale;
+    let kp22 = k22 / kb.mass_scale;
+    let det = kp11 * kp22 - k12 * k12;
+    // Nearly parallel rows (two points on one line through the bodies), or a NaN: no block
+    // solve.
+    if det.is_nan() || det <= 1e-9 * kp11 * kp22 {
+        return None;
+    }
+    let both = ((k12 * q2 - kp22 * q1) / det, (k12 * q1 - kp11 * q2) / det);
+    if both.0 >= 0.0 && both.1 >= 0.0 {
+        return Some(both);
+    }
+    let only_a = -q1 / kp11;
+    if only_a >= 0.0 && q2 + k12 * only_a >= 0.0 {
+        return Some((only_a, 0.0));
+    }
+    let only_b = -q2 / kp22;
+    if only_b >= 0.0 && q1 + k12 * only_b >= 0.0 {
+        return Some((0.0, only_b));
+    }
+    if q1 >= 0.0 && q2 >= 0.0 {
+        return Some((0.0, 0.0));
+    }
+    None
 }
 
 /// One Gauss–Seidel sweep over `order` with the coefficients `k`, on the accumulated impulses
-/// `lambda`. Marks in `hit` the normal rows left with a positive impulse.
+/// `lambda`; the rows marked in `pairs` are solved with their successor as a block
+/// ([`solve_pair`]). Marks in `hit` the normal rows left with a positive impulse.
 fn sweep_rows(
     state: &mut SolverState,
     order: &[usize],
+    pairs: &[bool],
     k: &[RowCoefficients],
     lambda: &mut [f64],
     hit: &mut [bool],
 ) {
     let SolverState { bodies, rows } = state;
-    for &i in order {
+    let mut p = 0;
+    while p < order.len() {
+        if pairs[p] {
+            let (a, b) = (order[p], order[p + 1]);
+            if let Some((na, nb)) = solve_pair(rows, bodies, (a, b), k, lambda) {
+                for (i, new) in [(a, na), (b, nb)] {
+                    let applied = new - lambda[i];
+                    if applied != 0.0 && applied.is_finite() {
+                        rows[i].apply(applied, bodies);
+                        lambda[i] = new;
+                    }
+                    if lambda[i] > 0.0 {
+                        hit[i] = true;
+                    }
+                }
+                p += 2;
+                continue;
+            }
+        }
+        let i = order[p];
+        p += 1;
         let row = &rows[i];
         let c = k[i];
         let vn = row.rate(bodies);
@@ -490,7 +773,7 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
     let coefficients = Coefficients::new(&scheme.bias, h);
 
     // The step's workspace, allocated once.
-    let order = sweep_order(system, &state);
+    let (order, pairs) = sweep_order(system, &state, scheme.normals_first, scheme.block_pairs);
     let mut lambda = vec![0.0; n];
     initial_impulses(&state, settings.warm_start.as_deref(), &mut lambda);
     let mut f_step = vec![0.0; n];
@@ -529,7 +812,7 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
             biased_coefficients(&state, &coefficients, inv_h, &mut k);
             let mut passes = 0;
             while passes < scheme.iterations && sweeps < settings.max_iterations {
-                sweep_rows(&mut state, &order, &k, &mut lambda, &mut hit);
+                sweep_rows(&mut state, &order, &pairs, &k, &mut lambda, &mut hit);
                 passes += 1;
                 sweeps += 1;
                 cost.row_updates += per_pass;
@@ -542,7 +825,7 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
             relax_coefficients(&state, inv_h, &mut k);
             let mut passes = 0;
             while passes < scheme.relax_iterations && sweeps < settings.max_iterations {
-                sweep_rows(&mut state, &order, &k, &mut lambda, &mut hit);
+                sweep_rows(&mut state, &order, &pairs, &k, &mut lambda, &mut hit);
                 passes += 1;
                 sweeps += 1;
                 cost.row_updates += per_pass;
@@ -576,7 +859,11 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
                     r + c.bias
                 })
                 .collect();
-            let soft = pass == "biased solve" && matches!(scheme.bias, BiasRule::Soft { .. });
+            let soft = pass == "biased solve"
+                && match scheme.bias {
+                    BiasRule::Soft { .. } => true,
+                    BiasRule::Baumgarte { joint_hertz, .. } => joint_hertz > 0.0,
+                };
             LastSolve {
                 f: lambda.clone(),
                 b,

@@ -40,6 +40,8 @@
 //! | `slop` | 0.005 m | allowed penetration (Rapier's `allowed_linear_error`, 5 mm) |
 //! | `hertz` | 0 | 0: rigid rows with Baumgarte; `> 0`: soft rows |
 //! | `zeta` | 1 | damping ratio of the soft rows |
+//! | `joint_hertz` | 0 | with `hertz = 0`: 0 for Baumgarte joint rows; `> 0`: soft joint rows of this stiffness, at most `0.25 / h` (`soft-step`'s joints) |
+//! | `joint_zeta` | 2 | damping ratio of those soft joint rows (Box2D's `jointDampingRatio`) |
 //!
 //! # What it solves
 //!
@@ -62,6 +64,26 @@
 //! hangs still at 30 (`tgs@iterations=30`); `chain_20_1e3` blows up at 20 substeps of one
 //! sweep. Tall stacks (`tower_40_60hz`) fall at one sweep per substep and stand at 20.
 //! `soft-step`, whose soft rows damp, holds both chains.
+//!
+//! The cause on `chain_20_1e3` (20 links of 1 kg, 1000 kg end mass, 60 Hz steps), from the
+//! largest joint drift over the run: it is the joint rows' Baumgarte bias on rigid rows, made
+//! worse by the warm start, not the restitution pass (the scene has no contacts):
+//!
+//! | `tgs@…` | 4 substeps | 20 substeps |
+//! | --- | --- | --- |
+//! | defaults (`baumgarte=0.2`), warm started | 484 m (unstable) | 6031 m (unstable) |
+//! | defaults, cold (no warm start) | 0.59 m | 521 m (unstable) |
+//! | `baumgarte=0.05`, warm | 2.8 m | 22 m |
+//! | `baumgarte=0`, warm (no position feedback) | 0.34 m | |
+//! | `iterations=30`, warm | 5.0 m | |
+//! | `joint_hertz=1e6` (soft joints at `0.25 / h`, ζ = 2), warm | 0.28 m | 2.8 cm |
+//!
+//! One sweep on a joint path with a 1000 : 1 mass ratio leaves most of each row's error, the
+//! bias asks for it again at every substep, and the accumulated impulse carried by the warm
+//! start adds the previous substeps' bias impulses: the loop gains energy. A soft row's
+//! `impulse_scale · λ` term lets the accumulated impulse leak and its `mass_scale < 1` damps
+//! the feedback, which is why soft joints hold; `joint_hertz > 0` gives `tgs` those joints
+//! while its contacts keep the Baumgarte rule.
 
 use super::params::{ParamSpec, Params};
 use super::soft_step::{run, sweep_alone, BiasRule, Scheme};
@@ -98,6 +120,20 @@ pub const TGS_PARAMS: &[ParamSpec] = &[
         "0: rigid rows with Baumgarte bias; > 0: soft rows of this stiffness, Hz",
     ),
     ParamSpec::real("zeta", 1.0, 0.0, 1e6, "damping ratio of the soft rows"),
+    ParamSpec::real(
+        "joint_hertz",
+        0.0,
+        0.0,
+        1e6,
+        "with hertz = 0: 0 for Baumgarte joints; > 0 for soft joint rows, Hz (at most 0.25 / h)",
+    ),
+    ParamSpec::real(
+        "joint_zeta",
+        2.0,
+        0.0,
+        1e6,
+        "damping ratio of the soft joint rows",
+    ),
 ];
 
 /// The `tgs` solver: its parameters ([`TGS_PARAMS`]).
@@ -124,11 +160,15 @@ impl Tgs {
                 joint_zeta: p.get("zeta"),
                 push_out: PUSH_OUT,
                 box2d_caps: false,
+                joint_cap: 0.0,
+                friction_anchor: 0.0,
             }
         } else {
             BiasRule::Baumgarte {
                 beta: p.get("baumgarte"),
                 slop: p.get("slop"),
+                joint_hertz: p.get("joint_hertz"),
+                joint_zeta: p.get("joint_zeta"),
             }
         };
         Scheme {
@@ -136,6 +176,8 @@ impl Tgs {
             iterations: p.count("iterations"),
             relax_iterations: p.count("relax_iterations"),
             bias,
+            normals_first: false,
+            block_pairs: false,
         }
     }
 }
