@@ -698,13 +698,13 @@ fn the_engine_section_lists_runs_at_equal_cost_beside_the_peer() {
         assert!(line.contains(",step,7/10 converged,"), "{line}");
     }
     assert!(!table.contains("\npgs,"), "{table}");
-    // Rapier's quoted row on the tower: 54 µs per step, sag 0.434 m, dated.
+    // Rapier's quoted row on the tower (docs/peers/rapier.csv): 79.9 µs per step, sag 0.434 m, dated.
     let rapier = lines
         .iter()
         .find(|l| l.starts_with("Rapier 0.36,"))
         .unwrap_or_else(|| panic!("{table}"));
-    assert!(rapier.contains(",54.0 µs,4.3e-1,"), "{rapier}");
-    assert!(rapier.contains("measured 2026-12-05"), "{rapier}");
+    assert!(rapier.contains(",79.9 µs,4.3e-1,"), "{rapier}");
+    assert!(rapier.contains("measured 2026-12-06"), "{rapier}");
     // The chain: Rapier's two rows (20 and 4 substeps); the sphere stack: none.
     let chain_table = read(out, "engine_chain_20_1e3");
     let peer_rows = chain_table
@@ -719,7 +719,7 @@ fn the_engine_section_lists_runs_at_equal_cost_beside_the_peer() {
     let points = std::fs::read_to_string(out.join("plots/engine_tower_40_60hz.csv")).unwrap();
     assert!(points.contains("pgs+warm,1e-4,2e-1"), "{points}");
     assert!(
-        points.contains("\"Rapier 0.36 (quoted, see table)\",5.4e-5,4.34e-1"),
+        points.contains("\"Rapier 0.36 (quoted, see table)\",7.99e-5,4.34e-1"),
         "{points}"
     );
     assert!(out.join("plots/engine_chain_20_1e3.svg").exists());

@@ -209,8 +209,16 @@ mod tests {
         assert!(peer_source(RAPIER_TEXT).contains("rapier_scenes.rs"));
         let tower = rows.iter().find(|r| r.scene == "tower_40_60hz").unwrap();
         assert!(tower.step_time_s.is_some() && tower.sag_m.is_some());
-        let bound = rows
-            .iter()
+        let pyramid = rows.iter().find(|r| r.scene == "pyramid_3d_1015").unwrap();
+        assert!(pyramid.max_displacement_m.is_some_and(|v| v.value < 0.01));
+        // A bound is written `<=x`.
+        let text = format!(
+            "# quoted\n{}\npyramid_3d_1015,4,1,5.3e-3,,,,<=0.005,2026-12-05,cmd\n",
+            RAPIER_TEXT.lines().nth(1).unwrap()
+        );
+        let bound = parse_peers(&text, RAPIER_FILE)
+            .unwrap()
+            .into_iter()
             .find_map(|r| r.max_displacement_m.filter(|v| v.bound));
         assert_eq!(
             bound,
