@@ -2,7 +2,9 @@
 //! data and options, `OSError` and its subclasses for files that cannot be read or written.
 
 use lcpbench_solvers::ProblemFileError;
-use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError};
+use pyo3::exceptions::{
+    PyFileExistsError, PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError,
+};
 use pyo3::PyErr;
 
 pyo3::create_exception!(
@@ -17,11 +19,12 @@ pub fn bad(message: impl Into<String>) -> PyErr {
     LcpbenchError::new_err(message.into())
 }
 
-/// An `OSError` (`FileNotFoundError`, `PermissionError` where they apply) with `message`.
+/// An `OSError` (`FileNotFoundError`, `PermissionError`, `FileExistsError` where they apply) with `message`.
 pub fn os_error(kind: std::io::ErrorKind, message: String) -> PyErr {
     match kind {
         std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
         std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
+        std::io::ErrorKind::AlreadyExists => PyFileExistsError::new_err(message),
         _ => PyOSError::new_err(message),
     }
 }

@@ -237,7 +237,7 @@ pub fn cone_problem(
         Matrix::Dense(m) => ConeProblem::new(m, q, mu),
         Matrix::Sparse(s) => ConeProblem::new_sparse(s, q, mu),
     }
-    .map_err(|e| bad(e.to_string()))?;
+    .map_err(|e| bad(format!("cone problem (W, q, mu): {e}")))?;
     let cone = match name {
         Some(n) => cone.with_name(n),
         None => cone,
