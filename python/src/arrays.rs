@@ -92,7 +92,11 @@ fn sparse(what: &str, t: &Bound<'_, PyTuple>) -> PyResult<Matrix> {
     let data = vector(&format!("{what}.data"), &t.get_item(2)?)?;
     let indices = index_vector(&format!("{what}.indices"), &t.get_item(3)?)?;
     let indptr = index_vector(&format!("{what}.indptr"), &t.get_item(4)?)?;
-    let (major, minor) = if csc { ("column", "row") } else { ("row", "column") };
+    let (major, minor) = if csc {
+        ("column", "row")
+    } else {
+        ("row", "column")
+    };
     let n = rows;
     if indptr.len() != n + 1 {
         return Err(bad(format!(

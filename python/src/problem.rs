@@ -90,7 +90,12 @@ impl PyProblem {
     #[getter]
     fn friction(&self) -> Option<Vec<(usize, usize, f64)>> {
         match &self.inner {
-            Inner::Lcp(p) => Some(p.friction().iter().map(|f| (f.row, f.normal, f.mu)).collect()),
+            Inner::Lcp(p) => Some(
+                p.friction()
+                    .iter()
+                    .map(|f| (f.row, f.normal, f.mu))
+                    .collect(),
+            ),
             Inner::Cone(_) => None,
         }
     }
@@ -144,7 +149,11 @@ impl PyProblem {
     fn __repr__(&self) -> String {
         let p = self.matrix_problem();
         let name = p.name().map(|n| format!("{n:?}, ")).unwrap_or_default();
-        let storage = if p.dense().is_some() { "dense" } else { "sparse" };
+        let storage = if p.dense().is_some() {
+            "dense"
+        } else {
+            "sparse"
+        };
         match &self.inner {
             Inner::Lcp(p) => format!(
                 "Problem({name}kind=\"lcp\", n={}, {storage}, friction rows={})",
@@ -252,9 +261,7 @@ pub fn cone_problem(
 /// The file's size is checked before it is read, and every declared size before allocation.
 #[pyfunction]
 pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<PyProblem> {
-    let inner = py
-        .detach(|| read_file(&path))
-        .map_err(file_error)?;
+    let inner = py.detach(|| read_file(&path)).map_err(file_error)?;
     Ok(PyProblem { inner })
 }
 
@@ -315,9 +322,7 @@ fn write_file(inner: &Inner, path: &Path, hdf5: bool) -> Result<(), ProblemFileE
     match (inner, hdf5) {
         (Inner::Lcp(p), true) => write_problem_as_fclib(p, path).map(|_| ()),
         (Inner::Lcp(p), false) => lcpbench_solvers::write_problem(p, path),
-        (Inner::Cone(c), true) => {
-            write_fclib_local(path, 3, &c.delassus().to_csc(), c.q(), c.mu())
-        }
+        (Inner::Cone(c), true) => write_fclib_local(path, 3, &c.delassus().to_csc(), c.q(), c.mu()),
         (Inner::Cone(c), false) => std::fs::write(path, cone_problem_to_json(c)).map_err(io),
     }
 }

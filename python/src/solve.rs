@@ -135,10 +135,7 @@ fn settings(
         Some(w) => {
             let w = crate::arrays::vector("warm", w)?;
             if w.len() != n {
-                return Err(bad(format!(
-                    "warm has {} values for {n} rows",
-                    w.len()
-                )));
+                return Err(bad(format!("warm has {} values for {n} rows", w.len())));
             }
             if let Some(reason) = non_finite_reason(&w, "warm start", "warm") {
                 return Err(bad(reason));
@@ -248,7 +245,9 @@ fn certificate_dict<'py>(py: Python<'py>, c: &Certificate) -> PyResult<Py<PyDict
     d.set_item("proves_no_solution", c.proves_no_solution)?;
     d.set_item(
         "min_solution_norm",
-        c.min_solution_norm.is_finite().then_some(c.min_solution_norm),
+        c.min_solution_norm
+            .is_finite()
+            .then_some(c.min_solution_norm),
     )?;
     d.set_item("b_dot_y", c.b_dot_y)?;
     d.set_item("bounded_part", c.bounded_part)?;
@@ -331,12 +330,7 @@ pub fn judge(
         };
         if w.iter().any(|v| !v.is_finite()) {
             let reason = format!("the velocity overflows at the given {noun}");
-            (
-                Status::NumericalFailure { reason },
-                residuals,
-                None,
-                None,
-            )
+            (Status::NumericalFailure { reason }, residuals, None, None)
         } else {
             match &problem.inner {
                 Inner::Lcp(p) => {
