@@ -185,9 +185,16 @@ def solvers():
     return _lcpbench.solvers()
 
 
-def simulate(scene_path, solver=None, steps=None):
-    """Step the scene file at ``scene_path``."""
-    return _lcpbench.simulate(_os.fspath(scene_path), solver, steps)
+def simulate(scene_path, solver=None, steps=None, tol=None, max_iter=None):
+    """Step the scene file at ``scene_path`` as ``lcpbench simulate`` does (its own stepping
+    mode; ``solver`` replaces the scene's, ``NAME+warm`` warm-starts from the previous step).
+
+    Returns a dict of per-step values: ``status``, ``solver`` (lists), ``residual_rel`` (NaN
+    where not measured), ``iterations``, ``contacts``, ``rows``, ``solve_time_s``,
+    ``step_time_s``, ``time`` (numpy arrays), ``positions`` (steps × bodies × 3),
+    ``orientations`` (steps × bodies × 4, quaternion ``w, x, y, z``) and ``bodies`` (names).
+    """
+    return _lcpbench.simulate(_os.fspath(scene_path), solver, steps, tol, max_iter)
 
 
 def _number(text):

@@ -263,3 +263,25 @@ def test_results_reads_a_sweep_csv(tmp_path):
     assert rows[0]["residual_rel"] == pytest.approx(1e-9)
     with pytest.raises(FileNotFoundError):
         lcpbench.results(tmp_path / "nowhere")
+
+
+def test_simulate_box_on_ground_rests():
+    out = lcpbench.simulate(ROOT / "bench_scenes" / "box_on_ground.toml", solver="lemke", steps=20)
+    assert len(out["status"]) == 20 and out["positions"].shape[0] == 20
+    assert out["positions"].shape == (20, len(out["bodies"]), 3)
+    assert out["orientations"].shape == (20, len(out["bodies"]), 4)
+    np.testing.assert_allclose(np.linalg.norm(out["orientations"], axis=2), 1.0, atol=1e-9)
+    assert set(out["solver"]) == {"lemke"}
+    assert np.all(np.diff(out["time"]) > 0)
+    # The 1 m box rests on the ground: its centre stays at 0.5 m, within the contact margin.
+    box = out["bodies"].index("box")
+    np.testing.assert_allclose(out["positions"][:, box, 2], 0.5, atol=1e-2)
+
+
+def test_simulate_bad_input():
+    with pytest.raises(FileNotFoundError):
+        lcpbench.simulate(ROOT / "no_such_scene.toml")
+    with pytest.raises(lcpbench.LcpbenchError, match="solver"):
+        lcpbench.simulate(ROOT / "bench_scenes" / "box_on_ground.toml", solver="nope", steps=2)
+    with pytest.raises(lcpbench.LcpbenchError, match="steps"):
+        lcpbench.simulate(ROOT / "bench_scenes" / "box_on_ground.toml", steps=0)
