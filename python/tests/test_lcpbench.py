@@ -285,3 +285,17 @@ def test_simulate_bad_input():
         lcpbench.simulate(ROOT / "bench_scenes" / "box_on_ground.toml", solver="nope", steps=2)
     with pytest.raises(lcpbench.LcpbenchError, match="steps"):
         lcpbench.simulate(ROOT / "bench_scenes" / "box_on_ground.toml", steps=0)
+
+
+def test_judge_cone_answers():
+    c = lcpbench.Problem.cone(np.eye(3), [-1.0, 0.1, 0.0], [0.5])
+    assert c.kind == "cone" and c.n == 3
+    exact = lcpbench.judge(c, [1.0, -0.1, 0.0])
+    assert exact.converged and exact.unresolved is None
+    np.testing.assert_allclose(exact.w, [0.0, 0.0, 0.0], atol=1e-15)
+    # Outside the cone (|r_T| = 0.6 > mu r_N = 0.5): not a solution.
+    outside = lcpbench.judge(c, [1.0, -0.6, 0.0])
+    assert outside.status == "stalled"
+    # A matrix solver refuses the cone problem by status, as the command line does.
+    r = lcpbench.solve(c, solver="lemke")
+    assert r.status == "unsupported" and "cone" in r.reason
