@@ -55,8 +55,8 @@ pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
 pub use cone::nsgs_cone::{NsgsCone, NsgsConeSettings};
 pub use cone::proximal::ProxCone;
 pub use cone::{
-    cone_residuals, cone_residuals_and_velocity, normal_unresolved, project_onto_cone, ConeError,
-    ConeProblem, ConeSolver, NormalUnresolved,
+    cone_residuals, cone_residuals_and_velocity, judge_cone, normal_unresolved, project_onto_cone,
+    ConeError, ConeProblem, ConeSolver, NormalUnresolved,
 };
 pub use io::cone::{cone_problem_to_json, is_cone_file, parse_cone_problem};
 pub use io::fclib::{parse_fclib, read_fclib, write_fclib_local, write_problem_as_fclib};

@@ -5,7 +5,7 @@ use super::residual::{cone_residuals_and_velocity, normal_unresolved, project_on
 use crate::problem::certificate::Certificate;
 use crate::problem::metrics::Residuals;
 use crate::problem::{FrictionRow, Problem, ProblemError};
-use crate::solver::{Measured, Monitor, Settings, SolveResult, Status};
+use crate::solver::{decide, Measured, Monitor, Outcome, Settings, SolveResult, Status};
 use faer::sparse::SparseRowMat;
 use faer::Mat;
 use thiserror::Error;
@@ -311,6 +311,28 @@ impl Measured for ConeProblem {
             self.mu()[x.contact]
         );
         Some((Status::Stalled { reason }, None))
+    }
+}
+
+/// The status of a finite cone reaction `r` with velocity `u = W r + q` and cone residuals
+/// `residuals`, given the solver's own `outcome`: [`decide`] on the relative cone residual, then,
+/// when that says `Converged`, the test of every contact's normal complementarity
+/// ([`normal_unresolved`]), which turns an unresolved contact into `Stalled`. The rule every
+/// cone solver's monitor applies, for answers computed elsewhere (the cone counterpart of
+/// [`crate::judge`]).
+pub fn judge_cone(
+    problem: &ConeProblem,
+    r: &[f64],
+    u: &[f64],
+    residuals: &Residuals,
+    outcome: Outcome,
+    tol: f64,
+) -> Status {
+    match decide(outcome, residuals.natural_map_rel, tol) {
+        Status::Converged => problem
+            .cancellation(r, u, tol)
+            .map_or(Status::Converged, |(status, _)| status),
+        status => status,
     }
 }
 
