@@ -145,11 +145,11 @@ pub fn is_large_scene(path: &std::path::Path) -> bool {
 /// scenes of [`SMALL_SCENE_STEP_EXCEPTIONS`].
 pub const SCENE_STEPS: usize = 100;
 
-/// The small scenes that run more steps in the full suite, to the end of their run: the
-/// sphere stack (its top sphere lands after 94 steps and the stack settles after that, 300)
-/// and the double domino (the fifteen dominoes fall one after another for about 8 s, 720).
-pub const SMALL_SCENE_STEP_EXCEPTIONS: [(&str, usize); 2] =
-    [("sphere_stack", 300), ("double_domino", 720)];
+/// The small scenes that run more steps in the full suite: the sphere stack, whose top sphere
+/// lands after 94 steps (150: the landing and the first second after it). The double domino
+/// runs the common 100 steps (the first dominoes' fall): its whole 720-step run under every
+/// solver and budget would cost the suite over an hour.
+pub const SMALL_SCENE_STEP_EXCEPTIONS: [(&str, usize); 1] = [("sphere_stack", 150)];
 
 /// Steps of a small scene's runs in the full suite: [`SCENE_STEPS`] unless
 /// [`SMALL_SCENE_STEP_EXCEPTIONS`] names the scene (by file stem).
@@ -1176,7 +1176,7 @@ mod tests {
             "scene:bench_scenes/joints/chain_20_1e3.toml",
             "scene:bench_scenes/pyramid_3d_1015.toml?steps=10",
             "scene:bench_scenes/rush.toml?steps=60",
-            "scene:bench_scenes/sphere_stack.toml?steps=300",
+            "scene:bench_scenes/sphere_stack.toml?steps=150",
             "scene:bench_scenes/pyramid_20.toml?steps=20",
         ] {
             assert!(keys.contains(&key.to_string()), "{key} in {keys:?}");
