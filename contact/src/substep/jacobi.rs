@@ -381,14 +381,7 @@ impl BodySolver for Jacobi {
     /// zero here; the impulse is the step's total.
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
         let out = self.step(system, Vector3::zeros(), settings);
-        BodySweep {
-            f: out.f_step,
-            warm: out.warm,
-            iterations: out.iterations,
-            stopped: false,
-            stalled: None,
-            timed_out: out.timed_out,
-        }
+        BodySweep::from(out)
     }
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {

@@ -96,3 +96,20 @@ pub struct SubstepOutcome {
     /// only integrate, without constraint solves).
     pub timed_out: bool,
 }
+
+/// A step's outcome as what [`crate::BodySolver::sweep`] returns on a system alone: the step's
+/// total impulse, the impulses to warm-start with, the sweeps; never `stopped` (a set number of
+/// sweeps is not a stopping rule, so the shared rule says `iteration_limit` unless the residual
+/// meets the tolerance).
+impl From<SubstepOutcome> for crate::body_solvers::BodySweep {
+    fn from(out: SubstepOutcome) -> Self {
+        Self {
+            f: out.f_step,
+            warm: out.warm,
+            iterations: out.iterations,
+            stopped: false,
+            stalled: None,
+            timed_out: out.timed_out,
+        }
+    }
+}

@@ -936,12 +936,5 @@ pub(crate) fn sweep_alone(
         settings,
     };
     let out = run(&input, scheme);
-    BodySweep {
-        f: out.f_step,
-        warm: out.warm,
-        iterations: out.iterations,
-        stopped: false,
-        stalled: None,
-        timed_out: out.timed_out,
-    }
+    BodySweep::from(out)
 }

@@ -587,13 +587,6 @@ impl BodySolver for Xpbd {
             gravity: Vector3::zeros(),
             settings,
         });
-        BodySweep {
-            f: out.f_step,
-            warm: out.warm,
-            iterations: out.iterations,
-            stopped: false,
-            stalled: None,
-            timed_out: out.timed_out,
-        }
+        BodySweep::from(out)
     }
 }
