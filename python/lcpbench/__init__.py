@@ -39,15 +39,14 @@ __all__ = [
 
 
 def _matrix_arg(A, name):
-    """A dense float64 array, or the parts of a CSR/CSC matrix (other scipy formats -> CSR)."""
+    """A dense float64 array, or the parts of a CSR/CSC matrix as stored (other scipy formats -> CSR)."""
     fmt = getattr(A, "format", None)
     if fmt is not None and hasattr(A, "tocsr"):  # a scipy.sparse matrix or array
         if fmt not in ("csr", "csc"):
             A = A.tocsr()
             fmt = "csr"
-        if not A.has_canonical_format:
-            A = A.copy()
-            A.sum_duplicates()
+        # Unsorted or repeated indices are put in order (and summed) on the Rust side, in one
+        # pass, without changing the caller's matrix.
         return (
             fmt,
             (int(A.shape[0]), int(A.shape[1])),
