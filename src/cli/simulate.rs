@@ -436,8 +436,9 @@ struct SimRun<'a> {
     discontinuity: DiscontinuityMetrics,
 }
 
-/// The largest distance any dynamic body ended from where the scene started it (`None` when
-/// events removed bodies, so the lists no longer pair up): "no box moves more than 1 cm".
+/// The largest distance any dynamic body ended from where the scene started it, the measure of
+/// whether a resting structure held (`None` when events removed bodies, so the lists no longer
+/// pair up).
 fn max_displacement(run: &SimRun) -> Option<f64> {
     let start = &run.scene.bodies;
     (start.len() == run.world.bodies.len()).then(|| {

@@ -237,18 +237,7 @@ impl SolverState {
                 } else {
                     role[i]
                 };
-                let approach = match role {
-                    RowRole::Normal(_) => {
-                        let mut r = 0.0;
-                        for b in row.blocks.iter() {
-                            let body = &bodies[b.body];
-                            r += b.linear.dot(&body.v) + b.angular.dot(&body.w);
-                        }
-                        r
-                    }
-                    _ => 0.0,
-                };
-                SolverRow {
+                let mut out = SolverRow {
                     role,
                     blocks,
                     response,
@@ -258,8 +247,12 @@ impl SolverState {
                     c0: system.position_error[i],
                     mu: mu[i],
                     restitution: restitution[i],
-                    approach,
+                    approach: 0.0,
+                };
+                if matches!(role, RowRole::Normal(_)) {
+                    out.approach = out.rate(&bodies);
                 }
+                out
             })
             .collect();
         Self { bodies, rows }
