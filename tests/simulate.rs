@@ -729,13 +729,13 @@ fn a_residual_sample_measures_the_multiples_and_the_last_step_only() {
             }
         }
         assert_eq!(summary["steps_measured"], 4, "{summary}");
-        assert_eq!(summary["residual"], "sample=4", "{summary}");
+        assert_eq!(summary["residual_schedule"], "sample=4", "{summary}");
     }
     let (pgs, _) = run("pgs", &["--residual", "sample=4"]);
     assert_eq!(pgs["steps_measured"], 11, "{pgs}");
     let (none, steps) = run("si", &["--no-residuals"]);
     assert_eq!(none["steps_measured"], 0, "{none}");
-    assert_eq!(none["residual"], "none", "{none}");
+    assert_eq!(none["residual_schedule"], "none", "{none}");
     assert!(steps.iter().all(|s| s["status"]["status"] != "converged"));
     let o = lcpbench(&[
         "simulate",

@@ -504,7 +504,7 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "mean_rows": t.rows as f64 / n,
         "statuses": t.statuses,
         "steps_measured": t.steps_measured,
-        "residual": world.settings.residual.to_string(),
+        "residual_schedule": world.settings.residual.to_string(),
         "max_penetration": t.max_pen,
         "max_relative_residual": t.max_res,
         "residual_of": t.residual_of,

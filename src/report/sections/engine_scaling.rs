@@ -57,6 +57,14 @@ impl Section for EngineScaling {
             .filter(|p| suite.engine_scaling_cases.iter().any(|c| c.short_name() == p.scene))
             .collect();
         let schedule = schedule_text(&suite.engine_scaling_cases);
+        let sizes: Vec<String> = suite
+            .engine_scaling_cases
+            .iter()
+            .filter_map(|c| match c {
+                Case::Scene { path, .. } => pyramid_boxes(path).map(|b| b.to_string()),
+                _ => None,
+            })
+            .collect();
         let dates: Vec<&str> = {
             let mut d: Vec<&str> = peers.iter().map(|p| p.measured.as_str()).collect();
             d.sort_unstable();
@@ -66,8 +74,8 @@ impl Section for EngineScaling {
         let _ = writeln!(
             md,
             "## Engine scaling\n\nThe step time of `pgs+warm` (20 sweeps per step), `si+warm` \
-             (8) and `soft-step` (its defaults: 4 substeps) on square pyramids of 91 to 14,910 \
-             boxes (`bench_scenes/scaling/pyramid_3d_*.toml`), tolerance 1e-6, {schedule}. \
+             (8) and `soft-step` (its defaults: 4 substeps) on the square pyramids of {} boxes \
+             (`bench_scenes/scaling/pyramid_3d_*.toml`), tolerance 1e-6, {schedule}. \
              **Without residual**: the mean over every step of the step's wall time less its \
              residual phase (the shared residual, the contact records and the step's figures, \
              which a simulation does not pay). **With residual**: the mean wall time of the steps \
@@ -80,6 +88,7 @@ impl Section for EngineScaling {
              Rows named {RAPIER_NAME} are quoted from `{RAPIER_FILE}` ({}): Rapier's whole \
              step on the machine of that date; compare ratios measured in the same minutes, \
              not times from different days.\n",
+            sizes.join(", "),
             if dates.is_empty() {
                 "no pyramid of this family measured".to_owned()
             } else {
