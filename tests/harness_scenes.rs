@@ -221,7 +221,10 @@ fn the_solver2d_scenes_settle_as_they_should() {
 fn a_residual_schedule_reaches_the_rows() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sweep");
-    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/bench_scenes/box_on_ground.toml");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/box_on_ground.toml"
+    );
     let status = Command::new(EXE)
         .args(["bench", "--no-progress", "--solvers", "si+warm,pgs"])
         .args(["--budgets", "default", "--residual", "sample=5", "--out"])
@@ -250,7 +253,12 @@ fn a_residual_schedule_reaches_the_rows() {
     }
     // Without a scene case the option is refused.
     let refused = Command::new(EXE)
-        .args(["bench", "--no-progress", "--lcps", "spd:n=8:cond=1e2:seed=1"])
+        .args([
+            "bench",
+            "--no-progress",
+            "--lcps",
+            "spd:n=8:cond=1e2:seed=1",
+        ])
         .args(["--residual", "none", "--out"])
         .arg(dir.path().join("other"))
         .output()

@@ -764,19 +764,33 @@ fn the_engine_scaling_section_tabulates_time_against_boxes() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path();
     let schedule = suite::ENGINE_SCALING_RESIDUAL;
-    let small = Case::scene("bench_scenes/scaling/pyramid_3d_1015.toml", Some(10))
-        .with_residual(schedule);
-    let huge = Case::scene("bench_scenes/scaling/pyramid_3d_14910.toml", Some(10))
-        .with_residual(schedule);
+    let small =
+        Case::scene("bench_scenes/scaling/pyramid_3d_1015.toml", Some(10)).with_residual(schedule);
+    let huge =
+        Case::scene("bench_scenes/scaling/pyramid_3d_14910.toml", Some(10)).with_residual(schedule);
     let runs = suite::engine_scaling_runs();
     let (pgs_warm, pgs_budget) = runs[0].clone();
     let (si_warm, si_budget) = runs[1].clone();
     assert_eq!(pgs_warm.to_string(), "pgs+warm");
     assert_eq!(si_warm.to_string(), "si+warm");
     let mut rows = vec![
-        scaling_run(&small, &pgs_warm, &pgs_budget, (10, 10), (4e-3, 5e-3), 13_888.0),
+        scaling_run(
+            &small,
+            &pgs_warm,
+            &pgs_budget,
+            (10, 10),
+            (4e-3, 5e-3),
+            13_888.0,
+        ),
         scaling_run(&small, &si_warm, &si_budget, (3, 2), (2e-3, 3e-3), 13_888.0),
-        scaling_run(&huge, &si_warm, &si_budget, (0, 0), (0.5, f64::NAN), 223_860.0),
+        scaling_run(
+            &huge,
+            &si_warm,
+            &si_budget,
+            (0, 0),
+            (0.5, f64::NAN),
+            223_860.0,
+        ),
     ];
     rows[2].step_time_measured_s = None;
     let mut refused = scaling_run(&huge, &pgs_warm, &pgs_budget, (0, 0), (0.4, 0.4), 0.0);
@@ -803,10 +817,16 @@ fn the_engine_scaling_section_tabulates_time_against_boxes() {
     let readme = write_report(out, &suite, &header, 3.0).unwrap();
     let md = std::fs::read_to_string(readme).unwrap();
     assert!(md.lines().any(|l| l == "## Engine scaling"), "{md}");
-    assert!(md.contains("steps 0, 5 and 9 (`residual = sample=5`)"), "{md}");
+    assert!(
+        md.contains("steps 0, 5 and 9 (`residual = sample=5`)"),
+        "{md}"
+    );
     let table = read(out, "engine_scaling");
     let lines: Vec<&str> = table.lines().collect();
-    assert!(lines[0].starts_with("boxes,solver,budget,contacts,"), "{table}");
+    assert!(
+        lines[0].starts_with("boxes,solver,budget,contacts,"),
+        "{table}"
+    );
     // 4 ms over 13,888 contacts is 288.0 µs per 1,000 contacts; 5 ms with the residual, 360.0.
     assert!(
         lines[1].starts_with("1015,pgs+warm,1e-6:20:5,13888,4.00 ms,288.0 µs,5.00 ms,360.0 µs,10 of 10 measured converged (10 taken)"),
@@ -823,21 +843,45 @@ fn the_engine_scaling_section_tabulates_time_against_boxes() {
         "{table}"
     );
     assert!(!table.contains("5525"), "{table}");
-    let huge_si = lines.iter().find(|l| l.starts_with("14910,si+warm")).unwrap();
-    assert!(huge_si.contains(",500.00 ms,") && huge_si.contains(",no step measured,"), "{huge_si}");
-    let huge_pgs = lines.iter().find(|l| l.starts_with("14910,pgs+warm")).unwrap();
-    assert!(huge_pgs.contains("refused: the step's Delassus matrix"), "{huge_pgs}");
+    let huge_si = lines
+        .iter()
+        .find(|l| l.starts_with("14910,si+warm"))
+        .unwrap();
+    assert!(
+        huge_si.contains(",500.00 ms,") && huge_si.contains(",no step measured,"),
+        "{huge_si}"
+    );
+    let huge_pgs = lines
+        .iter()
+        .find(|l| l.starts_with("14910,pgs+warm"))
+        .unwrap();
+    assert!(
+        huge_pgs.contains("refused: the step's Delassus matrix"),
+        "{huge_pgs}"
+    );
     assert!(huge_pgs.contains(",–,–,–,–,"), "{huge_pgs}");
     // The figure: without and with the residual per solver, Rapier's point; the refused run is
     // not drawn.
     let points = std::fs::read_to_string(out.join("plots/engine_scaling.csv")).unwrap();
-    assert!(points.contains("\"pgs+warm, without residual\",1.015e3,4e-3"), "{points}");
-    assert!(points.contains("\"si+warm, without residual\",1.491e4,5e-1"), "{points}");
+    assert!(
+        points.contains("\"pgs+warm, without residual\",1.015e3,4e-3"),
+        "{points}"
+    );
+    assert!(
+        points.contains("\"si+warm, without residual\",1.491e4,5e-1"),
+        "{points}"
+    );
     assert!(
         points.contains("\"si+warm, with residual (measured steps)\",1.015e3,3e-3"),
         "{points}"
     );
-    assert!(points.contains("\"Rapier 0.36 (quoted, see table)\",1.015e3,7.26e-3"), "{points}");
-    assert!(!points.contains("pgs+warm, without residual\",1.491e4"), "{points}");
+    assert!(
+        points.contains("\"Rapier 0.36 (quoted, see table)\",1.015e3,7.26e-3"),
+        "{points}"
+    );
+    assert!(
+        !points.contains("pgs+warm, without residual\",1.491e4"),
+        "{points}"
+    );
     assert!(out.join("plots/engine_scaling.svg").exists());
 }

@@ -745,5 +745,8 @@ fn a_residual_sample_measures_the_multiples_and_the_last_step_only() {
     ]);
     assert!(!o.status.success());
     let err = text(&o.stderr);
-    assert!(err.contains("--residual") && err.contains("sample=K"), "{err}");
+    assert!(
+        err.contains("--residual") && err.contains("sample=K"),
+        "{err}"
+    );
 }

@@ -7,7 +7,9 @@ use lcpbench_contact::builder::MAX_DELASSUS_ENTRIES;
 use lcpbench_contact::collision::broad_phase::MAX_PAIRS;
 use lcpbench_contact::scene::LoadOptions;
 use lcpbench_contact::shape::MAX_MESH_FILE_BYTES;
-use lcpbench_contact::{ContactSolver, MassSpec, Material, RigidBody, Scene, Shape, SimSettings, World};
+use lcpbench_contact::{
+    ContactSolver, MassSpec, Material, RigidBody, Scene, Shape, SimSettings, World,
+};
 use lcpbench_solvers::Status;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::path::Path;
@@ -125,12 +127,19 @@ fn a_body_level_step_past_the_entry_limit_is_solved_and_left_unmeasured() {
     let report = w.step();
     assert!(report.contacts > 10_000, "{} contacts", report.contacts);
     assert!(
-        !matches!(report.status, Status::Unsupported { .. } | Status::Converged),
+        !matches!(
+            report.status,
+            Status::Unsupported { .. } | Status::Converged
+        ),
         "{:?}",
         report.status
     );
     assert!(!report.residual_measured && report.residuals.is_none());
-    let supported: f64 = report.contact_records.iter().map(|c| c.normal_impulse).sum();
+    let supported: f64 = report
+        .contact_records
+        .iter()
+        .map(|c| c.normal_impulse)
+        .sum();
     assert!(supported > 0.0, "no impulse applied");
 }
 

@@ -145,7 +145,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let schedule: ResidualSchedule = text.parse().map_err(|m| anyhow!("--residual: {m}"))?;
         cases = cases
             .into_iter()
-            .map(|c| if c.is_scene() { c.with_residual(schedule) } else { c })
+            .map(|c| {
+                if c.is_scene() {
+                    c.with_residual(schedule)
+                } else {
+                    c
+                }
+            })
             .collect();
     }
     if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {

@@ -503,8 +503,6 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "mean_contacts": t.contacts as f64 / n,
         "mean_rows": t.rows as f64 / n,
         "statuses": t.statuses,
-        "steps_measured": t.steps_measured,
-        "residual_schedule": world.settings.residual.to_string(),
         "max_penetration": t.max_pen,
         "max_relative_residual": t.max_res,
         "residual_of": t.residual_of,
@@ -524,6 +522,9 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "discontinuity": run.discontinuity,
     });
     out["max_displacement"] = json!(max_displacement(run));
+    // Added after the literal: one more key in it passes `json!`'s recursion limit.
+    out["steps_measured"] = json!(t.steps_measured);
+    out["residual_schedule"] = json!(world.settings.residual.to_string());
     println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
 }

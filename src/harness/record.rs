@@ -256,7 +256,10 @@ impl RunRecord {
 
     /// Scene: the measured steps that converged (`measured_steps − nonconverged_steps`).
     pub fn converged_steps(&self) -> Option<usize> {
-        Some(self.measured_steps()?.saturating_sub(self.nonconverged_steps?))
+        Some(
+            self.measured_steps()?
+                .saturating_sub(self.nonconverged_steps?),
+        )
     }
 
     /// The resume key: (case, solver, budget).

@@ -1312,7 +1312,8 @@ mod tests {
     /// runs, the quick one the two smallest, each with the sampled residual.
     #[test]
     fn the_engine_scaling_family_is_six_pyramids_apart_from_the_walls() {
-        let first = vec![PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/tower_5.toml")];
+        let first =
+            vec![PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/tower_5.toml")];
         let family = engine_scaling_scenes(&first);
         let boxes: Vec<usize> = family.iter().filter_map(|p| pyramid_boxes(p)).collect();
         assert_eq!(boxes, [91, 385, 1015, 2870, 5525, 14910]);
@@ -1327,8 +1328,13 @@ mod tests {
         }
         let walls = scaling_scenes(&first);
         assert!(!walls.is_empty());
-        assert!(walls.iter().all(|p| pyramid_boxes(p).is_none()), "{walls:?}");
-        let mut world = lcpbench_contact::scene::Scene::load(&family[0]).unwrap().world();
+        assert!(
+            walls.iter().all(|p| pyramid_boxes(p).is_none()),
+            "{walls:?}"
+        );
+        let mut world = lcpbench_contact::scene::Scene::load(&family[0])
+            .unwrap()
+            .world();
         world.set_solver(lcpbench_contact::ContactSolver::from_name("si").unwrap());
         world.settings.residual = ResidualSchedule::None;
         assert_eq!(world.step().contacts, 4 * 36 + 16 * (91 - 36));
@@ -1336,11 +1342,17 @@ mod tests {
         assert_eq!(full.engine_scaling_cases.len(), 6);
         assert_eq!(full.engine_scaling_runs.len(), 3);
         for case in &full.engine_scaling_cases {
-            assert!(case.to_string().ends_with("?steps=10&residual=sample=5"), "{case}");
+            assert!(
+                case.to_string().ends_with("?steps=10&residual=sample=5"),
+                "{case}"
+            );
             let jobs = full.jobs.iter().filter(|j| j.case == *case).count();
             assert_eq!(jobs, 3, "{case}");
         }
-        assert!(full.scene_scaling_cases.iter().all(|c| !c.to_string().contains("pyramid")));
+        assert!(full
+            .scene_scaling_cases
+            .iter()
+            .all(|c| !c.to_string().contains("pyramid")));
         let quick = default_suite(true, &first, &[]);
         let keys: Vec<String> = quick
             .engine_scaling_cases

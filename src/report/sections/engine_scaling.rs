@@ -54,7 +54,12 @@ impl Section for EngineScaling {
         let peers: Vec<PeerRow> = parse_peers(RAPIER_TEXT, RAPIER_FILE)?
             .into_iter()
             .filter(|p| pyramid_boxes(std::path::Path::new(&p.scene)).is_some())
-            .filter(|p| suite.engine_scaling_cases.iter().any(|c| c.short_name() == p.scene))
+            .filter(|p| {
+                suite
+                    .engine_scaling_cases
+                    .iter()
+                    .any(|c| c.short_name() == p.scene)
+            })
             .collect();
         let schedule = schedule_text(&suite.engine_scaling_cases);
         let sizes: Vec<String> = suite
@@ -111,7 +116,11 @@ impl Section for EngineScaling {
                 format!("measured {}", p.measured),
                 "–".into(),
                 p.step_time_s.map_or("–".into(), |v| {
-                    format!("{}{}", if v.bound { "≤ " } else { "" }, fmt_time(Some(v.value)))
+                    format!(
+                        "{}{}",
+                        if v.bound { "≤ " } else { "" },
+                        fmt_time(Some(v.value))
+                    )
                 }),
                 "–".into(),
                 "–".into(),
@@ -119,7 +128,8 @@ impl Section for EngineScaling {
                 "not measured by lcpbench".into(),
             ]);
         }
-        t.rows.sort_by_key(|row| row[0].parse::<usize>().unwrap_or(usize::MAX));
+        t.rows
+            .sort_by_key(|row| row[0].parse::<usize>().unwrap_or(usize::MAX));
         let _ = writeln!(md, "{}", ctx.table(&t)?);
         Ok(figure(ctx, &runs, &peers)?.into_iter().collect())
     }
@@ -236,7 +246,11 @@ fn steps_cell(r: &RunRecord) -> String {
         text.push_str(", blow-up");
     }
     if status::cut_short(r) {
-        let _ = write!(text, ", cut short at {steps} of {}", r.steps_planned.unwrap_or(steps));
+        let _ = write!(
+            text,
+            ", cut short at {steps} of {}",
+            r.steps_planned.unwrap_or(steps)
+        );
     }
     text
 }
