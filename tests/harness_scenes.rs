@@ -249,7 +249,7 @@ fn a_residual_schedule_reaches_the_rows() {
             r.converged_steps(),
             Some(measured - r.nonconverged_steps.unwrap())
         );
-        assert!(r.step_time_measured_s.unwrap() > 0.0, "{r:?}");
+        assert!(r.measured_step_time_s.unwrap() > 0.0, "{r:?}");
     }
     // Without a scene case the option is refused.
     let refused = Command::new(EXE)

@@ -750,7 +750,7 @@ fn scaling_run(
     r.converged = measured == converged;
     r.contacts_mean = Some(contacts);
     r.step_time_no_residual_s = Some(without_s);
-    r.step_time_measured_s = Some(with_s);
+    r.measured_step_time_s = Some(with_s);
     r.time_limit_steps = Some(0);
     r
 }
@@ -792,12 +792,12 @@ fn the_engine_scaling_section_tabulates_time_against_boxes() {
             223_860.0,
         ),
     ];
-    rows[2].step_time_measured_s = None;
+    rows[2].measured_step_time_s = None;
     let mut refused = scaling_run(&huge, &pgs_warm, &pgs_budget, (0, 0), (0.4, 0.4), 0.0);
     refused.status = RunStatus::Unsupported;
     refused.converged = false;
     refused.reason = "the step's Delassus matrix would store 120950928 entries".into();
-    refused.step_time_measured_s = None;
+    refused.measured_step_time_s = None;
     rows.push(refused);
     write_csv(&out.join("data/results.csv"), &rows);
     let suite = Suite {

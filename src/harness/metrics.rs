@@ -312,7 +312,7 @@ impl StepTotals {
         r.step_time_no_residual_s = Some(((self.step_time - self.phases.residual) / n).max(0.0));
         r.residual_of = self.residual_of.clone();
         r.steps_measured = Some(self.measured);
-        r.step_time_measured_s =
+        r.measured_step_time_s =
             (self.measured > 0).then(|| self.measured_time / self.measured as f64);
     }
 }

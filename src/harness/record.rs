@@ -244,7 +244,7 @@ pub struct RunRecord {
     pub steps_measured: Option<usize>,
     /// Scene: mean wall time of the measured steps of `steps_measured` (the shared residual
     /// included), seconds.
-    pub step_time_measured_s: Option<f64>,
+    pub measured_step_time_s: Option<f64>,
 }
 
 impl RunRecord {

@@ -95,7 +95,7 @@ impl ResidualSchedule {
         match self {
             ResidualSchedule::Every => true,
             ResidualSchedule::None => false,
-            ResidualSchedule::Sample(k) => step % k.max(1) == 0 || step + 1 == steps,
+            ResidualSchedule::Sample(k) => step.is_multiple_of(k.max(1)) || step + 1 == steps,
         }
     }
 

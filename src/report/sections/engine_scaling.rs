@@ -9,7 +9,7 @@
 //! run: **without the residual**, the mean over every step of the step's wall time less its
 //! residual phase (`step_time_no_residual_s`: what the step costs a simulation that does not
 //! measure it), and **with the residual**, the mean wall time of the measured steps
-//! (`step_time_measured_s`). Matrix solvers measure every step inside their solve, so for
+//! (`measured_step_time_s`). Matrix solvers measure every step inside their solve, so for
 //! `pgs+warm` the second is its every step. Each is also given per 1,000 contacts (the run's
 //! mean contacts). Rapier's rows of the same pyramids stand beside them, quoted from
 //! [`RAPIER_FILE`] with their date. One table (`tables/engine_scaling.csv`) and one log–log
@@ -189,7 +189,7 @@ fn per_thousand(time: Option<f64>, contacts: Option<f64>) -> Option<f64> {
 
 /// The time a run spent on its measured steps, or why there is none.
 fn with_residual(r: &RunRecord) -> Result<f64, &'static str> {
-    match (r.step_time_measured_s, r.steps_measured) {
+    match (r.measured_step_time_s, r.steps_measured) {
         (Some(t), _) => Ok(t),
         (None, Some(0)) => Err("no step measured"),
         _ => Err("–"),
@@ -276,7 +276,7 @@ fn figure(
             .collect();
         let with: Vec<(f64, f64)> = mine
             .iter()
-            .filter_map(|(b, r)| Some((*b as f64, r.step_time_measured_s?)))
+            .filter_map(|(b, r)| Some((*b as f64, r.measured_step_time_s?)))
             .collect();
         if !without.is_empty() {
             series.push(Series {
