@@ -212,3 +212,57 @@ fn the_solver2d_scenes_settle_as_they_should() {
     assert!(rush.max_speed.unwrap() < 10.0, "{rush:?}");
     assert!(rush.contacts_mean.unwrap() > 100.0, "{rush:?}");
 }
+
+/// A residual schedule through the sweep: `bench --residual sample=5` on 7 steps of a resting
+/// box measures steps 0, 5 and 6 of a body-level solver's run (its row says 3 of 7, counts
+/// converged steps of those 3 only, and gives their mean time), its case key carries the
+/// schedule and reads back; a matrix solver measures all 7.
+#[test]
+fn a_residual_schedule_reaches_the_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sweep");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bench_scenes/box_on_ground.toml"
+    );
+    let status = Command::new(EXE)
+        .args(["bench", "--no-progress", "--solvers", "si+warm,pgs"])
+        .args(["--budgets", "default", "--residual", "sample=5", "--out"])
+        .arg(&out)
+        .arg("--lcps")
+        .arg(format!("scene:{scene}?steps=7"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rows = read_results(&out.join("results.csv")).unwrap();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        assert_eq!(r.case, format!("scene:{scene}?steps=7&residual=sample=5"));
+        let case: lcpbench::harness::Case = r.case.parse().unwrap();
+        assert_eq!(case.to_string(), r.case);
+        assert_eq!(r.steps, Some(7), "{r:?}");
+        let measured = if r.solver.to_string() == "pgs" { 7 } else { 3 };
+        assert_eq!(r.steps_measured, Some(measured), "{r:?}");
+        assert_eq!(r.measured_steps(), Some(measured));
+        assert!(r.nonconverged_steps.unwrap() <= measured, "{r:?}");
+        assert_eq!(
+            r.converged_steps(),
+            Some(measured - r.nonconverged_steps.unwrap())
+        );
+        assert!(r.measured_step_time_s.unwrap() > 0.0, "{r:?}");
+    }
+    // Without a scene case the option is refused.
+    let refused = Command::new(EXE)
+        .args([
+            "bench",
+            "--no-progress",
+            "--lcps",
+            "spd:n=8:cond=1e2:seed=1",
+        ])
+        .args(["--residual", "none", "--out"])
+        .arg(dir.path().join("other"))
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--residual applies to scene"));
+}

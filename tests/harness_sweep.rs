@@ -312,7 +312,8 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
             ",no_solution_steps,host,cpu_model,cores,joint_drift_max,joint_drift_mean,\
              joint_angle_max,sag_body,timed_solves,solve_time_min_s,solve_time_max_s,\
              warm_source,warm_time_s,substeps_per_step,row_updates_per_step,\
-             body_passes_per_step,step_time_no_residual_s,residual_of"
+             body_passes_per_step,step_time_no_residual_s,residual_of,steps_measured,\
+             measured_step_time_s"
         ),
         "{header}"
     );
@@ -320,7 +321,7 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
         .lines()
         .map(|line| {
             let cells: Vec<&str> = line.split(',').collect();
-            format!("{}\n", cells[..cells.len() - 17].join(","))
+            format!("{}\n", cells[..cells.len() - 19].join(","))
         })
         .collect();
     std::fs::write(&results, &older).unwrap();

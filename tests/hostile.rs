@@ -555,7 +555,7 @@ fn recordings_that_do_not_fit_their_header_are_refused() {
         )
     };
     let good = format!("{}\n{}\n", header("", ball), step("ball", ""));
-    let many: Vec<String> = (0..10_001)
+    let many: Vec<String> = (0..20_001)
         .map(|i| ball.replace("\"ball\"", &format!("\"b{i}\"")))
         .collect();
     let ghost_contact = r#"{"bodies": ["ghost", "ball"], "point": [0, 0, 0], "normal": [0, 0, 1], "dist": 0, "impulse": [0, 0, 0]}"#;
@@ -594,9 +594,9 @@ fn recordings_that_do_not_fit_their_header_are_refused() {
             "line 2: step 0: joint_records[0] (\"j\"): anchors[1] must be 3 finite numbers",
         ),
         (
-            "10,001 bodies",
+            "20,001 bodies",
             format!("{}\n{}\n", header("", &many.join(", ")), step("b0", "")),
-            "line 1: bodies: 10001 bodies, beyond the limit of 10000",
+            "line 1: bodies: 20001 bodies, beyond the limit of 20000",
         ),
     ];
     for (name, text, wanted) in cases {

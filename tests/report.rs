@@ -132,6 +132,8 @@ fn fixture_suite() -> Suite {
         joint_budgets: vec![preset(BudgetName::Realtime), "1e-6:20:1".parse().unwrap()],
         engine_cases: Vec::new(),
         engine_runs: Vec::new(),
+        engine_scaling_cases: Vec::new(),
+        engine_scaling_runs: Vec::new(),
         impact_cases: Vec::new(),
     }
 }
@@ -724,4 +726,162 @@ fn the_engine_section_lists_runs_at_equal_cost_beside_the_peer() {
     );
     assert!(out.join("plots/engine_chain_20_1e3.svg").exists());
     assert!(!out.join("plots/engine_sphere_stack.svg").exists());
+}
+
+/// An engine scaling run of 10 steps of which `measured` were measured and `converged` of
+/// those converged: `without_s` per step without the residual phase, `with_s` per measured
+/// step, `contacts` per step.
+fn scaling_run(
+    case: &Case,
+    solver: &SolverSpec,
+    budget: &NamedBudget,
+    (measured, converged): (usize, usize),
+    (without_s, with_s): (f64, f64),
+    contacts: f64,
+) -> RunRecord {
+    let mut r = scene_run(case, solver, budget, 10, without_s);
+    r.steps_measured = Some(measured);
+    r.nonconverged_steps = Some(measured - converged);
+    r.status = if measured == converged {
+        RunStatus::Converged
+    } else {
+        RunStatus::IterationLimit
+    };
+    r.converged = measured == converged;
+    r.contacts_mean = Some(contacts);
+    r.step_time_no_residual_s = Some(without_s);
+    r.measured_step_time_s = Some(with_s);
+    r.time_limit_steps = Some(0);
+    r
+}
+
+/// The engine scaling section from a small synthetic data set: one row per run with the time
+/// per step and per 1,000 contacts without and with the residual, converged steps counted of
+/// the measured ones, a refused run named so, Rapier's dated row on the pyramid it measured,
+/// and the log–log figure with its points.
+#[test]
+fn the_engine_scaling_section_tabulates_time_against_boxes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let schedule = suite::ENGINE_SCALING_RESIDUAL;
+    let small =
+        Case::scene("bench_scenes/scaling/pyramid_3d_1015.toml", Some(10)).with_residual(schedule);
+    let huge =
+        Case::scene("bench_scenes/scaling/pyramid_3d_14910.toml", Some(10)).with_residual(schedule);
+    let runs = suite::engine_scaling_runs();
+    let (pgs_warm, pgs_budget) = runs[0].clone();
+    let (si_warm, si_budget) = runs[1].clone();
+    assert_eq!(pgs_warm.to_string(), "pgs+warm");
+    assert_eq!(si_warm.to_string(), "si+warm");
+    let mut rows = vec![
+        scaling_run(
+            &small,
+            &pgs_warm,
+            &pgs_budget,
+            (10, 10),
+            (4e-3, 5e-3),
+            13_888.0,
+        ),
+        scaling_run(&small, &si_warm, &si_budget, (3, 2), (2e-3, 3e-3), 13_888.0),
+        scaling_run(
+            &huge,
+            &si_warm,
+            &si_budget,
+            (0, 0),
+            (0.5, f64::NAN),
+            223_860.0,
+        ),
+    ];
+    rows[2].measured_step_time_s = None;
+    let mut refused = scaling_run(&huge, &pgs_warm, &pgs_budget, (0, 0), (0.4, 0.4), 0.0);
+    refused.status = RunStatus::Unsupported;
+    refused.converged = false;
+    refused.reason = "the step's Delassus matrix would store 120950928 entries".into();
+    refused.measured_step_time_s = None;
+    rows.push(refused);
+    write_csv(&out.join("data/results.csv"), &rows);
+    let suite = Suite {
+        engine_scaling_cases: vec![small, huge],
+        engine_scaling_runs: runs,
+        ..Suite::default()
+    };
+    let header = Header {
+        cpu: "cpu".into(),
+        cores: 2,
+        os: "os".into(),
+        commit: "abc".into(),
+        date: "today".into(),
+        command: "lcpbench report".into(),
+        workers: 2,
+    };
+    let readme = write_report(out, &suite, &header, 3.0).unwrap();
+    let md = std::fs::read_to_string(readme).unwrap();
+    assert!(md.lines().any(|l| l == "## Engine scaling"), "{md}");
+    assert!(
+        md.contains("steps 0, 5 and 9 (`residual = sample=5`)"),
+        "{md}"
+    );
+    let table = read(out, "engine_scaling");
+    let lines: Vec<&str> = table.lines().collect();
+    assert!(
+        lines[0].starts_with("boxes,solver,budget,contacts,"),
+        "{table}"
+    );
+    // 4 ms over 13,888 contacts is 288.0 µs per 1,000 contacts; 5 ms with the residual, 360.0.
+    assert!(
+        lines[1].starts_with("1015,pgs+warm,1e-6:20:5,13888,4.00 ms,288.0 µs,5.00 ms,360.0 µs,10 of 10 measured converged (10 taken)"),
+        "{table}"
+    );
+    assert!(
+        lines[2].starts_with("1015,si+warm,1e-6:8:5,13888,2.00 ms,144.0 µs,3.00 ms,216.0 µs,2 of 3 measured converged (10 taken)"),
+        "{table}"
+    );
+    // Rapier's 1,015-box row (docs/peers/rapier.csv) follows lcpbench's, dated; its 5,525-box
+    // row is not shown (no run of that pyramid here).
+    assert!(
+        lines[3].starts_with("1015,Rapier 0.36 (4 substeps),measured 2026-12-06,–,7.26 ms,"),
+        "{table}"
+    );
+    assert!(!table.contains("5525"), "{table}");
+    let huge_si = lines
+        .iter()
+        .find(|l| l.starts_with("14910,si+warm"))
+        .unwrap();
+    assert!(
+        huge_si.contains(",500.00 ms,") && huge_si.contains(",no step measured,"),
+        "{huge_si}"
+    );
+    let huge_pgs = lines
+        .iter()
+        .find(|l| l.starts_with("14910,pgs+warm"))
+        .unwrap();
+    assert!(
+        huge_pgs.contains("refused: the step's Delassus matrix"),
+        "{huge_pgs}"
+    );
+    assert!(huge_pgs.contains(",–,–,–,–,"), "{huge_pgs}");
+    // The figure: without and with the residual per solver, Rapier's point; the refused run is
+    // not drawn.
+    let points = std::fs::read_to_string(out.join("plots/engine_scaling.csv")).unwrap();
+    assert!(
+        points.contains("\"pgs+warm, without residual\",1.015e3,4e-3"),
+        "{points}"
+    );
+    assert!(
+        points.contains("\"si+warm, without residual\",1.491e4,5e-1"),
+        "{points}"
+    );
+    assert!(
+        points.contains("\"si+warm, with residual (measured steps)\",1.015e3,3e-3"),
+        "{points}"
+    );
+    assert!(
+        points.contains("\"Rapier 0.36 (quoted, see table)\",1.015e3,7.26e-3"),
+        "{points}"
+    );
+    assert!(
+        !points.contains("pgs+warm, without residual\",1.491e4"),
+        "{points}"
+    );
+    assert!(out.join("plots/engine_scaling.svg").exists());
 }

@@ -676,3 +676,77 @@ fn simulate_stepping_modes_report_their_impact_figures() {
     assert_eq!(warped["final_energy"], fixed["final_energy"]);
     assert_eq!(warped["max_displacement"], fixed["max_displacement"]);
 }
+
+/// `--residual sample=4` over 11 steps of a resting box (contacts every step) measures steps 0,
+/// 4, 8 and the last, 10, and no other, for a body-level and a substepping solver: an
+/// unmeasured step has no residual and is never `converged`, and the summary counts the
+/// measured steps. A matrix solver measures every step whatever the schedule; `--no-residuals`
+/// is `--residual none`; a schedule that does not parse is refused naming the option.
+#[test]
+fn a_residual_sample_measures_the_multiples_and_the_last_step_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |solver: &str, schedule: &[&str]| -> (serde_json::Value, Vec<serde_json::Value>) {
+        let rec = dir.path().join(format!("{solver}.jsonl"));
+        let mut args = vec![
+            "simulate",
+            "bench_scenes/box_on_ground.toml",
+            "--solver",
+            solver,
+            "--steps",
+            "11",
+            "--json",
+            "--record",
+            rec.to_str().unwrap(),
+        ];
+        args.extend_from_slice(schedule);
+        let o = lcpbench(&args);
+        assert!(o.status.success(), "{solver}: {}", text(&o.stderr));
+        let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let steps = std::fs::read_to_string(&rec)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        (summary, steps)
+    };
+    for solver in ["si", "soft-step"] {
+        let (summary, steps) = run(solver, &["--residual", "sample=4"]);
+        assert_eq!(steps.len(), 11);
+        let measured: Vec<u64> = steps
+            .iter()
+            .filter(|s| s["residual_measured"] == true)
+            .map(|s| s["step"].as_u64().unwrap())
+            .collect();
+        assert_eq!(measured, [0, 4, 8, 10], "{solver}");
+        for s in &steps {
+            assert!(s["contacts"].as_u64().unwrap() > 0, "{s}");
+            if s["residual_measured"] == true {
+                assert!(s["residuals"]["natural_map_rel"].is_number(), "{s}");
+            } else {
+                assert!(s["residuals"].is_null(), "{s}");
+                assert_ne!(s["status"]["status"], "converged", "{solver}: {s}");
+            }
+        }
+        assert_eq!(summary["steps_measured"], 4, "{summary}");
+        assert_eq!(summary["residual_schedule"], "sample=4", "{summary}");
+    }
+    let (pgs, _) = run("pgs", &["--residual", "sample=4"]);
+    assert_eq!(pgs["steps_measured"], 11, "{pgs}");
+    let (none, steps) = run("si", &["--no-residuals"]);
+    assert_eq!(none["steps_measured"], 0, "{none}");
+    assert_eq!(none["residual_schedule"], "none", "{none}");
+    assert!(steps.iter().all(|s| s["status"]["status"] != "converged"));
+    let o = lcpbench(&[
+        "simulate",
+        "bench_scenes/box_on_ground.toml",
+        "--residual",
+        "sample=0",
+    ]);
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("--residual") && err.contains("sample=K"),
+        "{err}"
+    );
+}

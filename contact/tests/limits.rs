@@ -7,7 +7,9 @@ use lcpbench_contact::builder::MAX_DELASSUS_ENTRIES;
 use lcpbench_contact::collision::broad_phase::MAX_PAIRS;
 use lcpbench_contact::scene::LoadOptions;
 use lcpbench_contact::shape::MAX_MESH_FILE_BYTES;
-use lcpbench_contact::{MassSpec, Material, RigidBody, Scene, Shape, SimSettings, World};
+use lcpbench_contact::{
+    ContactSolver, MassSpec, Material, RigidBody, Scene, Shape, SimSettings, World,
+};
 use lcpbench_solvers::Status;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::path::Path;
@@ -112,6 +114,33 @@ fn a_body_touching_at_ten_thousand_points_is_refused_not_assembled() {
         "{:?}",
         report.status
     );
+}
+
+/// A body-level solver does not need `A`: the same slab past the entry limit is solved on the
+/// bodies (impulses applied, the slab held up), and its shared residual, a pass over every
+/// entry of `A`, is left unmeasured, so the step is not `converged`.
+#[test]
+fn a_body_level_step_past_the_entry_limit_is_solved_and_left_unmeasured() {
+    let mut w = world(vec![ground(), body("slab", grid_slab(100), 0.1, false)]);
+    w.set_solver(ContactSolver::from_name("si").unwrap());
+    w.settings.max_iterations = 5;
+    let report = w.step();
+    assert!(report.contacts > 10_000, "{} contacts", report.contacts);
+    assert!(
+        !matches!(
+            report.status,
+            Status::Unsupported { .. } | Status::Converged
+        ),
+        "{:?}",
+        report.status
+    );
+    assert!(!report.residual_measured && report.residuals.is_none());
+    let supported: f64 = report
+        .contact_records
+        .iter()
+        .map(|c| c.normal_impulse)
+        .sum();
+    assert!(supported > 0.0, "no impulse applied");
 }
 
 /// 1,100 coincident spheres make 604,450 candidate pairs; the broad phase stops past

@@ -417,9 +417,10 @@ fn huge_repeat_counts_and_body_counts_are_refused_before_building() {
         );
         let e = error(&text);
         assert!(e.contains("bodies[0] (\"b\").repeat.count"), "{e}");
-        assert!(e.contains("10000 bodies"), "{e}");
+        assert!(e.contains("20000 bodies"), "{e}");
     }
     // At the limit the scene loads.
-    let text = "[[bodies]]\nname = \"b\"\nshape = { type = \"sphere\", radius = 0.1 }\nrepeat = { count = [100, 10, 10], spacing = [0.3, 0.3, 0.3] }\n";
-    assert_eq!(parse(text).unwrap().bodies.len(), 10_000);
+    assert_eq!(lcpbench_contact::scene::MAX_BODIES, 20_000);
+    let text = "[[bodies]]\nname = \"b\"\nshape = { type = \"sphere\", radius = 0.1 }\nrepeat = { count = [100, 20, 10], spacing = [0.3, 0.3, 0.3] }\n";
+    assert_eq!(parse(text).unwrap().bodies.len(), 20_000);
 }

@@ -7,6 +7,7 @@ use lcpbench::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
 use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
 use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
@@ -30,6 +31,13 @@ pub struct BenchArgs {
     /// each scene's own. A solver that does not take a model is recorded `unsupported`.
     #[arg(long, value_delimiter = ',')]
     pub friction_models: Vec<String>,
+    /// Which steps of the scene runs (`--scenes`, and `scene:` keys of `--lcps`) have the
+    /// shared residual measured, for body-level and substepping solvers: `every`, `none` or `sample=K` (steps 0, K, 2K, … and the
+    /// last; `scene:PATH?residual=SCHEDULE`). Default: each scene's own (`every` unless its
+    /// file says otherwise). An unmeasured step is never counted converged; the row's
+    /// `steps_measured` says how many were measured. Matrix and cone solvers measure every step.
+    #[arg(long, value_name = "every|none|sample=K")]
+    pub residual: Option<String>,
     /// Solvers, comma-separated: names (listed below from the solver table; the body-level
     /// ones for scenes only), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers), `body` (the
     /// body-level ones) or `cone` (the cone solvers).
@@ -129,6 +137,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     } else if !args.friction_models.is_empty() {
         bail!("--friction-models applies to --scenes");
+    }
+    if let Some(text) = &args.residual {
+        if !cases.iter().any(Case::is_scene) {
+            bail!("--residual applies to scene cases (--scenes, or scene: keys of --lcps)");
+        }
+        let schedule: ResidualSchedule = text.parse().map_err(|m| anyhow!("--residual: {m}"))?;
+        cases = cases
+            .into_iter()
+            .map(|c| {
+                if c.is_scene() {
+                    c.with_residual(schedule)
+                } else {
+                    c
+                }
+            })
+            .collect();
     }
     if cases.is_empty() || solvers.is_empty() || budgets.is_empty() {
         bail!("nothing to run: need at least one case, solver and budget");

@@ -8,7 +8,7 @@ use lcpbench_contact::discontinuity::{DiscontinuityMeter, DiscontinuityMetrics};
 use lcpbench_contact::joint::{JointMetrics, JointSummary};
 use lcpbench_contact::scene::DT_RANGE;
 use lcpbench_contact::scene::{LoadOptions, Scene};
-use lcpbench_contact::step::{PhaseTimes, StepReport, World};
+use lcpbench_contact::step::{PhaseTimes, ResidualSchedule, StepReport, World};
 use lcpbench_contact::timewarp::{Stepper, Stepping};
 use serde_json::json;
 use std::collections::BTreeMap;
@@ -48,9 +48,15 @@ pub struct SimulateArgs {
     /// `time_limit` with the solver's best point, and the run goes on (none by default).
     #[arg(long)]
     pub time_budget: Option<f64>,
-    /// Skip the shared residual for body-level solvers (it needs the assembled `A`, which they
-    /// do not use), so the step time is theirs alone.
-    #[arg(long)]
+    /// Which steps of a body-level or substepping solver have the shared residual measured
+    /// (overrides the scene's `residual`): `every`, `none`, or `sample=K` (steps 0, K, 2K, …
+    /// and the last). The measurement visits every entry of `A`, which these solvers do not
+    /// use; an unmeasured step is never `converged`. Matrix and cone solvers measure every
+    /// step (their status is decided inside the solve).
+    #[arg(long, value_name = "every|none|sample=K")]
+    pub residual: Option<String>,
+    /// The same as `--residual none`.
+    #[arg(long, conflicts_with = "residual")]
     pub no_residuals: bool,
     /// Write per-step body states and contacts (point, normal, impulse) as JSON lines, after a
     /// header line with the bodies' shapes.
@@ -134,11 +140,14 @@ impl TopBody {
     }
 }
 
-/// Apply the solver, `--no-residuals` and history options to the world.
+/// Apply the solver, `--residual` (`--no-residuals`) and history options to the world.
 fn apply_overrides(args: &SimulateArgs, world: &mut World) -> Result<()> {
     apply_solver_overrides(args.tol, args.max_iter, args.time_budget, world)?;
+    if let Some(text) = &args.residual {
+        world.settings.residual = text.parse().map_err(|m| anyhow!("--residual: {m}"))?;
+    }
     if args.no_residuals {
-        world.settings.residuals = false;
+        world.settings.residual = ResidualSchedule::None;
     }
     world.settings.record_history = args.history || args.html.is_some();
     Ok(())
@@ -205,6 +214,8 @@ impl Recorder {
 #[derive(Default)]
 struct SimTotals {
     statuses: BTreeMap<&'static str, usize>,
+    /// Steps whose shared residual was measured (or that had no rows).
+    steps_measured: usize,
     step_time: f64,
     solve_time: f64,
     max_step_time: f64,
@@ -249,6 +260,7 @@ impl SimTotals {
 
     fn observe(&mut self, report: &StepReport) {
         *self.statuses.entry(report.status.name()).or_default() += 1;
+        self.steps_measured += usize::from(report.residual_measured);
         self.step_time += report.step_time_s;
         self.max_step_time = self.max_step_time.max(report.step_time_s);
         self.solve_time += report.solve_time_s;
@@ -318,6 +330,8 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     )?;
     let steps = apply_clock(&args, &scene, &mut world)?;
     check_steps("--steps", steps)?;
+    // The run's length: a residual schedule's `sample=K` measures its last step too.
+    world.settings.steps = steps;
     apply_overrides(&args, &mut world)?;
     if let Some(name) = &args.ccd {
         world.settings.ccd = ToiMethod::from_ccd_name(name).map_err(|m| anyhow!("--ccd: {m}"))?;
@@ -508,6 +522,9 @@ fn print_json(run: &SimRun, t: &SimTotals) -> Result<()> {
         "discontinuity": run.discontinuity,
     });
     out["max_displacement"] = json!(max_displacement(run));
+    // Added after the literal: one more key in it passes `json!`'s recursion limit.
+    out["steps_measured"] = json!(t.steps_measured);
+    out["residual_schedule"] = json!(world.settings.residual.to_string());
     println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
 }
@@ -579,7 +596,19 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         t.contacts as f64 / n,
         t.rows as f64 / n
     );
-    println!("status            {}", statuses.join(", "));
+    if t.steps_measured == steps {
+        println!("status            {}", statuses.join(", "));
+    } else {
+        // Only a measured step can be `converged`: say how many were.
+        let converged = t.statuses.get("converged").copied().unwrap_or(0);
+        println!(
+            "status            {} ({converged} converged of {} measured steps; residual {}, \
+             an unmeasured step is never converged)",
+            statuses.join(", "),
+            t.steps_measured,
+            world.settings.residual
+        );
+    }
     match t.max_res {
         Some(r) => println!(
             "max residual      {r:.3e} (relative natural map, on the LCP of {})",

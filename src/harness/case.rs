@@ -19,8 +19,10 @@
 //! | `scene:PATH?steps=N`                  | the same, at most `N` steps                            |
 //! | `scene:PATH?friction=MODEL`           | the scene with its friction model replaced (`none`, `box`, `pyramid`, `pyramid-K`, `cone`) |
 //! | `scene:PATH?steps=N&friction=MODEL`   | both                                                   |
+//! | `scene:PATH?residual=SCHEDULE`        | the scene with the shared residual measured on `every`, `none` or `sample=K` steps (body-level and substepping solvers; see `lcpbench_contact::step::ResidualSchedule`) |
 
 use crate::harness::text::serde_as_text;
+use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::generate::{self, generate, Family, Generated, MAX_CONDITION};
 use lcpbench_solvers::{read_problem, Problem};
@@ -304,6 +306,9 @@ pub enum Case {
         steps: Option<usize>,
         /// Friction model replacing the scene's (the scene's own when `None`).
         friction: Option<FrictionModel>,
+        /// Which steps have the shared residual measured, replacing the scene's `residual`
+        /// (the scene's own when `None`).
+        residual: Option<ResidualSchedule>,
     },
 }
 
@@ -345,6 +350,7 @@ impl fmt::Display for Case {
                 path,
                 steps,
                 friction,
+                residual,
             } => {
                 write!(out, "scene:{}", path.display())?;
                 let mut query = Vec::new();
@@ -353,6 +359,9 @@ impl fmt::Display for Case {
                 }
                 if let Some(m) = friction {
                     query.push(format!("friction={}", m.name()));
+                }
+                if let Some(r) = residual {
+                    query.push(format!("residual={r}"));
                 }
                 if !query.is_empty() {
                     write!(out, "?{}", query.join("&"))?;
@@ -384,13 +393,19 @@ impl std::str::FromStr for Case {
     }
 }
 
-/// `PATH[?steps=N][&friction=MODEL]` of a `scene:` key.
+/// `PATH[?steps=N][&friction=MODEL][&residual=SCHEDULE]` of a `scene:` key.
 fn parse_scene_key(rest: &str) -> Result<Case, String> {
     let (path, query) = match rest.rsplit_once('?') {
-        Some((p, q)) if q.starts_with("steps=") || q.starts_with("friction=") => (p, q),
+        Some((p, q))
+            if ["steps=", "friction=", "residual="]
+                .iter()
+                .any(|k| q.starts_with(k)) =>
+        {
+            (p, q)
+        }
         _ => (rest, ""),
     };
-    let (mut steps, mut friction) = (None, None);
+    let (mut steps, mut friction, mut residual) = (None, None, None);
     for part in query.split('&').filter(|p| !p.is_empty()) {
         match part.split_once('=') {
             Some(("steps", n)) => {
@@ -409,13 +424,19 @@ fn parse_scene_key(rest: &str) -> Result<Case, String> {
                     )
                 })?)
             }
-            _ => return Err(format!("`{part}` is not steps=N or friction=MODEL")),
+            Some(("residual", r)) => residual = Some(r.parse::<ResidualSchedule>()?),
+            _ => {
+                return Err(format!(
+                    "`{part}` is not steps=N, friction=MODEL or residual=SCHEDULE"
+                ))
+            }
         }
     }
     Ok(Case::Scene {
         path: PathBuf::from(path),
         steps,
         friction,
+        residual,
     })
 }
 
@@ -608,6 +629,7 @@ impl Case {
             path: path.into(),
             steps,
             friction: None,
+            residual: None,
         }
     }
 
@@ -621,6 +643,26 @@ impl Case {
             path: path.into(),
             steps,
             friction: Some(friction),
+            residual: None,
+        }
+    }
+
+    /// This scene case with the shared residual measured on the steps of `schedule` (other
+    /// cases unchanged).
+    pub fn with_residual(self, schedule: ResidualSchedule) -> Self {
+        match self {
+            Case::Scene {
+                path,
+                steps,
+                friction,
+                ..
+            } => Case::Scene {
+                path,
+                steps,
+                friction,
+                residual: Some(schedule),
+            },
+            other => other,
         }
     }
 

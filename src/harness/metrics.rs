@@ -7,7 +7,12 @@
 //! * [`StepTotals`]: solver time, iterations, contacts, rows, residuals, penetration,
 //!   friction-cone violation, non-converged, fallback and no-solution steps, the first
 //!   non-converged status, and the cost counts (substeps, row updates and body passes per
-//!   step, the step time without the residual phase, which LCP the residuals are of);
+//!   step, the step time without the residual phase, which LCP the residuals are of, the
+//!   steps whose residual was measured and their mean time). Only a measured step is
+//!   converged or not (`nonconverged_steps` counts measured steps; a residual schedule,
+//!   `scene:PATH?residual=sample=K`, leaves the others unmeasured); an unmeasured step that
+//!   gave up or ran out of time still counts in `fallback_steps` / `time_limit_steps` and keeps
+//!   the run from `converged`;
 //! * [`Stability`]: energy and momentum drift, largest speed, non-finite steps, lift-off at
 //!   sliding contacts, and the blow-up test;
 //! * [`Rest`]: creep speed, kinetic energy at rest and the support error of resting scenes;
@@ -195,6 +200,9 @@ pub struct StepTotals {
     body_passes: u64,
     /// Which LCP the residuals are of, at the last step with rows (empty: the step's LCP).
     residual_of: String,
+    /// Steps whose shared residual was measured (or that had no rows), and their wall time.
+    measured: usize,
+    measured_time: f64,
 }
 
 impl StepTotals {
@@ -214,6 +222,10 @@ impl StepTotals {
         self.pen_max = self.pen_max.max(report.max_penetration);
         self.pen_sum += report.max_penetration;
         self.cone = self.cone.max(report.friction_cone_violation);
+        if report.residual_measured {
+            self.measured += 1;
+            self.measured_time += report.step_time_s;
+        }
         if report.rows == 0 {
             return;
         }
@@ -229,11 +241,22 @@ impl StepTotals {
         if report.status == Status::TimeLimit {
             self.time_limits += 1;
         }
-        if !report.status.is_converged() {
+        // Only a measured step is converged or not; an unmeasured one that gave up (or ran out
+        // of time) still names the run's status and counts below (fallbacks, time limits).
+        let gave_up = report.status == Status::TimeLimit
+            || matches!(
+                report.status,
+                Status::Unsupported { .. }
+                    | Status::NoSolution { .. }
+                    | Status::Diverged { .. }
+                    | Status::NumericalFailure { .. }
+            );
+        let measured_short = report.residual_measured && !report.status.is_converged();
+        if measured_short {
             self.nonconverged += 1;
-            if self.worst_status.is_none() {
-                self.worst_status = Some(report.status.clone());
-            }
+        }
+        if (measured_short || gave_up) && self.worst_status.is_none() {
+            self.worst_status = Some(report.status.clone());
         }
         if matches!(
             report.status,
@@ -288,6 +311,9 @@ impl StepTotals {
         r.body_passes_per_step = Some(self.body_passes as f64 / n);
         r.step_time_no_residual_s = Some(((self.step_time - self.phases.residual) / n).max(0.0));
         r.residual_of = self.residual_of.clone();
+        r.steps_measured = Some(self.measured);
+        r.measured_step_time_s =
+            (self.measured > 0).then(|| self.measured_time / self.measured as f64);
     }
 }
 
@@ -719,8 +745,14 @@ impl SceneMetricsAccumulator {
         let (taken, n_steps) = (self.totals.taken, self.n_steps);
         let nonconverged = self.totals.nonconverged;
         let blow_up = self.stability.blow_up;
-        r.converged =
-            nonconverged == 0 && !blow_up && !time.stopped() && self.stability.nan_steps == 0;
+        // Time limits and fallbacks are among the non-converged steps when every step is
+        // measured; an unmeasured step's are not, and they too keep a run from converging.
+        r.converged = nonconverged == 0
+            && self.totals.fallbacks == 0
+            && self.totals.time_limits == 0
+            && !blow_up
+            && !time.stopped()
+            && self.stability.nan_steps == 0;
         if blow_up {
             r.status = RunStatus::BlowUp;
             r.reason = format!(
@@ -750,10 +782,18 @@ impl SceneMetricsAccumulator {
         } else if let Some(s) = &self.totals.worst_status {
             r.status = RunStatus::from(s);
             let why = s.reason().map(|x| format!(": {x}")).unwrap_or_default();
-            r.reason = format!(
-                "{nonconverged} of {taken} steps not converged, first {}{why}",
-                s.name()
-            );
+            r.reason = if self.totals.measured < taken {
+                format!(
+                    "{nonconverged} of {} measured steps ({taken} taken) not converged, first {}{why}",
+                    self.totals.measured,
+                    s.name()
+                )
+            } else {
+                format!(
+                    "{nonconverged} of {taken} steps not converged, first {}{why}",
+                    s.name()
+                )
+            };
             r.reason.truncate(200);
         } else {
             r.status = RunStatus::Converged;

@@ -236,9 +236,32 @@ pub struct RunRecord {
     /// ([`lcpbench_contact::step::StepReport::residual_of`]).
     #[serde(default)]
     pub residual_of: String,
+    /// Scene: steps whose shared residual was measured (with those that had no rows, whose
+    /// residual is zero); below `steps` when the case's residual schedule
+    /// (`scene:PATH?residual=sample=K`, `none`) left steps out. Only a measured step counts as
+    /// converged or not (`nonconverged_steps` counts measured steps). Empty in rows of an
+    /// lcpbench before this column, whose every step was measured.
+    pub steps_measured: Option<usize>,
+    /// Scene: mean wall time of the measured steps of `steps_measured` (the shared residual
+    /// included), seconds.
+    pub measured_step_time_s: Option<f64>,
 }
 
 impl RunRecord {
+    /// Scene: the steps whose residual was measured, the steps taken for a row without the
+    /// count (every step was measured before the column existed).
+    pub fn measured_steps(&self) -> Option<usize> {
+        self.steps_measured.or(self.steps)
+    }
+
+    /// Scene: the measured steps that converged (`measured_steps − nonconverged_steps`).
+    pub fn converged_steps(&self) -> Option<usize> {
+        Some(
+            self.measured_steps()?
+                .saturating_sub(self.nonconverged_steps?),
+        )
+    }
+
     /// The resume key: (case, solver, budget).
     pub fn key(&self) -> RunKey {
         RunKey::new(&self.case, &self.solver.to_string(), self.budget.as_str())

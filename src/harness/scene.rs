@@ -14,7 +14,9 @@
 //! impulses, as real-time engines do. A case key `scene:PATH?friction=MODEL` replaces the
 //! scene's friction model (`cone` needs a cone solver, `nsgs-cone`, `newton-ac` or
 //! `clarabel-socp`); a solver that does not take the model is recorded `unsupported` without
-//! stepping.
+//! stepping. A case key `scene:PATH?residual=sample=K` (or `none`, `every`) replaces the
+//! scene's residual schedule: a body-level or substepping solver's steps off the schedule are
+//! not measured, never counted converged or not (`steps_measured` says how many were).
 //!
 //! [`StepReport`]: lcpbench_contact::step::StepReport
 
@@ -34,6 +36,7 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
         path,
         steps,
         friction,
+        residual,
     } = case
     else {
         return RunOutput::failed(record, RunStatus::Error, "not a scene case");
@@ -60,6 +63,11 @@ pub fn run_scene(case: &Case, spec: &SolverSpec, budget: &NamedBudget) -> RunOut
         record.warm_source = WarmSource::PreviousStep.name().to_owned();
     }
     let n_steps = steps.map_or(scene.settings.steps, |s| s.min(scene.settings.steps));
+    if let Some(schedule) = residual {
+        scene.settings.residual = *schedule;
+    }
+    // The run's length: a residual schedule's `sample=K` measures its last step too.
+    scene.settings.steps = n_steps;
     let mut world = scene.world();
     world.settings.step_time_budget = crate::harness::budget::time_budget(b.time_s).ok();
     measure(

@@ -22,8 +22,13 @@
 //! * **towers**: the 60 Hz towers of [`TOWER_SCENES`], whole runs, with the warm-started
 //!   iterative solvers under [`TOWER_BUDGETS`] (20 and 50 iterations per step).
 //! * **scene scaling**: the scenes of `scaling/` next to the scene files (a brick-wall family
-//!   from about 100 to 5,000 contacts) × every matrix and body-level solver, budget `default`,
-//!   [`SCALING_STEPS`] steps: solver time per step against contacts.
+//!   from about 100 to 5,000 contacts; the pyramids of the engine scaling family left out) ×
+//!   every matrix and body-level solver, budget `default`, [`SCALING_STEPS`] steps: solver time
+//!   per step against contacts.
+//! * **engine scaling**: the pyramids `scaling/pyramid_3d_*.toml` (91 to 14,910 boxes) ×
+//!   the runs of [`engine_scaling_runs`] (`pgs+warm` at 20 sweeps, `si+warm` at 8, `soft-step`
+//!   at its defaults), [`ENGINE_SCALING_STEPS`] steps with the shared residual measured on the
+//!   steps of [`ENGINE_SCALING_RESIDUAL`]: time per step against the number of boxes.
 //! * **FCLIB**: the FCLIB problems of `fclib/` next to the scene files (frictional-contact
 //!   problems from Siconos' test data, read as box-friction LCPs) × every matrix solver, budget
 //!   [`FCLIB_BUDGET`]: time to the relative residual 1e-6.
@@ -43,13 +48,14 @@
 //!   cost.
 //!
 //! The quick suite (`report --quick`) has every part, smaller: [`QUICK_SCENES`] for a few steps,
-//! the generated families at 8 rows, two members of the scene scaling family and the smallest
-//! FCLIB file.
+//! the generated families at 8 rows, two members of the scene scaling family, the two smallest
+//! pyramids of the engine scaling family and the smallest FCLIB file.
 
 use crate::harness::case::GenFamily;
 use crate::harness::impact::{ImpactCase, ImpactMode};
 use crate::harness::{BudgetName, Case, Job, NamedBudget, SolverSpec};
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::substep::{ParamSpec, Params};
 use lcpbench_contact::FrictionModel;
 use lcpbench_solvers::{ConeSolverKind, SolverKind};
@@ -219,9 +225,86 @@ fn files_beside(scenes: &[PathBuf], sub: &str, pattern: &str) -> Vec<PathBuf> {
     crate::report::scenes_matching(&pattern.to_string_lossy()).unwrap_or_default()
 }
 
-/// The scene scaling family: `scaling/*.toml` in the directory of the first scene file.
+/// The scene scaling family: `scaling/*.toml` in the directory of the first scene file, the
+/// engine scaling family's pyramids ([`engine_scaling_scenes`]) left out.
 pub fn scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
     files_beside(scenes, "scaling", "*.toml")
+        .into_iter()
+        .filter(|p| pyramid_boxes(p).is_none())
+        .collect()
+}
+
+/// The engine scaling family: `scaling/pyramid_3d_N.toml` in the directory of the first scene
+/// file, by increasing box count `N`.
+pub fn engine_scaling_scenes(scenes: &[PathBuf]) -> Vec<PathBuf> {
+    let mut family: Vec<PathBuf> = files_beside(scenes, "scaling", "pyramid_3d_*.toml")
+        .into_iter()
+        .filter(|p| pyramid_boxes(p).is_some())
+        .collect();
+    family.sort_by_key(|p| pyramid_boxes(p).unwrap_or(usize::MAX));
+    family
+}
+
+/// The box count `N` of a `pyramid_3d_N` scene (a path or a file stem).
+pub fn pyramid_boxes(scene: &Path) -> Option<usize> {
+    let stem = scene.file_stem()?.to_str()?;
+    stem.strip_prefix("pyramid_3d_")?.parse().ok()
+}
+
+/// Steps of each run of the engine scaling family.
+pub const ENGINE_SCALING_STEPS: usize = 10;
+
+/// Steps of each run of the engine scaling family in the quick suite.
+pub const QUICK_ENGINE_SCALING_STEPS: usize = 5;
+
+/// The residual schedule of the engine scaling runs: steps 0, 5 and 9 of 10 (0 and 4 of the
+/// quick suite's 5), so that the shared residual, one pass over every entry of `A` (42.6
+/// million on the 5,525-box pyramid), is paid on three steps in ten. The 14,910-box pyramid's
+/// `A` (121 million entries) is past
+/// [`MAX_DELASSUS_ENTRIES`](lcpbench_contact::builder::MAX_DELASSUS_ENTRIES): its steps are
+/// refused to `pgs+warm` and left unmeasured by the body-level solvers.
+pub const ENGINE_SCALING_RESIDUAL: ResidualSchedule = ResidualSchedule::Sample(5);
+
+/// The runs of the engine scaling family: `pgs+warm` capped at 20 sweeps per step, `si+warm`
+/// at 8, and `soft-step` at its defaults (4 substeps; warm-started when it iterates), tolerance
+/// 1e-6; 5 s per step's solve, so that a run is cut only past 100 s (twice its steps times
+/// that) and the largest pyramid's steps are not.
+pub fn engine_scaling_runs() -> Vec<(SolverSpec, NamedBudget)> {
+    let soft = SolverSpec::body(BodySolverKind::SoftStep);
+    let soft = if soft.is_iterative() {
+        soft.with_warm()
+    } else {
+        soft
+    };
+    vec![
+        (
+            SolverSpec::plain(SolverKind::Pgs).with_warm(),
+            custom_budget("1e-6:20:5"),
+        ),
+        (
+            SolverSpec::body(BodySolverKind::SequentialImpulses).with_warm(),
+            custom_budget("1e-6:8:5"),
+        ),
+        (soft, custom_budget("1e-6:500:5")),
+    ]
+}
+
+/// The engine scaling family (the plan's smallest) × [`engine_scaling_runs`], each case with
+/// the residual schedule [`ENGINE_SCALING_RESIDUAL`].
+fn engine_scaling_jobs(suite: &mut Suite, scenes: &[PathBuf], plan: &Plan) {
+    suite.engine_scaling_cases = engine_scaling_scenes(scenes)
+        .iter()
+        .take(plan.engine_scaling_scenes)
+        .map(|p| {
+            Case::scene(p, Some(plan.engine_scaling_steps)).with_residual(ENGINE_SCALING_RESIDUAL)
+        })
+        .collect();
+    suite.engine_scaling_runs = engine_scaling_runs();
+    for case in suite.engine_scaling_cases.clone() {
+        for (solver, budget) in suite.engine_scaling_runs.clone() {
+            push(suite, std::slice::from_ref(&case), &[solver], &[budget]);
+        }
+    }
 }
 
 /// Scenes whose steps only the FC3D collection takes: `fc3d/*.toml` in the directory of the
@@ -352,6 +435,11 @@ pub struct Suite {
     pub large_scene_cases: Vec<Case>,
     /// Cases of the scene scaling family (time per step against contacts).
     pub scene_scaling_cases: Vec<Case>,
+    /// Cases of the engine scaling family ([`engine_scaling_scenes`]), by increasing size, each
+    /// with the residual schedule [`ENGINE_SCALING_RESIDUAL`].
+    pub engine_scaling_cases: Vec<Case>,
+    /// Its runs ([`engine_scaling_runs`]).
+    pub engine_scaling_runs: Vec<(SolverSpec, NamedBudget)>,
     /// Cases of the friction-model comparison ([`friction_cases`]).
     pub friction_cases: Vec<Case>,
     /// LCPs exported from scenes.
@@ -441,6 +529,9 @@ struct Plan {
     /// How many of the scene scaling family run (smallest first), and their steps.
     scaling_scenes: usize,
     scaling_steps: usize,
+    /// How many of the engine scaling family run (smallest first), and their steps.
+    engine_scaling_scenes: usize,
+    engine_scaling_steps: usize,
     /// How many FCLIB files run (smallest first).
     fclib_files: usize,
     /// The steps of each large scene in the FC3D collection.
@@ -465,6 +556,8 @@ const QUICK: Plan = Plan {
     tower_steps: Some(10),
     scaling_scenes: 2,
     scaling_steps: 2,
+    engine_scaling_scenes: 2,
+    engine_scaling_steps: QUICK_ENGINE_SCALING_STEPS,
     fclib_files: 1,
     fc3d_scene_steps: &[1],
     fc3d_only_scenes: false,
@@ -486,6 +579,8 @@ const FULL: Plan = Plan {
     tower_steps: None,
     scaling_scenes: usize::MAX,
     scaling_steps: SCALING_STEPS,
+    engine_scaling_scenes: usize::MAX,
+    engine_scaling_steps: ENGINE_SCALING_STEPS,
     fclib_files: usize::MAX,
     fc3d_scene_steps: &[1, 10],
     fc3d_only_scenes: true,
@@ -522,6 +617,7 @@ pub fn default_suite(quick: bool, scenes: &[PathBuf], exported: &[PathBuf]) -> S
     friction_jobs(&mut suite);
     tower_jobs(&mut suite, scenes, plan.tower_steps);
     scene_scaling_jobs(&mut suite, all_scenes, plan);
+    engine_scaling_jobs(&mut suite, all_scenes, plan);
     fclib_jobs(&mut suite, all_scenes, plan.fclib_files);
     let fc3d_only = if plan.fc3d_only_scenes {
         fc3d_scenes(all_scenes)
@@ -1207,6 +1303,63 @@ mod tests {
                 "scene:bench_scenes/joints/chain_20_1e3.toml?steps=5",
             ]
         );
+    }
+
+    /// The engine scaling family: six pyramids of 6 to 35 layers, each with `N` boxes
+    /// (`N = L (L + 1) (2L + 1) / 6`) and the ground, kept out of the scene scaling family;
+    /// the smallest rests on 1,024 contacts (four on the ground under each bottom box, four on
+    /// each of the four boxes under every other). The full suite runs all six with the three
+    /// runs, the quick one the two smallest, each with the sampled residual.
+    #[test]
+    fn the_engine_scaling_family_is_six_pyramids_apart_from_the_walls() {
+        let first =
+            vec![PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("bench_scenes/tower_5.toml")];
+        let family = engine_scaling_scenes(&first);
+        let boxes: Vec<usize> = family.iter().filter_map(|p| pyramid_boxes(p)).collect();
+        assert_eq!(boxes, [91, 385, 1015, 2870, 5525, 14910]);
+        for (path, layers) in family.iter().zip([6, 10, 14, 20, 25, 35]) {
+            let scene = lcpbench_contact::scene::Scene::load(path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let dynamic = scene.bodies.iter().filter(|b| !b.is_static).count();
+            assert_eq!(dynamic, layers * (layers + 1) * (2 * layers + 1) / 6);
+            assert_eq!(Some(dynamic), pyramid_boxes(path));
+            assert_eq!(scene.bodies.len(), dynamic + 1);
+            assert_eq!(scene.metrics.expected_top_height, Some(layers as f64 - 0.5));
+        }
+        let walls = scaling_scenes(&first);
+        assert!(!walls.is_empty());
+        assert!(
+            walls.iter().all(|p| pyramid_boxes(p).is_none()),
+            "{walls:?}"
+        );
+        let mut world = lcpbench_contact::scene::Scene::load(&family[0])
+            .unwrap()
+            .world();
+        world.set_solver(lcpbench_contact::ContactSolver::from_name("si").unwrap());
+        world.settings.residual = ResidualSchedule::None;
+        assert_eq!(world.step().contacts, 4 * 36 + 16 * (91 - 36));
+        let full = default_suite(false, &first, &[]);
+        assert_eq!(full.engine_scaling_cases.len(), 6);
+        assert_eq!(full.engine_scaling_runs.len(), 3);
+        for case in &full.engine_scaling_cases {
+            assert!(
+                case.to_string().ends_with("?steps=10&residual=sample=5"),
+                "{case}"
+            );
+            let jobs = full.jobs.iter().filter(|j| j.case == *case).count();
+            assert_eq!(jobs, 3, "{case}");
+        }
+        assert!(full
+            .scene_scaling_cases
+            .iter()
+            .all(|c| !c.to_string().contains("pyramid")));
+        let quick = default_suite(true, &first, &[]);
+        let keys: Vec<String> = quick
+            .engine_scaling_cases
+            .iter()
+            .map(|c| c.short_name())
+            .collect();
+        assert_eq!(keys, ["pyramid_3d_91", "pyramid_3d_385"]);
     }
 
     #[test]

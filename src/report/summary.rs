@@ -76,7 +76,8 @@ pub fn outcome(r: &RunRecord, level: f64) -> Option<Outcome> {
         let solved = if r.is_isolation_failure() || r.blow_up == Some(true) {
             0
         } else {
-            done.saturating_sub(r.nonconverged_steps.unwrap_or(done))
+            // Converged measured steps (every step before the `steps_measured` column).
+            r.converged_steps().unwrap_or(0)
         };
         let no_work = crate::report::status::no_work(r);
         let time_s = match r.time_per_step_s {

@@ -66,7 +66,7 @@ pub(super) fn count_bodies(files: &[BodyFile]) -> Result<usize, FieldError> {
                     field,
                     format!(
                         "the scene would have more than {MAX_BODIES} bodies (the limit; \
-                         the contact problem of more would not fit in memory)"
+                         a step of more would be past the stepper's limits on contacts)"
                     ),
                 ));
             }

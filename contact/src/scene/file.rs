@@ -130,6 +130,7 @@ pub(super) struct SettingsFile {
     pub(super) penalty_stiffness: Option<f64>,
     pub(super) ccd: String,
     pub(super) stepping: String,
+    pub(super) residual: String,
 }
 
 impl Default for SettingsFile {
@@ -158,6 +159,7 @@ impl Default for SettingsFile {
             penalty_stiffness: None,
             ccd: "none".into(),
             stepping: "fixed".into(),
+            residual: s.residual.to_string(),
         }
     }
 }

@@ -151,6 +151,8 @@ pub(super) fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty
         )?;
     }
     let ccd = ToiMethod::from_ccd_name(&s.ccd).map_err(|m| err("ccd", m))?;
+    let residual: crate::step::ResidualSchedule =
+        s.residual.parse().map_err(|m| err("residual", m))?;
     if s.max_iterations == 0 {
         return Err(err("max_iterations", "must be at least 1".into()));
     }
@@ -178,7 +180,7 @@ pub(super) fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty
         },
         ccd,
         keep_problem: false,
-        residuals: true,
+        residual,
         record_history: false,
         step_time_budget: None,
         deadline: None,

@@ -58,7 +58,7 @@ mod solve;
 
 pub use contact_solver::ContactSolver;
 pub use report::{ContactRecord, JointRecord, PhaseTimes, StepReport};
-pub use settings::SimSettings;
+pub use settings::{ResidualSchedule, SimSettings, MAX_RESIDUAL_SAMPLE};
 
 use crate::body::RigidBody;
 use crate::builder::PositionCorrection;
@@ -210,12 +210,11 @@ impl World {
     }
 
     /// Why the step's contact problem is too large, when it is: the matrix and cone solvers, a
-    /// kept problem and split impulses assemble (part of) `A`, and the shared residual, where
-    /// `A` is held as its factors, visits each of its entries (time, not memory); a body-level
-    /// solver without them works on the bodies alone.
+    /// kept problem and split impulses assemble (part of) `A`; a body-level solver without them
+    /// works on the bodies alone (its shared residual, which visits each entry of `A`, is then
+    /// left unmeasured past the limit, see `World::measures_step`).
     fn size_refusal(&self, system: &ContactSystem) -> Option<String> {
         let assembles = !matches!(self.settings.solver, ContactSolver::Body(_))
-            || self.settings.residuals
             || self.settings.keep_problem
             || self.settings.builder.position_correction == PositionCorrection::Split;
         if !assembles {

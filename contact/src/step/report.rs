@@ -227,6 +227,11 @@ pub struct StepReport {
     pub phases: PhaseTimes,
     /// Shared residuals of the impulse for the step's LCP (when measured).
     pub residuals: Option<Residuals>,
+    /// True when the step's shared residual was measured (`residuals` is set), or the step had
+    /// no rows (nothing to solve: its residual is zero). False for a step the schedule
+    /// ([`SimSettings::residual`](super::SimSettings::residual)) left out, or whose residual
+    /// could not be measured: such a step's status is never `converged`.
+    pub residual_measured: bool,
     /// Deepest penetration at detection, m (`>= 0`).
     pub max_penetration: f64,
     /// Mean penetration over contacts, m.
@@ -395,13 +400,23 @@ impl World {
             0.0
         };
         phases.residual += clock.lap();
+        let residual_measured = solved.residuals.is_some() || system.n() == 0;
+        // Only the shared residual says `converged`: a step without it never does (the solve
+        // paths already decide so; this keeps it true of every path).
+        let status = if residual_measured || !solved.status.is_converged() {
+            solved.status
+        } else {
+            Status::Stalled {
+                reason: "the shared residual of this step was not measured".into(),
+            }
+        };
         StepReport {
             step: self.step_index - 1,
             time: self.time,
             contacts: system.contacts.len(),
             rows: system.n(),
             solver: self.settings.solver.name(),
-            status: solved.status,
+            status,
             iterations: solved.iterations,
             substeps: solved.substepped.as_ref().map_or(1, |s| s.substeps),
             residual_of: solved.substepped.as_ref().map(|s| s.residual_of.clone()),
@@ -419,6 +434,7 @@ impl World {
             step_time_s: clock.total(),
             phases,
             residuals: solved.residuals,
+            residual_measured,
             max_penetration,
             mean_penetration,
             kinetic_energy: ke,

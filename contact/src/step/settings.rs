@@ -42,10 +42,12 @@ pub struct SimSettings {
     /// Keep each step's [`Problem`](lcpbench_solvers::Problem) in its report (for export)
     /// \[`false`\].
     pub keep_problem: bool,
-    /// Measure the shared residual for body-level solvers too (on the step's LCP with `A` held
-    /// as its factors, [`DelassusForm::Factored`](crate::builder::DelassusForm::Factored): one
-    /// pass over the entries of `A`, formed row by row and not stored) \[`true`\].
-    pub residuals: bool,
+    /// Which steps of a body-level or substepping solver have their shared residual measured
+    /// (on the step's LCP with `A` held as its factors,
+    /// [`DelassusForm::Factored`](crate::builder::DelassusForm::Factored): one pass over the
+    /// entries of `A`, formed row by row and not stored) \[`every`\]. Matrix and cone
+    /// solvers measure every step whatever this says: their status is decided inside the solve.
+    pub residual: ResidualSchedule,
     /// Ask matrix solvers for their convergence history (residual per iteration or pivot) and
     /// keep it in each [`StepReport`](super::StepReport) \[`false`\]. The measuring time is
     /// excluded from the solver's reported time but not from the step's.
@@ -62,6 +64,81 @@ pub struct SimSettings {
     /// deadline (or at the end of its [`SimSettings::step_time_budget`], if earlier), so a run
     /// cannot be held past it by one long step \[none\].
     pub deadline: Option<Instant>,
+}
+
+/// Which steps have the shared residual measured, for the solvers that do not need it to solve
+/// (body-level and substepping ones): scene files write it `residual = "every"`, `"none"` or
+/// `"sample=K"`, the command line `--residual every|none|sample=K`.
+///
+/// A step that is not measured has no residual and its status is never `converged`: the
+/// status is what the solver's own loop can say without the shared residual (`iteration_limit`,
+/// `stalled` with a reason saying the residual was not measured, `time_limit`, a failure), and
+/// [`StepReport::residual_measured`](super::StepReport::residual_measured) is `false`. The
+/// definition of the residual is the same on every measured step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ResidualSchedule {
+    /// Every step \[default\].
+    #[default]
+    Every,
+    /// Steps `0, K, 2K, …` and the run's last step ([`SimSettings::steps`]` − 1`), `K >= 1`.
+    Sample(usize),
+    /// No step.
+    None,
+}
+
+/// Largest `K` of `sample=K`: [`crate::scene::MAX_STEPS`], a run's longest.
+pub const MAX_RESIDUAL_SAMPLE: usize = crate::scene::MAX_STEPS;
+
+impl ResidualSchedule {
+    /// True when step `step` (0-based) of a run of `steps` steps is measured.
+    pub fn measures(self, step: usize, steps: usize) -> bool {
+        match self {
+            ResidualSchedule::Every => true,
+            ResidualSchedule::None => false,
+            ResidualSchedule::Sample(k) => step.is_multiple_of(k.max(1)) || step + 1 == steps,
+        }
+    }
+
+    /// How many of the steps `0 .. steps` are measured.
+    pub fn measured_steps(self, steps: usize) -> usize {
+        (0..steps).filter(|&k| self.measures(k, steps)).count()
+    }
+}
+
+impl std::fmt::Display for ResidualSchedule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ResidualSchedule::Every => f.write_str("every"),
+            ResidualSchedule::None => f.write_str("none"),
+            ResidualSchedule::Sample(k) => write!(f, "sample={k}"),
+        }
+    }
+}
+
+impl std::str::FromStr for ResidualSchedule {
+    type Err = String;
+
+    /// `every`, `none` or `sample=K` with `1 <= K <=` [`MAX_RESIDUAL_SAMPLE`] (`sample=1` is
+    /// `every`, kept as written).
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim() {
+            "every" => Ok(ResidualSchedule::Every),
+            "none" => Ok(ResidualSchedule::None),
+            t => {
+                let k = t.strip_prefix("sample=").ok_or_else(|| {
+                    format!("`{t}` is not a residual schedule (every, none or sample=K)")
+                })?;
+                match k.parse::<usize>() {
+                    Ok(k) if (1..=MAX_RESIDUAL_SAMPLE).contains(&k) => {
+                        Ok(ResidualSchedule::Sample(k))
+                    }
+                    _ => Err(format!(
+                        "sample=K needs a whole number K from 1 to {MAX_RESIDUAL_SAMPLE}, got `{k}`"
+                    )),
+                }
+            }
+        }
+    }
 }
 
 impl SimSettings {
@@ -91,11 +168,34 @@ impl Default for SimSettings {
             builder: BuilderParams::default(),
             ccd: None,
             keep_problem: false,
-            residuals: true,
+            residual: ResidualSchedule::Every,
             record_history: false,
             islands: true,
             step_time_budget: None,
             deadline: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ResidualSchedule;
+
+    /// `sample=K` measures steps 0, K, 2K, … and the last; the text form reads back.
+    #[test]
+    fn a_sample_measures_the_multiples_and_the_last_step() {
+        let s: ResidualSchedule = "sample=4".parse().unwrap();
+        let measured: Vec<usize> = (0..10).filter(|&k| s.measures(k, 10)).collect();
+        assert_eq!(measured, [0, 4, 8, 9]);
+        assert_eq!(s.measured_steps(10), 4);
+        assert_eq!(s.measured_steps(9), 3);
+        assert_eq!(ResidualSchedule::Every.measured_steps(7), 7);
+        assert_eq!(ResidualSchedule::None.measured_steps(7), 0);
+        for text in ["every", "none", "sample=4"] {
+            assert_eq!(text.parse::<ResidualSchedule>().unwrap().to_string(), text);
+        }
+        for bad in ["sample=0", "sample=", "sample=-2", "some", "sample=2.5"] {
+            assert!(bad.parse::<ResidualSchedule>().is_err(), "{bad}");
         }
     }
 }

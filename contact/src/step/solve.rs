@@ -261,6 +261,19 @@ impl Solved {
 }
 
 impl World {
+    /// Whether a body-level or substepping solver's step has its shared residual measured: the
+    /// step is on the schedule ([`SimSettings::residual`](super::SimSettings::residual), for the
+    /// step being taken, `step_index`, of a run of [`SimSettings::steps`](super::SimSettings::steps))
+    /// or its problem is kept (and measured with it), and `A` is within
+    /// [`MAX_DELASSUS_ENTRIES`](crate::builder::MAX_DELASSUS_ENTRIES), since the measurement
+    /// visits each of its entries. A step past that limit is solved on the bodies as usual and
+    /// left unmeasured (never `converged`), instead of refused.
+    pub(super) fn measures_step(&self, system: &ContactSystem) -> bool {
+        let s = &self.settings;
+        let scheduled = s.residual.measures(self.step_index, s.steps) || s.keep_problem;
+        scheduled && system.check_delassus_size(&self.bodies).is_ok()
+    }
+
     /// The deadline of a solve starting now: the step's time budget from now, or the run's
     /// deadline if earlier.
     pub(super) fn solve_deadline(&self) -> Option<Instant> {
@@ -380,7 +393,7 @@ impl World {
         deadline: Option<Instant>,
     ) -> Solved {
         let t0 = Instant::now();
-        let measured = (self.settings.residuals || self.settings.keep_problem).then(|| {
+        let measured = self.measures_step(system).then(|| {
             system
                 .problem_in(DelassusForm::Factored)
                 .map_err(|e| e.to_string())
@@ -454,7 +467,7 @@ impl World {
             return Solved::unsupported(system.n(), format!("`{name}` does not substep"));
         };
         self.warm.store(system, &out.warm);
-        let measured = self.settings.residuals || self.settings.keep_problem;
+        let measured = self.measures_step(system);
         let t_measure = Instant::now();
         let problem = measured.then(|| {
             system

@@ -306,7 +306,15 @@ fn steps_cell(r: &RunRecord) -> String {
     let (Some(steps), Some(short)) = (r.steps, r.nonconverged_steps) else {
         return r.status.to_string();
     };
-    let mut parts = vec![format!("{}/{steps} converged", steps.saturating_sub(short))];
+    let measured = r.measured_steps().unwrap_or(steps);
+    let mut parts = vec![if measured < steps {
+        format!(
+            "{} of {measured} measured steps converged ({steps} taken)",
+            measured.saturating_sub(short)
+        )
+    } else {
+        format!("{}/{steps} converged", steps.saturating_sub(short))
+    }];
     if let Some(k) = r.time_limit_steps.filter(|&k| k > 0) {
         parts.push(format!("{k} time limit"));
     }

@@ -11,6 +11,7 @@ use crate::report::context::{Figure, ReportContext, Section};
 use crate::report::summary::{rank, Candidate, ACCURACIES, RULE, SHIFT_S};
 use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
+use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::FrictionModel;
 use std::fmt::Write as _;
 
@@ -42,8 +43,13 @@ const FAMILIES: [(&str, &str); 16] = [
 /// `chain…`/`rope…`/`ragdoll…`/`pendulum…`/`cradle…`, `mass_ratio…`), a scene under a
 /// friction model of the run's choosing, FCLIB files (`.hdf5`), other problem files, scene
 /// steps and generated LCPs (the infeasible ones left out: no solver can reach an accuracy).
+/// Scene runs whose residual schedule left steps unmeasured (`residual=sample=K`, `none`) are
+/// in no family: Findings ranks by converged steps, which such a run does not count.
 pub(crate) fn family_of(r: &RunRecord) -> Option<&'static str> {
     let case: Case = r.case.parse().ok()?;
+    if matches!(&case, Case::Scene { residual: Some(s), .. } if *s != ResidualSchedule::Every) {
+        return None;
+    }
     // A cone solver's problems are the FC3D family; its scene runs (under the cone friction
     // model) stay with the scenes.
     if matches!(r.solver, SolverSpec::Cone { .. }) && !matches!(case, Case::Scene { .. }) {

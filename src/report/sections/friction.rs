@@ -166,9 +166,11 @@ fn tables(ctx: &ReportContext, scenes: &FrictionScenes) -> (Table, Table) {
                     Some(r) => {
                         row.push(measure(r));
                         time_row.push(fmt_time(r.time_per_step_s));
-                        let steps = r.steps.unwrap_or(0);
+                        // Of the measured steps (every step unless a residual schedule left
+                        // some out).
+                        let steps = r.measured_steps().unwrap_or(0);
                         done += steps;
-                        converged += steps.saturating_sub(r.nonconverged_steps.unwrap_or(0));
+                        converged += r.converged_steps().unwrap_or(0);
                     }
                     None => {
                         row.push("–".into());

@@ -79,7 +79,8 @@ fn runs(ctx: &ReportContext, case: &Case) -> Vec<(SolverSpec, NamedBudget)> {
 
 /// Outcome of a run in a few words: `converged`, `k of n steps short`, or the status.
 fn outcome(r: &RunRecord) -> String {
-    match (r.nonconverged_steps, r.steps) {
+    // Short of the measured steps (every step unless a residual schedule left some out).
+    match (r.nonconverged_steps, r.measured_steps()) {
         _ if status::unsupported(r) => "unsupported".into(),
         _ if status::blew_up(r) => "blow-up".into(),
         (Some(nc), Some(steps)) if status::cut_short(r) => {

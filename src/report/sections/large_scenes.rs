@@ -121,5 +121,5 @@ fn best_cell(ctx: &ReportContext, case: &Case, budget: &BudgetName) -> String {
 /// Converged steps / planned steps.
 fn fraction(r: &RunRecord) -> String {
     let planned = r.steps_planned.or(r.steps).unwrap_or(0);
-    format!("{}/{planned}", converged_steps(r).unwrap_or(0))
+    super::scenes::converged_fraction(r, planned)
 }

@@ -9,6 +9,7 @@ mod averaged_impulse;
 mod budgets;
 mod cone_profiles;
 mod convergence;
+mod engine_scaling;
 mod engine_solvers;
 mod fastest;
 mod fclib;
@@ -62,6 +63,7 @@ const SECTIONS: &[&dyn Section] = &[
     &warm_start::WarmStart,
     &sor_omega::SorOmega,
     &scaling::Scaling,
+    &engine_scaling::EngineScaling,
     &fclib::Fclib,
 ];
 

@@ -126,7 +126,7 @@ impl Section for PerCase {
                     fmt_sci(r.residual_rel),
                     fmt_sci(r.residual_rel_median),
                     match (converged_steps(r), r.steps_planned.or(r.steps)) {
-                        (Some(c), Some(p)) => format!("{c}/{p}"),
+                        (Some(_), Some(p)) => super::scenes::converged_fraction(r, p),
                         _ => "–".into(),
                     },
                 ];

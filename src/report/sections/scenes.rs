@@ -319,9 +319,20 @@ fn by_budget_row(case: &Case, r: &RunRecord) -> Vec<String> {
     ]
 }
 
-/// Steps of the run that converged (steps without contacts count as converged).
+/// Steps of the run that converged (steps without contacts count as converged), of its
+/// measured steps ([`RunRecord::converged_steps`]).
 pub(super) fn converged_steps(r: &RunRecord) -> Option<usize> {
-    Some(r.steps?.saturating_sub(r.nonconverged_steps?))
+    r.converged_steps()
+}
+
+/// `c/total` converged steps, or `c of m measured (total steps)` when a residual schedule
+/// left steps unmeasured (an unmeasured step is neither converged nor not).
+pub(super) fn converged_fraction(r: &RunRecord, total: usize) -> String {
+    let c = converged_steps(r).unwrap_or(0);
+    match r.measured_steps() {
+        Some(m) if Some(m) != r.steps => format!("{c} of {m} measured ({total} steps)"),
+        _ => format!("{c}/{total}"),
+    }
 }
 
 /// The scene's table (budget `default`) as Markdown; its rows are added to `all` too.
@@ -520,6 +531,8 @@ pub(super) fn glance_cell(r: &RunRecord) -> String {
     let t = step_time(r);
     let steps = r.steps.unwrap_or(0);
     let nc = r.nonconverged_steps.unwrap_or(0);
+    // Converged or not is said of measured steps only.
+    let measured = r.measured_steps().unwrap_or(steps);
     if r.is_isolation_failure() {
         r.status.to_string()
     } else if status::blew_up(r) {
@@ -529,10 +542,14 @@ pub(super) fn glance_cell(r: &RunRecord) -> String {
         format!("cut ({steps}/{planned} steps, {t})")
     } else if status::unsupported(r) && steps == 0 {
         "✗ unsupported".into()
+    } else if nc == 0 && measured < steps {
+        format!("✓ {t} ({measured} of {steps} measured)")
     } else if nc == 0 {
         format!("✓ {t}")
-    } else if nc >= steps {
+    } else if nc >= measured {
         format!("✗ {t} ({})", r.status)
+    } else if measured < steps {
+        format!("~ {t} ({} of {measured} measured)", measured - nc)
     } else {
         format!("~ {t} ({}/{steps})", steps - nc)
     }

@@ -77,7 +77,8 @@ fn tower_table(ctx: &ReportContext, case: &Case, name: &str) -> Table {
 }
 
 fn cells(r: &RunRecord) -> [String; 4] {
-    let short = match (r.nonconverged_steps, r.steps) {
+    // Short of the measured steps (every step unless a residual schedule left some out).
+    let short = match (r.nonconverged_steps, r.measured_steps()) {
         (Some(nc), Some(steps)) if status::cut_short(r) => {
             format!("{nc} of {steps} (cut short: {})", r.reason)
         }
