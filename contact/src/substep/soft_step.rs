@@ -1030,10 +1030,11 @@ pub(crate) fn run(
 /// What the step report's `residual_of` adds for a coloured sweep: the colours and the
 /// overflow set it visited.
 pub(crate) fn coloured_note<C>(blocks: &ColouredSweep<C>) -> String {
+    let colours = blocks.colour_count();
     format!(
-        ", coloured sweeps ({} constraints in {} colours, {} in overflow)",
+        ", coloured sweeps ({} constraints in {colours} colour{}, {} in overflow)",
         blocks.constraint_count(),
-        blocks.colour_count(),
+        if colours == 1 { "" } else { "s" },
         blocks.overflow_count()
     )
 }
