@@ -388,8 +388,10 @@ pub enum Measure<'a> {
 
 /// A contact solver that works on bodies through the [`DelassusOperator`] (matrix-free).
 ///
-/// Every body-level solver is `Clone` (through [`dyn_clone::DynClone`]); none keeps a workspace,
-/// so a clone answers exactly as a fresh solver of the same parameters.
+/// Every body-level solver is `Clone` (through [`dyn_clone::DynClone`]). None keeps a workspace
+/// but the substepping solvers with `colour=1`, which remember the previous step's constraint
+/// colours ([`crate::substep::colouring`]); otherwise a clone answers exactly as a fresh solver
+/// of the same parameters.
 pub trait BodySolver: dyn_clone::DynClone {
     /// Which solver of the catalogue this is.
     fn kind(&self) -> BodySolverKind;

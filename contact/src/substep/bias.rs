@@ -66,6 +66,13 @@ impl RowTarget {
     };
 }
 
+/// A rigid row with no bias.
+impl Default for RowTarget {
+    fn default() -> Self {
+        Self::RIGID
+    }
+}
+
 /// The target of every row at the current pose (`C = C₀ + J Δx`), for a solve over a (sub)step
 /// `h`; `threshold` is the restitution threshold (m/s).
 pub fn row_targets(

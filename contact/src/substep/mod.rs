@@ -24,11 +24,17 @@
 //! * `jacobi` ([`jacobi`]): every row solved from the same velocities, then applied (the
 //!   parallel baseline).
 //!
+//! `soft-step`, `tgs` and `pgs-ngs` take `colour=1` for coloured sweeps: the constraints
+//! coloured so that no two of a colour share a dynamic body ([`colouring`], Box2D v3's
+//! constraint graph) and each colour's swept in parallel ([`coloured_sweep`]).
+//!
 //! Without a world (a [`crate::BodySolver::sweep`] on a system alone) a substepping solver
 //! starts from the system's free velocities, gravity already in them, and returns the impulse
 //! of the whole step; the stepper always takes [`crate::BodySolver::advance`].
 
 pub mod bias;
+pub mod coloured_sweep;
+pub mod colouring;
 pub mod jacobi;
 pub mod params;
 pub mod pgs_ngs;

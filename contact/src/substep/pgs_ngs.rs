@@ -32,6 +32,14 @@
 //! Defaults are Box2D 2.x's: 8 velocity and 3 position iterations (`b2World::Step` in the
 //! testbed), `b2_baumgarte = 0.2`, `b2_linearSlop = 0.005` m, `b2_maxLinearCorrection = 0.2` m.
 //!
+//! **Coloured sweeps.** `colour = 1` takes the velocity sweeps and the position sweeps colour
+//! by colour ([`super::coloured_sweep`]): the constraints (a joint's rows, the contacts between
+//! two bodies) are coloured so that no two of a colour move a common dynamic body, and each
+//! sweep runs the overflow set serially, then each colour's constraints in parallel, each
+//! constraint's rows in the order above (a position sweep: its contacts, then its joint rows).
+//! It is a different Gauss–Seidel order from the serial one (joints, then contacts), with
+//! results that do not depend on the number of threads; the warm start stays serial.
+//!
 //! **What it solves.** The velocity sweeps aim at the step's rigid LCP with the bias above; the
 //! reported last solve ([`SubstepOutcome::last`]) is the velocity solve of the last substep
 //! that solved: `f` = its accumulated impulses (warm start included), `b` = `J v` after gravity
@@ -64,9 +72,12 @@
 //! sweeps. `settings.time_budget` is checked between substeps: once spent, the remaining
 //! substeps only integrate (no constraint work) and the outcome says `timed_out`.
 
-use super::bias::{is_swept, projected_update, row_targets, warm_impulses, Feedback};
+use super::bias::{is_swept, projected_update, row_targets, warm_impulses, Feedback, RowTarget};
+use super::coloured_sweep::ColouredSweep;
+use super::colouring::ConstraintGraph;
 use super::params::{ParamSpec, Params};
-use super::state::{RowRole, SolverState, StepCost};
+use super::soft_step::{coloured_note, COLOUR_PARAM};
+use super::state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
 use super::{LastSolve, SubstepInput, SubstepOutcome};
 use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
 use crate::builder::ContactSystem;
@@ -120,12 +131,15 @@ pub const PARAMS: &[ParamSpec] = &[
         "soft contact stiffness in the velocity sweeps, Hz (0: rigid)",
     ),
     ParamSpec::real("zeta", 1.0, 0.0, 1e3, "soft contact damping ratio"),
+    COLOUR_PARAM,
 ];
 
-/// The `pgs-ngs` solver with its parameters ([`PARAMS`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The `pgs-ngs` solver with its parameters ([`PARAMS`]) and, for `colour=1`, the colouring
+/// of the previous step's constraints.
+#[derive(Debug, Clone, PartialEq)]
 pub struct PgsNgs {
     params: Params,
+    graph: ConstraintGraph,
 }
 
 impl Default for PgsNgs {
@@ -137,12 +151,15 @@ impl Default for PgsNgs {
 impl PgsNgs {
     /// The solver with `params` (which follow [`PARAMS`]).
     pub fn new(params: Params) -> Self {
-        Self { params }
+        Self {
+            params,
+            graph: ConstraintGraph::new(),
+        }
     }
 
     /// Advance the bodies over the step of `system` (see the module doc).
     pub fn step(
-        &self,
+        &mut self,
         system: &ContactSystem,
         gravity: Vector3<f64>,
         settings: &Settings,
@@ -163,6 +180,8 @@ impl PgsNgs {
         let mut state = SolverState::new(system, &gravity);
         let n = state.rows.len();
         let order = velocity_order(&state);
+        let mut coloured = (p.count("colour") > 0)
+            .then(|| ColouredSweep::<RowTarget>::new(system, &state, &order, &[], &mut self.graph));
         let mut lambda = warm_impulses(&state, settings.warm_start.as_deref());
         let mut f_step = vec![0.0; n];
         let mut cost = StepCost::default();
@@ -193,30 +212,40 @@ impl PgsNgs {
                 }
                 cost.row_updates += order.len() as u64;
                 let sweeps = iterations.min(budget);
-                for _ in 0..sweeps {
-                    for &i in &order {
-                        let row = &state.rows[i];
-                        let bound = match row.role {
-                            RowRole::Friction { normal } => row.mu * lambda[normal],
-                            _ => 0.0,
-                        };
-                        let rate = row.rate(&state.bodies);
-                        let new = projected_update(
-                            row.role,
-                            lambda[i],
-                            rate,
-                            &targets[i],
-                            row.mass,
-                            bound,
-                        );
-                        let d = new - lambda[i];
-                        if d != 0.0 {
-                            row.apply(d, &mut state.bodies);
-                            lambda[i] = new;
+                match coloured.as_mut() {
+                    None => {
+                        for _ in 0..sweeps {
+                            velocity_sweep(
+                                &state.rows,
+                                &mut state.bodies,
+                                &order,
+                                &targets,
+                                &mut lambda,
+                            );
                         }
                     }
-                    cost.row_updates += order.len() as u64;
+                    Some(blocks) if sweeps > 0 => {
+                        blocks.load(&lambda, &targets);
+                        for _ in 0..sweeps {
+                            blocks.sweep(
+                                &mut state.bodies,
+                                |b| {
+                                    velocity_sweep(
+                                        &b.rows,
+                                        &mut b.local,
+                                        &b.order,
+                                        &b.coefficients,
+                                        &mut b.lambda,
+                                    )
+                                },
+                                |()| {},
+                            );
+                        }
+                        blocks.store(&mut lambda, None);
+                    }
+                    Some(_) => {}
                 }
+                cost.row_updates += order.len() as u64 * sweeps as u64;
                 budget -= sweeps;
                 sweeps_done += sweeps;
                 for (total, l) in f_step.iter_mut().zip(&lambda) {
@@ -227,9 +256,10 @@ impl PgsNgs {
                     f: lambda.clone(),
                     b,
                     what: format!(
-                        "{}velocity sweeps of substep {} of {substeps} ({sweeps} sweeps)",
+                        "{}velocity sweeps of substep {} of {substeps} ({sweeps} sweeps){}",
                         if soft { "soft " } else { "" },
-                        s + 1
+                        s + 1,
+                        coloured.as_ref().map_or(String::new(), coloured_note)
                     ),
                 });
             }
@@ -240,7 +270,10 @@ impl PgsNgs {
                 let mut used = 0;
                 for _ in 0..passes {
                     used += 1;
-                    let (ok, updates) = position_pass(&mut state, &ngs);
+                    let (ok, updates) = match coloured.as_mut() {
+                        None => position_pass(&mut state, &ngs),
+                        Some(blocks) => coloured_position_pass(&mut state, blocks, &ngs),
+                    };
                     cost.row_updates += updates;
                     if ok {
                         break;
@@ -293,6 +326,32 @@ fn velocity_order(state: &SolverState) -> Vec<usize> {
     order
 }
 
+/// One velocity sweep over `order`: per row the projected update of its accumulated impulse
+/// towards its target (a friction row bounded by `μ λ_n` of its normal row's current impulse),
+/// applied at once.
+fn velocity_sweep(
+    rows: &[SolverRow],
+    bodies: &mut [SolverBody],
+    order: &[usize],
+    targets: &[RowTarget],
+    lambda: &mut [f64],
+) {
+    for &i in order {
+        let row = &rows[i];
+        let bound = match row.role {
+            RowRole::Friction { normal } => row.mu * lambda[normal],
+            _ => 0.0,
+        };
+        let rate = row.rate(bodies);
+        let new = projected_update(row.role, lambda[i], rate, &targets[i], row.mass, bound);
+        let d = new - lambda[i];
+        if d != 0.0 {
+            row.apply(d, bodies);
+            lambda[i] = new;
+        }
+    }
+}
+
 /// The nonlinear Gauss–Seidel pass's constants.
 struct NgsParams {
     beta: f64,
@@ -304,10 +363,39 @@ struct NgsParams {
 /// found the positions good enough to stop (smallest separation `≥ −3 slop`, every joint
 /// error within `slop`) and the rows it visited.
 fn position_pass(state: &mut SolverState, p: &NgsParams) -> (bool, u64) {
+    let SolverState { bodies, rows } = state;
+    let (min_separation, joints_ok, visited) = position_rows(rows, bodies, p);
+    (min_separation >= -3.0 * p.slop && joints_ok, visited)
+}
+
+/// The position pass colour by colour ([`super::coloured_sweep`]): each constraint's
+/// contacts, then its joint rows; the smallest separation, the joints' test and the count of
+/// rows combined over the constraints in their fixed order.
+fn coloured_position_pass(
+    state: &mut SolverState,
+    blocks: &mut ColouredSweep<RowTarget>,
+    p: &NgsParams,
+) -> (bool, u64) {
+    let (mut min_separation, mut joints_ok, mut visited) = (0.0f64, true, 0);
+    blocks.sweep(
+        &mut state.bodies,
+        |b| position_rows(&b.rows, &mut b.local, p),
+        |(m, ok, v)| {
+            min_separation = min_separation.min(m);
+            joints_ok &= ok;
+            visited += v;
+        },
+    );
+    (min_separation >= -3.0 * p.slop && joints_ok, visited)
+}
+
+/// The position pass over `rows`: their swept normal rows in order, then their joint rows.
+/// Returns the smallest separation seen (0 when none is negative), whether every joint row's
+/// error was within `slop`, and the rows visited.
+fn position_rows(rows: &[SolverRow], bodies: &mut [SolverBody], p: &NgsParams) -> (f64, bool, u64) {
     let mut min_separation: f64 = 0.0;
     let mut joints_ok = true;
     let mut visited = 0;
-    let SolverState { bodies, rows } = state;
     for row in rows.iter().filter(|r| is_swept(r)) {
         if let RowRole::Normal(_) = row.role {
             visited += 1;
@@ -330,7 +418,7 @@ fn position_pass(state: &mut SolverState, p: &NgsParams) -> (bool, u64) {
             }
         }
     }
-    (min_separation >= -3.0 * p.slop && joints_ok, visited)
+    (min_separation, joints_ok, visited)
 }
 
 impl BodySolver for PgsNgs {

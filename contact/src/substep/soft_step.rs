@@ -39,6 +39,12 @@
 //!    rows (Rapier's `ContactWithCoulombFriction::solve`), and `block_pairs = 1` solves a
 //!    manifold's normal rows two by two as a compliant 2×2 LCP (Rapier's `block-solver`
 //!    feature, `ContactConstraintNormalPart::solve_mlcp_two_constraints`; see [`solve_pair`]).
+//!    `colour = 1` sweeps the constraints (a joint's rows, the contacts between two bodies)
+//!    colour by colour instead, the overflow set first and each colour's constraints in
+//!    parallel, each constraint's rows in the order above (Box2D v3's `b2_stageSolve` over
+//!    its graph colours; [`super::coloured_sweep`]): a different Gauss–Seidel order, with
+//!    results that do not depend on the number of threads. The warm start and the
+//!    restitution pass stay serial (they apply impulses, in the order above).
 //!
 //!    The impulse of a row is `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`
 //!    (`m = 1 / (J M⁻¹ Jᵀ)`), clamped on the accumulated impulse (`λ ≥ 0` for normal rows);
@@ -100,6 +106,7 @@
 //! | `friction_anchor` | 0 | friction rows' slip bias factor (Box2D: none; Rapier: 1) |
 //! | `normals_first` | 0 | 1: a manifold's normal rows before its friction rows (Rapier) |
 //! | `block_pairs` | 0 | 1: normal rows two by two as 2×2 blocks (Rapier's `block-solver`) |
+//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel (Box2D v3's graph colouring; [`super::coloured_sweep`]) |
 //!
 //! `hertz = 0` makes the contacts rigid with no position feedback (only the speculative bias);
 //! `joint_hertz = 0` the joints likewise.
@@ -155,8 +162,12 @@
 //! Per substep: two body passes (velocity and position integration) and, per sweep, one row
 //! update for each swept row; the warm start counts one row update per row it applies. The
 //! workspace (impulses, per-row bias and softness, saved velocities) is allocated once per
-//! step; the substep loop allocates nothing.
+//! step; the substep loop allocates nothing. With `colour = 1` the step also colours its
+//! constraints and copies their rows into blocks (linear in the rows, once per step); a
+//! sweep counts the same row updates as the serial one.
 
+use super::coloured_sweep::ColouredSweep;
+use super::colouring::ConstraintGraph;
 use super::params::{ParamSpec, Params};
 use super::softness::{self, Softness};
 use super::state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
@@ -248,7 +259,17 @@ pub const SOFT_STEP_PARAMS: &[ParamSpec] = &[
         1,
         "1: a manifold's normal rows solved two by two as 2x2 blocks (implies normals_first)",
     ),
+    COLOUR_PARAM,
 ];
+
+/// The `colour` key of `soft-step`, `tgs` and `pgs-ngs` (see [`super::coloured_sweep`]).
+pub const COLOUR_PARAM: ParamSpec = ParamSpec::count(
+    "colour",
+    0,
+    0,
+    1,
+    "1: sweep the constraints colour by colour, each colour's in parallel (0: serial order)",
+);
 
 /// Default of `joint_hertz`: Rapier's `SpringCoefficients::joint_defaults` (1e6 Hz, near
 /// rigid); with [`JOINT_CAP`] the joints run at a quarter of the substep rate.
@@ -259,16 +280,21 @@ pub const JOINT_CAP: f64 = 0.25;
 /// Default of `friction_anchor`.
 pub const FRICTION_ANCHOR: f64 = 0.0;
 
-/// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]) and, for `colour=1`, the
+/// colouring of the previous step's constraints.
+#[derive(Debug, Clone, PartialEq)]
 pub struct SoftStep {
     params: Params,
+    graph: ConstraintGraph,
 }
 
 impl SoftStep {
     /// The solver with `params` (which follow [`SOFT_STEP_PARAMS`]).
     pub fn new(params: Params) -> Self {
-        Self { params }
+        Self {
+            params,
+            graph: ConstraintGraph::new(),
+        }
     }
 
     /// The scheme the parameters describe over a step of `dt`.
@@ -291,6 +317,7 @@ impl SoftStep {
             },
             normals_first: p.count("normals_first") > 0,
             block_pairs: p.count("block_pairs") > 0,
+            colour: p.count("colour") > 0,
         }
     }
 }
@@ -311,11 +338,13 @@ impl BodySolver for SoftStep {
     }
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
-        Some(run(input, &self.scheme()))
+        let scheme = self.scheme();
+        Some(run(input, &scheme, &mut self.graph))
     }
 
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
-        sweep_alone(system, settings, &self.scheme())
+        let scheme = self.scheme();
+        sweep_alone(system, settings, &scheme, &mut self.graph)
     }
 }
 
@@ -375,6 +404,9 @@ pub(crate) struct Scheme {
     pub(crate) normals_first: bool,
     /// A manifold's normal rows solved two by two as 2×2 blocks (implies `normals_first`).
     pub(crate) block_pairs: bool,
+    /// Sweep colour by colour, each colour's constraints in parallel
+    /// ([`super::coloured_sweep`]); else the serial order.
+    pub(crate) colour: bool,
 }
 
 /// The softness of each kind of row over a substep `h` (rigid for Baumgarte).
@@ -450,7 +482,7 @@ impl Coefficients {
 
 /// A row's coefficients for one pass: `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`.
 #[derive(Debug, Clone, Copy, Default)]
-struct RowCoefficients {
+pub(crate) struct RowCoefficients {
     bias: f64,
     mass_scale: f64,
     impulse_scale: f64,
@@ -675,14 +707,14 @@ fn solve_pair(
 /// `lambda`; the rows marked in `pairs` are solved with their successor as a block
 /// ([`solve_pair`]). Marks in `hit` the normal rows left with a positive impulse.
 fn sweep_rows(
-    state: &mut SolverState,
+    rows: &[SolverRow],
+    bodies: &mut [SolverBody],
     order: &[usize],
     pairs: &[bool],
     k: &[RowCoefficients],
     lambda: &mut [f64],
     hit: &mut [bool],
 ) {
-    let SolverState { bodies, rows } = state;
     let mut p = 0;
     while p < order.len() {
         if pairs[p] {
@@ -760,8 +792,58 @@ fn initial_impulses(state: &SolverState, warm: Option<&[f64]>, lambda: &mut [f64
     }
 }
 
-/// Run the scheme over the step of `input`.
-pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
+/// `passes` sweeps of the coefficients `k` over the accumulated impulses `lambda`: serially
+/// in `order`, or colour by colour with `coloured` ([`super::coloured_sweep`]; the impulses
+/// go into its blocks for the passes and back after them).
+fn sweep_passes(
+    state: &mut SolverState,
+    (order, pairs): (&[usize], &[bool]),
+    k: &[RowCoefficients],
+    lambda: &mut [f64],
+    hit: &mut [bool],
+    coloured: Option<&mut ColouredSweep<RowCoefficients>>,
+    passes: usize,
+) {
+    if passes == 0 {
+        return;
+    }
+    match coloured {
+        None => {
+            for _ in 0..passes {
+                sweep_rows(&state.rows, &mut state.bodies, order, pairs, k, lambda, hit);
+            }
+        }
+        Some(blocks) => {
+            blocks.load(lambda, k);
+            for _ in 0..passes {
+                blocks.sweep(
+                    &mut state.bodies,
+                    |b| {
+                        sweep_rows(
+                            &b.rows,
+                            &mut b.local,
+                            &b.order,
+                            &b.pairs,
+                            &b.coefficients,
+                            &mut b.lambda,
+                            &mut b.hit,
+                        )
+                    },
+                    |()| {},
+                );
+            }
+            blocks.store(lambda, Some(hit));
+        }
+    }
+}
+
+/// Run the scheme over the step of `input`; `graph` is the colouring's memory of the
+/// previous step (used with `scheme.colour`).
+pub(crate) fn run(
+    input: &SubstepInput<'_>,
+    scheme: &Scheme,
+    graph: &mut ConstraintGraph,
+) -> SubstepOutcome {
     let system = input.system;
     let settings = input.settings;
     let deadline = settings.time_budget.map(|b| Instant::now() + b);
@@ -774,6 +856,9 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
 
     // The step's workspace, allocated once.
     let (order, pairs) = sweep_order(system, &state, scheme.normals_first, scheme.block_pairs);
+    let mut coloured = scheme
+        .colour
+        .then(|| ColouredSweep::<RowCoefficients>::new(system, &state, &order, &pairs, graph));
     let mut lambda = vec![0.0; n];
     initial_impulses(&state, settings.warm_start.as_deref(), &mut lambda);
     let mut f_step = vec![0.0; n];
@@ -810,12 +895,21 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
             cost.row_updates += per_pass;
             // Biased solve.
             biased_coefficients(&state, &coefficients, inv_h, &mut k);
-            let mut passes = 0;
-            while passes < scheme.iterations && sweeps < settings.max_iterations {
-                sweep_rows(&mut state, &order, &pairs, &k, &mut lambda, &mut hit);
-                passes += 1;
-                sweeps += 1;
-                cost.row_updates += per_pass;
+            let passes = scheme
+                .iterations
+                .min(settings.max_iterations.saturating_sub(sweeps));
+            sweep_passes(
+                &mut state,
+                (&order, &pairs),
+                &k,
+                &mut lambda,
+                &mut hit,
+                coloured.as_mut(),
+                passes,
+            );
+            sweeps += passes;
+            cost.row_updates += per_pass * passes as u64;
+            if passes > 0 {
                 last_solve = Some((step, "biased solve"));
             }
         }
@@ -823,12 +917,21 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
         cost.body_passes += 1;
         if solving && scheme.relax_iterations > 0 && sweeps < settings.max_iterations {
             relax_coefficients(&state, inv_h, &mut k);
-            let mut passes = 0;
-            while passes < scheme.relax_iterations && sweeps < settings.max_iterations {
-                sweep_rows(&mut state, &order, &pairs, &k, &mut lambda, &mut hit);
-                passes += 1;
-                sweeps += 1;
-                cost.row_updates += per_pass;
+            let passes = scheme
+                .relax_iterations
+                .min(settings.max_iterations.saturating_sub(sweeps));
+            sweep_passes(
+                &mut state,
+                (&order, &pairs),
+                &k,
+                &mut lambda,
+                &mut hit,
+                coloured.as_mut(),
+                passes,
+            );
+            sweeps += passes;
+            cost.row_updates += per_pass * passes as u64;
+            if passes > 0 {
                 last_solve = Some((step, "relax pass"));
             }
         }
@@ -868,9 +971,10 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
                 f: lambda.clone(),
                 b,
                 what: format!(
-                    "{pass}{} of substep {} of {substeps}",
+                    "{pass}{} of substep {} of {substeps}{}",
                     if soft { " (soft rows)" } else { "" },
-                    step + 1
+                    step + 1,
+                    coloured.as_ref().map_or(String::new(), coloured_note)
                 ),
             }
         }
@@ -923,18 +1027,31 @@ pub(crate) fn run(input: &SubstepInput<'_>, scheme: &Scheme) -> SubstepOutcome {
     }
 }
 
+/// What the step report's `residual_of` adds for a coloured sweep: the colours and the
+/// overflow set it visited.
+pub(crate) fn coloured_note<C>(blocks: &ColouredSweep<C>) -> String {
+    let colours = blocks.colour_count();
+    format!(
+        ", coloured sweeps ({} constraints in {colours} colour{}, {} in overflow)",
+        blocks.constraint_count(),
+        if colours == 1 { "" } else { "s" },
+        blocks.overflow_count()
+    )
+}
+
 /// A substepping scheme on a system alone (no world): the system's free velocities already
 /// hold gravity, so the scheme runs with none; the impulse is the whole step's.
 pub(crate) fn sweep_alone(
     system: &ContactSystem,
     settings: &Settings,
     scheme: &Scheme,
+    graph: &mut ConstraintGraph,
 ) -> BodySweep {
     let input = SubstepInput {
         system,
         gravity: Vector3::zeros(),
         settings,
     };
-    let out = run(&input, scheme);
+    let out = run(&input, scheme, graph);
     BodySweep::from(out)
 }

@@ -42,6 +42,7 @@
 //! | `zeta` | 1 | damping ratio of the soft rows |
 //! | `joint_hertz` | 0 | with `hertz = 0`: 0 for Baumgarte joint rows; `> 0`: soft joint rows of this stiffness, at most `0.25 / h` (`soft-step`'s joints) |
 //! | `joint_zeta` | 2 | damping ratio of those soft joint rows (Box2D's `jointDampingRatio`) |
+//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel, as `soft-step@colour=1` ([`super::coloured_sweep`]) |
 //!
 //! # What it solves
 //!
@@ -85,8 +86,9 @@
 //! the feedback, which is why soft joints hold; `joint_hertz > 0` gives `tgs` those joints
 //! while its contacts keep the Baumgarte rule.
 
+use super::colouring::ConstraintGraph;
 use super::params::{ParamSpec, Params};
-use super::soft_step::{run, sweep_alone, BiasRule, Scheme};
+use super::soft_step::{run, sweep_alone, BiasRule, Scheme, COLOUR_PARAM};
 use super::softness::PUSH_OUT;
 use super::{SubstepInput, SubstepOutcome};
 use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
@@ -134,18 +136,24 @@ pub const TGS_PARAMS: &[ParamSpec] = &[
         1e6,
         "damping ratio of the soft joint rows",
     ),
+    COLOUR_PARAM,
 ];
 
-/// The `tgs` solver: its parameters ([`TGS_PARAMS`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The `tgs` solver: its parameters ([`TGS_PARAMS`]) and, for `colour=1`, the colouring
+/// of the previous step's constraints.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Tgs {
     params: Params,
+    graph: ConstraintGraph,
 }
 
 impl Tgs {
     /// The solver with `params` (which follow [`TGS_PARAMS`]).
     pub fn new(params: Params) -> Self {
-        Self { params }
+        Self {
+            params,
+            graph: ConstraintGraph::new(),
+        }
     }
 
     fn scheme(&self) -> Scheme {
@@ -178,6 +186,7 @@ impl Tgs {
             bias,
             normals_first: false,
             block_pairs: false,
+            colour: p.count("colour") > 0,
         }
     }
 }
@@ -198,10 +207,12 @@ impl BodySolver for Tgs {
     }
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
-        Some(run(input, &self.scheme()))
+        let scheme = self.scheme();
+        Some(run(input, &scheme, &mut self.graph))
     }
 
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
-        sweep_alone(system, settings, &self.scheme())
+        let scheme = self.scheme();
+        sweep_alone(system, settings, &scheme, &mut self.graph)
     }
 }
