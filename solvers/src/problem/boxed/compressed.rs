@@ -529,7 +529,7 @@ mod tests {
     /// sums formed here, entry by entry).
     #[test]
     fn csr_and_csc_parts_match_the_triplets() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0x5eed_c5a);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x05ee_dc5a);
         for case in 0..60 {
             let n = 1 + case % 9;
             let (triplets, csr, csc) = random_parts(&mut rng, n);
@@ -619,11 +619,14 @@ mod tests {
         assert_eq!(p.entry(0, 0), 1.0 + f64::EPSILON);
     }
 
+    /// CSR parts in int32 and the message they are refused with.
+    type Malformed<'a> = (&'a [i32], &'a [i32], &'a [f64], &'a str);
+
     /// Every malformed part is refused with the part, the entry and the limit named.
     #[test]
     fn malformed_parts_are_refused_naming_the_part() {
         let val = [1.0, 1.0];
-        let cases: [(&[i32], &[i32], &[f64], &str); 8] = [
+        let cases: [Malformed; 8] = [
             (
                 &[],
                 &[],
