@@ -1,42 +1,121 @@
 //! Python arrays into lcpbench's matrices and vectors, every shape and index checked (with the
 //! argument and field named) before anything of the declared size is allocated.
+//!
+//! A scipy CSR or CSC matrix is not copied here: its numpy buffers are borrowed and read once,
+//! straight into the problem's own compressed rows (`Problem::boxed_csr`, `boxed_csc`), in one
+//! pass over the stored entries that copies and checks them together. `b`, `lo` and `hi` are
+//! copied once each.
 
 use crate::errors::bad;
-use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
+use faer::sparse::SparseRowMat;
 use faer::Mat;
+use lcpbench_solvers::{FrictionRow, Problem, ProblemError};
 use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+use std::borrow::Cow;
 
-/// A matrix argument: dense, or compressed sparse rows with sorted, distinct column indices.
-pub enum Matrix {
+/// A matrix argument: dense, or the compressed sparse parts of a scipy matrix, borrowed from
+/// its numpy arrays (read once, by [`SparseParts::problem`] or [`SparseParts::matrix`]).
+pub enum Matrix<'py> {
     /// A dense matrix.
     Dense(Mat<f64>),
-    /// Compressed sparse rows.
-    Sparse(SparseRowMat<usize, f64>),
+    /// Compressed sparse rows or columns.
+    Sparse(SparseParts<'py>),
+}
+
+/// scipy's `(indptr, indices, data)` of a square CSR or CSC matrix, as numpy holds them: the
+/// shape and the number of offsets are checked here, everything else where the parts are read
+/// into lcpbench's own compressed rows (`Problem::boxed_csr` and its kin), in one pass.
+pub struct SparseParts<'py> {
+    /// CSC (the parts are the compressed rows of the transpose) rather than CSR.
+    columns: bool,
+    indptr: Indices<'py>,
+    indices: Indices<'py>,
+    data: PyReadonlyArrayDyn<'py, f64>,
+}
+
+/// An index array in the integer width numpy stores it in (scipy uses int32 or int64).
+enum Indices<'py> {
+    I32(PyReadonlyArrayDyn<'py, i32>),
+    I64(PyReadonlyArrayDyn<'py, i64>),
+}
+
+/// The contents of a 1-D array, borrowed when contiguous (as scipy's always are), else copied.
+fn contents<'a, T: numpy::Element + Copy>(a: &'a PyReadonlyArrayDyn<'_, T>) -> Cow<'a, [T]> {
+    match a.as_slice() {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(a.as_array().iter().copied().collect()),
+    }
+}
+
+/// `$body` with `$parts` bound to the `(indptr, indices, data)` slices of `$sparse`, in their
+/// stored integer widths (four combinations, each a direct read of the numpy buffers).
+macro_rules! with_parts {
+    ($sparse:expr, |$parts:ident| $body:expr) => {{
+        let data = contents(&$sparse.data);
+        match (&$sparse.indptr, &$sparse.indices) {
+            (Indices::I32(p), Indices::I32(j)) => {
+                let (p, j) = (contents(p), contents(j));
+                let $parts = (&p[..], &j[..], &data[..]);
+                $body
+            }
+            (Indices::I32(p), Indices::I64(j)) => {
+                let (p, j) = (contents(p), contents(j));
+                let $parts = (&p[..], &j[..], &data[..]);
+                $body
+            }
+            (Indices::I64(p), Indices::I32(j)) => {
+                let (p, j) = (contents(p), contents(j));
+                let $parts = (&p[..], &j[..], &data[..]);
+                $body
+            }
+            (Indices::I64(p), Indices::I64(j)) => {
+                let (p, j) = (contents(p), contents(j));
+                let $parts = (&p[..], &j[..], &data[..]);
+                $body
+            }
+        }
+    }};
+}
+
+impl SparseParts<'_> {
+    /// The boxed LCP with these parts as `A`: the parts read once, straight into the problem's
+    /// compressed rows.
+    pub fn problem(
+        &self,
+        b: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+        friction: Vec<FrictionRow>,
+    ) -> Result<Problem, ProblemError> {
+        with_parts!(self, |parts| if self.columns {
+            Problem::boxed_csc(parts, b, lo, hi, friction)
+        } else {
+            Problem::boxed_csr(parts, b, lo, hi, friction)
+        })
+    }
+
+    /// The matrix alone, in lcpbench's compressed rows.
+    pub fn matrix(&self) -> Result<SparseRowMat<usize, f64>, ProblemError> {
+        with_parts!(self, |parts| if self.columns {
+            Problem::sparse_from_csc(parts)
+        } else {
+            Problem::sparse_from_csr(parts)
+        })
+    }
 }
 
 /// The 1-D float64 array `obj` (argument `what`) as a vector.
 pub fn vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-    let arr: PyReadonlyArrayDyn<'_, f64> = obj
-        .extract()
-        .map_err(|_| bad(format!("{what} must be an array of float64 numbers")))?;
-    if arr.ndim() != 1 {
-        return Err(bad(format!(
-            "{what} must be one-dimensional, but its shape is {:?}",
-            arr.shape()
-        )));
-    }
-    Ok(match arr.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => arr.as_array().iter().copied().collect(),
-    })
+    let arr = one_dimensional(what, obj)?;
+    Ok(contents(&arr).into_owned())
 }
 
 /// The matrix argument `what`: a 2-D float64 array, or the tuple
 /// `(format, (rows, cols), data, indices, indptr)` of a scipy CSR (`format = "csr"`) or CSC
 /// (`"csc"`) matrix. Must be square.
-pub fn matrix(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Matrix> {
+pub fn matrix<'py>(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<Matrix<'py>> {
     if let Ok(t) = obj.cast::<PyTuple>() {
         return sparse(what, t);
     }
@@ -62,8 +141,10 @@ pub fn matrix(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Matrix> {
     Ok(Matrix::Dense(Mat::from_fn(n, n, |i, j| view[[i, j]])))
 }
 
-/// A compressed sparse matrix from its parts (see [`matrix`]).
-fn sparse(what: &str, t: &Bound<'_, PyTuple>) -> PyResult<Matrix> {
+/// A compressed sparse matrix from its parts (see [`matrix`]), borrowed: the square shape and
+/// the number of offsets are checked here; the offsets themselves, the indices (range, order,
+/// repeats) and the values (finite) are checked as they are read ([`SparseParts`]).
+fn sparse<'py>(what: &str, t: &Bound<'py, PyTuple>) -> PyResult<Matrix<'py>> {
     let shape_err = || {
         bad(format!(
             "{what}: a sparse matrix is passed as (format, (rows, cols), data, indices, indptr)"
@@ -79,7 +160,7 @@ fn sparse(what: &str, t: &Bound<'_, PyTuple>) -> PyResult<Matrix> {
             "{what} must be square, but it is {rows}×{cols}"
         )));
     }
-    let csc = match format.as_str() {
+    let columns = match format.as_str() {
         "csr" => false,
         "csc" => true,
         other => {
@@ -89,118 +170,47 @@ fn sparse(what: &str, t: &Bound<'_, PyTuple>) -> PyResult<Matrix> {
             )))
         }
     };
-    let data = vector(&format!("{what}.data"), &t.get_item(2)?)?;
-    let indices = index_vector(&format!("{what}.indices"), &t.get_item(3)?)?;
-    let indptr = index_vector(&format!("{what}.indptr"), &t.get_item(4)?)?;
-    let (major, minor) = if csc {
-        ("column", "row")
-    } else {
-        ("row", "column")
+    let data = one_dimensional(&format!("{what}.data"), &t.get_item(2)?)?;
+    let indices = index_array(&format!("{what}.indices"), &t.get_item(3)?)?;
+    let indptr = index_array(&format!("{what}.indptr"), &t.get_item(4)?)?;
+    let offsets = match &indptr {
+        Indices::I32(a) => a.len(),
+        Indices::I64(a) => a.len(),
     };
-    let n = rows;
-    if indptr.len() != n + 1 {
+    if offsets != rows + 1 {
+        let major = if columns { "column" } else { "row" };
         return Err(bad(format!(
-            "{what}.indptr has {} entries for {n} {major}s (expected {})",
-            indptr.len(),
-            n + 1
+            "{what}.indptr has {offsets} entries for {rows} {major}s (expected {})",
+            rows + 1
         )));
     }
-    if indices.len() != data.len() {
-        return Err(bad(format!(
-            "{what}.indices has {} entries but {what}.data has {}",
-            indices.len(),
-            data.len()
-        )));
-    }
-    if indptr[0] != 0 {
-        return Err(bad(format!("{what}.indptr[0] is {}, not 0", indptr[0])));
-    }
-    if let Some(k) = (0..n).find(|&k| indptr[k + 1] < indptr[k]) {
-        return Err(bad(format!(
-            "{what}.indptr decreases at {major} {k} ({} then {})",
-            indptr[k],
-            indptr[k + 1]
-        )));
-    }
-    let nnz = indptr[n];
-    if nnz > indices.len() {
-        return Err(bad(format!(
-            "{what}.indptr[{n}] = {nnz} exceeds the {} stored entries",
-            indices.len()
-        )));
-    }
-    let mut canonical = true;
-    for k in 0..n {
-        let idx = &indices[indptr[k]..indptr[k + 1]];
-        if let Some(&j) = idx.iter().find(|&&j| j >= n) {
-            return Err(bad(format!(
-                "{what}.indices: {major} {k} names {minor} {j}, outside the {n}×{n} matrix"
-            )));
-        }
-        canonical &= idx.windows(2).all(|w| w[0] < w[1]);
-    }
-    let (indptr, mut indices, mut data) = if canonical {
-        (indptr, indices, data)
-    } else {
-        canonical_form(&indptr, &indices, &data, n)
-    };
-    let nnz = indptr[n];
-    indices.truncate(nnz);
-    data.truncate(nnz);
-    // Checked above: indptr starts at 0, never decreases, ends within the entries, and each
-    // compressed row's indices are in range and strictly increasing.
-    let symbolic = SymbolicSparseRowMat::new_checked(n, n, indptr, None, indices);
-    let stored = SparseRowMat::new(symbolic, data);
-    if !csc {
-        return Ok(Matrix::Sparse(stored));
-    }
-    // A CSC matrix's arrays are the compressed rows of its transpose.
-    let a = stored
-        .as_ref()
-        .transpose()
-        .to_row_major()
-        .map_err(|e| bad(format!("{what}: cannot convert CSC to rows ({e:?})")))?;
-    Ok(Matrix::Sparse(a))
+    Ok(Matrix::Sparse(SparseParts {
+        columns,
+        indptr,
+        indices,
+        data,
+    }))
 }
 
-/// The compressed rows with each row's indices sorted and repeated indices summed (scipy's
-/// `sum_duplicates`, done here in one pass over the stored entries instead of on a copy in
-/// Python). `indptr` and `indices` are checked (in range, non-decreasing) before.
-fn canonical_form(
-    indptr: &[usize],
-    indices: &[usize],
-    data: &[f64],
-    n: usize,
-) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-    let nnz = indptr[n];
-    let mut ptr = Vec::with_capacity(n + 1);
-    let mut idx = Vec::with_capacity(nnz);
-    let mut val = Vec::with_capacity(nnz);
-    let mut row: Vec<(usize, f64)> = Vec::new();
-    ptr.push(0);
-    for k in 0..n {
-        row.clear();
-        row.extend((indptr[k]..indptr[k + 1]).map(|e| (indices[e], data[e])));
-        row.sort_unstable_by_key(|&(j, _)| j);
-        for &(j, v) in &row {
-            match idx.last() {
-                Some(&last) if last == j && idx.len() > ptr[k] => {
-                    *val.last_mut().expect("a value per index") += v;
-                }
-                _ => {
-                    idx.push(j);
-                    val.push(v);
-                }
-            }
-        }
-        ptr.push(idx.len());
+/// The float64 array `obj` (argument `what`), which must be one-dimensional.
+fn one_dimensional<'py>(
+    what: &str,
+    obj: &Bound<'py, PyAny>,
+) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    let arr: PyReadonlyArrayDyn<'py, f64> = obj
+        .extract()
+        .map_err(|_| bad(format!("{what} must be an array of float64 numbers")))?;
+    if arr.ndim() != 1 {
+        return Err(bad(format!(
+            "{what} must be one-dimensional, but its shape is {:?}",
+            arr.shape()
+        )));
     }
-    (ptr, idx, val)
+    Ok(arr)
 }
 
-/// A 1-D integer array (int32 or int64, as scipy stores indices) as non-negative indices.
-fn index_vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<usize>> {
-    let negative = |k: usize, v: i64| bad(format!("{what}[{k}] = {v} is negative"));
+/// A 1-D integer array (int32 or int64, as scipy stores indices), borrowed.
+fn index_array<'py>(what: &str, obj: &Bound<'py, PyAny>) -> PyResult<Indices<'py>> {
     let one_dim = |shape: &[usize]| {
         if shape.len() == 1 {
             Ok(())
@@ -210,23 +220,13 @@ fn index_vector(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Vec<usize>> {
             )))
         }
     };
-    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'_, i32>>() {
+    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, i32>>() {
         one_dim(a.shape())?;
-        return a
-            .as_array()
-            .iter()
-            .enumerate()
-            .map(|(k, &v)| usize::try_from(v).map_err(|_| negative(k, v.into())))
-            .collect();
+        return Ok(Indices::I32(a));
     }
-    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'_, i64>>() {
+    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, i64>>() {
         one_dim(a.shape())?;
-        return a
-            .as_array()
-            .iter()
-            .enumerate()
-            .map(|(k, &v)| usize::try_from(v).map_err(|_| negative(k, v)))
-            .collect();
+        return Ok(Indices::I64(a));
     }
     Err(bad(format!("{what} must be an array of int32 or int64")))
 }

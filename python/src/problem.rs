@@ -218,7 +218,7 @@ pub fn lcp_problem(
     let friction = friction_rows(friction)?;
     let problem = match matrix("A", a)? {
         Matrix::Dense(m) => Problem::boxed(m, b, lo, hi, friction),
-        Matrix::Sparse(s) => Problem::boxed_sparse(s, b, lo, hi, friction),
+        Matrix::Sparse(parts) => parts.problem(b, lo, hi, friction),
     }
     .map_err(|e| bad(e.to_string()))?;
     let problem = match name {
@@ -244,7 +244,12 @@ pub fn cone_problem(
     let mu = vector("mu", mu)?;
     let cone = match matrix("W", w)? {
         Matrix::Dense(m) => ConeProblem::new(m, q, mu),
-        Matrix::Sparse(s) => ConeProblem::new_sparse(s, q, mu),
+        Matrix::Sparse(parts) => {
+            let s = parts
+                .matrix()
+                .map_err(|e| bad(format!("cone problem (W, q, mu): {e}")))?;
+            ConeProblem::new_sparse(s, q, mu)
+        }
     }
     .map_err(|e| bad(format!("cone problem (W, q, mu): {e}")))?;
     let cone = match name {

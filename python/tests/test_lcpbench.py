@@ -211,6 +211,85 @@ def test_bad_sparse_parts_are_refused():
         lcpbench.solve(A, [1.0, 1.0, 1.0])
 
 
+def _parts(fmt, n, data, indices, indptr):
+    """The tuple the package hands its extension for a scipy matrix, built by hand so that the
+    parts can be malformed (scipy itself refuses some of them)."""
+    return (fmt, (n, n), np.asarray(data, dtype=np.float64), np.asarray(indices),
+            np.asarray(indptr))
+
+
+@pytest.mark.parametrize(
+    "parts, field",
+    [
+        # NaN stored at A[1][0], data entry 1.
+        (_parts("csr", 2, [1.0, np.nan, 1.0], [0, 0, 1], [0, 1, 3]), "A[1][0] (A.data[1])"),
+        # Two finite entries of A[0][0] whose sum overflows.
+        (_parts("csr", 2, [1e308, 1e308, 1.0], [0, 0, 1], [0, 2, 3]), "A[0][0]"),
+        (_parts("csr", 2, [1.0, 1.0], [0, -1], [0, 1, 2]), "A.indices[1] = -1 (row 1) is negative"),
+        (_parts("csr", 2, [1.0, 1.0], [0, 2], [0, 1, 2]), "A.indices[1] = 2 (row 1)"),
+        (_parts("csc", 2, [1.0, 1.0], [0, 9], [0, 1, 2]), "A.indices[1] = 9 (column 1)"),
+        (_parts("csr", 2, [1.0, 1.0], [0, 1], [0, 2, 1]), "A.indptr decreases at row 1"),
+        (_parts("csr", 2, [1.0, 1.0], [0, 1], [1, 1, 2]), "A.indptr[0] is 1"),
+        (_parts("csr", 2, [1.0, 1.0], [0, 1], [0, 1, 3]), "A.indptr[2] = 3 exceeds the 2"),
+        (_parts("csr", 2, [1.0, 1.0], [0, 1], [0, 2]), "A.indptr has 2 entries for 2 rows"),
+        (_parts("csr", 2, [1.0], [0, 1], [0, 1, 2]), "A.indices has 2 entries but A.data has 1"),
+        (_parts("csr", 2, [1.0, 1.0], [0.0, 1.0], [0, 1, 2]), "A.indices must be an array of int"),
+    ],
+)
+def test_malformed_sparse_parts_name_the_part(parts, field):
+    with pytest.raises(lcpbench.LcpbenchError) as e:
+        lcpbench._lcpbench.lcp_problem(parts, np.array([-1.0, -1.0]), None, None, None, None)
+    assert field in str(e.value)
+
+
+@pytest.mark.parametrize("fmt", ["csr", "csc"])
+@pytest.mark.parametrize("widths", [(np.int32, np.int32), (np.int64, np.int64),
+                                    (np.int32, np.int64), (np.int64, np.int32)])
+def test_unsorted_repeated_parts_in_every_index_width(fmt, widths):
+    # Random triplets with repeats, stored in random order: the problem equals the dense sum.
+    rng = np.random.default_rng(11)
+    n = 9
+    rows, cols = rng.integers(0, n, 60), rng.integers(0, n, 60)
+    vals = rng.integers(-8, 8, 60) / 4.0  # exact sums in any order
+    M = np.zeros((n, n))
+    np.add.at(M, (rows, cols), vals)
+    M += 40.0 * np.eye(n)
+    rows = np.concatenate([rows, np.arange(n)])
+    cols = np.concatenate([cols, np.arange(n)])
+    vals = np.concatenate([vals, np.full(n, 40.0)])
+    major, minor = (rows, cols) if fmt == "csr" else (cols, rows)
+    order = np.argsort(major, kind="stable")  # grouped by major line, unsorted inside
+    indptr = np.searchsorted(major[order], np.arange(n + 1))
+    parts = (fmt, (n, n), vals[order], minor[order].astype(widths[1]), indptr.astype(widths[0]))
+    b = rng.standard_normal(n)
+    p = lcpbench.Problem(lcpbench._lcpbench.lcp_problem(parts, b, None, None, None, None))
+    np.testing.assert_array_equal(p.A.toarray(), M)
+    r = lcpbench.solve(p, solver="pgs")
+    assert r.converged, r.reason
+    assert natural_map(M, b, r.f, 0.0, np.inf) < 1e-8 * np.abs(b).max()
+
+
+def test_strided_sparse_parts_are_read():
+    # Non-contiguous numpy views (not what scipy hands over, but accepted): read through a copy.
+    data = np.array([2.0, -1.0, 1.0, -1.0, 2.0, -1.0])[::2]  # 2, 1, 2
+    indices = np.array([0, 7, 1, 7, 2, 7], dtype=np.int32)[::2]
+    p = lcpbench.Problem(lcpbench._lcpbench.lcp_problem(
+        ("csr", (3, 3), data, indices, np.arange(4)), np.array([-2.0, -1.0, 2.0]),
+        None, None, None, None))
+    np.testing.assert_array_equal(p.A.toarray(), np.diag([2.0, 1.0, 2.0]))
+    r = lcpbench.solve(p, solver="pgs")
+    np.testing.assert_allclose(r.f, [1.0, 1.0, 0.0], atol=1e-12)
+
+
+def test_sparse_cone_parts_are_checked():
+    W = sp.csc_matrix(np.eye(3))
+    r = lcpbench.solve_cone(W, np.array([-1.0, 0.1, 0.0]), np.array([0.5]))
+    assert r.converged, r.reason
+    W.data[2] = np.inf
+    with pytest.raises(lcpbench.LcpbenchError, match=r"cone problem \(W, q, mu\): A\[2\]\[2\]"):
+        lcpbench.solve_cone(W, np.array([-1.0, 0.1, 0.0]), np.array([0.5]))
+
+
 def test_bad_files(tmp_path):
     with pytest.raises(FileNotFoundError):
         lcpbench.read(tmp_path / "missing.json")

@@ -13,6 +13,7 @@
 //! current `f` (ODE's and Bullet's `findex`). Its stored `lo`/`hi` are ignored.
 
 pub use crate::delassus::DelassusFactors;
+mod compressed;
 mod islands;
 mod scaling;
 
@@ -115,6 +116,17 @@ pub enum ProblemError {
     UnsortedSparseRow {
         /// Row index.
         row: usize,
+    },
+    /// Compressed sparse parts (scipy's `indptr`, `indices`, `data`) that do not describe a
+    /// square matrix: wrong lengths, offsets that do not start at 0, decrease or overrun the
+    /// stored entries, an index that is negative or outside the matrix
+    /// ([`Problem::boxed_csr`]).
+    #[error("{message}")]
+    InvalidCompressed {
+        /// The part at fault: `indptr` or `indices`.
+        field: &'static str,
+        /// What is wrong, naming the part, the entry and the limit.
+        message: String,
     },
     /// A sparse triplet outside the matrix.
     #[error("triplet {entry}: ({row}, {col}) is outside the {n}×{n} matrix")]
@@ -235,9 +247,10 @@ impl<'a> Row<'a> {
 }
 
 /// A validated LCP or boxed LCP. Construct with [`Problem::lcp`] or [`Problem::boxed`] (dense
-/// `A`) or [`Problem::lcp_sparse`] / [`Problem::boxed_sparse`] (sparse `A`). Every solver
-/// accepts both forms; see [`Problem::row`] for row access and [`Problem::islands`] for the
-/// independent sub-problems.
+/// `A`) or [`Problem::lcp_sparse`] / [`Problem::boxed_sparse`] (sparse `A`), or from scipy's
+/// compressed parts with [`Problem::boxed_csr`] / [`Problem::boxed_csc`]. Every solver accepts
+/// both forms; see [`Problem::row`] for row access and [`Problem::islands`] for the independent
+/// sub-problems.
 #[derive(Debug, Clone)]
 pub struct Problem {
     name: Option<String>,
@@ -305,8 +318,10 @@ impl Problem {
         Self::boxed_sparse(a, b, vec![0.0; n], vec![f64::INFINITY; n], Vec::new())
     }
 
-    /// A boxed LCP with sparse `A` (faer's compressed sparse rows; build one from triplets with
-    /// [`sparse_from_triplets`]).
+    /// A boxed LCP with sparse `A` (faer's compressed sparse rows, column indices strictly
+    /// increasing in each row; build one from triplets with [`sparse_from_triplets`], or take
+    /// scipy's compressed parts with [`Problem::boxed_csr`] / [`Problem::boxed_csc`]). Checked
+    /// in one pass over the stored entries, which also reads off the diagonal and `max |A_ij|`.
     pub fn boxed_sparse(
         a: SparseRowMat<usize, f64>,
         b: Vec<f64>,
@@ -318,31 +333,29 @@ impl Problem {
         if rows != cols {
             return Err(ProblemError::NotSquare { rows, cols });
         }
-        let n = rows;
-        let mut diag = vec![0.0; n];
-        let max_abs: f64;
+        // One pass over the stored entries, row by row: the column order, the finiteness, the
+        // largest magnitude and the diagonal together (`compressed::row_summary`).
+        let mut diag = vec![0.0; rows];
+        let mut largest = 0u64;
         {
             let sym = a.symbolic();
             let (ptr, idx, val) = (sym.row_ptr(), sym.col_idx(), a.val());
-            let stored = &val[..ptr[n]];
-            if let Some(k) = stored.iter().position(|v| !v.is_finite()) {
-                let i = ptr.partition_point(|&p| p <= k) - 1;
-                return Err(ProblemError::NonFinite {
-                    what: format!("A[{i}][{}]", idx[k]),
-                    value: stored[k],
-                });
-            }
-            max_abs = stored.iter().fold(0.0, |m, v| m.max(v.abs()));
-            for i in 0..n {
-                let cols = &idx[ptr[i]..ptr[i + 1]];
-                if cols.windows(2).any(|w| w[0] >= w[1]) {
+            for (i, d) in diag.iter_mut().enumerate() {
+                let (cols, vals) = (&idx[ptr[i]..ptr[i + 1]], &val[ptr[i]..ptr[i + 1]]);
+                if !compressed::strictly_increasing(cols) {
                     return Err(ProblemError::UnsortedSparseRow { row: i });
                 }
-                if let Ok(k) = cols.binary_search(&i) {
-                    diag[i] = val[ptr[i] + k];
-                }
+                let (bits, diagonal) = compressed::row_summary(i, cols, vals).map_err(|k| {
+                    ProblemError::NonFinite {
+                        what: format!("A[{i}][{}]", cols[k]),
+                        value: vals[k],
+                    }
+                })?;
+                largest = largest.max(bits);
+                *d = diagonal;
             }
         }
+        let max_abs = f64::from_bits(largest);
         Self::assemble(Storage::Sparse(a), diag, max_abs, b, lo, hi, friction)
     }
 
