@@ -52,7 +52,7 @@ pub(crate) const PROBLEM_CLASSES_SOR: &str =
 
 use crate::delassus::DelassusFactors;
 use crate::problem::diagonal::skipped_rows;
-use crate::problem::metrics::{relative_row_error, residuals};
+use crate::problem::metrics::relative_row_error;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -181,7 +181,7 @@ impl Solver for ProjectedSor {
             let periodic = iterations % check_every == 0;
             let watch = iterations % STAGNATION_MEASURE_EVERY == 0;
             if worst <= tol || periodic || watch {
-                let residual = residuals(problem, &f).natural_map_rel;
+                let residual = monitor.residual_of(&f);
                 if residual <= tol {
                     break Outcome::Stopped;
                 }
