@@ -351,14 +351,15 @@ fn pairs_of_boxes(
     sweep: impl FnOnce(&[Aabb], Skip<'_>, usize) -> Pairs,
 ) -> Pairs {
     let too_many = TooManyPairs { limit: MAX_PAIRS };
-    let mut static_pair = |a: usize, b: usize| bodies[bounded[a]].is_static && bodies[bounded[b]].is_static;
+    let mut static_pair =
+        |a: usize, b: usize| bodies[bounded[a]].is_static && bodies[bounded[b]].is_static;
     let mut pairs: Vec<(usize, usize)> = sweep(aabbs, &mut static_pair, MAX_PAIRS)?
-    .into_iter()
-    .map(|(a, b)| {
-        let (i, j) = (bounded[a], bounded[b]);
-        (i.min(j), i.max(j))
-    })
-    .collect();
+        .into_iter()
+        .map(|(a, b)| {
+            let (i, j) = (bounded[a], bounded[b]);
+            (i.min(j), i.max(j))
+        })
+        .collect();
 
     for (p, plane) in bodies.iter().enumerate() {
         let Shape::Plane { normal } = &plane.shape else {
@@ -438,7 +439,9 @@ mod tests {
         let mut sweep = SweepOrder::new();
         for step in 0..10 {
             let boxes: Vec<Aabb> = centres.iter().map(|&x| aabb([x, 0.0, 0.0], 0.5)).collect();
-            let kept = sweep.pairs_at_most(&boxes, |_, _| false, usize::MAX).unwrap();
+            let kept = sweep
+                .pairs_at_most(&boxes, |_, _| false, usize::MAX)
+                .unwrap();
             assert_eq!(kept, sweep_and_prune(&boxes, |_, _| false), "step {step}");
             assert_eq!(kept, brute_force_pairs(&boxes, |_, _| false), "step {step}");
             // The first call sorts from scratch, the next ones repair the kept order.
@@ -448,8 +451,12 @@ mod tests {
             }
         }
         // A scrambled scene is sorted from scratch (more than the shift budget).
-        let reversed: Vec<Aabb> = (0..30).map(|i| aabb([-3.0 * i as f64, 0.0, 0.0], 0.5)).collect();
-        let pairs = sweep.pairs_at_most(&reversed, |_, _| false, usize::MAX).unwrap();
+        let reversed: Vec<Aabb> = (0..30)
+            .map(|i| aabb([-3.0 * i as f64, 0.0, 0.0], 0.5))
+            .collect();
+        let pairs = sweep
+            .pairs_at_most(&reversed, |_, _| false, usize::MAX)
+            .unwrap();
         assert!(pairs.is_empty() && sweep.last_shifts().is_none());
     }
 

@@ -227,22 +227,23 @@ impl NarrowPhase {
         // Pairs are independent: chunks of them run on rayon's threads, each chunk's contacts
         // in pair order, and the chunks are joined in order, so the contacts are those of a
         // serial pass in the same order.
-        let pair_contacts = |chunk: (&[(usize, usize)], &mut [PairCache])| -> (Vec<Contact>, usize) {
-            let mut out = Vec::new();
-            let mut kept = 0;
-            for (&(a, b), cache) in chunk.0.iter().zip(chunk.1.iter_mut()) {
-                let (sa, sb) = (shapes.get(a), shapes.get(b));
-                kept += usize::from(self.pair_contacts(
-                    bodies,
-                    (a, b),
-                    (sa, sb),
-                    cache,
-                    prediction,
-                    &mut out,
-                ));
-            }
-            (out, kept)
-        };
+        let pair_contacts =
+            |chunk: (&[(usize, usize)], &mut [PairCache])| -> (Vec<Contact>, usize) {
+                let mut out = Vec::new();
+                let mut kept = 0;
+                for (&(a, b), cache) in chunk.0.iter().zip(chunk.1.iter_mut()) {
+                    let (sa, sb) = (shapes.get(a), shapes.get(b));
+                    kept += usize::from(self.pair_contacts(
+                        bodies,
+                        (a, b),
+                        (sa, sb),
+                        cache,
+                        prediction,
+                        &mut out,
+                    ));
+                }
+                (out, kept)
+            };
         let chunks: Vec<(Vec<Contact>, usize)> = if pairs.len() >= PARALLEL_PAIRS {
             use rayon::prelude::*;
             pairs

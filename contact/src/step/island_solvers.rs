@@ -57,13 +57,15 @@ impl IslandSolvers {
         }
         self.reused = 0;
         (0..partition.len())
-            .map(|k| match self.kept.remove(&IslandPattern::of(partition, k)) {
-                Some(kept) => {
-                    self.reused += 1;
-                    kept
-                }
-                None => solver.clone(),
-            })
+            .map(
+                |k| match self.kept.remove(&IslandPattern::of(partition, k)) {
+                    Some(kept) => {
+                        self.reused += 1;
+                        kept
+                    }
+                    None => solver.clone(),
+                },
+            )
             .collect()
     }
 

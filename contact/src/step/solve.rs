@@ -104,28 +104,27 @@ fn solve_islands(
     let assembly_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     // Each result with the wall time of its call, and the instance that solved it.
-    let (results, solvers): (Vec<IslandOutcome>, Vec<ContactSolver>) =
-        solvers
-            .into_par_iter()
-            .zip(problems)
-            .enumerate()
-            .map(|(k, (mut solver, problem))| {
-                let rows = &partition.islands[k].rows;
-                let island_settings = Settings {
-                    warm_start: settings
-                        .warm_start
-                        .as_ref()
-                        .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
-                    time_budget: deadline.map(|d| d.saturating_duration_since(Instant::now())),
-                    ..settings.clone()
-                };
-                let call = Instant::now();
-                let result = problem
-                    .and_then(|p| solver.solve_island(&p, &island_settings))
-                    .map(|r| (r, call.elapsed().as_secs_f64()));
-                (result, solver)
-            })
-            .unzip();
+    let (results, solvers): (Vec<IslandOutcome>, Vec<ContactSolver>) = solvers
+        .into_par_iter()
+        .zip(problems)
+        .enumerate()
+        .map(|(k, (mut solver, problem))| {
+            let rows = &partition.islands[k].rows;
+            let island_settings = Settings {
+                warm_start: settings
+                    .warm_start
+                    .as_ref()
+                    .map(|ws| rows.iter().map(|&i| ws[i]).collect()),
+                time_budget: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+                ..settings.clone()
+            };
+            let call = Instant::now();
+            let result = problem
+                .and_then(|p| solver.solve_island(&p, &island_settings))
+                .map(|r| (r, call.elapsed().as_secs_f64()));
+            (result, solver)
+        })
+        .unzip();
     let solve_wall_s = t1.elapsed().as_secs_f64();
     let mut f = vec![0.0; n];
     let mut status = Status::Converged;
