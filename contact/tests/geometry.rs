@@ -2,8 +2,9 @@
 //! broad-phase pair counts, contact counts of resting configurations, time of impact.
 
 use lcpbench_contact::collision::broad_phase::{
-    brute_force_pairs, candidate_pairs_with_margin, sweep_and_prune, world_aabb,
+    brute_force_pairs, candidate_pairs_with_margin, sweep_and_prune, world_aabb, BroadPhase,
 };
+use lcpbench_contact::collision::shapes::ShapeCache;
 use lcpbench_contact::{
     candidate_pairs, CollisionPipeline, MassSpec, RigidBody, Shape, ShapeError,
 };
@@ -809,6 +810,53 @@ mod properties {
         ) {
             let skip = |i: usize, j: usize| statics[i] && statics[j];
             prop_assert_eq!(sweep_and_prune(&boxes, skip), brute_force_pairs(&boxes, skip));
+        }
+
+        /// The broad phase that keeps its sweep order between calls returns, at every step of
+        /// a moving scene, exactly the pairs of the from-scratch broad phase (and of brute
+        /// force), including when bodies swap places along the sweep axis, a plane is in the
+        /// scene and some bodies are static.
+        #[test]
+        fn persistent_broad_phase_follows_a_moving_scene(
+            start in prop::collection::vec(prop::array::uniform3(0.0..6.0f64), 2..40),
+            velocity in prop::collection::vec(prop::array::uniform3(-3.0..3.0f64), 40),
+            kind in prop::collection::vec(0..3u8, 40),
+            statics in prop::collection::vec(prop::bool::weighted(0.2), 40),
+            margin in 0.0..0.2f64,
+        ) {
+            let mut bodies = vec![body(Shape::plane(Vector3::z()).unwrap(), [0.0; 3], true)];
+            for (k, p) in start.iter().enumerate() {
+                let shape = match kind[k] {
+                    0 => Shape::sphere(0.4).unwrap(),
+                    1 => Shape::cuboid(Vector3::new(0.5, 0.2, 0.3)).unwrap(),
+                    _ => Shape::capsule(0.3, 0.2).unwrap(),
+                };
+                bodies.push(body(shape, *p, statics[k]));
+            }
+            let mut shapes = ShapeCache::new();
+            let mut broad = BroadPhase::new();
+            for step in 0..15 {
+                shapes.update(&bodies);
+                let kept = broad.candidate_pairs(&bodies, &shapes, margin).unwrap();
+                let fresh = candidate_pairs_with_margin(&bodies, margin).unwrap();
+                prop_assert_eq!(&kept, &fresh, "step {}", step);
+                // The same against brute force over the bounded bodies (index 0 is the plane).
+                let boxes: Vec<_> = bodies[1..].iter().map(|b| world_aabb(b, 0.5 * margin)).collect();
+                let brute: Vec<(usize, usize)> =
+                    brute_force_pairs(&boxes, |i, j| bodies[i + 1].is_static && bodies[j + 1].is_static)
+                        .into_iter()
+                        .map(|(i, j)| (i + 1, j + 1))
+                        .collect();
+                let swept: Vec<(usize, usize)> = kept.iter().copied().filter(|p| p.0 != 0).collect();
+                prop_assert_eq!(swept, brute, "step {}", step);
+                // Move and turn the dynamic bodies (0.05 s of their velocity).
+                for (k, b) in bodies.iter_mut().enumerate().skip(1) {
+                    if !b.is_static {
+                        b.position += 0.05 * Vector3::from(velocity[k - 1]);
+                        b.orientation = UnitQuaternion::from_euler_angles(0.1, 0.05 * k as f64, -0.07) * b.orientation;
+                    }
+                }
+            }
         }
 
         #[test]

@@ -1,10 +1,13 @@
 //! Collision detection: broad phase, narrow phase (contact manifolds), time of impact.
 //!
-//! [`CollisionPipeline::detect`] runs the phases in order: the [`broad_phase`] (sweep and
-//! prune over world bounding boxes, planes paired separately) proposes body pairs, the
-//! [`narrow_phase`] turns each pair into contact points with parry's persistent contact
-//! manifolds. [`toi`] finds the first time of contact of a fast body during a step
-//! (bisection and conservative advancement).
+//! [`CollisionPipeline::detect`] runs the phases in order: the bodies' parry shapes are
+//! brought up to date ([`shapes`]: built once per body, rebuilt only when a body's shape
+//! changes), the [`broad_phase`] (sweep and prune over world bounding boxes, its sorted order
+//! kept from call to call, planes paired separately) proposes body pairs, the [`narrow_phase`]
+//! turns each pair into contact points with parry's persistent contact manifolds (and, as an
+//! option, keeps a pair's manifolds while the pair barely moves:
+//! [`NarrowPhase::persistent_manifolds`]). [`toi`] finds the first time of contact of a fast
+//! body during a step (bisection and conservative advancement).
 //!
 //! ```
 //! use lcpbench_contact::{CollisionPipeline, MassSpec, RigidBody, Shape};
@@ -32,10 +35,11 @@
 
 pub mod broad_phase;
 pub mod narrow_phase;
+pub mod shapes;
 pub mod toi;
 
 use crate::body::RigidBody;
-use broad_phase::TooManyPairs;
+use broad_phase::{BroadPhase, TooManyPairs};
 use nalgebra::{Point3, Vector3};
 use narrow_phase::{NarrowPhase, TooManyContacts};
 
@@ -75,12 +79,15 @@ pub fn candidate_pairs(bodies: &[RigidBody]) -> Result<Vec<(usize, usize)>, TooM
     broad_phase::candidate_pairs_with_margin(bodies, 0.0)
 }
 
-/// Broad plus narrow phase, with the contact manifolds kept between calls.
+/// Broad plus narrow phase, with the bodies' parry shapes, the broad phase's sorted order and
+/// the contact manifolds kept between calls.
 ///
-/// The cache is indexed by body position in the slice: keep the body list in the same order
-/// from step to step, or call [`CollisionPipeline::clear`] after reordering it.
+/// The caches are indexed by body position in the slice: keep the body list in the same order
+/// from step to step, or call [`CollisionPipeline::clear`] after reordering it (a body's parry
+/// shape is checked against its shape on every call, so shapes are never stale).
 #[derive(Debug, Default)]
 pub struct CollisionPipeline {
+    broad: BroadPhase,
     narrow: NarrowPhase,
     timings: CollisionTimings,
 }
@@ -112,12 +119,15 @@ impl CollisionPipeline {
     ) -> Result<Vec<Contact>, DetectionError> {
         let prediction = prediction.max(0.0);
         let start = std::time::Instant::now();
-        let pairs = broad_phase::candidate_pairs_with_margin(bodies, prediction);
+        self.narrow.update_shapes(bodies);
+        let pairs = self
+            .broad
+            .candidate_pairs(bodies, self.narrow.shapes(), prediction);
         let broad = start.elapsed();
         let contacts = match pairs {
             Ok(pairs) => self
                 .narrow
-                .contacts(bodies, &pairs, prediction)
+                .contacts_of_shapes(bodies, &pairs, prediction)
                 .map_err(DetectionError::from),
             Err(e) => {
                 self.narrow.clear();
@@ -136,13 +146,26 @@ impl CollisionPipeline {
         self.timings
     }
 
-    /// The narrow phase, for its settings ([`NarrowPhase::merge_distance`]).
+    /// The narrow phase, for its settings ([`NarrowPhase::merge_distance`],
+    /// [`NarrowPhase::persistent_manifolds`]).
     pub fn narrow_phase_mut(&mut self) -> &mut NarrowPhase {
         &mut self.narrow
     }
 
-    /// Forgets cached manifolds.
+    /// The narrow phase, for what it keeps ([`NarrowPhase::shapes`],
+    /// [`NarrowPhase::kept_pairs`]).
+    pub fn narrow_phase(&self) -> &NarrowPhase {
+        &self.narrow
+    }
+
+    /// The broad phase, for its sweep order ([`BroadPhase::sweep_order`]).
+    pub fn broad_phase(&self) -> &BroadPhase {
+        &self.broad
+    }
+
+    /// Forgets cached manifolds and the broad phase's order.
     pub fn clear(&mut self) {
+        self.broad.clear();
         self.narrow.clear();
     }
 }

@@ -12,6 +12,14 @@
 //! Points closer than the prediction distance are reported with `dist > 0`, so resting contacts
 //! that separate slightly between steps are not lost.
 //!
+//! The bodies' parry shapes are built once and kept ([`ShapeCache`]). With
+//! [`NarrowPhase::persistent_manifolds`] (off by default), a pair whose relative pose moved less
+//! than a small threshold since its manifolds were computed keeps them: each kept point's gap
+//! is measured again at the new pose (parry's `ContactManifold::try_update_contacts_eps`, the
+//! update parry's own box and polyhedron generators try first, with thresholds of
+//! [`NarrowPhase::manifold_linear_threshold`] and [`NarrowPhase::manifold_angular_threshold`])
+//! and parry's generator is not run; otherwise the manifolds are computed as usual.
+//!
 //! A triangle mesh yields one manifold per triangle near the other shape, so a mesh vertex shared
 //! by several triangles shows up once per triangle. Contacts of the same pair at the same point
 //! (within [`NarrowPhase::merge_distance`]) with the same normal are merged into one, keeping
@@ -32,6 +40,7 @@
 //! One pass reports at most [`MAX_CONTACTS`] contacts; past that it stops with
 //! [`TooManyContacts`] rather than build a contact problem that cannot be solved in memory.
 
+use super::shapes::ShapeCache;
 use super::Contact;
 use crate::body::RigidBody;
 use crate::shape::Shape;
@@ -63,25 +72,86 @@ pub struct TooManyContacts {
 struct PairCache {
     manifolds: Vec<ContactManifold<(), ()>>,
     workspace: Option<ContactManifoldsWorkspace>,
+    /// The pose of the second body in the first's frame when the manifolds were last computed
+    /// by parry's generators (not updated by [`PairCache::try_keep`]).
+    computed_at: Option<Isometry3<f64>>,
 }
 
-/// Persistent narrow phase: one cache entry per body pair seen in the last call.
+impl PairCache {
+    /// Persistent manifolds: update the kept manifolds to the pose `pos12` instead of computing
+    /// them again, when the pose moved less than `linear` (length) and `angular` (rad) since
+    /// they were computed and every manifold is a whole-shape manifold with points. Each
+    /// point's gap is measured again along the kept normal and its point on the first shape
+    /// moved to face the point on the second (parry's `ContactManifold::try_update_contacts_eps`,
+    /// the update parry's cuboid and polyhedron generators try before a full computation, here
+    /// with the thresholds `cos(angular)` on the normal and `linear` on each point's slide).
+    /// All manifolds are updated or none (then `false`, and the caller computes them afresh).
+    fn try_keep(&mut self, pos12: &Isometry3<f64>, linear: f64, angular: f64) -> bool {
+        let Some(computed_at) = self.computed_at else {
+            return false;
+        };
+        let whole_shapes = self.manifolds.iter().all(|m| {
+            !m.points.is_empty() && m.subshape_pos1.is_none() && m.subshape_pos2.is_none()
+        });
+        if self.manifolds.is_empty() || !whole_shapes {
+            return false;
+        }
+        let moved = computed_at.inv_mul(pos12);
+        if moved.translation.vector.norm() > linear || moved.rotation.angle() > angular {
+            return false;
+        }
+        let mut updated = self.manifolds.clone();
+        let kept = updated
+            .iter_mut()
+            .all(|m| m.try_update_contacts_eps(pos12, angular.cos(), linear * linear));
+        if kept {
+            self.manifolds = updated;
+        }
+        kept
+    }
+}
+
+/// Persistent narrow phase: one cache entry per body pair seen in the last call, and the parry
+/// shape of each body ([`ShapeCache`]).
 pub struct NarrowPhase {
     pairs: HashMap<(usize, usize), PairCache>,
+    shapes: ShapeCache,
     /// Contacts of one pair closer than this (with normals within `1e-6` rad) are merged.
     /// Default `1e-7` (length units of the scene).
     pub merge_distance: f64,
     /// Mesh–mesh contacts whose penetration exceeds the true depth of their points inside the
     /// other mesh by more than this are dropped. Default `1e-3` (length units of the scene).
     pub mesh_depth_slack: f64,
+    /// Persistent manifolds: a pair whose relative pose moved less than
+    /// [`NarrowPhase::manifold_linear_threshold`] and
+    /// [`NarrowPhase::manifold_angular_threshold`] since its manifolds were computed keeps them,
+    /// its points' gaps measured again at the new pose, instead of running parry's generator
+    /// (pairs of whole shapes, not meshes). The points differ slightly from a fresh computation
+    /// (the kept points slide with the bodies; a new point that would appear within the
+    /// thresholds does not), so this is off by default \[`false`\].
+    pub persistent_manifolds: bool,
+    /// Persistent manifolds: largest translation of one body relative to the other (length
+    /// units of the scene), and largest slide of a kept point on the first body, for which a
+    /// pair's manifolds are kept \[`1e-4`\].
+    pub manifold_linear_threshold: f64,
+    /// Persistent manifolds: largest rotation of one body relative to the other, rad, for which
+    /// a pair's manifolds are kept \[`1e-3`\].
+    pub manifold_angular_threshold: f64,
+    /// Pairs whose manifolds the last call kept (persistent manifolds).
+    kept_pairs: usize,
 }
 
 impl Default for NarrowPhase {
     fn default() -> Self {
         Self {
             pairs: HashMap::new(),
+            shapes: ShapeCache::new(),
             merge_distance: 1e-7,
             mesh_depth_slack: 1e-3,
+            persistent_manifolds: false,
+            manifold_linear_threshold: 1e-4,
+            manifold_angular_threshold: 1e-3,
+            kept_pairs: 0,
         }
     }
 }
@@ -90,6 +160,8 @@ impl std::fmt::Debug for NarrowPhase {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("NarrowPhase")
             .field("cached_pairs", &self.pairs.len())
+            .field("shapes", &self.shapes)
+            .field("persistent_manifolds", &self.persistent_manifolds)
             .finish()
     }
 }
@@ -105,7 +177,24 @@ impl NarrowPhase {
         self.pairs.len()
     }
 
-    /// Forgets every cached manifold (call when the body list is rebuilt or reordered).
+    /// Pairs whose manifolds the last call kept instead of computing them (always 0 without
+    /// [`NarrowPhase::persistent_manifolds`]).
+    pub fn kept_pairs(&self) -> usize {
+        self.kept_pairs
+    }
+
+    /// The parry shapes of the bodies of the last call.
+    pub fn shapes(&self) -> &ShapeCache {
+        &self.shapes
+    }
+
+    /// Bring the parry shapes in line with `bodies` ([`ShapeCache::update`]).
+    pub fn update_shapes(&mut self, bodies: &[RigidBody]) {
+        self.shapes.update(bodies);
+    }
+
+    /// Forgets every cached manifold (call when the body list is rebuilt or reordered). The
+    /// parry shapes are kept: each is checked against its body's shape on the next call.
     pub fn clear(&mut self) {
         self.pairs.clear();
     }
@@ -119,15 +208,18 @@ impl NarrowPhase {
         pairs: &[(usize, usize)],
         prediction: f64,
     ) -> Result<Vec<Contact>, TooManyContacts> {
-        let mut used = vec![false; bodies.len()];
-        for &(a, b) in pairs {
-            (used[a], used[b]) = (true, true);
-        }
-        let shapes: Vec<Option<SharedShape>> = bodies
-            .iter()
-            .zip(&used)
-            .map(|(body, &u)| u.then(|| body.shape.to_parry()))
-            .collect();
+        self.shapes.update(bodies);
+        self.contacts_of_shapes(bodies, pairs, prediction)
+    }
+
+    /// [`NarrowPhase::contacts`] with the parry shapes already updated to `bodies`.
+    pub(super) fn contacts_of_shapes(
+        &mut self,
+        bodies: &[RigidBody],
+        pairs: &[(usize, usize)],
+        prediction: f64,
+    ) -> Result<Vec<Contact>, TooManyContacts> {
+        let shapes = &self.shapes;
         let mut caches: Vec<PairCache> = pairs
             .iter()
             .map(|pair| self.pairs.remove(pair).unwrap_or_default())
@@ -135,17 +227,24 @@ impl NarrowPhase {
         // Pairs are independent: chunks of them run on rayon's threads, each chunk's contacts
         // in pair order, and the chunks are joined in order, so the contacts are those of a
         // serial pass in the same order.
-        let pair_contacts = |chunk: (&[(usize, usize)], &mut [PairCache])| -> Vec<Contact> {
-            let mut out = Vec::new();
-            for (&(a, b), cache) in chunk.0.iter().zip(chunk.1.iter_mut()) {
-                let shapes = (shapes[a].as_ref(), shapes[b].as_ref());
-                if let (Some(sa), Some(sb)) = shapes {
-                    self.pair_contacts(bodies, (a, b), (sa, sb), cache, prediction, &mut out);
+        let pair_contacts =
+            |chunk: (&[(usize, usize)], &mut [PairCache])| -> (Vec<Contact>, usize) {
+                let mut out = Vec::new();
+                let mut kept = 0;
+                for (&(a, b), cache) in chunk.0.iter().zip(chunk.1.iter_mut()) {
+                    let (sa, sb) = (shapes.get(a), shapes.get(b));
+                    kept += usize::from(self.pair_contacts(
+                        bodies,
+                        (a, b),
+                        (sa, sb),
+                        cache,
+                        prediction,
+                        &mut out,
+                    ));
                 }
-            }
-            out
-        };
-        let chunks: Vec<Vec<Contact>> = if pairs.len() >= PARALLEL_PAIRS {
+                (out, kept)
+            };
+        let chunks: Vec<(Vec<Contact>, usize)> = if pairs.len() >= PARALLEL_PAIRS {
             use rayon::prelude::*;
             pairs
                 .par_chunks(PAIR_CHUNK)
@@ -155,7 +254,8 @@ impl NarrowPhase {
         } else {
             vec![pair_contacts((pairs, &mut caches))]
         };
-        let total: usize = chunks.iter().map(Vec::len).sum();
+        let total: usize = chunks.iter().map(|c| c.0.len()).sum();
+        self.kept_pairs = chunks.iter().map(|c| c.1).sum();
         if total > MAX_CONTACTS {
             self.pairs.clear();
             return Err(TooManyContacts {
@@ -163,14 +263,15 @@ impl NarrowPhase {
             });
         }
         let mut out = Vec::with_capacity(total);
-        for chunk in chunks {
+        for (chunk, _) in chunks {
             out.extend(chunk);
         }
         self.pairs = pairs.iter().copied().zip(caches).collect();
         Ok(out)
     }
 
-    /// The contacts of one pair, appended to `out`, its cached manifolds updated.
+    /// The contacts of one pair, appended to `out`, its cached manifolds updated (or, with
+    /// persistent manifolds, kept: then `true`).
     fn pair_contacts(
         &self,
         bodies: &[RigidBody],
@@ -179,26 +280,34 @@ impl NarrowPhase {
         cache: &mut PairCache,
         prediction: f64,
         out: &mut Vec<Contact>,
-    ) {
-        let dispatcher = DefaultQueryDispatcher;
+    ) -> bool {
         let (iso_a, iso_b) = (bodies[a].iso(), bodies[b].iso());
         let pos12 = iso_a.inv_mul(&iso_b);
-        // Every pair of `Shape` kinds is supported except plane–plane, which the broad phase
-        // never emits (planes are static).
-        let supported = dispatcher.contact_manifolds(
-            &pos12,
-            &**sa,
-            &**sb,
-            prediction,
-            &mut cache.manifolds,
-            &mut cache.workspace,
-        );
-        debug_assert!(
-            supported.is_ok(),
-            "parry has no manifold generator for {} vs {}",
-            bodies[a].shape.kind(),
-            bodies[b].shape.kind()
-        );
+        let kept = self.persistent_manifolds
+            && cache.try_keep(
+                &pos12,
+                self.manifold_linear_threshold,
+                self.manifold_angular_threshold,
+            );
+        if !kept {
+            // Every pair of `Shape` kinds is supported except plane–plane, which the broad
+            // phase never emits (planes are static).
+            let supported = DefaultQueryDispatcher.contact_manifolds(
+                &pos12,
+                &**sa,
+                &**sb,
+                prediction,
+                &mut cache.manifolds,
+                &mut cache.workspace,
+            );
+            debug_assert!(
+                supported.is_ok(),
+                "parry has no manifold generator for {} vs {}",
+                bodies[a].shape.kind(),
+                bodies[b].shape.kind()
+            );
+            cache.computed_at = Some(pos12);
+        }
         let first = out.len();
         let meshes = match (&bodies[a].shape, &bodies[b].shape) {
             (Shape::TriMesh { mesh: ma, .. }, Shape::TriMesh { mesh: mb, .. }) => Some(MeshPair {
@@ -212,6 +321,7 @@ impl NarrowPhase {
             push_manifold(out, a, b, &iso_a, &iso_b, m, prediction, meshes.as_ref());
         }
         merge_duplicates(out, first, self.merge_distance);
+        kept
     }
 }
 

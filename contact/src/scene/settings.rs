@@ -166,6 +166,7 @@ pub(super) fn convert_settings(s: &SettingsFile) -> Result<(SimSettings, Penalty
         warm_start: s.warm_start,
         islands: s.islands,
         prediction_distance: contact_distance("prediction_distance", s.prediction_distance)?,
+        persistent_manifolds: s.persistent_manifolds,
         builder: BuilderParams {
             friction_model,
             restitution_threshold: at_most(

@@ -12,7 +12,8 @@ use std::time::Instant;
 /// `lcpbench-solvers`, a body-level one, or a solver of the exact Coulomb cone. Every parameter
 /// of the instance (SOR's `omega`, Newton's settings, the penalty spring) reaches the steps.
 /// Cloning clones the instance (`dyn_clone::DynClone`, which every solver trait requires);
-/// islands solved in parallel each get a clone of the instance the world was given.
+/// islands solved in parallel each get a clone of the instance the world was given, kept for
+/// the same island in the next step (a kept instance answers as a fresh clone).
 #[derive(Clone)]
 pub enum ContactSolver {
     /// A solver on the assembled LCP (friction models `none`, `box`, `pyramid`).

@@ -52,6 +52,7 @@
 //! ```
 
 mod contact_solver;
+mod island_solvers;
 mod report;
 mod settings;
 mod solve;
@@ -68,6 +69,7 @@ use crate::collision::toi::{first_impact, ToiSettings};
 use crate::collision::{CollisionPipeline, Contact};
 use crate::integrate;
 use crate::joint::Joint;
+use island_solvers::IslandSolvers;
 use lcpbench_solvers::{ProjectedSor, Solver, Status};
 use report::PhaseClock;
 use serde::Serialize;
@@ -105,8 +107,12 @@ pub struct World {
     /// Simulated time, s.
     pub time: f64,
     /// The working copy of `settings.solver` for whole-step solves (it keeps its workspace
-    /// from step to step); islands get fresh clones of `settings.solver` itself.
+    /// from step to step).
     whole: ContactSolver,
+    /// The instances of `settings.solver` that solved the last step's islands, kept for the
+    /// islands of the next step with the same bodies and rows (each keeps its workspace); a
+    /// new island gets a fresh clone of `settings.solver`.
+    island_solvers: IslandSolvers,
 }
 
 impl World {
@@ -126,13 +132,34 @@ impl World {
             step_index: 0,
             time: 0.0,
             whole,
+            island_solvers: IslandSolvers::default(),
         }
     }
 
-    /// Switch the contact solver (keeps the warm-start cache).
+    /// Switch the contact solver (keeps the warm-start cache, drops the solver instances kept
+    /// between steps).
     pub fn set_solver(&mut self, solver: impl Into<ContactSolver>) {
         self.settings.solver = solver.into();
         self.whole = self.settings.solver.clone();
+        self.island_solvers.clear();
+    }
+
+    /// Islands of the last step solved by a solver instance kept from the step before (with
+    /// its workspace), rather than by a fresh clone of `settings.solver`.
+    pub fn reused_island_solvers(&self) -> usize {
+        self.island_solvers.reused()
+    }
+
+    /// Solver instances kept for the next step's islands.
+    pub fn kept_island_solvers(&self) -> usize {
+        self.island_solvers.len()
+    }
+
+    /// Drop the solver instances kept between steps, so that the next step solves every
+    /// island with a fresh clone of `settings.solver` (a kept instance answers as a fresh one:
+    /// this changes the work, not the results).
+    pub fn forget_island_solvers(&mut self) {
+        self.island_solvers.clear();
     }
 
     /// Index of the body named `name`.
@@ -204,9 +231,11 @@ impl World {
                 .filter_map(|j| j.renumbered(&keep))
                 .collect();
         }
-        // Body indices changed: cached manifolds and contact keys no longer match.
+        // Body indices changed: cached manifolds, contact keys and island patterns no longer
+        // match.
         self.pipeline.clear();
         self.warm.clear();
+        self.island_solvers.clear();
     }
 
     /// Why the step's contact problem is too large, when it is: the matrix and cone solvers, a
@@ -226,6 +255,7 @@ impl World {
     /// Contacts at the current positions, or none and the reason when detection is past one of
     /// its limits.
     fn detect(&mut self) -> (Vec<Contact>, Option<String>) {
+        self.pipeline.narrow_phase_mut().persistent_manifolds = self.settings.persistent_manifolds;
         match self
             .pipeline
             .detect(&self.bodies, self.settings.prediction_distance)

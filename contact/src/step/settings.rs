@@ -32,6 +32,12 @@ pub struct SimSettings {
     pub warm_start: bool,
     /// Contacts closer than this are in the problem, m \[`0.01`\].
     pub prediction_distance: f64,
+    /// Keep a body pair's contact manifolds from step to step while the pair's relative pose
+    /// moves less than a small threshold, updating the kept points' gaps instead of running
+    /// the narrow phase on it again
+    /// ([`NarrowPhase::persistent_manifolds`](crate::collision::narrow_phase::NarrowPhase::persistent_manifolds)).
+    /// The contact points then differ slightly from those of a fresh detection \[`false`\].
+    pub persistent_manifolds: bool,
     /// Friction model, restitution threshold and position correction.
     pub builder: BuilderParams,
     /// Continuous collision detection: `None` \[default\], or a time-of-impact method. With
@@ -165,6 +171,7 @@ impl Default for SimSettings {
             max_iterations: 1000,
             warm_start: true,
             prediction_distance: 0.01,
+            persistent_manifolds: false,
             builder: BuilderParams::default(),
             ccd: None,
             keep_problem: false,

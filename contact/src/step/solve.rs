@@ -73,8 +73,12 @@ pub(super) struct Substepped {
     pub(super) substeps: usize,
 }
 
-/// Solve each island of `partition` on its own (one clone of `solver` per island, in parallel
-/// with rayon) and scatter the impulses back. The islands' problems are assembled first, then
+/// One island's solve with the wall time of its call, or why it could not be solved.
+type IslandOutcome = Result<(SolveResult, f64), String>;
+
+/// Solve each island of `partition` on its own (island `k` with `solvers[k]`, in parallel with
+/// rayon) and scatter the impulses back; the instances are handed back after their solves, in
+/// island order, to be kept for the next step. The islands' problems are assembled first, then
 /// solved; each solve's settings carry its part of the warm start and the time left before
 /// `deadline`. The step's residuals are those of the whole: every measure is a maximum over rows
 /// (or contacts, for the cone residual) except the complementarity gap, a sum, and `A` has no
@@ -83,23 +87,24 @@ fn solve_islands(
     system: &ContactSystem,
     partition: &Partition,
     settings: &Settings,
-    solver: &ContactSolver,
+    solvers: Vec<ContactSolver>,
     deadline: Option<Instant>,
-) -> Solved {
+) -> (Solved, Vec<ContactSolver>) {
     use rayon::prelude::*;
     let n = system.n();
     let t0 = Instant::now();
-    let cone = solver.is_cone();
-    let form = solver.delassus_form();
+    let (cone, form) = match solvers.first() {
+        Some(s) => (s.is_cone(), s.delassus_form()),
+        None => return (Solved::invalid(n, &"no island to solve"), solvers),
+    };
     let problems: Vec<Result<IslandProblem, String>> = (0..partition.len())
         .into_par_iter()
         .map(|k| IslandProblem::of(system, partition, k, cone, form))
         .collect();
     let assembly_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let solvers: Vec<ContactSolver> = (0..partition.len()).map(|_| solver.clone()).collect();
-    // Each result with the wall time of its call.
-    let results: Vec<Result<(SolveResult, f64), String>> = solvers
+    // Each result with the wall time of its call, and the instance that solved it.
+    let (results, solvers): (Vec<IslandOutcome>, Vec<ContactSolver>) = solvers
         .into_par_iter()
         .zip(problems)
         .enumerate()
@@ -114,10 +119,12 @@ fn solve_islands(
                 ..settings.clone()
             };
             let call = Instant::now();
-            let result = solver.solve_island(&problem?, &island_settings)?;
-            Ok((result, call.elapsed().as_secs_f64()))
+            let result = problem
+                .and_then(|p| solver.solve_island(&p, &island_settings))
+                .map(|r| (r, call.elapsed().as_secs_f64()));
+            (result, solver)
         })
-        .collect();
+        .unzip();
     let solve_wall_s = t1.elapsed().as_secs_f64();
     let mut f = vec![0.0; n];
     let mut status = Status::Converged;
@@ -134,7 +141,7 @@ fn solve_islands(
     for (island, result) in partition.islands.iter().zip(results) {
         let (result, call_s) = match result {
             Ok(r) => r,
-            Err(e) => return Solved::invalid(n, &e),
+            Err(e) => return (Solved::invalid(n, &e), solvers),
         };
         for (&i, v) in island
             .rows
@@ -168,7 +175,7 @@ fn solve_islands(
     } else {
         0.0
     };
-    Solved {
+    let solved = Solved {
         f,
         status,
         iterations,
@@ -182,7 +189,8 @@ fn solve_islands(
         history,
         warm_start: None,
         substepped: None,
-    }
+    };
+    (solved, solvers)
 }
 
 /// How bad a status is, for reporting the worst island: converged < stalled < limits <
@@ -359,13 +367,10 @@ impl World {
             self.whole = self.settings.solver.clone();
         }
         let mut solved = if self.settings.islands && partition.len() > 1 {
-            solve_islands(
-                system,
-                partition,
-                &settings,
-                &self.settings.solver,
-                deadline,
-            )
+            let solvers = self.island_solvers.take(partition, &self.settings.solver);
+            let (solved, solvers) = solve_islands(system, partition, &settings, solvers, deadline);
+            self.island_solvers.keep(partition, solvers);
+            solved
         } else {
             self.whole.solve_whole(system, &settings)
         };
