@@ -445,7 +445,8 @@ fn solver_parameters_are_key_value_and_checked() {
         v["iterations"].as_u64().unwrap()
     };
     assert_eq!(iterations("sor@omega=1.5"), iterations("sor@1.5"));
-    assert_ne!(iterations("sor@omega=1.5"), iterations("sor@omega=0.5"));
+    // On this problem the second row stays at 0: the first converges as |1 - omega|^k.
+    assert!(iterations("sor@omega=1.5") < iterations("sor@omega=0.2"));
     for (solver, says) in [
         ("sor@omega=2.5", "omega must be in (0, 2), got 2.5"),
         ("sor@alpha=1", "unknown parameter `alpha` (keys: omega)"),
