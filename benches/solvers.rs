@@ -29,7 +29,7 @@ fn bench_problems(c: &mut Criterion, group_name: &str, problems: &[(usize, Probl
         .measurement_time(Duration::from_secs(1));
     let settings = settings();
     for (n, problem) in problems {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let mut solver = kind.create();
             if !solver.solve(problem, &settings).status.is_converged() {
                 continue;

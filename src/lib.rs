@@ -19,6 +19,8 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod cli;
 pub mod harness;
+pub mod registry;
 pub mod report;
 pub mod view;

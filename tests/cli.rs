@@ -26,29 +26,7 @@ fn solvers_lists_every_solver() {
     let o = lcpbench(&["solvers"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();
-    for name in [
-        "pgs",
-        "sor",
-        "lemke",
-        "dantzig",
-        "clarabel",
-        "micro",
-        "newton-fb",
-        "newton-min",
-        "apgd",
-        "nncg",
-        "nsgs",
-        "enum",
-        "nsgs-cone",
-        "newton-ac",
-        "newton-fb-cone",
-        "newton-nm-cone",
-        "eg-cone",
-        "fpp-cone",
-        "admm-cone",
-        "prox-cone",
-        "clarabel-socp",
-    ] {
+    for name in lcpbench::registry::entries().iter().map(|e| e.name) {
         assert!(
             text.lines().any(|l| l.starts_with(name)),
             "{name} missing from:\n{text}"
@@ -447,6 +425,39 @@ fn an_invalid_omega_is_an_input_error_not_unsupported() {
     }
 }
 
+/// Parameters are `NAME@key=value` on `--solver` as everywhere: SOR's relaxation reaches the
+/// solve (another omega, another iteration count), and a value out of range or an unknown key is
+/// refused naming the key and its range, or the solver's keys.
+#[test]
+fn solver_parameters_are_key_value_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(
+        dir.path(),
+        "p.json",
+        r#"{"A": [[2, 1], [1, 2]], "b": [-1, 1]}"#,
+    );
+    let iterations = |solver: &str| {
+        let o = lcpbench(&["solve", &file, "--solver", solver, "--json"]);
+        assert!(o.status.success(), "{solver}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["status"], "converged", "{solver}");
+        assert_eq!(v["solver"], "sor", "{solver}");
+        v["iterations"].as_u64().unwrap()
+    };
+    assert_eq!(iterations("sor@omega=1.5"), iterations("sor@1.5"));
+    // On this problem the second row stays at 0: the first converges as |1 - omega|^k.
+    assert!(iterations("sor@omega=1.5") < iterations("sor@omega=0.2"));
+    for (solver, says) in [
+        ("sor@omega=2.5", "omega must be in (0, 2), got 2.5"),
+        ("sor@alpha=1", "unknown parameter `alpha` (keys: omega)"),
+        ("pgs@omega=1.2", "takes no parameters"),
+    ] {
+        let o = lcpbench(&["solve", &file, "--solver", solver]);
+        assert!(!o.status.success(), "{solver}");
+        assert!(stderr(&o).contains(says), "{solver}: {}", stderr(&o));
+    }
+}
+
 #[test]
 fn io_and_invalid_data_errors_are_printed_once() {
     let dir = tempfile::tempdir().unwrap();
@@ -643,7 +654,11 @@ fn help_texts_list_every_solver_of_the_table() {
             (w.next().unwrap().to_owned(), w.next().unwrap().to_owned())
         })
         .collect();
-    assert_eq!(rows.iter().filter(|(_, level)| level == "cone").count(), 9);
+    assert_eq!(
+        rows.iter().filter(|(_, level)| level == "cone").count(),
+        lcpbench_solvers::ConeSolverKind::all().len()
+    );
+    assert_eq!(rows.len(), lcpbench::registry::entries().len());
     for (command, levels) in [
         ("solve", &["matrix", "cone"][..]),
         ("simulate", &["matrix", "body", "cone"][..]),

@@ -57,7 +57,7 @@ fn condition_number_1e10() {
 fn magnitudes_1e_minus9_and_1e9_change_nothing() {
     let g = generate(Family::Spd { cond: 1e3 }, 30, 5);
     let s = settings(1e-8, 10_000);
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let base = solve(kind, &g.problem, &s);
         for factor in [1e-9, 1e9] {
             let r = solve(kind, &scaled(&g.problem, factor), &s);
@@ -107,7 +107,7 @@ fn tiny_b_scales_the_solution() {
 fn zero_b_gives_zero_impulse() {
     let g = generate(Family::PsdRankDeficient { rank: 4 }, 10, 2);
     let p = Problem::lcp(g.problem.to_dense(), vec![0.0; 10]).unwrap();
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let r = solve(kind, &p, &settings(1e-8, 1_000));
         if matches!(r.status, Status::Unsupported { .. }) {
             continue;
@@ -129,7 +129,7 @@ fn duplicated_rows_do_not_break_the_solvers() {
     let n = 4;
     let a = Mat::from_fn(n, n, |_, _| 1.0);
     let p = Problem::lcp(a, vec![-1.0; n]).unwrap();
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let r = solve(kind, &p, &settings(1e-8, 10_000));
         if kind == SolverKind::MicroImpulse || matches!(r.status, Status::Unsupported { .. }) {
             continue;
@@ -188,7 +188,7 @@ fn murty_example_is_exponential_for_lemke() {
 #[test]
 fn infeasible_psd_problem_is_never_converged() {
     let g = generate(Family::Infeasible, 12, 9);
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let r = solve(kind, &g.problem, &settings(1e-8, 2_000));
         assert!(
             !r.status.is_converged(),

@@ -155,7 +155,7 @@ proptest! {
         let p = with_extra_row(&planted.problem, 10f64.powf(log_a), 1.0, 0.0, f64::INFINITY);
         let data = Data::of(&p);
         let rows: Vec<usize> = (0..planted.problem.n()).collect();
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             check(kind, &r, true, |f| data.error_on(&rows, f) <= 1e-4 && f[rows.len()] == 0.0)?;
         }
@@ -169,7 +169,7 @@ proptest! {
         let data = Data::of(&p);
         let n = planted.problem.n();
         let rows: Vec<usize> = (0..n).collect();
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             check(kind, &r, true, |f| {
                 data.error_on(&rows, f) <= 1e-4 && (f[n] + b_n).abs() <= 1e-6 * b_n.abs().max(1e-300)
@@ -192,14 +192,14 @@ proptest! {
         .unwrap();
         let data0 = Data::of(p0);
         let rows: Vec<usize> = (0..n).collect();
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             // Map back to the unscaled problem and check there.
             check(kind, &r, true, |f| {
                 let g: Vec<f64> = f.iter().zip(&s).map(|(v, si)| v * si).collect();
                 data0.error_on(&rows, &g) <= 1e-4
             })?;
-            if matches!(kind, SolverKind::Lemke | SolverKind::Dantzig) {
+            if [SolverKind::Lemke, SolverKind::Dantzig].contains(&kind) {
                 prop_assert_eq!(&r.status, &Status::Converged, "{} on a scaled SPD problem", kind.name());
             }
         }
@@ -211,7 +211,7 @@ proptest! {
     fn mass_ratios_with_friction_rows(seed in any::<u64>(), contacts in 1usize..6, mu in 0.1..1.0f64) {
         let p = mass_ratio_contacts(contacts, mu, seed);
         let data = Data::of(&p);
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             check(kind, &r, false, |f| data.rowwise_ok(f, 10.0))?;
         }
@@ -311,7 +311,7 @@ fn the_reported_examples_are_no_longer_converged_at_wrong_answers() {
     )
     .unwrap();
     for (p, third) in [(&weak, 0.0), (&bounded, -1.0)] {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, p);
             if r.status == Status::Converged {
                 let want = [1.0 / 3.0, 1.0 / 3.0, third];

@@ -58,7 +58,7 @@ fn no_cone_solver_converges_with_a_penetrating_normal_velocity() {
                 max_iterations: 2000,
                 ..Settings::default()
             };
-            for kind in ConeSolverKind::ALL {
+            for kind in ConeSolverKind::all() {
                 let r = kind.create().solve_cone(&p, &settings);
                 if !r.status.is_converged() {
                     continue;
@@ -190,7 +190,7 @@ fn an_overflowing_warm_start_is_refused_and_never_panics() {
         warm_start: Some(vec![1e308; 3]),
         ..Settings::default()
     };
-    for kind in lcpbench_solvers::SolverKind::ALL {
+    for kind in lcpbench_solvers::SolverKind::all() {
         let r = kind.create().solve(&p, &settings);
         assert_eq!(r.f.len(), 3, "{}", kind.name());
         if r.status.is_converged() {

@@ -138,7 +138,7 @@ proptest! {
 
     #[test]
     fn every_solver_is_honest_on_spd(planted in planted_spd(12)) {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &planted.problem);
             check_honest(kind, &planted.problem, &r)?;
         }
@@ -146,7 +146,7 @@ proptest! {
 
     #[test]
     fn every_solver_is_honest_on_rank_deficient_psd(planted in planted_psd(12)) {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &planted.problem);
             check_honest(kind, &planted.problem, &r)?;
         }
@@ -154,7 +154,7 @@ proptest! {
 
     #[test]
     fn every_solver_is_honest_on_p_matrices(planted in planted_p_matrix(12)) {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &planted.problem);
             check_honest(kind, &planted.problem, &r)?;
         }
@@ -217,7 +217,7 @@ proptest! {
 
     #[test]
     fn boxed_results_respect_their_bounds(problem in boxed_spd(12)) {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &problem);
             check_honest(kind, &problem, &r)?;
             if r.status.is_converged() {
@@ -235,7 +235,7 @@ proptest! {
 
     #[test]
     fn friction_results_lie_in_the_cone(problem in friction_contacts(4)) {
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &problem);
             check_honest(kind, &problem, &r)?;
             if r.status.is_converged() {

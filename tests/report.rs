@@ -148,7 +148,7 @@ fn fixture_rows(suite: &Suite) -> (Vec<RunRecord>, Vec<HistoryRow>) {
         lcp_run(spd, &pgs(), &tight, 3e-4),
         lcp_run(spd, &lemke, &tight, 1e-4),
         lcp_run(spd, &pgs().with_warm(), &default, 1e-4),
-        lcp_run(spd, &SolverSpec::sor(1.3), &default, 1e-4),
+        lcp_run(spd, &SolverSpec::sor(1.3).unwrap(), &default, 1e-4),
         lcp_run(&suite.exported_cases[0], &pgs(), &tight, 5e-4),
         lcp_run(
             &suite.exported_cases[0],

@@ -157,7 +157,7 @@ fn problem_page_holds_every_solver_and_case_keys_work() {
     assert_eq!(d["kind"], "problem");
     assert_eq!(d["n"], 12);
     let solvers = d["solvers"].as_array().unwrap();
-    assert_eq!(solvers.len(), lcpbench_solvers::SolverKind::ALL.len());
+    assert_eq!(solvers.len(), lcpbench_solvers::SolverKind::all().len());
     // An SPD LCP: every solver that converges agrees on f.
     let converged: Vec<&serde_json::Value> = solvers
         .iter()

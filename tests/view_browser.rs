@@ -400,7 +400,7 @@ fn problem_page_shows_every_solver() {
     assert_no_errors(&state);
     assert_eq!(
         state.get("solvers"),
-        lcpbench_solvers::SolverKind::ALL.len().to_string()
+        lcpbench_solvers::SolverKind::all().len().to_string()
     );
     assert_eq!(state.get("rows"), "30");
     let plotted: usize = state.get("plotted").parse().unwrap();
@@ -562,14 +562,17 @@ fn problem_page_of_contact_triples_runs_the_cone_solvers_too() {
     assert_no_errors(&state);
     assert_eq!(
         state.get("solvers"),
-        (lcpbench_solvers::SolverKind::ALL.len() + lcpbench_solvers::ConeSolverKind::ALL.len())
+        (lcpbench_solvers::SolverKind::all().len() + lcpbench_solvers::ConeSolverKind::all().len())
             .to_string()
     );
     assert_eq!(state.get("clipped-labels"), "0");
     assert_eq!(state.get("repeated-ticks"), "0");
     assert_eq!(state.get("tolerance-lines"), "1");
     let dom = run_chromium(&browser, &["--dump-dom".into()], &url(&page, ""));
-    for name in lcpbench_solvers::ConeSolverKind::ALL.map(|k| k.name()) {
+    for name in lcpbench_solvers::ConeSolverKind::all()
+        .iter()
+        .map(|k| k.name())
+    {
         assert!(
             dom.contains(&format!(">{name}<")),
             "{name} is not on the page"

@@ -20,6 +20,7 @@ pub mod builder;
 pub mod discontinuity;
 pub mod integrate;
 pub mod joint;
+pub mod registry;
 pub mod scene;
 pub mod step;
 pub mod substep;

@@ -179,7 +179,7 @@ def write(problem, path, overwrite=False):
 
 def solvers():
     """The solver catalogue of ``lcpbench solvers``: a list of dicts with ``name``, ``level``
-    (matrix, body, cone), ``warm``, ``iterations_count``, ``problem_classes``,
+    (matrix, body, cone), ``summary``, ``warm``, ``iterations_count``, ``problem_classes``,
     ``parameters``."""
     return _lcpbench.solvers()
 

@@ -154,7 +154,7 @@ fn settings(
 }
 
 /// Solve `problem` with the solver named `solver` (a name of `lcpbench.solvers()` at level
-/// matrix or cone, `sor@OMEGA` for SOR's relaxation). A cone solver given an LCP solves the
+/// matrix or cone, `NAME@key=value,…` for its parameters, `sor@omega=1.5`). A cone solver given an LCP solves the
 /// cone problem its (normal, tangent, tangent) rows make, as `lcpbench solve` does; a matrix
 /// solver given a cone problem ends `unsupported`.
 #[pyfunction]
@@ -183,10 +183,7 @@ pub fn solve(
     let settings = settings(n, tol, max_iter, time_budget, warm, history)?;
     if let Some(lcp_solver) = spec.create() {
         let name = lcp_solver.name().to_owned();
-        let relaxation = spec
-            .plain_kind()
-            .and_then(|k| k.relaxation())
-            .map(str::to_owned);
+        let relaxation = spec.relaxation().map(str::to_owned);
         return match &problem.inner {
             Inner::Lcp(p) => {
                 let mut s = lcp_solver;
@@ -197,7 +194,7 @@ pub fn solve(
                 let reason = format!(
                     "{name} solves LCPs; this is a Coulomb cone (FC3D) problem: use a cone \
                      solver ({})",
-                    ConeSolverKind::ALL.map(|k| k.name()).join(", ")
+                    ConeSolverKind::names()
                 );
                 let f = vec![0.0; c.n()];
                 let r = SolveResult {
@@ -221,8 +218,7 @@ pub fn solve(
              scenes: use lcpbench.simulate)"
         )));
     };
-    let kind = ConeSolverKind::from_name(cone_solver.name());
-    let relaxation = kind.and_then(|k| k.relaxation()).map(str::to_owned);
+    let relaxation = spec.relaxation().map(str::to_owned);
     let name = cone_solver.name().to_owned();
     let converted;
     let cone: &ConeProblem = match &problem.inner {

@@ -62,7 +62,7 @@ fn main() {
             {
                 continue;
             }
-            for kind in SolverKind::ALL {
+            for kind in SolverKind::all() {
                 if only.as_deref().is_some_and(|o| o != kind.name()) {
                     continue;
                 }

@@ -12,9 +12,9 @@
 //! where a friction row `i` takes the bounds `±mu f_k` of its normal row `k`. The standard LCP
 //! `0 <= f ⟂ A f + b >= 0` is the case `lo = 0`, `hi = ∞`; a *free* row (`lo = −∞`, `hi = ∞`,
 //! so `w_i = 0` with `f_i` of either sign) is a joint's equality constraint, and a problem with
-//! free rows is a mixed LCP. Every solver implements [`Solver`] (each one's treatment of free
-//! rows is in [`SolverKind::problem_classes`]), and every result's [`Status`] is decided by the
-//! one shared residual in [`metrics`].
+//! free rows is a mixed LCP. Every solver implements [`Solver`] and is described once in the
+//! [`registry`] (each one's treatment of free rows is in its entry's `problem_classes`), and
+//! every result's [`Status`] is decided by the one shared residual in [`metrics`].
 //!
 //! The exact Coulomb cone (FC3D, De Saxcé's form) is a separate class, [`ConeProblem`], with its
 //! own solvers ([`ConeSolver`], [`ConeSolverKind`]) whose statuses are decided by the cone
@@ -27,7 +27,7 @@
 //!
 //! let a = Mat::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 2.0]][i][j]);
 //! let problem = Problem::lcp(a, vec![-1.0, 1.0]).unwrap();
-//! for kind in SolverKind::ALL {
+//! for kind in SolverKind::all() {
 //!     let result = kind.create().solve(&problem, &Settings::default());
 //!     assert_eq!(result.status, Status::Converged, "{}", kind.name());
 //!     assert!((result.f[0] - 0.5).abs() < 1e-6);
@@ -41,6 +41,7 @@ pub mod io;
 mod lcp;
 mod linalg;
 mod problem;
+pub mod registry;
 mod solver;
 #[cfg(test)]
 mod test_util;
@@ -80,6 +81,7 @@ pub use lcp::pgs::{ProjectedSor, SweepForm};
 pub use metrics::{residuals, residuals_and_velocity, Residuals};
 pub use problem::certificate::Certificate;
 pub use problem::{sparse_from_triplets, DelassusFactors, FrictionRow, Problem, ProblemError, Row};
+pub use registry::{Level, Make, ParamSpec, Params, SolverEntry};
 pub use solver::line_search::{Backtracking, LineSearchError};
 pub use solver::{
     decide, judge, non_finite_reason, HistoryPoint, Outcome, Settings, SettingsError, SolveResult,
@@ -87,259 +89,105 @@ pub use solver::{
     STAGNATION_MEASURE_EVERY,
 };
 
-/// The solvers lcpbench ships, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum SolverKind {
-    /// Projected Gauss–Seidel.
-    Pgs,
-    /// Projected SOR (`omega = 1.3` unless set).
-    Sor,
-    /// Lemke's complementary pivoting.
-    Lemke,
-    /// Dantzig principal pivoting (ODE's `dSolveLCP` style).
-    Dantzig,
-    /// Convex QP through Clarabel's interior-point method.
-    Clarabel,
-    /// Sequential micro-impulses.
-    MicroImpulse,
-    /// Semismooth Newton on the Fischer–Burmeister reformulation.
-    NewtonFb,
-    /// Semismooth Newton on the min-map reformulation.
-    NewtonMin,
-    /// Accelerated projected gradient descent (Nesterov with adaptive restart).
-    Apgd,
-    /// Nonsmooth nonlinear conjugate gradient (PGS with Fletcher–Reeves directions).
-    Nncg,
-    /// Block Gauss–Seidel over contacts, each block solved exactly.
-    Nsgs,
-    /// Enumeration of complementary bases (complete, small problems).
-    Enumeration,
-}
+/// A matrix solver of the [`registry`]: a `Copy` handle to its [`SolverEntry`]. The built-in
+/// ones have associated constants (`SolverKind::Pgs`, …); [`SolverKind::all`] lists them and
+/// the ones registered at run time.
+#[derive(Clone, Copy)]
+pub struct SolverKind(&'static SolverEntry);
 
+crate::kind_handle!(SolverKind, Level::Matrix, || registry::entries_at(
+    Level::Matrix
+));
+
+#[allow(non_upper_case_globals)]
 impl SolverKind {
-    /// Every solver, in report order.
-    pub const ALL: [SolverKind; 12] = [
-        SolverKind::Pgs,
-        SolverKind::Sor,
-        SolverKind::Lemke,
-        SolverKind::Dantzig,
-        SolverKind::Clarabel,
-        SolverKind::MicroImpulse,
-        SolverKind::NewtonFb,
-        SolverKind::NewtonMin,
-        SolverKind::Apgd,
-        SolverKind::Nncg,
-        SolverKind::Nsgs,
-        SolverKind::Enumeration,
-    ];
-
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            SolverKind::Pgs => "pgs",
-            SolverKind::Sor => "sor",
-            SolverKind::Lemke => "lemke",
-            SolverKind::Dantzig => "dantzig",
-            SolverKind::Clarabel => "clarabel",
-            SolverKind::MicroImpulse => "micro",
-            SolverKind::NewtonFb => "newton-fb",
-            SolverKind::NewtonMin => "newton-min",
-            SolverKind::Apgd => "apgd",
-            SolverKind::Nncg => "nncg",
-            SolverKind::Nsgs => "nsgs",
-            SolverKind::Enumeration => "enum",
-        }
-    }
-
-    /// Look a solver up by name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-
-    /// The problem classes the solver handles, in one line.
-    pub fn problem_classes(self) -> &'static str {
-        match self {
-            SolverKind::Pgs => lcp::pgs::PROBLEM_CLASSES_PGS,
-            SolverKind::Sor => lcp::pgs::PROBLEM_CLASSES_SOR,
-            SolverKind::Lemke => lcp::lemke::PROBLEM_CLASSES,
-            SolverKind::Dantzig => lcp::dantzig::PROBLEM_CLASSES,
-            SolverKind::Clarabel => lcp::clarabel_qp::PROBLEM_CLASSES,
-            SolverKind::MicroImpulse => lcp::micro_impulse::PROBLEM_CLASSES,
-            SolverKind::NewtonFb => lcp::newton::PROBLEM_CLASSES_FB,
-            SolverKind::NewtonMin => lcp::newton::PROBLEM_CLASSES_MIN,
-            SolverKind::Apgd => lcp::apgd::PROBLEM_CLASSES,
-            SolverKind::Nncg => lcp::nncg::PROBLEM_CLASSES,
-            SolverKind::Nsgs => lcp::nsgs::PROBLEM_CLASSES,
-            SolverKind::Enumeration => lcp::enumeration::PROBLEM_CLASSES,
-        }
-    }
-
-    /// The relaxed problem the solver solves in place of the one it is given, when it does:
-    /// Clarabel solves the convex QP whose optimality conditions are the LCP, which on box
-    /// friction rows (bounds scaled by the normal impulse) is Anitescu's convex relaxation,
-    /// not Coulomb's friction. `None` for the solvers of the problem as posed.
-    pub fn relaxation(self) -> Option<&'static str> {
-        match self {
-            SolverKind::Clarabel => Some(
-                "on friction rows, Anitescu's convex relaxation (a QP whose sliding contacts \
-                 may lift off), not the friction LCP",
-            ),
-            _ => None,
-        }
-    }
-
-    /// True for solvers that iterate from a starting impulse (and so use a warm start).
-    pub fn is_iterative(self) -> bool {
-        matches!(
-            self,
-            SolverKind::Pgs
-                | SolverKind::Sor
-                | SolverKind::MicroImpulse
-                | SolverKind::NewtonFb
-                | SolverKind::NewtonMin
-                | SolverKind::Apgd
-                | SolverKind::Nncg
-                | SolverKind::Nsgs
-        )
-    }
+    /// Projected Gauss–Seidel.
+    pub const Pgs: Self = Self(&lcp::pgs::PGS);
+    /// Projected SOR (`omega = 1.3` unless set).
+    pub const Sor: Self = Self(&lcp::pgs::SOR);
+    /// Lemke's complementary pivoting.
+    pub const Lemke: Self = Self(&lcp::lemke::LEMKE);
+    /// Dantzig principal pivoting (ODE's `dSolveLCP` style).
+    pub const Dantzig: Self = Self(&lcp::dantzig::DANTZIG);
+    /// Convex QP through Clarabel's interior-point method.
+    pub const Clarabel: Self = Self(&lcp::clarabel_qp::CLARABEL);
+    /// Sequential micro-impulses.
+    pub const MicroImpulse: Self = Self(&lcp::micro_impulse::MICRO);
+    /// Semismooth Newton on the Fischer–Burmeister reformulation.
+    pub const NewtonFb: Self = Self(&lcp::newton::NEWTON_FB);
+    /// Semismooth Newton on the min-map reformulation.
+    pub const NewtonMin: Self = Self(&lcp::newton::NEWTON_MIN);
+    /// Accelerated projected gradient descent (Nesterov with adaptive restart).
+    pub const Apgd: Self = Self(&lcp::apgd::APGD);
+    /// Nonsmooth nonlinear conjugate gradient (PGS with Fletcher–Reeves directions).
+    pub const Nncg: Self = Self(&lcp::nncg::NNCG);
+    /// Block Gauss–Seidel over contacts, each block solved exactly.
+    pub const Nsgs: Self = Self(&lcp::nsgs::NSGS);
+    /// Enumeration of complementary bases (complete, small problems).
+    pub const Enumeration: Self = Self(&lcp::enumeration::ENUM);
 
     /// A solver of this kind with default parameters.
     pub fn create(self) -> Box<dyn Solver + Send> {
-        match self {
-            SolverKind::Pgs => Box::new(ProjectedSor::pgs()),
-            SolverKind::Sor => Box::new(ProjectedSor::sor(1.3)),
-            SolverKind::Lemke => Box::new(Lemke::default()),
-            SolverKind::Dantzig => Box::new(Dantzig::default()),
-            SolverKind::Clarabel => Box::new(ClarabelQp::default()),
-            SolverKind::MicroImpulse => Box::new(MicroImpulse::default()),
-            SolverKind::NewtonFb => Box::new(Newton::fischer_burmeister()),
-            SolverKind::NewtonMin => Box::new(Newton::min_map()),
-            SolverKind::Apgd => Box::new(Apgd),
-            SolverKind::Nncg => Box::new(Nncg),
-            SolverKind::Nsgs => Box::new(Nsgs),
-            SolverKind::Enumeration => Box::new(Enumeration),
+        self.create_with(&self.0.defaults())
+    }
+
+    /// A solver of this kind with `params` (which follow [`SolverKind::param_specs`]).
+    pub fn create_with(self, params: &Params) -> Box<dyn Solver + Send> {
+        match self.0.make {
+            Make::Matrix(make) => make(params),
+            // A handle is made only for an entry of its level (`SolverKind::of`).
+            _ => unreachable!("SolverKind({}) holds a matrix entry", self.0.name),
         }
     }
 }
 
-impl std::str::FromStr for SolverKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::from_name(s).ok_or_else(|| {
-            let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
-            format!("unknown solver `{s}` (known: {})", names.join(", "))
-        })
-    }
-}
+/// A solver of the exact Coulomb cone ([`ConeProblem`]) of the [`registry`]: a `Copy` handle to
+/// its [`SolverEntry`], as [`SolverKind`].
+#[derive(Clone, Copy)]
+pub struct ConeSolverKind(&'static SolverEntry);
 
-/// The solvers of the exact Coulomb cone ([`ConeProblem`]), by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum ConeSolverKind {
-    /// Block Gauss–Seidel over contacts, each contact solved exactly on its cone.
-    NsgsCone,
-    /// Global Alart–Curnier semismooth Newton.
-    NewtonAc,
-    /// Global semismooth Newton on the second-order-cone Fischer–Burmeister function.
-    NewtonFbCone,
-    /// Global semismooth Newton on the natural map.
-    NewtonNmCone,
-    /// Extragradient (Khobotov) projection method on De Saxcé's map, self-adaptive step.
-    ExtragradientCone,
-    /// Fixed-point projection on De Saxcé's map, self-adaptive step.
-    FixedPointProjectionCone,
-    /// Accelerated ADMM with the De Saxcé term refreshed every iteration.
-    AdmmCone,
-    /// Proximal point, each regularised problem solved by NSGS over contacts.
-    ProxCone,
-    /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
-    ClarabelSocp,
-}
+crate::kind_handle!(ConeSolverKind, Level::Cone, || registry::entries_at(
+    Level::Cone
+));
 
+#[allow(non_upper_case_globals)]
 impl ConeSolverKind {
-    /// Every cone solver, in report order.
-    pub const ALL: [ConeSolverKind; 9] = [
-        ConeSolverKind::NsgsCone,
-        ConeSolverKind::NewtonAc,
-        ConeSolverKind::NewtonFbCone,
-        ConeSolverKind::NewtonNmCone,
-        ConeSolverKind::ExtragradientCone,
-        ConeSolverKind::FixedPointProjectionCone,
-        ConeSolverKind::AdmmCone,
-        ConeSolverKind::ProxCone,
-        ConeSolverKind::ClarabelSocp,
-    ];
-
-    /// The name used on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            ConeSolverKind::NsgsCone => "nsgs-cone",
-            ConeSolverKind::NewtonAc => "newton-ac",
-            ConeSolverKind::NewtonFbCone => "newton-fb-cone",
-            ConeSolverKind::NewtonNmCone => "newton-nm-cone",
-            ConeSolverKind::ExtragradientCone => "eg-cone",
-            ConeSolverKind::FixedPointProjectionCone => "fpp-cone",
-            ConeSolverKind::AdmmCone => "admm-cone",
-            ConeSolverKind::ProxCone => "prox-cone",
-            ConeSolverKind::ClarabelSocp => "clarabel-socp",
-        }
-    }
-
-    /// Look a cone solver up by name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-
-    /// The problem classes the solver handles, in one line.
-    pub fn problem_classes(self) -> &'static str {
-        match self {
-            ConeSolverKind::NsgsCone => cone::nsgs_cone::PROBLEM_CLASSES,
-            ConeSolverKind::NewtonAc => cone::newton::PROBLEM_CLASSES_AC,
-            ConeSolverKind::NewtonFbCone => cone::newton::PROBLEM_CLASSES_FB,
-            ConeSolverKind::NewtonNmCone => cone::newton::PROBLEM_CLASSES_NM,
-            ConeSolverKind::ExtragradientCone => cone::extragradient::PROBLEM_CLASSES,
-            ConeSolverKind::FixedPointProjectionCone => {
-                cone::fixed_point_projection::PROBLEM_CLASSES
-            }
-            ConeSolverKind::AdmmCone => cone::admm::PROBLEM_CLASSES,
-            ConeSolverKind::ProxCone => cone::proximal::PROBLEM_CLASSES,
-            ConeSolverKind::ClarabelSocp => cone::clarabel_socp::PROBLEM_CLASSES,
-        }
-    }
-
-    /// True for solvers that iterate from a starting reaction (and so use
-    /// [`Settings::warm_start`]): every cone solver but Clarabel's SOCP, which starts from its
-    /// own interior point and ignores a warm start.
-    pub fn is_iterative(self) -> bool {
-        !matches!(self, ConeSolverKind::ClarabelSocp)
-    }
+    /// Block Gauss–Seidel over contacts, each contact solved exactly on its cone.
+    pub const NsgsCone: Self = Self(&cone::nsgs_cone::NSGS_CONE);
+    /// Global Alart–Curnier semismooth Newton.
+    pub const NewtonAc: Self = Self(&cone::newton::NEWTON_AC);
+    /// Global semismooth Newton on the second-order-cone Fischer–Burmeister function.
+    pub const NewtonFbCone: Self = Self(&cone::newton::NEWTON_FB_CONE);
+    /// Global semismooth Newton on the natural map.
+    pub const NewtonNmCone: Self = Self(&cone::newton::NEWTON_NM_CONE);
+    /// Extragradient (Khobotov) projection method on De Saxcé's map, self-adaptive step.
+    pub const ExtragradientCone: Self = Self(&cone::extragradient::EG_CONE);
+    /// Fixed-point projection on De Saxcé's map, self-adaptive step.
+    pub const FixedPointProjectionCone: Self = Self(&cone::fixed_point_projection::FPP_CONE);
+    /// Accelerated ADMM with the De Saxcé term refreshed every iteration.
+    pub const AdmmCone: Self = Self(&cone::admm::ADMM_CONE);
+    /// Proximal point, each regularised problem solved by NSGS over contacts.
+    pub const ProxCone: Self = Self(&cone::proximal::PROX_CONE);
+    /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
+    pub const ClarabelSocp: Self = Self(&cone::clarabel_socp::CLARABEL_SOCP);
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
     /// contact slides, and so not `converged` on sliding problems).
     pub fn is_relaxation(self) -> bool {
-        matches!(self, ConeSolverKind::ClarabelSocp)
-    }
-
-    /// The relaxed problem the solver solves in place of the cone problem, when it does:
-    /// Clarabel's SOCP is Anitescu's convex relaxation of Coulomb's law (a sliding contact
-    /// lifts off). `None` for the solvers of the exact cone problem.
-    pub fn relaxation(self) -> Option<&'static str> {
-        self.is_relaxation().then_some(
-            "Anitescu's convex relaxation of the Coulomb cone (sliding contacts lift off)",
-        )
+        self.0.relaxation.is_some()
     }
 
     /// A solver of this kind with default parameters.
     pub fn create(self) -> Box<dyn ConeSolver + Send> {
-        match self {
-            ConeSolverKind::NsgsCone => Box::new(NsgsCone::default()),
-            ConeSolverKind::NewtonAc => Box::new(ConeNewton::alart_curnier()),
-            ConeSolverKind::NewtonFbCone => Box::new(ConeNewton::fischer_burmeister()),
-            ConeSolverKind::NewtonNmCone => Box::new(ConeNewton::natural_map()),
-            ConeSolverKind::ExtragradientCone => Box::new(ExtragradientCone),
-            ConeSolverKind::FixedPointProjectionCone => Box::new(FixedPointProjectionCone),
-            ConeSolverKind::AdmmCone => Box::new(AdmmCone::default()),
-            ConeSolverKind::ProxCone => Box::new(ProxCone::default()),
-            ConeSolverKind::ClarabelSocp => Box::new(ClarabelSocp::default()),
+        self.create_with(&self.0.defaults())
+    }
+
+    /// A solver of this kind with `params` (which follow [`ConeSolverKind::param_specs`]).
+    pub fn create_with(self, params: &Params) -> Box<dyn ConeSolver + Send> {
+        match self.0.make {
+            Make::Cone(make) => make(params),
+            // A handle is made only for an entry of its level (`ConeSolverKind::of`).
+            _ => unreachable!("ConeSolverKind({}) holds a cone entry", self.0.name),
         }
     }
 }

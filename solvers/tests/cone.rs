@@ -41,7 +41,7 @@ fn tight() -> Settings {
 
 /// The solvers of Coulomb's law itself (not of a relaxation).
 fn exact_solvers() -> impl Iterator<Item = ConeSolverKind> {
-    ConeSolverKind::ALL
+    ConeSolverKind::all()
         .into_iter()
         .filter(|k| !k.is_relaxation())
 }
@@ -257,7 +257,7 @@ fn every_converged_cone_solve_meets_the_independent_residual() {
         max_iterations: 2000,
         ..Settings::default()
     };
-    for kind in ConeSolverKind::ALL {
+    for kind in ConeSolverKind::all() {
         let mut converged = 0;
         for seed in 0..24u64 {
             let contacts = 1 + (seed as usize % 5);
@@ -852,7 +852,10 @@ fn iterative_cone_solvers_warm_start_and_respect_the_budget() {
         let p = ConeProblem::new(w, q, mu).unwrap();
         let solution = ConeSolverKind::NewtonAc.create().solve_cone(&p, &settings);
         assert_eq!(solution.status, Status::Converged, "seed {seed}");
-        for kind in ConeSolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
+        for kind in ConeSolverKind::all()
+            .into_iter()
+            .filter(|k| k.is_iterative())
+        {
             let warm = Settings {
                 warm_start: Some(solution.f.clone()),
                 ..settings.clone()

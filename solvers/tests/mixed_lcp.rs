@@ -438,10 +438,12 @@ fn welded_body(contacts: usize, seed: u64) -> Mixed {
 const TOL: f64 = 1e-8;
 
 fn is_pivoting(kind: SolverKind) -> bool {
-    matches!(
-        kind,
-        SolverKind::Lemke | SolverKind::Dantzig | SolverKind::Enumeration
-    )
+    [
+        SolverKind::Lemke,
+        SolverKind::Dantzig,
+        SolverKind::Enumeration,
+    ]
+    .contains(&kind)
 }
 
 fn solve(kind: SolverKind, p: &Problem) -> SolveResult {
@@ -502,7 +504,7 @@ fn assert_exact(kind: SolverKind, m: &Mixed, r: &SolveResult) {
 fn check_all(m: &Mixed, sparse: bool) {
     assert!(m.error(&m.f) <= 1e-14, "{}: planted solution", m.name);
     let p = m.problem(sparse);
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let r = solve(kind, &p);
         assert_honest(kind, m, &r);
         if is_pivoting(kind) {
@@ -539,7 +541,7 @@ fn pendulum_against_a_wall_by_hand() {
         unique: true,
     };
     assert_eq!(m.error(&m.f), 0.0);
-    for kind in SolverKind::ALL {
+    for kind in SolverKind::all() {
         let r = solve(kind, &p);
         assert_honest(kind, &m, &r);
         if is_pivoting(kind) {
@@ -625,10 +627,10 @@ fn alternating_chain_with_friction() {
     for seed in [0, 1, 3, 11, 14] {
         let m = chain(7, Masses::Alternating(1e6), false, true, seed);
         let p = m.problem(false);
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             assert_honest(kind, &m, &r);
-            if matches!(kind, SolverKind::Lemke | SolverKind::Enumeration) {
+            if [SolverKind::Lemke, SolverKind::Enumeration].contains(&kind) {
                 assert_exact(kind, &m, &r);
             }
         }
@@ -691,13 +693,11 @@ fn inconsistent_redundant_joints_have_no_solution() {
         assert_eq!(m.kinds[6], Kind::Free, "row 6 is the first redundant row");
         m.b[6] += 0.5;
         let p = m.problem(false);
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = solve(kind, &p);
             assert!(!r.status.is_converged(), "{}: {}", kind.name(), r.status);
-            let proves = matches!(
-                kind,
-                SolverKind::Lemke | SolverKind::Dantzig | SolverKind::Clarabel
-            );
+            let proves =
+                [SolverKind::Lemke, SolverKind::Dantzig, SolverKind::Clarabel].contains(&kind);
             if proves && !friction {
                 assert_eq!(r.status.name(), "no_solution", "{}", kind.name());
             }
@@ -721,10 +721,10 @@ fn extreme_mass_ratios_stay_honest() {
             for friction in [false, true] {
                 let m = chain(7, Masses::Alternating(ratio), false, friction, seed);
                 let p = m.problem(false);
-                for kind in SolverKind::ALL {
+                for kind in SolverKind::all() {
                     let r = solve(kind, &p);
                     assert_honest(kind, &m, &r);
-                    if matches!(kind, SolverKind::Lemke | SolverKind::Enumeration) {
+                    if [SolverKind::Lemke, SolverKind::Enumeration].contains(&kind) {
                         assert_eq!(r.status, Status::Converged, "{} on {}", kind.name(), m.name);
                     }
                 }

@@ -1,11 +1,11 @@
 //! `lcpbench bench`: run solvers × cases × budgets and write result rows as they finish.
 
+use crate::harness::shard::{self, Shard, ShardPlan, SweepKind};
+use crate::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
+use crate::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
+use crate::report::{self, suite};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::shard::{self, Shard, ShardPlan, SweepKind};
-use lcpbench::harness::sweep::{check_jobs, lock_dir, run_sweep_locked};
-use lcpbench::harness::{cross_product, Case, Job, NamedBudget, SolverSpec, SweepConfig};
-use lcpbench::report::{self, suite};
 use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::FrictionModel;
@@ -13,9 +13,9 @@ use lcpbench_solvers::{ConeSolverKind, SolverKind};
 use std::path::PathBuf;
 
 /// Arguments of `lcpbench bench`. The help ends with how solves are timed and where warm
-/// starts come from ([`lcpbench::harness::timing::HELP`]).
+/// starts come from ([`crate::harness::timing::HELP`]).
 #[derive(Args)]
-#[command(after_help = lcpbench::harness::timing::HELP)]
+#[command(after_help = crate::harness::timing::HELP)]
 pub struct BenchArgs {
     /// Scene files to run (glob, e.g. `bench_scenes/tower_*.toml`).
     #[arg(long)]
@@ -39,8 +39,9 @@ pub struct BenchArgs {
     #[arg(long, value_name = "every|none|sample=K")]
     pub residual: Option<String>,
     /// Solvers, comma-separated: names (listed below from the solver table; the body-level
-    /// ones for scenes only), `sor@OMEGA`, `NAME+warm`, `all` (the matrix solvers), `body` (the
-    /// body-level ones) or `cone` (the cone solvers).
+    /// ones for scenes only), `NAME@key=value,…` (parameters, `lcpbench solvers` lists them),
+    /// `NAME+warm`, `all` (the matrix solvers), `body` (the body-level ones) or `cone` (the cone
+    /// solvers).
     #[arg(long, value_delimiter = ',', default_value = "all")]
     pub solvers: Vec<String>,
     /// Budgets, comma-separated: presets (loose 1e-4:1000:1, default 1e-8:10000:1, tight
@@ -67,15 +68,33 @@ pub struct BenchArgs {
     pub shard: Option<Shard>,
 }
 
+/// The solver specifications of `--solvers`: the list split at commas, with a piece `key=value`
+/// (no `@`) that follows a piece with parameters joined back to it, so that
+/// `soft-step@substeps=8,hertz=60` is one solver.
 fn parse_solvers(list: &[String]) -> Result<Vec<SolverSpec>> {
-    let mut out = Vec::new();
+    let mut joined: Vec<String> = Vec::new();
     for s in list {
+        match joined.last_mut() {
+            Some(prev)
+                if prev.contains('@')
+                    && !prev.ends_with("+warm")
+                    && s.contains('=')
+                    && !s.contains('@') =>
+            {
+                prev.push(',');
+                prev.push_str(s);
+            }
+            _ => joined.push(s.clone()),
+        }
+    }
+    let mut out = Vec::new();
+    for s in &joined {
         if s == "all" {
-            out.extend(SolverKind::ALL.into_iter().map(SolverSpec::plain));
+            out.extend(SolverKind::all().into_iter().map(SolverSpec::plain));
         } else if s == "body" {
-            out.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+            out.extend(BodySolverKind::all().into_iter().map(SolverSpec::body));
         } else if s == "cone" {
-            out.extend(ConeSolverKind::ALL.into_iter().map(SolverSpec::cone));
+            out.extend(ConeSolverKind::all().into_iter().map(SolverSpec::cone));
         } else {
             out.push(s.parse()?);
         }
@@ -191,7 +210,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
 /// earlier runs resumed included), and how to write its report.
 fn print_solver_summary(config: &SweepConfig) {
     let results = config.results_path();
-    match lcpbench::harness::sweep::read_results(&results) {
+    match crate::harness::sweep::read_results(&results) {
         Ok(rows) => {
             let text = report::summary::sweep_summary(&rows);
             if !text.is_empty() {
@@ -243,7 +262,7 @@ fn once_each<T: std::fmt::Display>(what: &str, items: Vec<T>) -> Vec<T> {
 }
 
 /// Print what a sweep did, one clause per thing that happened.
-fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfig) {
+fn report_summary(summary: &crate::harness::SweepSummary, config: &SweepConfig) {
     let results = config.results_path();
     if summary.stale_runners > 0 {
         eprintln!(
@@ -270,4 +289,32 @@ fn report_summary(summary: &lcpbench::harness::SweepSummary, config: &SweepConfi
     }
     line.push_str(&format!(", {} isolation failures", summary.failed));
     eprintln!("{line}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--solvers` splits at commas; a `key=value` piece after a solver with parameters
+    /// belongs to it, and the level words expand to every solver of the registry at that level.
+    #[test]
+    fn solver_lists_keep_parameter_lists_whole() {
+        let list: Vec<String> = [
+            "soft-step@substeps=8",
+            "hertz=60+warm",
+            "pgs",
+            "sor@omega=1.5",
+        ]
+        .map(String::from)
+        .to_vec();
+        let specs = parse_solvers(&list).unwrap();
+        let names: Vec<String> = specs.iter().map(ToString::to_string).collect();
+        assert_eq!(
+            names,
+            ["soft-step@substeps=8,hertz=60+warm", "pgs", "sor@omega=1.5"]
+        );
+        assert!(parse_solvers(&["pgs".into(), "hertz=60".into()]).is_err());
+        let cone = parse_solvers(&["cone".into()]).unwrap();
+        assert_eq!(cone.len(), ConeSolverKind::all().len());
+    }
 }

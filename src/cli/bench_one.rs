@@ -1,11 +1,11 @@
 //! The hidden `lcpbench bench-one`: one isolated run in a child process of a sweep, its row
 //! printed in the child protocol.
 
+use crate::harness::isolate::{mark_child, write_protocol};
+use crate::harness::run::run_in_process;
+use crate::harness::{BudgetName, Case, Fault, NamedBudget, SolverSpec};
 use anyhow::{Context, Result};
 use clap::Args;
-use lcpbench::harness::isolate::{mark_child, write_protocol};
-use lcpbench::harness::run::run_in_process;
-use lcpbench::harness::{BudgetName, Case, Fault, NamedBudget, SolverSpec};
 
 /// Arguments of the hidden `lcpbench bench-one` (one isolated run; prints the child protocol).
 #[derive(Args)]

@@ -1,10 +1,10 @@
 //! `lcpbench export`: write the contact LCP (or cone problem) of one step of a scene.
 
 use super::world::{apply_solver_overrides, check_steps, load_world, step_progress};
+use crate::harness::export::{step_problem, StepProblem};
+use crate::harness::outdir::check_outputs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::export::{step_problem, StepProblem};
-use lcpbench::harness::outdir::check_outputs;
 use lcpbench_contact::scene::LoadOptions;
 use lcpbench_solvers::{
     cone_problem_to_json, problem_to_json, write_fclib_local, write_problem, ConeProblem, Problem,

@@ -8,7 +8,7 @@ use lcpbench_solvers::write_problem;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use lcpbench::harness::case::MAX_GENERATED_N as MAX_N;
+use crate::harness::case::MAX_GENERATED_N as MAX_N;
 
 /// Sizes from which generation counts as long work (a warning and a spinner).
 const LONG_N: usize = 1_000;
@@ -47,7 +47,7 @@ pub struct GenArgs {
 
 /// Run `lcpbench gen`.
 pub fn run(args: GenArgs) -> Result<()> {
-    lcpbench::harness::outdir::check_outputs(&[], &[("--output", &args.output)])?;
+    crate::harness::outdir::check_outputs(&[], &[("--output", &args.output)])?;
     let Some(family) = Family::from_name(&args.kind, args.n, args.cond, args.rank) else {
         bail!(
             "unknown instance kind `{}` (known: {})",

@@ -2,10 +2,10 @@
 //! `.hdf5`) and write lcpbench's JSON form, or, for an output named `*.hdf5`, a local FCLIB file
 //! (box-friction problems with one normal and one or two friction rows per contact).
 
+use crate::harness::budget;
+use crate::harness::outdir::check_outputs;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget;
-use lcpbench::harness::outdir::check_outputs;
 use lcpbench_solvers::{read_problem, write_problem, Problem};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;

@@ -1,9 +1,9 @@
 //! `lcpbench merge`: join the directories of a sharded sweep into one.
 
+use crate::harness::merge::merge;
+use crate::harness::shard::SweepKind;
 use anyhow::Result;
 use clap::Args;
-use lcpbench::harness::merge::merge;
-use lcpbench::harness::shard::SweepKind;
 use std::path::PathBuf;
 
 /// Arguments of `lcpbench merge`.
@@ -26,7 +26,7 @@ pub fn run(args: MergeArgs) -> Result<()> {
         .iter()
         .map(|d| ("the shard directory", d.as_path()))
         .collect();
-    lcpbench::harness::outdir::check_outputs(&inputs, &[("--out", &args.out)])?;
+    crate::harness::outdir::check_outputs(&inputs, &[("--out", &args.out)])?;
     let summary = merge(&args.dirs, &args.out)?;
     let m = &summary.manifest;
     let mut line = format!(

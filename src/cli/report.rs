@@ -1,14 +1,14 @@
 //! `lcpbench report`: run the default suite (or one shard of it) and write the comparison
 //! report, or rewrite the report from existing rows.
 
+use crate::harness::merge::{self, MergedManifest};
+use crate::harness::outdir::{table_origin, TableOrigin};
+use crate::harness::shard::{self, Shard, SweepKind};
+use crate::harness::sweep::check_jobs;
+use crate::harness::SweepConfig;
+use crate::report::{self, suite};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::merge::{self, MergedManifest};
-use lcpbench::harness::outdir::{table_origin, TableOrigin};
-use lcpbench::harness::shard::{self, Shard, SweepKind};
-use lcpbench::harness::sweep::check_jobs;
-use lcpbench::harness::SweepConfig;
-use lcpbench::report::{self, suite};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `lcpbench report`.
@@ -94,7 +94,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     } else {
         remove_exported_lcps(&lcp_dir)?;
         // Sorted by path, the order `--no-run` lists them in.
-        let mut exported = lcpbench::harness::export::export_suite_lcps(
+        let mut exported = crate::harness::export::export_suite_lcps(
             &suite::suite_scenes(args.quick, &scenes),
             &lcp_dir,
             if args.quick { 60 } else { 400 },
@@ -231,7 +231,7 @@ fn report_from(from: &Path, out: Option<&Path>) -> Result<()> {
             from.display()
         );
     }
-    let columns = lcpbench::harness::sweep::result_columns();
+    let columns = crate::harness::sweep::result_columns();
     if let TableOrigin::Foreign { header } = table_origin(&results, &columns)? {
         bail!(
             "--from {}: {} is not a table lcpbench wrote (its header starts `{}`)",
@@ -254,8 +254,5 @@ fn report_from(from: &Path, out: Option<&Path>) -> Result<()> {
 /// A report writes its own files under these subdirectories of its output; a link there would
 /// send them elsewhere.
 fn refuse_report_links(out: &Path) -> Result<()> {
-    lcpbench::harness::outdir::refuse_linked_dirs(
-        out,
-        &["data", "tables", "plots", "replays", "lcps"],
-    )
+    crate::harness::outdir::refuse_linked_dirs(out, &["data", "tables", "plots", "replays", "lcps"])
 }

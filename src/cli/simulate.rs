@@ -70,7 +70,7 @@ pub struct SimulateArgs {
     pub html: Option<PathBuf>,
     /// Size bound of the `--html` page in bytes: longer runs draw every k-th step in 3-D; a
     /// page that cannot fit (or a bound below what its scripts take) is an error.
-    #[arg(long, default_value_t = lcpbench::view::DEFAULT_MAX_BYTES)]
+    #[arg(long, default_value_t = crate::view::DEFAULT_MAX_BYTES)]
     pub max_bytes: usize,
     /// Print the run's figures as one JSON object instead of text.
     #[arg(long)]
@@ -185,7 +185,7 @@ impl Recorder {
             writeln!(w, "{line}")?;
         }
         if let Some(lines) = self.page_lines.as_mut() {
-            lcpbench::view::recording::compact_history(&mut line);
+            crate::view::recording::compact_history(&mut line);
             lines.push(line.to_string());
         }
         Ok(())
@@ -202,8 +202,8 @@ impl Recorder {
         }
         if let (Some(path), Some(lines)) = (&args.html, self.page_lines) {
             let recording =
-                lcpbench::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
-            let html = lcpbench::view::replay_page(&[recording], args.max_bytes)?;
+                crate::view::Recording::from_lines(&args.scene, lines.into_iter().map(Ok))?;
+            let html = crate::view::replay_page(&[recording], args.max_bytes)?;
             wrote.push(super::view::write_page_quietly(path, &html)?);
         }
         Ok(wrote)
@@ -319,7 +319,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             .into_iter()
             .filter_map(|(what, p)| p.as_deref().map(|p| (what, p)))
             .collect();
-    lcpbench::harness::outdir::check_outputs(&[("the scene", &args.scene)], &outputs)?;
+    crate::harness::outdir::check_outputs(&[("the scene", &args.scene)], &outputs)?;
     let (scene, mut world) = load_world(
         &args.scene,
         args.solver.as_deref(),
@@ -350,7 +350,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     }
     let mut stepper =
         Stepper::new(world, stepping).map_err(|m| anyhow!("{}: {m}", args.scene.display()))?;
-    let min = lcpbench::view::min_page_bytes(true);
+    let min = crate::view::min_page_bytes(true);
     if args.html.is_some() && args.max_bytes < min {
         bail!(
             "--max-bytes must be at least {min} (the page's scripts, styles and smallest data), \
@@ -359,7 +359,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         );
     }
     let mut recorder = Recorder::new(&args)?;
-    recorder.push(lcpbench::view::header(&scene.name, stepper.world()))?;
+    recorder.push(crate::view::header(&scene.name, stepper.world()))?;
     let mut totals = SimTotals::new(stepper.world());
     let top = TopBody::of(&scene, stepper.world());
     let mut joints = JointMetrics::new(stepper.world(), scene.metrics.sag_body.as_deref());
@@ -378,7 +378,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         meter.after_step(&stepper, &report);
         let world = stepper.world();
         if recorder.is_active() {
-            recorder.push(lcpbench::view::recording::step_line(&report, world))?;
+            recorder.push(crate::view::recording::step_line(&report, world))?;
         }
         totals.observe(&report);
         joints.observe(&report, world);
@@ -583,7 +583,7 @@ fn print_text(run: &SimRun, t: &SimTotals) {
         "iterations        mean {:.1}, max {} ({} per step)",
         t.iters as f64 / n,
         t.max_iters,
-        lcpbench::view::iteration_unit(world.settings.solver.name()).unwrap_or("iterations")
+        crate::view::iteration_unit(world.settings.solver.name()).unwrap_or("iterations")
     );
     println!(
         "cost per step     mean {:.1} substeps, {:.0} row updates, {:.1} body passes",

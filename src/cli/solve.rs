@@ -1,17 +1,18 @@
 //! `lcpbench solve` and `lcpbench solvers`.
 
+use crate::harness::budget;
+use crate::harness::case::json_warm_start;
+use crate::harness::catalogue::{catalogue, SolverLevel};
+use crate::harness::timing::{measure, Timed, TimingRule, WallClock, MIN_TOTAL_S};
+use crate::harness::SolverSpec;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget;
-use lcpbench::harness::case::json_warm_start;
-use lcpbench::harness::catalogue::{catalogue, SolverLevel};
-use lcpbench::harness::timing::{measure, Timed, TimingRule, WallClock, MIN_TOTAL_S};
-use lcpbench::harness::SolverSpec;
 use lcpbench_solvers::io::{input::read_input_file, MAX_PROBLEM_FILE_BYTES};
+use lcpbench_solvers::registry::Level;
 use lcpbench_solvers::{
     cone_residuals, is_cone_file, parse_cone_problem, parse_problem, read_problem, Certificate,
     ConeProblem, ConeSolverKind, Problem, ProblemFileError, ProblemFormat, Settings, SolveResult,
-    Solver, SolverKind, Status,
+    Status,
 };
 use serde_json::json;
 use std::io::Read;
@@ -25,9 +26,10 @@ pub struct SolveArgs {
     /// (`.hdf5`, `.h5`); the format is chosen by extension, then by content. `-` reads a JSON
     /// problem (LCP or cone) from standard input.
     pub problem: PathBuf,
-    /// Solver name (`lcpbench solvers` says what each takes).
+    /// Solver name, with parameters as `NAME@key=value,…` (`lcpbench solvers` says what each
+    /// takes).
     #[arg(long, short)]
-    pub solver: SolverName,
+    pub solver: SolverSpec,
     /// Tolerance on the relative natural-map residual.
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
@@ -60,38 +62,38 @@ pub struct SolveArgs {
     pub repeat: Option<u32>,
 }
 
-/// An LCP solver or a cone solver, by name.
-#[derive(Debug, Clone, Copy)]
-pub enum SolverName {
-    /// A solver of the (boxed) LCP.
-    Lcp(SolverKind),
-    /// A solver of the exact Coulomb cone.
-    Cone(ConeSolverKind),
-}
-
-impl std::str::FromStr for SolverName {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if let Some(k) = ConeSolverKind::from_name(s) {
-            return Ok(SolverName::Cone(k));
+/// The solver of `--solver` with `--omega` applied: a matrix or cone solver of the registry
+/// (`NAME` or `NAME@key=value,…`), checked before the file is read. `--omega` sets the `omega`
+/// parameter of a solver that has one (`sor`).
+fn solver_spec(args: &SolveArgs) -> Result<SolverSpec> {
+    let mut spec = args.solver.clone();
+    let SolverSpec::Solver {
+        entry,
+        params,
+        warm,
+    } = &mut spec
+    else {
+        bail!("--solver: a fault is a sweep's pseudo-solver, not a solver");
+    };
+    if *warm {
+        bail!(
+            "--solver: `+warm` is a sweep option; use --warm to start from the file's warm start"
+        );
+    }
+    if entry.level() == Level::Body {
+        bail!(
+            "--solver: `{}` is a body-level solver, which runs in scenes (lcpbench simulate); \
+             solve takes the matrix and cone solvers",
+            entry.name
+        );
+    }
+    if let Some(w) = args.omega {
+        if !entry.params.iter().any(|p| p.key == "omega") {
+            bail!("--omega applies only to --solver sor (a solver with an omega parameter)");
         }
-        s.parse::<SolverKind>().map(SolverName::Lcp).map_err(|e| {
-            let cone: Vec<_> = ConeSolverKind::ALL.iter().map(|k| k.name()).collect();
-            format!("{e}; cone solvers: {}", cone.join(", "))
-        })
+        params.set("omega", w).map_err(|m| anyhow!("--{m}"))?;
     }
-}
-
-/// Build the solver named by `kind`, applying `omega` to SOR, through the harness's one
-/// factory ([`SolverSpec::create`]).
-pub fn make_solver(kind: SolverKind, omega: Option<f64>) -> Result<Box<dyn Solver + Send>> {
-    match (kind, omega) {
-        (SolverKind::Sor, _) | (_, None) => {}
-        (_, Some(_)) => bail!("--omega applies only to --solver sor"),
-    }
-    let spec = SolverSpec::matrix(kind, omega).map_err(|m| anyhow!("--{m}"))?;
-    spec.create()
-        .ok_or_else(|| anyhow!("{} is not a matrix solver", kind.name()))
+    Ok(spec)
 }
 
 fn describe(problem: &Problem) -> String {
@@ -121,10 +123,8 @@ pub fn run(args: SolveArgs) -> Result<()> {
         bail!("--max-iter must be at least 1");
     }
     // Solver options are checked before the file is read.
-    let lcp_solver = match args.solver {
-        SolverName::Lcp(kind) => Some(make_solver(kind, args.omega)?),
-        SolverName::Cone(_) => None,
-    };
+    let spec = solver_spec(&args)?;
+    let lcp_solver = spec.create();
     let stdin = is_stdin(&args.problem);
     let bytes = if stdin {
         read_stdin(&mut std::io::stdin().lock(), MAX_PROBLEM_FILE_BYTES)?
@@ -164,7 +164,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
                 args.problem.as_path()
             };
             let cone = parse_cone_problem(text, source)?;
-            return run_cone(&args, &cone, &settings);
+            return run_cone(&args, &spec, &cone, &settings);
         }
     }
     let problem = if stdin {
@@ -195,7 +195,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
                     args.problem.display()
                 )
             })?;
-            return run_cone(&args, &cone, &settings);
+            return run_cone(&args, &spec, &cone, &settings);
         }
     };
     if let Some(ws) = &settings.warm_start {
@@ -247,7 +247,7 @@ fn read_stdin(input: &mut impl Read, max_bytes: u64) -> Result<Vec<u8>> {
     }
 }
 
-/// Time `solve` by the harness's method ([`lcpbench::harness::timing`]): the `--repeat` count
+/// Time `solve` by the harness's method ([`crate::harness::timing`]): the `--repeat` count
 /// of timed solves, or the rule `bench` uses. `solve` gives each call a fresh copy of the
 /// solver, so every repeat is the same computation. `--time-budget` bounds each solve and,
 /// with `--repeat`, the repeats together: a repeat starts only while the longest solve so far
@@ -306,17 +306,19 @@ fn file_warm_start(path: &std::path::Path, bytes: &[u8], json: bool) -> Result<V
 
 /// Solve a cone problem: with a cone solver, or `unsupported` for an LCP solver (the box
 /// approximation is a different problem; export it to solve it as an LCP).
-fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result<()> {
+fn run_cone(
+    args: &SolveArgs,
+    spec: &SolverSpec,
+    cone: &ConeProblem,
+    settings: &Settings,
+) -> Result<()> {
     let describe = format!(
         "{} rows, {} contacts, Coulomb cone",
         cone.n(),
         cone.contacts()
     );
-    let (name, r) = match args.solver {
-        SolverName::Cone(kind) => {
-            if args.omega.is_some() {
-                bail!("--omega applies only to --solver sor");
-            }
+    let (name, r) = match spec.create_cone() {
+        Some(solver) => {
             if let Some(ws) = &settings.warm_start {
                 if ws.len() != cone.n() {
                     bail!(
@@ -328,18 +330,17 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                 }
                 check_warm_velocity(&args.problem, ws, &cone.velocity(ws))?;
             }
-            let solver = kind.create();
             let r = timed(args, settings.time_budget, || {
                 solver.clone().solve_cone(cone, settings)
             });
             (solver.name(), r)
         }
-        SolverName::Lcp(kind) => {
+        None => {
             let f = vec![0.0; cone.n()];
             let reason = format!(
                 "{} solves LCPs; this is a Coulomb cone (FC3D) problem: use a cone solver ({})",
-                kind.name(),
-                ConeSolverKind::ALL.map(|k| k.name()).join(", ")
+                spec.base_name(),
+                ConeSolverKind::names()
             );
             let r = Timed {
                 times_s: Vec::new(),
@@ -357,7 +358,7 @@ fn run_cone(args: &SolveArgs, cone: &ConeProblem, settings: &Settings) -> Result
                     certificate: None,
                 },
             };
-            (kind.name(), r)
+            (spec.entry().map_or("", |e| e.name), r)
         }
     };
     print_result(args, cone.name(), &describe, name, &r)
@@ -411,7 +412,7 @@ fn print_result(
     println!(
         "iterations  {} ({})",
         r.iterations,
-        lcpbench::view::iteration_unit(solver_name).unwrap_or("iterations")
+        crate::view::iteration_unit(solver_name).unwrap_or("iterations")
     );
     if timed.count() == 0 {
         println!("time        0 (not solved)");
@@ -502,14 +503,15 @@ fn describe_certificate(c: &Certificate) -> String {
 pub fn solver_names(levels: &[SolverLevel]) -> String {
     catalogue()
         .into_iter()
-        .filter(|e| levels.contains(&e.level))
+        .filter(|e| levels.contains(&e.level()))
         .map(|e| e.name)
         .collect::<Vec<_>>()
         .join(", ")
 }
 
 /// The `lcpbench solvers` table: a header line and one line per solver, columns padded to
-/// their widest entry; the last column (problem classes and limits) runs on.
+/// their widest entry; the last column (problem classes and limits) runs on. Then each
+/// solver that takes parameters with its keys, defaults, ranges and meanings.
 pub fn solvers_table() -> String {
     let header = [
         "solver",
@@ -523,11 +525,9 @@ pub fn solvers_table() -> String {
         .map(|e| {
             [
                 e.name.to_owned(),
-                e.level.name().to_owned(),
+                e.level().name().to_owned(),
                 if e.iterative { "+warm" } else { "-" }.to_owned(),
-                lcpbench::view::iteration_unit(e.name)
-                    .unwrap_or("iterations")
-                    .to_owned(),
+                e.iteration_unit.to_owned(),
                 e.problem_classes.to_owned(),
             ]
         })
@@ -563,14 +563,17 @@ pub fn solvers_table() -> String {
     if !with_params.is_empty() {
         out.push_str(
             "\nparameters (NAME@key=value,... on --solver, in a scene's solver field and in \
-             sweeps; sor takes sor@OMEGA):\n",
+             sweeps; NAME@VALUE sets a solver's only parameter):\n",
         );
         for e in with_params {
             out.push_str(&format!("{}\n", e.name));
             for p in e.params {
                 out.push_str(&format!(
-                    "  {:<18} default {:<8} in [{}, {}]  {}\n",
-                    p.key, p.default, p.min, p.max, p.doc
+                    "  {:<18} default {:<8} in {}  {}\n",
+                    p.key,
+                    p.default,
+                    p.range(),
+                    p.doc
                 ));
             }
         }

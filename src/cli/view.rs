@@ -1,13 +1,13 @@
 //! `lcpbench view`: a self-contained HTML page of one or two recordings, or of every solver on
 //! one problem.
 
+use crate::harness::budget;
+use crate::harness::outdir::check_outputs;
+use crate::harness::Case;
+use crate::view::recording::MAX_RECORDING_BYTES;
+use crate::view::{self, Recording, DEFAULT_MAX_BYTES};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use lcpbench::harness::budget;
-use lcpbench::harness::outdir::check_outputs;
-use lcpbench::harness::Case;
-use lcpbench::view::recording::MAX_RECORDING_BYTES;
-use lcpbench::view::{self, Recording, DEFAULT_MAX_BYTES};
 use lcpbench_solvers::io::{
     input::{check_input_file, read_input_file},
     MAX_PROBLEM_FILE_BYTES,

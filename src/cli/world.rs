@@ -2,9 +2,9 @@
 //! tolerance, iteration cap, time budget) and the progress of long runs: shared by
 //! `lcpbench simulate` and `lcpbench export`.
 
+use crate::harness::SolverSpec;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use lcpbench::harness::SolverSpec;
 use lcpbench_contact::scene::{check_solver, LoadOptions, Scene, MAX_STEPS};
 use lcpbench_contact::step::{ContactSolver, World};
 use lcpbench_contact::FrictionModel;
@@ -64,7 +64,8 @@ pub(super) fn load_world(
         let spec: SolverSpec = name.parse()?;
         let choice = spec.contact_solver(&scene).with_context(|| {
             format!(
-                "unknown solver `{name}` (known: {}; `sor@OMEGA` sets SOR's relaxation)",
+                "solver `{name}` has no stepper solver (known: {}; `NAME@key=value,…` sets a \
+                 solver's parameters)",
                 ContactSolver::all_names()
             )
         })?;
@@ -101,7 +102,7 @@ pub(super) fn apply_solver_overrides(
 ) -> Result<()> {
     if let Some(tol) = tol {
         world.settings.tolerance =
-            lcpbench::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
+            crate::harness::budget::tolerance(tol).map_err(|m| anyhow::anyhow!("--tol: {m}"))?;
     }
     if let Some(max_iter) = max_iter {
         if max_iter == 0 {
@@ -111,7 +112,7 @@ pub(super) fn apply_solver_overrides(
     }
     if let Some(seconds) = time_budget {
         world.settings.step_time_budget = Some(
-            lcpbench::harness::budget::time_budget(seconds)
+            crate::harness::budget::time_budget(seconds)
                 .map_err(|m| anyhow::anyhow!("--time-budget: {m}"))?,
         );
     }

@@ -34,7 +34,7 @@ pub struct RunRecord {
     pub family: CaseFamily,
     /// Rows of the LCP; for a scene, the largest number of LCP rows in a step.
     pub n: Option<usize>,
-    /// Solver specification (`pgs`, `sor@1.7`, `pgs+warm`, ...).
+    /// Solver specification (`pgs`, `sor@omega=1.7`, `pgs+warm`, ...).
     pub solver: SolverSpec,
     /// Solver name without variant ([`SolverSpec::base_name`]).
     pub solver_base: String,
@@ -619,7 +619,7 @@ mod tests {
     #[test]
     fn typed_columns_round_trip_and_unknown_names_are_refused() {
         let case: Case = "psd:n=20:rank=5:seed=2".parse().unwrap();
-        let solver: SolverSpec = "sor@1.7+warm".parse().unwrap();
+        let solver: SolverSpec = "sor@omega=1.7+warm".parse().unwrap();
         let budget: NamedBudget = "1e-6:20:1".parse().unwrap();
         let record = base_record(&case, &solver, &budget);
         let mut w = csv::Writer::from_writer(Vec::new());
@@ -628,7 +628,8 @@ mod tests {
         let row = text.lines().nth(1).unwrap();
         assert!(
             row.starts_with(
-                "psd:n=20:rank=5:seed=2,rank_deficient,psd,20,sor@1.7+warm,sor,1.7,true,1e-6:20:1,"
+                "psd:n=20:rank=5:seed=2,rank_deficient,psd,20,sor@omega=1.7+warm,sor,1.7,true,\
+                 1e-6:20:1,"
             ),
             "{row}"
         );
@@ -639,7 +640,12 @@ mod tests {
                 .unwrap()
         };
         assert_eq!(read(&text).unwrap(), record);
-        assert!(read(&text.replace(",sor@1.7+warm,", ",sro@1.7+warm,")).is_err());
+        assert!(read(&text.replace(",sor@omega=1.7+warm,", ",sro@omega=1.7+warm,")).is_err());
+        // A row written before parameters were `key=value` reads as the same run.
+        assert_eq!(
+            read(&text.replace(",sor@omega=1.7+warm,", ",sor@1.7+warm,")).unwrap(),
+            record
+        );
         assert!(read(&text.replace(",1e-6:20:1,", ",tigth,")).is_err());
         assert!(read(&text.replace(",rank_deficient,", ",rank-deficient,")).is_err());
     }

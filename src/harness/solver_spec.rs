@@ -1,13 +1,15 @@
-//! Solver specifications: a solver kind with its options (SOR relaxation, warm or cold start),
-//! or an injected fault, as named on the command line and in the `solver` column.
+//! Solver specifications: a solver of the registry with its parameters (`sor@omega=1.7`,
+//! `soft-step@substeps=8`) and its start (warm or cold), or an injected fault, as named on the
+//! command line and in the `solver` column.
 
 use crate::harness::fault::Fault;
 use crate::harness::text::serde_as_text;
 use lcpbench_contact::body_solvers::BodySolverKind;
+use lcpbench_contact::registry;
 use lcpbench_contact::scene::Scene;
-use lcpbench_contact::substep::Params;
 use lcpbench_contact::ContactSolver;
-use lcpbench_solvers::{ConeSolver, ConeSolverKind, ProjectedSor, Solver, SolverKind};
+use lcpbench_solvers::registry::{Level, Params, SolverEntry};
+use lcpbench_solvers::{ConeSolver, ConeSolverKind, Solver, SolverKind};
 use std::fmt;
 use thiserror::Error;
 
@@ -21,43 +23,27 @@ pub struct SolverSpecError {
     pub message: String,
 }
 
-/// A solver with its variant: `NAME[@OMEGA][+warm]`, for example `pgs`, `sor@1.7`, `pgs+warm`,
-/// `si+warm`, `nsgs-cone+warm`, or an injected fault `fault-panic`. Names are the matrix solvers
-/// of `lcpbench-solvers`, the body-level solvers of `lcpbench-contact` (`si`, `body-micro`,
-/// `penalty`, `avg`; scenes only) and the cone solvers (`nsgs-cone`, `newton-ac`,
-/// `newton-fb-cone`, `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`,
-/// `clarabel-socp`: scenes with friction model `cone`, and LCP cases whose rows are (normal,
-/// tangent, tangent) triples, solved as the cone). See [`catalogue`](crate::harness::catalogue::catalogue) for every
-/// name with its level.
+/// A solver with its parameters and start: `NAME[@key=value,…][+warm]`, for example `pgs`,
+/// `sor@omega=1.7`, `pgs+warm`, `si+warm`, `soft-step@substeps=8,hertz=60`,
+/// `nsgs-cone+warm`, or an injected fault `fault-panic`. `NAME` is any solver of the registry
+/// (`lcpbench solvers` lists them with their parameters, defaults and ranges; see
+/// [`catalogue`](crate::harness::catalogue::catalogue)): a matrix solver of
+/// `lcpbench-solvers`, a body-level solver of `lcpbench-contact` (scenes only) or a cone solver
+/// (scenes with friction model `cone`, and LCP cases whose rows are (normal, tangent, tangent)
+/// triples, solved as the cone). `NAME@VALUE` sets a solver's only parameter (`sor@1.7`, the
+/// older spelling of `sor@omega=1.7`).
 ///
 /// `warm`: warm start (iterative solvers only): from a nearby solution for LCP cases, from the
 /// previous step's impulses for scenes. Without `+warm` LCP cases start cold and scenes step
 /// cold.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SolverSpec {
-    /// A matrix solver of `lcpbench-solvers`.
-    Matrix {
-        /// Which solver.
-        kind: SolverKind,
-        /// SOR relaxation (only for `sor`; `None`: the solver's default, 1.3).
-        omega: Option<f64>,
-        /// Warm start.
-        warm: bool,
-    },
-    /// A body-level solver of `lcpbench-contact` (scenes only).
-    Body {
-        /// Which solver.
-        kind: BodySolverKind,
-        /// Its parameters (`name@key=value,…`; the substepping solvers' `substeps`, `hertz`,
-        /// …), checked against [`BodySolverKind::param_specs`].
+    /// A solver of the registry.
+    Solver {
+        /// Which solver (its level is the entry's).
+        entry: &'static SolverEntry,
+        /// Its parameters, checked against the entry's `params`.
         params: Params,
-        /// Warm start (`si`, `body-micro`, `avg`, the substepping solvers).
-        warm: bool,
-    },
-    /// A solver of the exact Coulomb cone.
-    Cone {
-        /// Which solver.
-        kind: ConeSolverKind,
         /// Warm start.
         warm: bool,
     },
@@ -74,54 +60,41 @@ impl Default for SolverSpec {
 }
 
 impl SolverSpec {
+    /// The solver of `entry` with default parameters, cold start.
+    pub const fn of(entry: &'static SolverEntry) -> Self {
+        Self::Solver {
+            entry,
+            params: entry.defaults(),
+            warm: false,
+        }
+    }
+
     /// Plain matrix solver with default parameters, cold start.
     pub const fn plain(kind: SolverKind) -> Self {
-        Self::Matrix {
-            kind,
-            omega: None,
-            warm: false,
-        }
+        Self::of(kind.entry())
     }
 
-    /// Projected SOR with relaxation `omega`, cold start (not validated; see
-    /// [`SolverSpec::matrix`]).
-    pub fn sor(omega: f64) -> Self {
-        Self::Matrix {
-            kind: SolverKind::Sor,
-            omega: Some(omega),
+    /// Projected SOR with relaxation `omega`, cold start; refused outside `(0, 2)` with the
+    /// key and range named.
+    pub fn sor(omega: f64) -> Result<Self, String> {
+        let mut params = SolverKind::Sor.entry().defaults();
+        params.set("omega", omega)?;
+        Ok(Self::Solver {
+            entry: SolverKind::Sor.entry(),
+            params,
             warm: false,
-        }
-    }
-
-    /// A matrix solver with an optional relaxation, checked: `omega` only for `sor`, in
-    /// `(0, 2)`. The error says what is wrong.
-    pub fn matrix(kind: SolverKind, omega: Option<f64>) -> Result<Self, String> {
-        match omega {
-            Some(_) if kind != SolverKind::Sor => Err("@omega applies only to sor".into()),
-            Some(w) if !(w > 0.0 && w < 2.0) => Err(format!(
-                "omega must be in (0, 2) (projected SOR diverges outside it), got {w}"
-            )),
-            _ => Ok(Self::Matrix {
-                kind,
-                omega,
-                warm: false,
-            }),
-        }
+        })
     }
 
     /// Plain body-level solver, cold start.
     pub const fn body(kind: BodySolverKind) -> Self {
-        Self::Body {
-            kind,
-            params: Params::defaults(kind.param_specs()),
-            warm: false,
-        }
+        Self::of(kind.entry())
     }
 
     /// A body-level solver with parameters, cold start.
     pub const fn body_with(kind: BodySolverKind, params: Params) -> Self {
-        Self::Body {
-            kind,
+        Self::Solver {
+            entry: kind.entry(),
             params,
             warm: false,
         }
@@ -129,59 +102,92 @@ impl SolverSpec {
 
     /// Plain cone solver, cold start.
     pub const fn cone(kind: ConeSolverKind) -> Self {
-        Self::Cone { kind, warm: false }
+        Self::of(kind.entry())
     }
 
     /// The same solver, warm-started (no effect on a fault; not validated, see
     /// [`SolverSpec::is_iterative`]).
     pub const fn with_warm(mut self) -> Self {
-        match &mut self {
-            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
-                *warm = true
-            }
-            Self::Fault(_) => {}
+        if let Self::Solver { warm, .. } = &mut self {
+            *warm = true;
         }
         self
     }
 
     /// The same solver, cold start.
     pub const fn cold(mut self) -> Self {
-        match &mut self {
-            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => {
-                *warm = false
-            }
-            Self::Fault(_) => {}
+        if let Self::Solver { warm, .. } = &mut self {
+            *warm = false;
         }
         self
     }
 
     /// Warm start.
     pub fn warm(&self) -> bool {
+        matches!(self, Self::Solver { warm: true, .. })
+    }
+
+    /// The solver's registry entry (`None` for a fault).
+    pub fn entry(&self) -> Option<&'static SolverEntry> {
         match self {
-            Self::Matrix { warm, .. } | Self::Body { warm, .. } | Self::Cone { warm, .. } => *warm,
-            Self::Fault(_) => false,
+            Self::Solver { entry, .. } => Some(*entry),
+            Self::Fault(_) => None,
         }
     }
 
-    /// SOR relaxation, when set.
-    pub fn omega(&self) -> Option<f64> {
+    /// Matrix, body-level or cone (`None` for a fault).
+    pub fn level(&self) -> Option<Level> {
+        self.entry().map(SolverEntry::level)
+    }
+
+    /// The solver's parameters (`None` for a fault).
+    pub fn params(&self) -> Option<Params> {
         match self {
-            Self::Matrix { omega, .. } => *omega,
-            _ => None,
+            Self::Solver { params, .. } => Some(*params),
+            Self::Fault(_) => None,
         }
+    }
+
+    /// The matrix solver's kind (`None` at another level or for a fault).
+    pub fn matrix_kind(&self) -> Option<SolverKind> {
+        self.entry().and_then(SolverKind::of)
+    }
+
+    /// The body-level solver's kind (`None` at another level or for a fault).
+    pub fn body_kind(&self) -> Option<BodySolverKind> {
+        self.entry().and_then(BodySolverKind::of)
+    }
+
+    /// The cone solver's kind (`None` at another level or for a fault).
+    pub fn cone_kind(&self) -> Option<ConeSolverKind> {
+        self.entry().and_then(ConeSolverKind::of)
+    }
+
+    /// The value of an `omega` parameter (SOR's relaxation) set away from its default.
+    pub fn omega(&self) -> Option<f64> {
+        let params = self.params()?;
+        let spec = params.specs().iter().find(|p| p.key == "omega")?;
+        let w = params.get("omega");
+        (w != spec.default).then_some(w)
     }
 
     /// The kind of a plain matrix solver (default parameters, cold start); `None` for any other
     /// specification.
     pub fn plain_kind(&self) -> Option<SolverKind> {
-        match *self {
-            Self::Matrix {
-                kind,
-                omega: None,
+        match self {
+            Self::Solver {
+                params,
                 warm: false,
-            } => Some(kind),
+                ..
+            } if params.is_default() => self.matrix_kind(),
             _ => None,
         }
+    }
+
+    /// The relaxed or soft problem the solver solves in place of the one it is given, when it
+    /// does (its registry entry's); `None` otherwise and for a fault.
+    pub fn relaxation(&self) -> Option<&'static str> {
+        self.entry().and_then(|e| e.relaxation)
     }
 
     /// The injected fault, for a fault pseudo-solver.
@@ -197,70 +203,64 @@ impl SolverSpec {
     /// specification becomes a stepper's solver; body-level solvers come from the scene, whose
     /// settings hold the penalty parameters.
     pub fn contact_solver(&self, scene: &Scene) -> Option<ContactSolver> {
-        match *self {
-            Self::Matrix { .. } => self.create().map(ContactSolver::Matrix),
-            Self::Body { kind, params, .. } => Some(scene.body_solver_with(kind, params)),
-            Self::Cone { .. } => self.create_cone().map(ContactSolver::Cone),
-            Self::Fault(_) => None,
+        match self.level()? {
+            Level::Matrix => self.create().map(ContactSolver::Matrix),
+            Level::Body => Some(scene.body_solver_with(self.body_kind()?, self.params()?)),
+            Level::Cone => self.create_cone().map(ContactSolver::Cone),
         }
     }
 
     /// True when the solver iterates from a starting impulse (so `+warm` means something).
     pub fn is_iterative(&self) -> bool {
-        match self {
-            Self::Matrix { kind, .. } => kind.is_iterative(),
-            Self::Body { kind, .. } => kind.is_iterative(),
-            Self::Cone { kind, .. } => kind.is_iterative(),
-            Self::Fault(_) => false,
-        }
+        self.entry().is_some_and(|e| e.iterative)
     }
 
-    /// The solver kind's name, or `fault-…`.
+    /// The solver's name, or `fault-…`.
     pub fn base_name(&self) -> String {
         match self {
-            Self::Matrix { kind, .. } => kind.name().to_owned(),
-            Self::Body { kind, .. } => kind.name().to_owned(),
-            Self::Cone { kind, .. } => kind.name().to_owned(),
+            Self::Solver { entry, .. } => entry.name.to_owned(),
             Self::Fault(f) => format!("fault-{}", f.name()),
         }
     }
 
-    /// Create the matrix solver, with its relaxation (`None` for body-level, cone and fault
+    /// Create the matrix solver with its parameters (`None` for body-level, cone and fault
     /// specifications). The one factory of matrix solvers for the harness and the CLI.
     pub fn create(&self) -> Option<Box<dyn Solver + Send>> {
-        match *self {
-            Self::Matrix {
-                kind: SolverKind::Sor,
-                omega: Some(w),
-                ..
-            } => Some(Box::new(ProjectedSor::sor(w))),
-            Self::Matrix { kind, .. } => Some(kind.create()),
-            _ => None,
+        match self {
+            Self::Solver { entry, params, .. } => entry.create(params),
+            Self::Fault(_) => None,
         }
     }
 
-    /// Create the cone solver (`None` for the other specifications).
+    /// Create the cone solver with its parameters (`None` for the other specifications).
     pub fn create_cone(&self) -> Option<Box<dyn ConeSolver + Send>> {
-        match *self {
-            Self::Cone { kind, .. } => Some(kind.create()),
-            _ => None,
+        match self {
+            Self::Solver { entry, params, .. } => entry.create_cone(params),
+            Self::Fault(_) => None,
         }
     }
+}
+
+/// Every solver name of the registry by level, for an error message
+/// (`matrix solvers: pgs, …; body-level solvers: si, …; cone solvers: nsgs-cone, …`).
+pub fn known_solvers() -> String {
+    Level::ALL
+        .iter()
+        .map(|&level| format!("{}: {}", level.plural(), registry::names_at(level)))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 impl fmt::Display for SolverSpec {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         out.write_str(&self.base_name())?;
-        if let Some(w) = self.omega() {
-            write!(out, "@{w}")?;
-        }
-        if let Self::Body { params, .. } = self {
+        if let Self::Solver { params, warm, .. } = self {
             if !params.is_default() {
                 write!(out, "@{params}")?;
             }
-        }
-        if self.warm() {
-            out.write_str("+warm")?;
+            if *warm {
+                out.write_str("+warm")?;
+            }
         }
         Ok(())
     }
@@ -278,59 +278,37 @@ impl std::str::FromStr for SolverSpec {
             Some(r) => (r, true),
             None => (spec, false),
         };
-        if let Some((kind, params)) = BodySolverKind::parse_spec(rest).map_err(err)? {
-            let out = Self::body_with(kind, params);
-            if warm && !out.is_iterative() {
-                return Err(err(format!(
-                    "+warm applies only to iterative solvers, not {}",
-                    kind.name()
-                )));
-            }
-            return Ok(if warm { out.with_warm() } else { out });
-        }
-        let (name, omega) = match rest.split_once('@') {
-            Some((n, w)) => {
-                let w: f64 = w
-                    .parse()
-                    .map_err(|_| err(format!("`{w}` is not a number")))?;
-                (n, Some(w))
-            }
-            None => (rest, None),
-        };
-        if let Some(fault) = name.strip_prefix("fault-") {
+        if let Some(fault) = rest.strip_prefix("fault-") {
             let fault = Fault::from_name(fault)
                 .ok_or_else(|| err("fault must be panic, hang or abort".into()))?;
             return Ok(Self::Fault(fault));
         }
-        let out = match (
-            BodySolverKind::from_name(name),
-            ConeSolverKind::from_name(name),
-        ) {
-            (Some(body), _) => Self::body(body),
-            (None, Some(cone)) => Self::cone(cone),
-            (None, None) => Self::plain(name.parse().map_err(|e: String| {
-                err(format!(
-                    "{e}; body-level solvers: {}; cone solvers: {}",
-                    BodySolverKind::ALL
-                        .iter()
-                        .map(|k| k.name())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    ContactSolver::cone_names()
-                ))
-            })?),
+        let (name, text) = match rest.split_once('@') {
+            Some((n, t)) => (n, Some(t)),
+            None => (rest, None),
         };
-        let out = match (out, omega) {
-            (Self::Matrix { kind, .. }, omega) => Self::matrix(kind, omega).map_err(err)?,
-            (_, Some(_)) => return Err(err("@omega applies only to sor".into())),
-            (out, None) => out,
+        let entry = registry::find(name)
+            .ok_or_else(|| err(format!("unknown solver `{name}` ({})", known_solvers())))?;
+        let params = match text {
+            Some(t) if t.trim().is_empty() => {
+                return Err(err(format!(
+                    "nothing after `@` (keys: {})",
+                    Params::keys(entry.params)
+                )))
+            }
+            Some(t) => entry.parse_params(t).map_err(err)?,
+            None => entry.defaults(),
         };
-        if warm && !out.is_iterative() {
+        if warm && !entry.iterative {
             return Err(err(format!(
                 "+warm applies only to iterative solvers, not {name}"
             )));
         }
-        Ok(if warm { out.with_warm() } else { out })
+        Ok(Self::Solver {
+            entry,
+            params,
+            warm,
+        })
     }
 }
 
@@ -344,38 +322,88 @@ mod tests {
     fn specs_round_trip() {
         for s in [
             "pgs",
-            "sor@1.7",
+            "sor@omega=1.7",
             "pgs+warm",
-            "sor@0.9+warm",
+            "sor@omega=0.9+warm",
             "fault-hang",
             "lemke",
             "nsgs-cone",
             "newton-ac+warm",
+            "soft-step@substeps=8,hertz=60+warm",
         ] {
             let spec: SolverSpec = s.parse().unwrap();
             assert_eq!(spec.to_string(), s);
         }
+        // The older spelling of a solver's only parameter, written back in the general form.
+        assert_eq!(
+            "sor@1.7+warm".parse::<SolverSpec>().unwrap().to_string(),
+            "sor@omega=1.7+warm"
+        );
+        assert_eq!(
+            "sor@omega=1.3".parse::<SolverSpec>().unwrap().to_string(),
+            "sor"
+        );
         assert!("lemke+warm".parse::<SolverSpec>().is_err());
         assert!("penalty+warm".parse::<SolverSpec>().is_err());
         assert!("pgs@1.2".parse::<SolverSpec>().is_err());
-        for bad_omega in ["sor@5", "sor@0", "sor@-1", "sor@NaN", "sor@2"] {
+        assert!("sor@".parse::<SolverSpec>().is_err());
+        for bad_omega in [
+            "sor@5",
+            "sor@0",
+            "sor@-1",
+            "sor@NaN",
+            "sor@2",
+            "sor@omega=2.5",
+        ] {
             assert!(bad_omega.parse::<SolverSpec>().is_err(), "{bad_omega}");
         }
         assert!("nope".parse::<SolverSpec>().is_err());
     }
 
+    /// `sor@omega=2.5` is refused naming the key and its range; an unknown key naming the
+    /// solver's keys; an unknown solver listing the solvers of every level.
     #[test]
-    fn specs_are_the_variant_their_name_says() {
-        let sor: SolverSpec = "sor@1.5+warm".parse().unwrap();
-        assert_eq!(
-            sor,
-            SolverSpec::Matrix {
-                kind: SolverKind::Sor,
-                omega: Some(1.5),
-                warm: true
-            }
+    fn refusals_name_the_key_the_range_and_the_known_names() {
+        let e = "sor@omega=2.5"
+            .parse::<SolverSpec>()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("omega must be in (0, 2)") && e.contains("2.5"),
+            "{e}"
         );
+        let e = "sor@alpha=1".parse::<SolverSpec>().unwrap_err().to_string();
+        assert!(
+            e.contains("unknown parameter `alpha`") && e.contains("keys: omega"),
+            "{e}"
+        );
+        let e = "tgs@omega=1".parse::<SolverSpec>().unwrap_err().to_string();
+        assert!(e.contains("keys: substeps"), "{e}");
+        let e = "pgs@omega=1.2"
+            .parse::<SolverSpec>()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("takes no parameters"), "{e}");
+        let e = "nope".parse::<SolverSpec>().unwrap_err().to_string();
+        for name in [
+            "matrix solvers: pgs",
+            "body-level solvers: si",
+            "avg",
+            "clarabel-socp",
+        ] {
+            assert!(e.contains(name), "{e}");
+        }
+    }
+
+    #[test]
+    fn specs_are_the_solver_and_parameters_their_name_says() {
+        let sor: SolverSpec = "sor@omega=1.5+warm".parse().unwrap();
+        assert_eq!(sor, SolverSpec::sor(1.5).unwrap().with_warm());
+        assert_eq!(sor.omega(), Some(1.5));
+        assert_eq!(sor.level(), Some(Level::Matrix));
         assert_eq!(sor.create().unwrap().name(), "sor");
+        assert!(SolverSpec::sor(2.0).unwrap_err().contains("(0, 2)"));
+        assert_eq!("sor".parse::<SolverSpec>().unwrap().omega(), None);
         let si: SolverSpec = "si+warm".parse().unwrap();
         assert_eq!(
             si,
@@ -384,12 +412,17 @@ mod tests {
         assert!(si.create().is_none() && si.create_cone().is_none());
         let cone: SolverSpec = "nsgs-cone".parse().unwrap();
         assert_eq!(cone.create_cone().unwrap().name(), "nsgs-cone");
+        assert_eq!(cone.cone_kind(), Some(ConeSolverKind::NsgsCone));
         assert_eq!(
             "fault-panic".parse::<SolverSpec>().unwrap(),
             SolverSpec::Fault(Fault::Panic)
         );
-        assert!(SolverSpec::matrix(SolverKind::Pgs, Some(1.2)).is_err());
-        assert!(SolverSpec::matrix(SolverKind::Sor, Some(2.0)).is_err());
-        assert!(SolverSpec::matrix(SolverKind::Sor, Some(1.2)).is_ok());
+        // Every solver of the registry parses by its name alone, as itself.
+        for e in registry::entries() {
+            let spec: SolverSpec = e.name.parse().unwrap();
+            assert_eq!(spec.entry(), Some(e));
+            assert_eq!(spec.to_string(), e.name);
+            assert_eq!(spec.is_iterative(), e.iterative);
+        }
     }
 }

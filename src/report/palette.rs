@@ -1,17 +1,14 @@
 //! The plots' styles: each series a (colour, marker) pair, no pair repeated in a plot, for any
 //! number of series.
 //!
-//! Every shipped solver (matrix, body-level, cone) has a fixed index, so it keeps its style
-//! from one figure and one report to the next: its colour is its slot in [`PALETTE`], its
-//! marker a filled circle or triangle, and its warm-started form the same colour with the
-//! hollow marker. Other series (SOR variants, faults, friction models, solvers this module
-//! does not know) take the next free index of the figure ([`styles`]). Index `i` is the pair
-//! (colour `i mod 16`, marker `i div 16`) for the first `16 × 8` indices; beyond them the
-//! colours are generated (golden-angle hues), so pairs never repeat however many series a
-//! figure has.
-
-use lcpbench_contact::body_solvers::BodySolverKind;
-use lcpbench_solvers::{ConeSolverKind, SolverKind};
+//! Every solver of the registry (matrix, body-level, cone, and those registered at run time)
+//! has a fixed index from its place in the registry, so it keeps its style from one figure and
+//! one report to the next: its colour is its slot in [`PALETTE`], its marker a filled one, and
+//! its warm-started form the same colour with the hollow marker (see `solver_index`). Other
+//! series (parameter variants, faults, friction models, unknown names) take the next free
+//! index of the figure ([`styles`]). Index `i` is the pair (colour `i mod 16`, marker
+//! `i div 16`) for the first `16 × 8` indices; beyond them the colours are generated
+//! (golden-angle hues), so pairs never repeat however many solvers and series a figure has.
 
 /// The plot palette (RGB): sixteen colours told apart on white.
 pub const PALETTE: [(u8, u8, u8); 16] = [
@@ -110,36 +107,50 @@ fn generated_colour(i: usize) -> (u8, u8, u8) {
     (to(r), to(g), to(b))
 }
 
-/// Every shipped solver's name, in the order of their fixed indices.
+/// Every solver's name, in the order of their fixed indices: the registry's order (built-ins,
+/// then those registered at run time).
 fn shipped_names() -> Vec<&'static str> {
-    let mut v: Vec<&'static str> = SolverKind::ALL.iter().map(|k| k.name()).collect();
-    v.extend(BodySolverKind::ALL.iter().map(|k| k.name()));
-    v.extend(ConeSolverKind::ALL.iter().map(|k| k.name()));
-    v
+    lcpbench_contact::registry::entries()
+        .iter()
+        .map(|e| e.name)
+        .collect()
 }
 
-/// The fixed index of a shipped solver's specification (`pgs`, `pgs+warm`, `nsgs-cone`), or
-/// `None` for anything else. Cold: base slot `b` on the filled circle/triangle rows; warm:
-/// the same colour on the hollow rows.
+/// The fixed index of the `b`-th solver of the registry, cold or warm-started. Solvers come
+/// in groups of sixteen, one colour each; groups pair up in blocks of four marker rows: the
+/// first group of a block cold on row 0 of the block (filled circle) and warm on row 2 (hollow
+/// circle), the second cold on row 1 (filled triangle) and warm on row 3 (hollow triangle). So
+/// the first 32 solvers keep the styles they have always had, 64 solvers fill the sixteen
+/// colours × eight markers, and beyond that [`style_at`] generates colours.
+fn solver_index(b: usize, warm: bool) -> usize {
+    let (group, col) = (b / PALETTE.len(), b % PALETTE.len());
+    let row = 4 * (group / 2) + group % 2 + if warm { 2 } else { 0 };
+    row * PALETTE.len() + col
+}
+
+/// The fixed index of a solver's specification (`pgs`, `pgs+warm`, `nsgs-cone`), or `None`
+/// for anything else (parameters, faults, names no solver has). Cold: the filled marker of its
+/// colour; warm: the same colour with the hollow marker ([`solver_index`]).
 pub fn fixed_index(key: &str) -> Option<usize> {
     let (base, warm) = match key.strip_suffix("+warm") {
         Some(b) => (b, true),
         None => (key, false),
     };
     let b = shipped_names().iter().position(|n| *n == base)?;
-    let (row, col) = (b / PALETTE.len(), b % PALETTE.len());
-    let row = if warm { row + 2 } else { row };
-    Some(row * PALETTE.len() + col)
+    Some(solver_index(b, warm))
 }
 
-/// The first index of the series without a fixed one: past the fixed rows.
-const FREE_FROM: usize = 4 * PALETTE.len();
+/// The first index of the series without a fixed one: past the marker rows the registry's
+/// solvers take (four rows per 32 solvers).
+fn free_from(solvers: usize) -> usize {
+    4 * PALETTE.len() * solvers.div_ceil(2 * PALETTE.len()).max(1)
+}
 
 /// A style for each key, in order: equal keys share one, different keys never do. Shipped
 /// solvers take their fixed index, the others the free indices in order of first appearance.
 pub fn styles<S: AsRef<str>>(keys: &[S]) -> Vec<Style> {
     let mut assigned: Vec<(String, usize)> = Vec::new();
-    let mut next = FREE_FROM;
+    let mut next = free_from(shipped_names().len());
     keys.iter()
         .map(|k| {
             let k = k.as_ref();
@@ -195,5 +206,29 @@ mod tests {
         let again = styles(&["x", "pgs", "x"]);
         assert_eq!(again[0], again[2]);
         assert_ne!(again[0], again[1]);
+    }
+
+    /// Sixty-four solvers, cold and warm, get distinct pairs from their fixed indices alone
+    /// (as many as the registry could hold after 34 more registrations), and the free indices
+    /// start past them.
+    #[test]
+    fn sixty_four_solvers_get_distinct_pairs() {
+        let mut seen = HashSet::new();
+        for b in 0..64 {
+            for warm in [false, true] {
+                let i = solver_index(b, warm);
+                assert!(i < free_from(64), "{b} {warm}");
+                assert!(seen.insert(style_at(i)), "solver {b} warm {warm}");
+            }
+        }
+        assert!(free_from(64) >= 128 && free_from(30) == 64);
+        let names: Vec<String> = (0..64).map(|i| format!("solver-{i}")).collect();
+        let s = styles(&names);
+        assert_eq!(s.iter().copied().collect::<HashSet<Style>>().len(), 64);
+        // The first 32 keep the layout they always had: cold on rows 0 and 1, warm on 2 and 3.
+        assert_eq!(solver_index(0, false), 0);
+        assert_eq!(solver_index(0, true), 2 * 16);
+        assert_eq!(solver_index(17, false), 16 + 1);
+        assert_eq!(solver_index(17, true), 3 * 16 + 1);
     }
 }

@@ -20,16 +20,6 @@ pub const REPLAY_SOLVERS: [SolverSpec; 2] = [
     SolverSpec::body(BodySolverKind::SequentialImpulses),
 ];
 
-/// The stepper's solver of a replay solver with its default parameters (`None` for a fault).
-fn replay_solver(spec: &SolverSpec) -> Option<ContactSolver> {
-    match *spec {
-        SolverSpec::Matrix { kind, .. } => Some(kind.into()),
-        SolverSpec::Body { kind, .. } => Some(kind.into()),
-        SolverSpec::Cone { kind, .. } => Some(kind.into()),
-        SolverSpec::Fault(_) => None,
-    }
-}
-
 /// Size bound of one replay page, bytes.
 pub const REPLAY_MAX_BYTES: usize = 1_500_000;
 
@@ -91,7 +81,7 @@ pub fn write_replays(scenes: &[PathBuf], out_dir: &Path) -> Vec<ReplayLink> {
                 let steps = scene.settings.steps.min(cap);
                 let mut recordings = Vec::new();
                 for solver in &REPLAY_SOLVERS {
-                    let choice = replay_solver(solver).ok_or("no stepper solver")?;
+                    let choice = solver.contact_solver(&scene).ok_or("no stepper solver")?;
                     if let Ok(r) = record(&scene, path, choice, steps) {
                         link.solvers.push(solver.to_string());
                         recordings.push(r);

@@ -71,7 +71,7 @@ pub const SCENE_BUDGETS: [BudgetName; 3] =
 /// The budget of the scene runs at accuracy 1e-6 (tolerance 1e-6, 1000 iterations per step,
 /// 1 s per step), which Findings answers at beside `loose` (1e-4) and `default` (1e-8):
 /// `realtime`'s 20 iterations answer another question. Run by the iterative scene solvers
-/// warm-started only (on the huge scenes, those of [`HUGE_SCENE_SOLVERS`]): the cold runs and
+/// warm-started only (on the huge scenes, those of [`huge_scene_solvers`]): the cold runs and
 /// the pivoting solvers count at 1e-6 through their `default` runs (a step converged at 1e-8
 /// met 1e-6; the time is then an upper bound), which keeps the suite's growth to about one run
 /// in eight of the scene runs.
@@ -117,20 +117,25 @@ pub const LARGE_SCENE_STEP_EXCEPTIONS: [(&str, usize); 7] = [
 ];
 
 /// Scenes with more dynamic bodies than this are *huge*: they run only
-/// [`HUGE_SCENE_SOLVERS`].
+/// [`huge_scene_solvers`].
 pub const HUGE_SCENE_BODIES: usize = 2_000;
 
-/// The solvers of the huge scenes, cold and warm-started: those that work on the factors of
-/// the Delassus matrix (PGS, SOR) and the body-level solvers, as engines step such scenes. The
-/// others read rows of the assembled `A` (44 million entries on the 5,525-box pyramid) and
-/// would spend their runs forming and factoring it.
-pub const HUGE_SCENE_SOLVERS: [SolverSpec; 5] = [
-    SolverSpec::plain(SolverKind::Pgs),
-    SolverSpec::plain(SolverKind::Sor),
-    SolverSpec::body(BodySolverKind::SequentialImpulses),
-    SolverSpec::body(BodySolverKind::MicroImpulses),
-    SolverSpec::body(BodySolverKind::Penalty),
-];
+/// The solvers of the huge scenes, cold (the warm-started forms of the iterative ones join them
+/// in the scene jobs): those the registry says work without the assembled Delassus matrix
+/// ([`SolverEntry::works_on_factors`](lcpbench_solvers::SolverEntry::works_on_factors): the
+/// matrix solvers that sweep on its factors, PGS and SOR, and the body-level solvers), as
+/// engines step such scenes, except the substepping solvers, which the engine comparison
+/// measures on its own scenes ([`ENGINE_SCENES`]). The others read rows of the assembled `A`
+/// (44 million entries on the 5,525-box pyramid) and would spend their runs forming and
+/// factoring it.
+pub fn huge_scene_solvers() -> Vec<SolverSpec> {
+    lcpbench_contact::registry::entries()
+        .into_iter()
+        .filter(|e| e.works_on_factors())
+        .filter(|e| BodySolverKind::of(e).is_none_or(|k| !k.substeps()))
+        .map(SolverSpec::of)
+        .collect()
+}
 
 /// True when the scene has more than [`HUGE_SCENE_BODIES`] dynamic bodies.
 pub fn is_huge_scene(path: &std::path::Path) -> bool {
@@ -486,12 +491,15 @@ fn custom_budget(spec: &str) -> NamedBudget {
 
 /// Every matrix solver with default parameters, cold start.
 pub fn all_solvers() -> Vec<SolverSpec> {
-    SolverKind::ALL.into_iter().map(SolverSpec::plain).collect()
+    SolverKind::all()
+        .into_iter()
+        .map(SolverSpec::plain)
+        .collect()
 }
 
 /// Every cone solver, cold start.
 pub fn cone_solvers() -> Vec<SolverSpec> {
-    ConeSolverKind::ALL
+    ConeSolverKind::all()
         .into_iter()
         .map(SolverSpec::cone)
         .collect()
@@ -500,7 +508,7 @@ pub fn cone_solvers() -> Vec<SolverSpec> {
 /// Every solver a scene can use: the matrix solvers and the body-level ones, cold start.
 pub fn scene_solvers() -> Vec<SolverSpec> {
     let mut v = all_solvers();
-    v.extend(BodySolverKind::ALL.into_iter().map(SolverSpec::body));
+    v.extend(BodySolverKind::all().into_iter().map(SolverSpec::body));
     v
 }
 
@@ -679,7 +687,7 @@ pub const ENGINE_BASELINE_ITERATIONS: [usize; 3] = [8, 16, 40];
 /// their defaults and at two more costs ([`cost_variants`]), warm-started when they iterate.
 pub fn engine_solver_specs() -> Vec<SolverSpec> {
     let mut out = Vec::new();
-    for kind in BodySolverKind::ALL.into_iter().filter(|k| k.substeps()) {
+    for kind in BodySolverKind::all().into_iter().filter(|k| k.substeps()) {
         let specs = std::iter::once(SolverSpec::body(kind)).chain(
             cost_variants(kind.param_specs())
                 .into_iter()
@@ -940,7 +948,12 @@ fn lcp_jobs(suite: &mut Suite) {
     push(suite, &exported, &solvers, &matrix_budgets);
     let scaling = suite.scaling_cases.clone();
     push(suite, &scaling, &solvers, &[preset(BudgetName::Default)]);
-    let omega_specs: Vec<SolverSpec> = suite.omegas.iter().map(|&w| SolverSpec::sor(w)).collect();
+    // An omega outside SOR's range (0, 2) has no run (the plans' omegas are all inside it).
+    let omega_specs: Vec<SolverSpec> = suite
+        .omegas
+        .iter()
+        .filter_map(|&w| SolverSpec::sor(w).ok())
+        .collect();
     let omega = suite.omega_cases.clone();
     push(suite, &omega, &omega_specs, &[preset(BudgetName::Default)]);
     let iterative: Vec<SolverSpec> = solvers
@@ -984,9 +997,10 @@ fn scene_jobs(suite: &mut Suite, _large_scenes: &[Case]) {
     push(suite, &rest, &solvers, &scene_budgets);
     let mid = [scene_mid_budget()];
     push(suite, &rest, &warm_scene_solvers(), &mid);
+    let huge_solvers = huge_scene_solvers();
     let engine: Vec<SolverSpec> = solvers
         .into_iter()
-        .filter(|s| HUGE_SCENE_SOLVERS.contains(&s.clone().cold()))
+        .filter(|s| huge_solvers.contains(&s.clone().cold()))
         .collect();
     push(suite, &huge, &engine, &scene_budgets);
     let engine_warm: Vec<SolverSpec> = engine.into_iter().filter(|s| s.warm()).collect();
@@ -1123,7 +1137,7 @@ mod tests {
         );
     }
 
-    /// A huge scene runs the solvers of [`HUGE_SCENE_SOLVERS`], cold and warm, under every
+    /// A huge scene runs the solvers of [`huge_scene_solvers`], cold and warm, under every
     /// scene budget; a large one below the threshold runs every scene solver.
     #[test]
     fn huge_scenes_run_the_solvers_that_need_no_assembled_matrix() {
@@ -1145,7 +1159,7 @@ mod tests {
             v
         };
         let on_huge = specs_on(&huge);
-        let huge_names: Vec<String> = HUGE_SCENE_SOLVERS.iter().map(|s| s.to_string()).collect();
+        let huge_names: Vec<String> = huge_scene_solvers().iter().map(|s| s.to_string()).collect();
         assert!(on_huge.iter().all(|spec| huge_names
             .iter()
             .any(|h| h == spec.trim_end_matches("+warm"))));
@@ -1220,22 +1234,19 @@ mod tests {
     #[test]
     fn the_engine_comparison_runs_the_substepping_solvers_and_the_baselines() {
         let specs = engine_solver_specs();
-        let kinds: Vec<BodySolverKind> = BodySolverKind::ALL
+        let kinds: Vec<BodySolverKind> = BodySolverKind::all()
             .into_iter()
             .filter(|k| k.substeps())
             .collect();
         for spec in &specs {
-            let SolverSpec::Body { kind, .. } = spec else {
+            let Some(kind) = spec.body_kind() else {
                 panic!("{spec} is not a body-level solver");
             };
-            assert!(kinds.contains(kind), "{spec}");
+            assert!(kinds.contains(&kind), "{spec}");
             assert_eq!(spec.warm(), kind.is_iterative(), "{spec}");
         }
         for kind in &kinds {
-            let first = specs
-                .iter()
-                .find(|s| matches!(s, SolverSpec::Body { kind: k, .. } if k == kind))
-                .unwrap();
+            let first = specs.iter().find(|s| s.body_kind() == Some(*kind)).unwrap();
             assert_eq!(first.clone().cold(), SolverSpec::body(*kind));
         }
         let runs: Vec<String> = engine_runs()
@@ -1390,7 +1401,7 @@ mod tests {
             .iter()
             .filter(|j| j.solver.create_cone().is_some())
             .collect();
-        assert_eq!(cone_jobs.len(), keys.len() * ConeSolverKind::ALL.len());
+        assert_eq!(cone_jobs.len(), keys.len() * ConeSolverKind::all().len());
         assert!(cone_jobs
             .iter()
             .all(|j| j.budget.name.as_str() == FC3D_BUDGET && s.fc3d_cases.contains(&j.case)));
@@ -1415,7 +1426,7 @@ mod tests {
                 );
             })
             .count();
-        assert_eq!(jobs, 2 * 5 * SolverKind::ALL.len());
+        assert_eq!(jobs, 2 * 5 * SolverKind::all().len());
         // The quick suite keeps the smallest file.
         let quick: Vec<String> = default_suite(true, &scenes, &[])
             .fclib_cases

@@ -3,7 +3,6 @@
 //! `f` and `w` per row.
 
 use super::recording::history_json;
-use lcpbench_contact::body_solvers::BodySolverKind;
 use lcpbench_solvers::{ConeProblem, ConeSolverKind, Problem, Settings, SolverKind};
 use serde_json::{json, Value};
 
@@ -31,11 +30,11 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
         |v: &[f64]| -> Vec<Option<f64>> { v.iter().map(|&x| x.is_finite().then_some(x)).collect() };
     let start = std::time::Instant::now();
     let cone = ConeProblem::from_box(problem).ok();
-    let runs: Vec<PageSolver> = SolverKind::ALL
+    let runs: Vec<PageSolver> = SolverKind::all()
         .into_iter()
         .map(PageSolver::Lcp)
         .chain(cone.iter().flat_map(|c| {
-            ConeSolverKind::ALL
+            ConeSolverKind::all()
                 .into_iter()
                 .map(|k| PageSolver::Cone(k, c))
         }))
@@ -105,43 +104,8 @@ pub fn problem_data(problem: &Problem, name: &str, settings: &Settings) -> Value
 }
 
 /// What one iteration of the solver named `name` is, the unit of its `iterations` count
-/// (sweeps, pivots, Newton steps, interior-point iterations, …); `None` for an unknown name.
+/// (sweeps, pivots, Newton steps, interior-point iterations, …), from its registry entry;
+/// `None` for an unknown name.
 pub fn iteration_unit(name: &str) -> Option<&'static str> {
-    if let Some(kind) = SolverKind::from_name(name) {
-        return Some(match kind {
-            SolverKind::Pgs | SolverKind::Sor | SolverKind::Nsgs => "sweeps over the rows",
-            SolverKind::MicroImpulse => "sweep-equivalents (n single impulses each)",
-            SolverKind::Nncg => "sweeps (PGS sweeps with conjugate directions)",
-            SolverKind::Lemke | SolverKind::Dantzig => "pivots",
-            SolverKind::Clarabel => "interior-point iterations",
-            SolverKind::NewtonFb | SolverKind::NewtonMin => "Newton steps",
-            SolverKind::Apgd => "projected gradient steps",
-            SolverKind::Enumeration => "complementary bases tried",
-        });
-    }
-    if let Some(kind) = BodySolverKind::from_name(name) {
-        return Some(match kind {
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::AveragedImpulse => "sweeps over the contacts",
-            BodySolverKind::Penalty => "passes (always 1)",
-            BodySolverKind::SoftStep | BodySolverKind::Tgs => {
-                "sweeps over the rows, summed over the substeps and passes"
-            }
-            BodySolverKind::PgsNgs => "velocity and position sweeps, summed over the substeps",
-            BodySolverKind::Jacobi => "Jacobi sweeps, summed over the substeps",
-            BodySolverKind::Xpbd => "position and velocity passes, summed over the substeps",
-        });
-    }
-    ConeSolverKind::from_name(name).map(|kind| match kind {
-        ConeSolverKind::NsgsCone => "sweeps over the contacts",
-        ConeSolverKind::NewtonAc | ConeSolverKind::NewtonFbCone | ConeSolverKind::NewtonNmCone => {
-            "Newton steps"
-        }
-        ConeSolverKind::ExtragradientCone => "extragradient steps",
-        ConeSolverKind::FixedPointProjectionCone => "projection steps",
-        ConeSolverKind::AdmmCone => "ADMM iterations",
-        ConeSolverKind::ProxCone => "inner NSGS sweeps",
-        ConeSolverKind::ClarabelSocp => "interior-point iterations",
-    })
+    lcpbench_contact::registry::find(name).map(|e| e.iteration_unit)
 }

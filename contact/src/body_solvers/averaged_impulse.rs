@@ -86,6 +86,26 @@ use std::collections::BTreeMap;
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct AveragedImpulse;
 
+/// The registry's entry of `avg`.
+pub static AVG: lcpbench_solvers::registry::SolverEntry = lcpbench_solvers::registry::SolverEntry {
+    name: "avg",
+    summary: "averaged impulses: one contact per body pair at the averaged point and normal, \
+                 swept as si",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), no joints; one \
+                 impulse per body pair at the averaged point along the averaged normal, swept as si, \
+                 warm-startable; exact only for convex single-normal contact regions: separated \
+                 supports, off-centre loads and non-convex meshes tilt or sink",
+    iteration_unit: "sweeps over the contacts",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+        make: |_params| Box::new(AveragedImpulse),
+        takes_joints: false,
+        substeps: false,
+    }),
+};
+
 impl BodySolver for AveragedImpulse {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::AveragedImpulse

@@ -53,7 +53,8 @@
 //! stop `Stalled` ([`lcpbench_solvers::Stagnation`]).
 
 use crate::builder::{bounces, BodyVelocity, ContactSystem, DelassusOperator};
-use crate::substep::{ParamSpec, Params, SubstepInput, SubstepOutcome};
+use crate::substep::{Params, SubstepInput, SubstepOutcome};
+use lcpbench_solvers::registry::{Make, SolverEntry};
 use lcpbench_solvers::{
     decide, judge, non_finite_reason, residuals_and_velocity, Outcome, Problem, Residuals,
     Settings, SolveResult, Stagnation, Status, FIRST_ORDER_STAGNATION_WINDOW,
@@ -65,255 +66,110 @@ pub mod averaged_impulse;
 
 pub use averaged_impulse::AveragedImpulse;
 
-/// A body-level solver (the catalogue of names; [`BodySolverKind::create`] makes the solver).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum BodySolverKind {
-    /// Sequential impulses with accumulated clamping and warm starting.
-    SequentialImpulses,
-    /// Mirtich micro-impulses.
-    MicroImpulses,
-    /// Spring–damper penalty forces.
-    Penalty,
-    /// One averaged impulse per body pair.
-    AveragedImpulse,
-    /// Substeps with soft contacts and joints, relax and restitution passes (Box2D v3).
-    SoftStep,
-    /// Temporal Gauss–Seidel: substeps with Baumgarte bias, rigid rows, no relax.
-    Tgs,
-    /// Box2D 2.x: sequential impulses on velocities, nonlinear Gauss–Seidel on positions.
-    PgsNgs,
-    /// Projected Jacobi with mass splitting: every row from the same velocities.
-    Jacobi,
-    /// Extended position-based dynamics with small steps ([`crate::substep::xpbd`]).
-    Xpbd,
+/// How a body-level entry of the [registry](lcpbench_solvers::registry) makes its solver, and
+/// what the stepper needs to know of it. Held type-erased in the entry's
+/// [`Make::Body`](lcpbench_solvers::registry::Make::Body) (`lcpbench-solvers` cannot name
+/// [`BodySolver`]); [`body_make`] and [`BodySolverKind`] read it back.
+#[derive(Clone, Copy)]
+pub struct BodyMake {
+    /// The solver with parameters (checked against the entry's `params`).
+    pub make: fn(&Params) -> Box<dyn BodySolver + Send>,
+    /// True when it applies joint (equality) rows with the contacts.
+    pub takes_joints: bool,
+    /// True for a substepping solver ([`crate::substep`]), which moves the bodies itself
+    /// ([`BodySolver::advance`]).
+    pub substeps: bool,
 }
 
-impl BodySolverKind {
-    /// Every body-level solver, in report order.
-    pub const ALL: [BodySolverKind; 9] = [
-        BodySolverKind::SequentialImpulses,
-        BodySolverKind::MicroImpulses,
-        BodySolverKind::Penalty,
-        BodySolverKind::AveragedImpulse,
-        BodySolverKind::SoftStep,
-        BodySolverKind::Tgs,
-        BodySolverKind::PgsNgs,
-        BodySolverKind::Jacobi,
-        BodySolverKind::Xpbd,
-    ];
+/// The [`BodyMake`] of a body-level entry (`None` for an entry of another level, or whose
+/// constructor is not a [`BodyMake`]).
+pub fn body_make(entry: &SolverEntry) -> Option<&'static BodyMake> {
+    match entry.make {
+        Make::Body(any) => any.downcast_ref::<BodyMake>(),
+        _ => None,
+    }
+}
 
-    /// Name used on the command line and in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            BodySolverKind::SequentialImpulses => "si",
-            BodySolverKind::MicroImpulses => "body-micro",
-            BodySolverKind::Penalty => "penalty",
-            BodySolverKind::AveragedImpulse => "avg",
-            BodySolverKind::SoftStep => "soft-step",
-            BodySolverKind::Tgs => "tgs",
-            BodySolverKind::PgsNgs => "pgs-ngs",
-            BodySolverKind::Jacobi => "jacobi",
-            BodySolverKind::Xpbd => "xpbd",
-        }
+/// The body-level solvers of this crate, in report order (the registry's list of them).
+pub static BODY_SOLVERS: &[&SolverEntry] = &[
+    &SI,
+    &BODY_MICRO,
+    &PENALTY,
+    &averaged_impulse::AVG,
+    &crate::substep::soft_step::SOFT_STEP,
+    &crate::substep::tgs::TGS,
+    &crate::substep::pgs_ngs::PGS_NGS,
+    &crate::substep::jacobi::JACOBI,
+    &crate::substep::xpbd::XPBD,
+];
+
+/// A body-level solver of the registry: a `Copy` handle to its [`SolverEntry`], as
+/// `lcpbench_solvers::SolverKind` (the built-in ones have associated constants;
+/// [`BodySolverKind::all`] lists them and the ones registered at run time).
+#[derive(Clone, Copy)]
+pub struct BodySolverKind(&'static SolverEntry);
+
+lcpbench_solvers::kind_handle!(
+    BodySolverKind,
+    lcpbench_solvers::registry::Level::Body,
+    || crate::registry::entries_at(lcpbench_solvers::registry::Level::Body)
+);
+
+#[allow(non_upper_case_globals)]
+impl BodySolverKind {
+    /// Sequential impulses with accumulated clamping and warm starting.
+    pub const SequentialImpulses: Self = Self(&SI);
+    /// Mirtich micro-impulses.
+    pub const MicroImpulses: Self = Self(&BODY_MICRO);
+    /// Spring–damper penalty forces.
+    pub const Penalty: Self = Self(&PENALTY);
+    /// One averaged impulse per body pair.
+    pub const AveragedImpulse: Self = Self(&averaged_impulse::AVG);
+    /// Substeps with soft contacts and joints, relax and restitution passes (Box2D v3).
+    pub const SoftStep: Self = Self(&crate::substep::soft_step::SOFT_STEP);
+    /// Temporal Gauss–Seidel: substeps with Baumgarte bias, rigid rows, no relax.
+    pub const Tgs: Self = Self(&crate::substep::tgs::TGS);
+    /// Box2D 2.x: sequential impulses on velocities, nonlinear Gauss–Seidel on positions.
+    pub const PgsNgs: Self = Self(&crate::substep::pgs_ngs::PGS_NGS);
+    /// Projected Jacobi with mass splitting: every row from the same velocities.
+    pub const Jacobi: Self = Self(&crate::substep::jacobi::JACOBI);
+    /// Extended position-based dynamics with small steps ([`crate::substep::xpbd`]).
+    pub const Xpbd: Self = Self(&crate::substep::xpbd::XPBD);
+
+    /// The handle of `entry`, for a body-level solver's own [`BodySolver::kind`] (a solver
+    /// registered at run time names itself by its entry this way). `entry` should be a
+    /// registered body-level entry; for any other, the handle makes a solver whose every
+    /// sweep stalls, saying why.
+    pub const fn for_entry(entry: &'static SolverEntry) -> Self {
+        Self(entry)
     }
 
     /// One line saying what the solver is (for solver listings).
     pub fn description(self) -> &'static str {
-        match self {
-            BodySolverKind::SequentialImpulses => {
-                "sequential impulses (Catto 2005): restitution sweeps, then projected Gauss-Seidel \
-                 on accumulated impulses, warm-started"
-            }
-            BodySolverKind::MicroImpulses => {
-                "micro-impulses (Mirtich 1996): every closing contact a collision, no impulse \
-                 taken back"
-            }
-            BodySolverKind::Penalty => {
-                "spring-damper penalty forces: one Jacobi pass, does not solve the LCP"
-            }
-            BodySolverKind::AveragedImpulse => {
-                "averaged impulses: one contact per body pair at the averaged point and normal, \
-                 swept as si"
-            }
-            BodySolverKind::SoftStep => {
-                "soft step (Box2D v3): substeps with soft contacts and joints, a rigid relax pass \
-                 and a restitution pass"
-            }
-            BodySolverKind::Tgs => {
-                "temporal Gauss-Seidel (PhysX TGS, Rapier): substeps of rigid sweeps with \
-                 Baumgarte bias, no relax"
-            }
-            BodySolverKind::PgsNgs => {
-                "Box2D 2.x step: velocity sweeps of sequential impulses (no position bias), then \
-                 nonlinear Gauss-Seidel position sweeps"
-            }
-            BodySolverKind::Jacobi => {
-                "projected Jacobi: every row's impulse from the same velocities, applied together, \
-                 scaled by |A|'s row sums (or mass splitting) to converge, Baumgarte bias"
-            }
-            BodySolverKind::Xpbd => {
-                "extended position-based dynamics with small steps (Macklin et al. 2019, Mueller \
-                 et al. 2020): position corrections per substep, velocities from positions"
-            }
-        }
+        self.0.summary
     }
 
-    /// True for the solvers that sweep until a stopping rule and take the previous step's
-    /// impulses (`si`, `body-micro`, `avg`); `penalty` takes one pass, and `xpbd` starts every
-    /// substep from zero multipliers unless `warm=1` (see [`crate::substep::xpbd`]).
-    pub fn is_iterative(self) -> bool {
-        !matches!(self, BodySolverKind::Penalty | BodySolverKind::Xpbd)
-    }
-
-    /// The relaxed problem the solver solves in place of the step's LCP, for a solver that
-    /// solves a different (soft) problem: `penalty`'s spring-damper forces, which let bodies
-    /// overlap. `None` for the solvers that aim at the LCP itself.
-    pub fn relaxation(self) -> Option<&'static str> {
-        match self {
-            BodySolverKind::Penalty => Some(
-                "a soft spring-damper penalty model (forces from penetration depth and closing \
-                 speed, one Jacobi pass), not the rigid LCP",
-            ),
-            BodySolverKind::SoftStep => Some(
-                "soft contacts and joints: damped springs of `hertz`, `zeta` (contacts) and \
-                 `joint_hertz`, `joint_zeta` (joints) per substep, which stretch under load and \
-                 let contacts sink, not the rigid LCP (its last solve, the relax pass, is rigid)",
-            ),
-            BodySolverKind::Xpbd => Some(
-                "position-level constraints over small substeps (XPBD), compliant when \
-                 compliance > 0; not the step's velocity LCP",
-            ),
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::AveragedImpulse
-            | BodySolverKind::Tgs => None,
-            // The default is rigid; `hertz > 0` makes the velocity solve soft (said in the
-            // step report's `residual_of`).
-            BodySolverKind::PgsNgs => None,
-            // Relaxed Jacobi has the LCP's solution as its fixed point.
-            BodySolverKind::Jacobi => None,
-        }
+    fn make(self) -> &'static BodyMake {
+        // Every body-level entry of the registry holds a `BodyMake` (`registry::register`
+        // checks it).
+        body_make(self.0).unwrap_or(&NO_BODY_MAKE)
     }
 
     /// True for the solvers that apply joint (equality) rows with the contacts: `si` sweeps
-    /// them as engines do; the others resolve contacts only.
+    /// them as engines do, and the substepping solvers; the others resolve contacts only.
     pub fn takes_joints(self) -> bool {
-        matches!(
-            self,
-            BodySolverKind::SequentialImpulses
-                | BodySolverKind::SoftStep
-                | BodySolverKind::Tgs
-                | BodySolverKind::PgsNgs
-                | BodySolverKind::Jacobi
-                | BodySolverKind::Xpbd
-        )
-    }
-
-    /// The problems it takes and how it solves them (as `lcpbench solvers` lists them).
-    pub fn problem_classes(self) -> &'static str {
-        match self {
-            BodySolverKind::SequentialImpulses => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
-                 sequential restitution then projected Gauss-Seidel on accumulated impulses (joint \
-                 rows first, unclamped), warm-startable; slow on stiff stacks, mass ratios and \
-                 long chains"
-            }
-            BodySolverKind::MicroImpulses => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
-                 Mirtich micro-impulses, never takes an impulse back: resting contacts creep and jitter"
-            }
-            BodySolverKind::Penalty => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
-                 spring-damper baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution"
-            }
-            BodySolverKind::AveragedImpulse => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), no joints; one \
-                 impulse per body pair at the averaged point along the averaged normal, swept as si, \
-                 warm-startable; exact only for convex single-normal contact regions: separated \
-                 supports, off-centre loads and non-convex meshes tilt or sink"
-            }
-            BodySolverKind::SoftStep => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
-                 substeps of one soft sweep and one rigid relax sweep, warm-started from substep \
-                 to substep: a soft model (contacts sink, joints stretch under load)"
-            }
-            BodySolverKind::Tgs => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
-                 substeps of rigid Gauss-Seidel sweeps with Baumgarte bias, warm-started from \
-                 substep to substep; pushes out of penetration with some energy gain"
-            }
-            BodySolverKind::PgsNgs => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
-                 the bodies (substeps); a fixed number of velocity sweeps (rarely converged), \
-                 penetration corrected by position sweeps that keep a slop; warm-startable"
-            }
-            BodySolverKind::Jacobi => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
-                 the bodies (substeps); a fixed number of Jacobi sweeps, order-independent and \
-                 parallel, slower per sweep than Gauss-Seidel (its row scaling keeps it \
-                 convergent): stacks sink and jitter at few sweeps; warm-startable"
-            }
-            BodySolverKind::Xpbd => {
-                "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
-                 substeps of Gauss-Seidel position corrections on rows linearised at the step's \
-                 start, each substep from zero multipliers (warm=1: from the previous substep's and \
-                 step's); rigid or compliant contacts (compliance, hertz); solves a position-level \
-                 problem per substep, not the step's LCP; slow on mass ratios and long chains; \
-                 overlaps it cannot resolve blow apart"
-            }
-        }
-    }
-
-    /// Look a solver up by name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-
-    /// The parameters it takes (`name@key=value,…`), with defaults and ranges; empty for the
-    /// solvers whose only parameters are the shared settings (and `penalty`, whose spring is
-    /// set in the scene's `[penalty]` table).
-    pub const fn param_specs(self) -> &'static [ParamSpec] {
-        match self {
-            BodySolverKind::SoftStep => crate::substep::soft_step::SOFT_STEP_PARAMS,
-            BodySolverKind::Tgs => crate::substep::tgs::TGS_PARAMS,
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::Penalty
-            | BodySolverKind::AveragedImpulse => &[],
-            BodySolverKind::PgsNgs => crate::substep::pgs_ngs::PARAMS,
-            BodySolverKind::Jacobi => crate::substep::jacobi::PARAMS,
-            BodySolverKind::Xpbd => crate::substep::xpbd::XPBD_PARAMS,
-        }
+        self.make().takes_joints
     }
 
     /// True for the substepping solvers, which move the bodies themselves
     /// ([`BodySolver::advance`]).
     pub fn substeps(self) -> bool {
-        match self {
-            BodySolverKind::SoftStep | BodySolverKind::Tgs => true,
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::Penalty
-            | BodySolverKind::AveragedImpulse => false,
-            BodySolverKind::PgsNgs => true,
-            BodySolverKind::Jacobi => true,
-            BodySolverKind::Xpbd => true,
-        }
+        self.make().substeps
     }
 
     /// The solver with the parameters `params` (which follow [`BodySolverKind::param_specs`]).
     pub fn create_with(self, params: Params) -> Box<dyn BodySolver + Send> {
-        match self {
-            BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::new(params)),
-            BodySolverKind::Tgs => Box::new(crate::substep::Tgs::new(params)),
-            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::new(params)),
-            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::new(params)),
-            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::new(params)),
-            BodySolverKind::SequentialImpulses
-            | BodySolverKind::MicroImpulses
-            | BodySolverKind::Penalty
-            | BodySolverKind::AveragedImpulse => self.create(),
-        }
+        (self.make().make)(&params)
     }
 
     /// The solver of a specification `name` or `name@key=value,…`, its parameters checked
@@ -326,25 +182,117 @@ impl BodySolverKind {
         if spec.contains('@') && kind.param_specs().is_empty() {
             return Err(format!("solver `{name}` takes no parameters"));
         }
-        let params = Params::parse(kind.param_specs(), text).map_err(|e| format!("{name}: {e}"))?;
+        let params = kind.0.parse_params(text)?;
         Ok(Some((kind, params)))
     }
 
     /// The solver with default parameters.
     pub fn create(self) -> Box<dyn BodySolver + Send> {
-        match self {
-            BodySolverKind::SequentialImpulses => Box::new(SequentialImpulses),
-            BodySolverKind::MicroImpulses => Box::new(MicroImpulses),
-            BodySolverKind::Penalty => Box::new(Penalty::default()),
-            BodySolverKind::AveragedImpulse => Box::new(AveragedImpulse),
-            BodySolverKind::SoftStep => Box::new(crate::substep::SoftStep::default()),
-            BodySolverKind::Tgs => Box::new(crate::substep::Tgs::default()),
-            BodySolverKind::PgsNgs => Box::new(crate::substep::PgsNgs::default()),
-            BodySolverKind::Jacobi => Box::new(crate::substep::Jacobi::default()),
-            BodySolverKind::Xpbd => Box::new(crate::substep::Xpbd::default()),
+        self.create_with(self.0.defaults())
+    }
+}
+
+/// What a handle to an entry without a [`BodyMake`] makes ([`BodySolverKind::for_entry`] of a
+/// matrix or cone entry): a solver whose every sweep stalls, applying no impulse. Such an entry
+/// is never a body-level solver of the registry ([`crate::registry::register`] refuses it);
+/// this keeps the handle total.
+static NO_BODY_MAKE: BodyMake = BodyMake {
+    make: |_| Box::new(Unregistrable),
+    takes_joints: false,
+    substeps: false,
+};
+
+/// The stand-in of [`NO_BODY_MAKE`]: no impulse, a stall that says why.
+#[derive(Debug, Clone, Copy)]
+struct Unregistrable;
+
+/// The entry [`Unregistrable`] names itself by (not in the registry).
+static UNREGISTRABLE: SolverEntry = SolverEntry {
+    name: "no-body-constructor",
+    summary: "stand-in for a handle whose entry has no body-level constructor",
+    problem_classes: "none",
+    iteration_unit: "none",
+    iterative: false,
+    relaxation: None,
+    params: &[],
+    make: Make::Body(&NO_BODY_MAKE),
+};
+
+impl BodySolver for Unregistrable {
+    fn kind(&self) -> BodySolverKind {
+        BodySolverKind(&UNREGISTRABLE)
+    }
+    fn sweep(&mut self, system: &ContactSystem, _settings: &Settings) -> BodySweep {
+        let f = vec![0.0; system.n()];
+        BodySweep {
+            warm: f.clone(),
+            f,
+            iterations: 0,
+            stopped: false,
+            stalled: Some("the solver's registry entry has no body-level constructor".into()),
+            timed_out: false,
         }
     }
 }
+
+/// The registry's entry of `si`.
+pub static SI: SolverEntry = SolverEntry {
+    name: "si",
+    summary: "sequential impulses (Catto 2005): restitution sweeps, then projected Gauss-Seidel \
+              on accumulated impulses, warm-started",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                      sequential restitution then projected Gauss-Seidel on accumulated impulses (joint \
+                      rows first, unclamped), warm-startable; slow on stiff stacks, mass ratios and \
+                      long chains",
+    iteration_unit: "sweeps over the contacts",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: Make::Body(&BodyMake {
+        make: |_| Box::new(SequentialImpulses),
+        takes_joints: true,
+        substeps: false,
+    }),
+};
+
+/// The registry's entry of `body-micro`.
+pub static BODY_MICRO: SolverEntry = SolverEntry {
+    name: "body-micro",
+    summary: "micro-impulses (Mirtich 1996): every closing contact a collision, no impulse \
+              taken back",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
+                      Mirtich micro-impulses, never takes an impulse back: resting contacts creep and jitter",
+    iteration_unit: "sweeps over the contacts",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: Make::Body(&BodyMake {
+        make: |_| Box::new(MicroImpulses),
+        takes_joints: false,
+        substeps: false,
+    }),
+};
+
+/// The registry's entry of `penalty` (its spring is set in the scene's `[penalty]` table,
+/// which [`crate::scene::Scene`] applies; the entry makes the default spring).
+pub static PENALTY: SolverEntry = SolverEntry {
+    name: "penalty",
+    summary: "spring-damper penalty forces: one Jacobi pass, does not solve the LCP",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), no joints; \
+                      spring-damper baseline, one Jacobi pass: does not solve the LCP (large residual), no restitution",
+    iteration_unit: "passes (always 1)",
+    iterative: false,
+    relaxation: Some(
+        "a soft spring-damper penalty model (forces from penetration depth and closing \
+         speed, one Jacobi pass), not the rigid LCP",
+    ),
+    params: &[],
+    make: Make::Body(&BodyMake {
+        make: |_| Box::new(Penalty::default()),
+        takes_joints: false,
+        substeps: false,
+    }),
+};
 
 /// What a body-level solver's own loop returns, before the status is decided.
 #[derive(Debug, Clone, PartialEq)]

@@ -336,12 +336,23 @@ pub fn default_solver(friction: FrictionModel) -> ContactSolver {
     }
 }
 
-/// [`ContactSolver::from_name`], with `penalty` built from the given parameters.
-fn solver_from_name(name: &str, penalty: Penalty) -> Result<Option<ContactSolver>, String> {
-    match crate::BodySolverKind::parse_spec(name)? {
-        Some((kind, params)) => Ok(Some(body_solver(kind, Some(params), penalty))),
-        None => Ok(ContactSolver::from_name(name)),
-    }
+/// The solver of a specification `name` or `name@key=value,…` at any level, its parameters
+/// checked against its registry entry (an error names the key and range, or the keys it
+/// takes), `penalty` built from the given parameters; `Ok(None)` for an unknown name.
+fn solver_from_name(spec: &str, penalty: Penalty) -> Result<Option<ContactSolver>, String> {
+    use lcpbench_solvers::registry::Level;
+    let (name, text) = spec.split_once('@').unwrap_or((spec, ""));
+    let Some(entry) = crate::registry::find(name) else {
+        return Ok(None);
+    };
+    let params = entry.parse_params(text)?;
+    Ok(match entry.level() {
+        Level::Body => {
+            crate::BodySolverKind::of(entry).map(|k| body_solver(k, Some(params), penalty))
+        }
+        Level::Matrix => entry.create(&params).map(ContactSolver::Matrix),
+        Level::Cone => entry.create_cone(&params).map(ContactSolver::Cone),
+    })
 }
 
 /// The body-level solver `kind` with `params` (its defaults when `None`), `penalty` built from
@@ -351,10 +362,10 @@ fn body_solver(
     params: Option<crate::substep::Params>,
     penalty: Penalty,
 ) -> ContactSolver {
-    match (kind, params) {
-        (crate::BodySolverKind::Penalty, _) => ContactSolver::Body(Box::new(penalty)),
-        (kind, Some(params)) => ContactSolver::Body(kind.create_with(params)),
-        (kind, None) => kind.into(),
+    match params {
+        _ if kind == crate::BodySolverKind::Penalty => ContactSolver::Body(Box::new(penalty)),
+        Some(params) => ContactSolver::Body(kind.create_with(params)),
+        None => kind.into(),
     }
 }
 

@@ -5,6 +5,7 @@
 use super::solve::{usable_impulse, IslandProblem, Solved};
 use crate::body_solvers::{BodySolver, BodySolverKind};
 use crate::builder::{ContactSystem, DelassusForm, FrictionModel};
+use lcpbench_solvers::registry::Level;
 use lcpbench_solvers::{ConeSolver, ConeSolverKind, Settings, SolveResult, Solver, SolverKind};
 use std::time::Instant;
 
@@ -49,14 +50,20 @@ impl From<ConeSolverKind> for ContactSolver {
 }
 
 impl ContactSolver {
-    /// The solver of this name with default parameters: the matrix solvers' names, then `si`,
-    /// `body-micro`, `penalty`, then the cone solvers (`nsgs-cone`, `newton-ac`, `newton-fb-cone`,
-    /// `newton-nm-cone`, `eg-cone`, `fpp-cone`, `admm-cone`, `prox-cone`, `clarabel-socp`).
+    /// The solver of this name with default parameters, at any level (every name of
+    /// [`crate::registry::entries`]).
     pub fn from_name(name: &str) -> Option<Self> {
-        SolverKind::from_name(name)
-            .map(Self::from)
-            .or_else(|| BodySolverKind::from_name(name).map(Self::from))
-            .or_else(|| ConeSolverKind::from_name(name).map(Self::from))
+        Self::from_entry(crate::registry::find(name)?)
+    }
+
+    /// The solver of a registry entry with default parameters.
+    pub fn from_entry(entry: &'static lcpbench_solvers::SolverEntry) -> Option<Self> {
+        let params = entry.defaults();
+        match entry.level() {
+            Level::Matrix => entry.create(&params).map(ContactSolver::Matrix),
+            Level::Cone => entry.create_cone(&params).map(ContactSolver::Cone),
+            Level::Body => BodySolverKind::of(entry).map(Self::from),
+        }
     }
 
     /// The solver's name.
@@ -79,13 +86,11 @@ impl ContactSolver {
     }
 
     /// True when the stepper passes this solver the previous step's impulses: the iterative
-    /// matrix solvers ([`SolverKind::is_iterative`]), every cone solver and every body-level
-    /// solver. Pivoting and interior-point solvers start cold.
+    /// matrix solvers (their registry entry's `iterative`), every cone solver and every
+    /// body-level solver. Pivoting and interior-point solvers start cold.
     pub fn takes_warm_start(&self) -> bool {
         match self {
-            ContactSolver::Matrix(s) => {
-                SolverKind::from_name(s.name()).is_some_and(|k| k.is_iterative())
-            }
+            ContactSolver::Matrix(s) => s.entry().iterative,
             ContactSolver::Body(_) | ContactSolver::Cone(_) => true,
         }
     }
@@ -125,9 +130,15 @@ impl ContactSolver {
             ContactSolver::Matrix(_) => Ok(()),
             ContactSolver::Body(s) if s.kind().takes_joints() => Ok(()),
             ContactSolver::Body(s) => Err(format!(
-                "body-level solver `{}` resolves contacts only, not joints: use `si` or a matrix \
-                 solver on scenes with joints",
-                s.name()
+                "body-level solver `{}` resolves contacts only, not joints: use a matrix solver \
+                 or a body-level one that takes joints ({}) on scenes with joints",
+                s.name(),
+                BodySolverKind::all()
+                    .iter()
+                    .filter(|k| k.takes_joints())
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )),
             ContactSolver::Cone(s) => Err(format!(
                 "cone solver `{}` solves the FC3D contact problem, which has no joint rows: use a \
@@ -139,21 +150,14 @@ impl ContactSolver {
 
     /// Comma-separated names of the cone solvers.
     pub fn cone_names() -> String {
-        ConeSolverKind::ALL
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join(", ")
+        crate::registry::names_at(Level::Cone)
     }
 
     /// The name of every solver a scene can use: matrix, body-level, cone.
     pub fn all_names() -> String {
-        let matrix = SolverKind::ALL.iter().map(|k| k.name());
-        let body = BodySolverKind::ALL.iter().map(|k| k.name());
-        let cone = ConeSolverKind::ALL.iter().map(|k| k.name());
-        matrix
-            .chain(body)
-            .chain(cone)
+        crate::registry::entries()
+            .iter()
+            .map(|e| e.name)
             .collect::<Vec<_>>()
             .join(", ")
     }

@@ -368,6 +368,29 @@ pub fn row_sum_masses(state: &SolverState) -> Vec<f64> {
         .collect()
 }
 
+/// The registry's entry of `jacobi`.
+pub static JACOBI: lcpbench_solvers::registry::SolverEntry =
+    lcpbench_solvers::registry::SolverEntry {
+        name: "jacobi",
+        summary:
+            "projected Jacobi: every row's impulse from the same velocities, applied together, \
+                 scaled by |A|'s row sums (or mass splitting) to converge, Baumgarte bias",
+        problem_classes:
+            "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of Jacobi sweeps, order-independent and \
+                 parallel, slower per sweep than Gauss-Seidel (its row scaling keeps it \
+                 convergent): stacks sink and jitter at few sweeps; warm-startable",
+        iteration_unit: "Jacobi sweeps, summed over the substeps",
+        iterative: true,
+        relaxation: None,
+        params: PARAMS,
+        make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+            make: |params| Box::new(Jacobi::new(*params)),
+            takes_joints: true,
+            substeps: true,
+        }),
+    };
+
 impl BodySolver for Jacobi {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::Jacobi

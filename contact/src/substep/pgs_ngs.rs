@@ -421,6 +421,27 @@ fn position_rows(rows: &[SolverRow], bodies: &mut [SolverBody], p: &NgsParams) -
     (min_separation, joints_ok, visited)
 }
 
+/// The registry's entry of `pgs-ngs`.
+pub static PGS_NGS: lcpbench_solvers::registry::SolverEntry =
+    lcpbench_solvers::registry::SolverEntry {
+        name: "pgs-ngs",
+        summary: "Box2D 2.x step: velocity sweeps of sequential impulses (no position bias), then \
+                 nonlinear Gauss-Seidel position sweeps",
+        problem_classes:
+            "scenes only; frictionless and box friction (no pyramid, no cone), joints; moves \
+                 the bodies (substeps); a fixed number of velocity sweeps (rarely converged), \
+                 penetration corrected by position sweeps that keep a slop; warm-startable",
+        iteration_unit: "velocity and position sweeps, summed over the substeps",
+        iterative: true,
+        relaxation: None,
+        params: PARAMS,
+        make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+            make: |params| Box::new(PgsNgs::new(*params)),
+            takes_joints: true,
+            substeps: true,
+        }),
+    };
+
 impl BodySolver for PgsNgs {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::PgsNgs

@@ -328,6 +328,32 @@ impl Default for SoftStep {
     }
 }
 
+/// The registry's entry of `soft-step`.
+pub static SOFT_STEP: lcpbench_solvers::registry::SolverEntry =
+    lcpbench_solvers::registry::SolverEntry {
+        name: "soft-step",
+        summary:
+            "soft step (Box2D v3): substeps with soft contacts and joints, a rigid relax pass \
+                 and a restitution pass",
+        problem_classes:
+            "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of one soft sweep and one rigid relax sweep, warm-started from substep \
+                 to substep: a soft model (contacts sink, joints stretch under load)",
+        iteration_unit: "sweeps over the rows, summed over the substeps and passes",
+        iterative: true,
+        relaxation: Some(
+            "soft contacts and joints: damped springs of `hertz`, `zeta` (contacts) and \
+                 `joint_hertz`, `joint_zeta` (joints) per substep, which stretch under load and \
+                 let contacts sink, not the rigid LCP (its last solve, the relax pass, is rigid)",
+        ),
+        params: SOFT_STEP_PARAMS,
+        make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+            make: |params| Box::new(SoftStep::new(*params)),
+            takes_joints: true,
+            substeps: true,
+        }),
+    };
+
 impl BodySolver for SoftStep {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::SoftStep

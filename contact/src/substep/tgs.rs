@@ -197,6 +197,25 @@ impl Default for Tgs {
     }
 }
 
+/// The registry's entry of `tgs`.
+pub static TGS: lcpbench_solvers::registry::SolverEntry = lcpbench_solvers::registry::SolverEntry {
+    name: "tgs",
+    summary: "temporal Gauss-Seidel (PhysX TGS, Rapier): substeps of rigid sweeps with \
+                 Baumgarte bias, no relax",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of rigid Gauss-Seidel sweeps with Baumgarte bias, warm-started from \
+                 substep to substep; pushes out of penetration with some energy gain",
+    iteration_unit: "sweeps over the rows, summed over the substeps and passes",
+    iterative: true,
+    relaxation: None,
+    params: TGS_PARAMS,
+    make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+        make: |params| Box::new(Tgs::new(*params)),
+        takes_joints: true,
+        substeps: true,
+    }),
+};
+
 impl BodySolver for Tgs {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::Tgs

@@ -566,6 +566,31 @@ fn position_pass(
     updates
 }
 
+/// The registry's entry of `xpbd`.
+pub static XPBD: lcpbench_solvers::registry::SolverEntry = lcpbench_solvers::registry::SolverEntry {
+    name: "xpbd",
+    summary: "extended position-based dynamics with small steps (Macklin et al. 2019, Mueller \
+                 et al. 2020): position corrections per substep, velocities from positions",
+    problem_classes: "scenes only; frictionless and box friction (no pyramid, no cone), joints; \
+                 substeps of Gauss-Seidel position corrections on rows linearised at the step's \
+                 start, each substep from zero multipliers (warm=1: from the previous substep's and \
+                 step's); rigid or compliant contacts (compliance, hertz); solves a position-level \
+                 problem per substep, not the step's LCP; slow on mass ratios and long chains; \
+                 overlaps it cannot resolve blow apart",
+    iteration_unit: "position and velocity passes, summed over the substeps",
+    iterative: false,
+    relaxation: Some(
+        "position-level constraints over small substeps (XPBD), compliant when \
+                 compliance > 0; not the step's velocity LCP",
+    ),
+    params: XPBD_PARAMS,
+    make: lcpbench_solvers::registry::Make::Body(&crate::body_solvers::BodyMake {
+        make: |params| Box::new(Xpbd::new(*params)),
+        takes_joints: true,
+        substeps: true,
+    }),
+};
+
 impl BodySolver for Xpbd {
     fn kind(&self) -> BodySolverKind {
         BodySolverKind::Xpbd

@@ -68,6 +68,18 @@ use faer::{Conj, Mat};
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone (exact Coulomb); accelerated ADMM with the De Saxcé term refreshed, W + ρD factored once (dense, or sparse LU up to an estimated 20 million entries)";
 
+/// The registry's entry of `admm-cone`.
+pub static ADMM_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "admm-cone",
+    summary: "accelerated ADMM with the De Saxcé term refreshed every iteration",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "ADMM iterations",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(AdmmCone::default())),
+};
+
 /// ADMM on the cone. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdmmCone {
@@ -170,8 +182,8 @@ fn weighted_distance(d: &[f64], a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl ConeSolver for AdmmCone {
-    fn name(&self) -> &'static str {
-        "admm-cone"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &ADMM_CONE
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

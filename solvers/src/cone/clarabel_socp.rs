@@ -78,6 +78,20 @@ use clarabel::solver::{SolverStatus, SupportedConeT};
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone with PSD W (symmetric to 1e-2 relative; its symmetric part is solved) as Anitescu's convex relaxation (SOCP, interior point, sparse P); exact where contacts stick or take off, sliding contacts lift off";
 
+/// The registry's entry of `clarabel-socp`.
+pub static CLARABEL_SOCP: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "clarabel-socp",
+    summary: "Anitescu's convex relaxation as a second-order cone program, through Clarabel",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "interior-point iterations",
+    iterative: false,
+    relaxation: Some(
+        "Anitescu's convex relaxation of the Coulomb cone (sliding contacts lift off)",
+    ),
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ClarabelSocp::default())),
+};
+
 /// The convex relaxation of the Coulomb cone problem, solved by Clarabel. See the module
 /// documentation.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -267,8 +281,8 @@ impl ClarabelSocp {
 }
 
 impl ConeSolver for ClarabelSocp {
-    fn name(&self) -> &'static str {
-        "clarabel-socp"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &CLARABEL_SOCP
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

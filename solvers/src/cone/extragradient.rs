@@ -43,13 +43,25 @@ use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAG
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone (exact Coulomb); extragradient on De Saxcé's map, self-adaptive step, dense or sparse W";
 
+/// The registry's entry of `eg-cone`.
+pub static EG_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "eg-cone",
+    summary: "extragradient (Khobotov) projection method on De Saxcé's map, self-adaptive step",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "extragradient steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ExtragradientCone)),
+};
+
 /// The extragradient method on the cone. See the module documentation.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ExtragradientCone;
 
 impl ConeSolver for ExtragradientCone {
-    fn name(&self) -> &'static str {
-        "eg-cone"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &EG_CONE
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

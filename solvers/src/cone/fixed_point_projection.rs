@@ -41,13 +41,25 @@ use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAG
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone (exact Coulomb); projected fixed point on De Saxcé's map, self-adaptive step, dense or sparse W";
 
+/// The registry's entry of `fpp-cone`.
+pub static FPP_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "fpp-cone",
+    summary: "fixed-point projection on De Saxcé's map, self-adaptive step",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "projection steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(FixedPointProjectionCone)),
+};
+
 /// Fixed-point projection on the cone. See the module documentation.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FixedPointProjectionCone;
 
 impl ConeSolver for FixedPointProjectionCone {
-    fn name(&self) -> &'static str {
-        "fpp-cone"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &FPP_CONE
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

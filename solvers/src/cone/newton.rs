@@ -72,6 +72,42 @@ pub(crate) const PROBLEM_CLASSES_FB: &str =
 pub(crate) const PROBLEM_CLASSES_NM: &str =
     "FC3D cone (exact Coulomb); global Newton on the natural map r − P_K(r − ρû), LU dense up to 300 rows, sparse above (up to an LU estimated at 20 million entries)";
 
+/// The registry's entry of `newton-ac`.
+pub static NEWTON_AC: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-ac",
+    summary: "global Alart-Curnier semismooth Newton",
+    problem_classes: PROBLEM_CLASSES_AC,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ConeNewton::alart_curnier())),
+};
+
+/// The registry's entry of `newton-fb-cone`.
+pub static NEWTON_FB_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-fb-cone",
+    summary: "global semismooth Newton on the second-order-cone Fischer-Burmeister function",
+    problem_classes: PROBLEM_CLASSES_FB,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ConeNewton::fischer_burmeister())),
+};
+
+/// The registry's entry of `newton-nm-cone`.
+pub static NEWTON_NM_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-nm-cone",
+    summary: "global semismooth Newton on the natural map",
+    problem_classes: PROBLEM_CLASSES_NM,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ConeNewton::natural_map())),
+};
+
 /// Rows up to which the Newton system is formed dense by default: below it a dense LU costs
 /// less than the sparse ordering and symbolic analysis.
 pub const DENSE_UP_TO: usize = 300;
@@ -426,11 +462,11 @@ struct Iterate {
 }
 
 impl ConeSolver for ConeNewton {
-    fn name(&self) -> &'static str {
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
         match self.function {
-            ConeFunction::AlartCurnier => "newton-ac",
-            ConeFunction::FischerBurmeister => "newton-fb-cone",
-            ConeFunction::NaturalMap => "newton-nm-cone",
+            ConeFunction::AlartCurnier => &NEWTON_AC,
+            ConeFunction::FischerBurmeister => &NEWTON_FB_CONE,
+            ConeFunction::NaturalMap => &NEWTON_NM_CONE,
         }
     }
 

@@ -64,6 +64,18 @@ use rand::SeedableRng;
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone (exact Coulomb); each contact solved exactly per sweep (closed-form take-off/stick, local Alart–Curnier Newton for sliding)";
 
+/// The registry's entry of `nsgs-cone`.
+pub static NSGS_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "nsgs-cone",
+    summary: "block Gauss-Seidel over contacts, each contact solved exactly on its cone",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "sweeps over the contacts",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(NsgsCone::default())),
+};
+
 /// The full cone residual is computed after a sweep whose contacts' running terms were all
 /// within this many times the tolerance (the rule and factor of [`crate::Nsgs`]: the running
 /// terms are taken mid-sweep and run a few times above the residual at the sweep's end).
@@ -153,8 +165,8 @@ impl NsgsCone {
 }
 
 impl ConeSolver for NsgsCone {
-    fn name(&self) -> &'static str {
-        "nsgs-cone"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &NSGS_CONE
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

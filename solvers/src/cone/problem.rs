@@ -271,8 +271,13 @@ impl ConeProblem {
 /// Every cone solver is `Clone` (through [`dyn_clone::DynClone`]); none keeps a workspace between
 /// solves, so a clone answers exactly as a fresh solver of the same parameters.
 pub trait ConeSolver: dyn_clone::DynClone {
-    /// Short name (`nsgs-cone`, `newton-ac`).
-    fn name(&self) -> &'static str;
+    /// The solver's entry in the [`registry`](crate::registry): its name, description and
+    /// parameters.
+    fn entry(&self) -> &'static crate::registry::SolverEntry;
+    /// Short name (`nsgs-cone`, `newton-ac`), its entry's.
+    fn name(&self) -> &'static str {
+        self.entry().name
+    }
     /// Solve. Never panics on a valid [`ConeProblem`]; every outcome is a [`Status`].
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult;
 }

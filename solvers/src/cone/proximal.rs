@@ -50,6 +50,18 @@ use crate::solver::{Outcome, Settings, SolveResult, Stagnation, FIRST_ORDER_STAG
 pub(crate) const PROBLEM_CLASSES: &str =
     "FC3D cone (exact Coulomb); proximal point, each regularised problem solved by NSGS over contacts, dense or sparse W";
 
+/// The registry's entry of `prox-cone`.
+pub static PROX_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "prox-cone",
+    summary: "proximal point, each regularised problem solved by NSGS over contacts",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "inner NSGS sweeps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Cone(|_params| Box::new(ProxCone::default())),
+};
+
 /// The proximal point method on the cone. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProxCone {
@@ -86,8 +98,8 @@ fn norm3(x: [f64; 3]) -> f64 {
 }
 
 impl ConeSolver for ProxCone {
-    fn name(&self) -> &'static str {
-        "prox-cone"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &PROX_CONE
     }
 
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {

@@ -47,6 +47,18 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (PGS projection), free (equality) rows unprojected; symmetric A only; O(1/k^2) for SPD/PSD";
 
+/// The registry's entry of `apgd`.
+pub static APGD: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "apgd",
+    summary: "accelerated projected gradient descent (Nesterov with adaptive restart)",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "projected gradient steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Apgd)),
+};
+
 /// Doublings of the Lipschitz estimate in one iteration before the step is taken as it is: `2⁶⁰`
 /// (about `10¹⁸`) covers any estimate from a unit trial step to the stiffest Delassus matrix in
 /// double precision.
@@ -65,8 +77,8 @@ fn dot(x: &[f64], y: &[f64]) -> f64 {
 pub struct Apgd;
 
 impl Solver for Apgd {
-    fn name(&self) -> &'static str {
-        "apgd"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &APGD
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -100,6 +100,21 @@ use faer::Mat;
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP and boxed LCP with symmetric PSD A (convex QP, interior point, sparse P); free (equality) rows as unconstrained variables; friction rows as a convex relaxation";
 
+/// The registry's entry of `clarabel`.
+pub static CLARABEL: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "clarabel",
+    summary: "convex QP through Clarabel's interior-point method",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "interior-point iterations",
+    iterative: false,
+    relaxation: Some(
+        "on friction rows, Anitescu's convex relaxation (a QP whose sliding contacts \
+         may lift off), not the friction LCP",
+    ),
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(ClarabelQp::default())),
+};
+
 /// The LCP as a convex QP, solved by Clarabel. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClarabelQp {
@@ -501,8 +516,8 @@ pub(crate) fn run_clarabel(
 }
 
 impl Solver for ClarabelQp {
-    fn name(&self) -> &'static str {
-        "clarabel"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &CLARABEL
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -66,6 +66,18 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "any LCP or boxed LCP with friction rows; free (equality) rows have only the interior state, eliminated first (Schur complement of A_FF, redundant ones dropped); per island up to 32768 complementary bases (standard LCP n <= 15); complete";
 
+/// The registry's entry of `enum`.
+pub static ENUM: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "enum",
+    summary: "enumeration of complementary bases (complete, small problems)",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "complementary bases tried",
+    iterative: false,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Enumeration)),
+};
+
 /// Largest number of complementary bases the solver enumerates (`2¹⁵`).
 pub const MAX_BASES: usize = 1 << 15;
 
@@ -74,8 +86,8 @@ pub const MAX_BASES: usize = 1 << 15;
 pub struct Enumeration;
 
 impl Solver for Enumeration {
-    fn name(&self) -> &'static str {
-        "enum"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &ENUM
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -82,6 +82,18 @@ use faer::Mat;
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows, free (equality) rows pushed and pulled; exact on decoupled rows, never pulls on contacts, may over-shoot (stall) on coupled contacts";
 
+/// The registry's entry of `micro`.
+pub static MICRO: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "micro",
+    summary: "sequential micro-impulses",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "sweep-equivalents (n single impulses each)",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(MicroImpulse::default())),
+};
+
 /// Sequential micro-impulses (Mirtich 1996). See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MicroImpulse {
@@ -157,8 +169,8 @@ impl<'a> Columns<'a> {
 }
 
 impl Solver for MicroImpulse {
-    fn name(&self) -> &'static str {
-        "micro"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &MICRO
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

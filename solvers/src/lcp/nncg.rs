@@ -40,6 +40,18 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows, free (equality) rows unclamped (PGS sweeps with conjugate directions); SPD A in practice";
 
+/// The registry's entry of `nncg`.
+pub static NNCG: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "nncg",
+    summary: "nonsmooth nonlinear conjugate gradient (PGS with Fletcher-Reeves directions)",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "sweeps (PGS sweeps with conjugate directions)",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Nncg)),
+};
+
 /// One projected Gauss–Seidel sweep in place. Rows with a zero entry in `diag` (tiny diagonals,
 /// [`usable_diagonal`]) are left alone, as in PGS.
 pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
@@ -59,8 +71,8 @@ pub(crate) fn pgs_sweep(problem: &Problem, diag: &[f64], f: &mut [f64]) {
 pub struct Nncg;
 
 impl Solver for Nncg {
-    fn name(&self) -> &'static str {
-        "nncg"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &NNCG
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

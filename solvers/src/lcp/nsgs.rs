@@ -61,6 +61,18 @@ use crate::solver::{
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (each contact's normal + tangents solved exactly per sweep), free (equality) rows as exact blocks of one; SPD A";
 
+/// The registry's entry of `nsgs`.
+pub static NSGS: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "nsgs",
+    summary: "block Gauss-Seidel over contacts, each block solved exactly",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "sweeps over the rows",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Nsgs)),
+};
+
 /// The shared residual is measured after a sweep whose rows were all within this many times the
 /// tolerance at the running iterate: that measure is taken as each block starts, mid-sweep, and
 /// runs a few times above the residual at the sweep's end (at 1× the sweeps went on 2–4 % longer
@@ -238,8 +250,8 @@ impl Nsgs {
 }
 
 impl Solver for Nsgs {
-    fn name(&self) -> &'static str {
-        "nsgs"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &NSGS
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -50,6 +50,36 @@ pub(crate) const PROBLEM_CLASSES_PGS: &str =
 pub(crate) const PROBLEM_CLASSES_SOR: &str =
     "as PGS (free rows unclamped), with relaxation omega in (0, 2) (default 1.3)";
 
+/// The registry's entry of `pgs`.
+pub static PGS: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "pgs",
+    summary: "projected Gauss-Seidel",
+    problem_classes: PROBLEM_CLASSES_PGS,
+    iteration_unit: "sweeps over the rows",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(ProjectedSor::pgs())),
+};
+
+/// The registry's entry of `sor`.
+pub static SOR: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "sor",
+    summary: "projected successive over-relaxation",
+    problem_classes: PROBLEM_CLASSES_SOR,
+    iteration_unit: "sweeps over the rows",
+    iterative: true,
+    relaxation: None,
+    params: &[crate::registry::ParamSpec::real_open(
+        "omega",
+        1.3,
+        0.0,
+        2.0,
+        "relaxation factor (projected SOR diverges outside (0, 2))",
+    )],
+    make: crate::registry::Make::Matrix(|params| Box::new(ProjectedSor::sor(params.get("omega")))),
+};
+
 use crate::delassus::DelassusFactors;
 use crate::problem::diagonal::skipped_rows;
 use crate::problem::metrics::relative_row_error;
@@ -112,11 +142,11 @@ impl ProjectedSor {
 }
 
 impl Solver for ProjectedSor {
-    fn name(&self) -> &'static str {
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
         if self.omega == 1.0 {
-            "pgs"
+            &PGS
         } else {
-            "sor"
+            &SOR
         }
     }
 

@@ -148,8 +148,13 @@ pub struct SolveResult {
 /// symbolic factorisation, reused only while the sparsity pattern is unchanged, so a clone
 /// gives bit-identical answers to a fresh solver of the same parameters).
 pub trait Solver: dyn_clone::DynClone {
-    /// Short name (`pgs`, `lemke`, ...).
-    fn name(&self) -> &'static str;
+    /// The solver's entry in the [`registry`](crate::registry): its name, description and
+    /// parameters.
+    fn entry(&self) -> &'static crate::registry::SolverEntry;
+    /// Short name (`pgs`, `lemke`, ...), its entry's.
+    fn name(&self) -> &'static str {
+        self.entry().name
+    }
     /// Solve. Never panics on a valid [`Problem`]; every outcome is a [`Status`].
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult;
     /// True when the solver works on the factors `J`, `M⁻¹` of a factored problem

@@ -10,20 +10,20 @@ pub struct Settings {
     /// Tolerance on the relative natural-map residual
     /// ([`Residuals::natural_map_rel`](crate::Residuals::natural_map_rel)). Default `1e-8`.
     pub tolerance: f64,
-    /// Cap on iterations: sweeps for PGS/SOR, pivots for Lemke and Dantzig, interior-point
-    /// iterations for Clarabel, sweep-equivalents (`n` single impulses) for micro-impulses.
-    /// It is a total for one solve: a solver that splits the problem into independent islands
+    /// Cap on iterations, in the unit of each solver's iteration count (its registry entry's
+    /// `iteration_unit`, which `lcpbench solvers` prints: sweeps, pivots, Newton steps,
+    /// interior-point iterations, …). It is a total for one solve: a solver that splits the problem into independent islands
     /// gives each island what the islands before it left, and ends `iteration_limit` when
     /// nothing is left. Default `10_000`.
     pub max_iterations: usize,
     /// Wall-time budget; `None` (the default) means none.
     pub time_budget: Option<Duration>,
-    /// Initial impulse for solvers that can use one. Used, projected onto the bounds, by the
-    /// iterative solvers (PGS/SOR, NSGS, NNCG, APGD, micro-impulses, Newton) and every cone
-    /// solver but Clarabel's SOCP (projected onto the cones); enumeration uses it only to order its first guesses of
-    /// the active set. Ignored by Lemke, Dantzig and both Clarabel solvers (they start from
-    /// their own initial point). The time stepper of `lcpbench-contact` passes it to iterative
-    /// and cone solvers only. Default `None` (zero).
+    /// Initial impulse for solvers that can use one: used, projected onto the bounds (onto the
+    /// cones for a cone solver), by the solvers whose registry entry is `iterative` (marked
+    /// `+warm` by `lcpbench solvers`); enumeration uses it only to order its first guesses of
+    /// the active set; the pivoting and interior-point solvers start from their own initial
+    /// point and ignore it. The time stepper of `lcpbench-contact` passes it to iterative and
+    /// cone solvers only. Default `None` (zero).
     pub warm_start: Option<Vec<f64>>,
     /// Record the shared residual after every iteration (time spent measuring it is excluded from
     /// the reported wall time). Default `false`.
@@ -115,7 +115,7 @@ mod tests {
             tolerance: 2.0,
             ..Settings::default()
         };
-        for kind in SolverKind::ALL {
+        for kind in SolverKind::all() {
             let r = kind.create().solve(&p, &bad);
             match r.status {
                 Status::Unsupported { reason } => assert!(reason.contains("tolerance"), "{reason}"),

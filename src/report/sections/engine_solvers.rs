@@ -156,7 +156,7 @@ fn sentence(text: &str) -> String {
 
 /// The names of the substepping solvers of this lcpbench.
 fn substepping_names() -> String {
-    let names: Vec<&str> = lcpbench_contact::body_solvers::BodySolverKind::ALL
+    let names: Vec<&str> = lcpbench_contact::body_solvers::BodySolverKind::all()
         .into_iter()
         .filter(|k| k.substeps())
         .map(|k| k.name())

@@ -13,6 +13,7 @@ use crate::report::table::{fmt_time, Table};
 use anyhow::Result;
 use lcpbench_contact::step::ResidualSchedule;
 use lcpbench_contact::FrictionModel;
+use lcpbench_solvers::registry::Level;
 use std::fmt::Write as _;
 
 pub(super) struct Findings;
@@ -52,7 +53,7 @@ pub(crate) fn family_of(r: &RunRecord) -> Option<&'static str> {
     }
     // A cone solver's problems are the FC3D family; its scene runs (under the cone friction
     // model) stay with the scenes.
-    if matches!(r.solver, SolverSpec::Cone { .. }) && !matches!(case, Case::Scene { .. }) {
+    if r.solver.level() == Some(Level::Cone) && !matches!(case, Case::Scene { .. }) {
         return Some("FC3D (cone solvers)");
     }
     Some(match &case {
@@ -164,12 +165,7 @@ pub(crate) fn solver_cell(s: &SolverSpec) -> String {
 
 /// The relaxed problem a solver specification solves instead of the posed one, if any.
 pub(crate) fn relaxation(s: &SolverSpec) -> Option<&'static str> {
-    match s {
-        SolverSpec::Matrix { kind, .. } => kind.relaxation(),
-        SolverSpec::Cone { kind, .. } => kind.relaxation(),
-        SolverSpec::Body { kind, .. } => kind.relaxation(),
-        SolverSpec::Fault(_) => None,
-    }
+    s.relaxation()
 }
 
 /// The footnote of `†`, naming each relaxed solver among `solvers` and its problem.

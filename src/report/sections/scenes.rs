@@ -90,7 +90,7 @@ impl Section for Scenes {
                 .collect::<Vec<_>>()
                 .join(", "),
             suite::HUGE_SCENE_BODIES,
-            suite::HUGE_SCENE_SOLVERS
+            suite::huge_scene_solvers()
                 .iter()
                 .map(ToString::to_string)
                 .collect::<Vec<_>>()

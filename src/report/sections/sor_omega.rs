@@ -42,7 +42,8 @@ impl Section for SorOmega {
         for &w in &suite.omegas {
             let mut row = vec![format!("{w}")];
             for (case, series) in suite.omega_cases.iter().zip(&mut series) {
-                let cell = match ctx.get(case, &SolverSpec::sor(w), &BUDGET) {
+                let spec = SolverSpec::sor(w);
+                let cell = match spec.as_ref().ok().and_then(|s| ctx.get(case, s, &BUDGET)) {
                     Some(r) if r.converged => {
                         let it = r.iterations.unwrap_or(0);
                         series.points.push((w, it as f64));

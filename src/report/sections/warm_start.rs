@@ -34,7 +34,7 @@ impl Section for WarmStart {
             ],
         );
         for case in &ctx.suite.warm_cases {
-            for kind in SolverKind::ALL.into_iter().filter(|k| k.is_iterative()) {
+            for kind in SolverKind::all().into_iter().filter(|k| k.is_iterative()) {
                 let spec = SolverSpec::plain(kind);
                 let cold = ctx.get(case, &spec, &BUDGET);
                 let hot = ctx.get(case, &spec.clone().with_warm(), &BUDGET);

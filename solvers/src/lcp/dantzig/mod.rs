@@ -125,6 +125,18 @@ pub const DENSE_LIMIT: usize = 3000;
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP, friction rows (bound fixed point), free (equality) rows always clamped (factored first and eliminated, as ODE's dLCP nub; redundant ones dropped); PSD (also rank-deficient) or P-matrix A; dense per island up to 3000 rows";
 
+/// The registry's entry of `dantzig`.
+pub static DANTZIG: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "dantzig",
+    summary: "Dantzig principal pivoting (ODE's dSolveLCP style)",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "pivots",
+    iterative: false,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Dantzig::default())),
+};
+
 /// Dantzig-style principal pivoting. See the module documentation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dantzig {
@@ -150,8 +162,8 @@ impl Default for Dantzig {
 }
 
 impl Solver for Dantzig {
-    fn name(&self) -> &'static str {
-        "dantzig"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &DANTZIG
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -182,6 +182,18 @@ pub const DENSE_LIMIT: usize = 1500;
 pub(crate) const PROBLEM_CLASSES: &str =
     "LCP, boxed LCP with fixed bounds and box-friction rows (reduced to an LCP; friction rows by the sliding reduction, on normals with bounds [0, inf)); free (equality) rows eliminated through the Schur complement of A_FF (redundant ones dropped, split into x+ - x- only when A_FF has no regular block); processes PSD and P-matrix A; dense per island up to 1500 rows";
 
+/// The registry's entry of `lemke`.
+pub static LEMKE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "lemke",
+    summary: "Lemke's complementary pivoting",
+    problem_classes: PROBLEM_CLASSES,
+    iteration_unit: "pivots",
+    iterative: false,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Lemke::default())),
+};
+
 /// Lemke's complementary pivoting method. See the module documentation.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Lemke {
@@ -201,8 +213,8 @@ impl Lemke {
 }
 
 impl Solver for Lemke {
-    fn name(&self) -> &'static str {
-        "lemke"
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
+        &LEMKE
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {

@@ -122,6 +122,30 @@ pub(crate) const PROBLEM_CLASSES_FB: &str =
 pub(crate) const PROBLEM_CLASSES_MIN: &str =
     "LCP, boxed LCP, friction rows (directly), free (equality) rows as Phi_i = w_i / d_i; any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; local quadratic convergence";
 
+/// The registry's entry of `newton-fb`.
+pub static NEWTON_FB: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-fb",
+    summary: "semismooth Newton on the Fischer-Burmeister reformulation",
+    problem_classes: PROBLEM_CLASSES_FB,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Newton::fischer_burmeister())),
+};
+
+/// The registry's entry of `newton-min`.
+pub static NEWTON_MIN: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-min",
+    summary: "semismooth Newton on the min-map reformulation",
+    problem_classes: PROBLEM_CLASSES_MIN,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: &[],
+    make: crate::registry::Make::Matrix(|_params| Box::new(Newton::min_map())),
+};
+
 /// Which nonsmooth equation the solver works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reformulation {
@@ -255,10 +279,10 @@ const NONMONOTONE_MEMORY: usize = 10;
 const STAGNATION_WINDOW: usize = 100;
 
 impl Solver for Newton {
-    fn name(&self) -> &'static str {
+    fn entry(&self) -> &'static crate::registry::SolverEntry {
         match self.reformulation {
-            Reformulation::FischerBurmeister => "newton-fb",
-            Reformulation::MinMap => "newton-min",
+            Reformulation::FischerBurmeister => &NEWTON_FB,
+            Reformulation::MinMap => &NEWTON_MIN,
         }
     }
 
