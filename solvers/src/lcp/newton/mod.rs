@@ -88,7 +88,7 @@
 //!   projection clips the normal and leaves the friction rows 100 % wrong) is returned as it
 //!   is, instead of iterating to the cap at a round-off residual (a 1,008-row island of
 //!   `sphere_pile_200` sits at `7e-15` there). Every stall is met by the next remedy below; the
-//!   eighth stall of a solve without a warm start ends it (the tenth with one), and each stall
+//!   eighth stall of a solve that began from zero ends it (the tenth otherwise), and each stall
 //!   comes at most 100 Newton iterations after the remedy before it.
 //!
 //! # Globalisation
@@ -122,9 +122,10 @@
 //!    `NSN_AND_PLI_NSN_LOOP`: Newton first, then rounds of projected fixed-point iterations
 //!    and Newton again, keeping the better point after each), with NSGS as the projected
 //!    iteration and the whole island instead of one contact. A warm-started solve first
-//!    restarts once from its cold start (rule 4) on its own merit instead: a warm start that
-//!    led astray (the 1,155-row island of `sphere_pile_200`'s step 33, warm-started FB Newton
-//!    stagnating where the cold start converges).
+//!    restarts once from zero on its own merit instead, and a solve that began from sweeps
+//!    (rule 4) does so once after its last phase of sweeps: a start that led astray (the
+//!    1,155-row island of `sphere_pile_200`'s step 33: FB Newton stagnates from its warm start
+//!    and from ten sweeps, and converges from zero).
 //! 3. **Shortest step.** The line search tries steps `1, ½, …, 2⁻¹⁴` and no shorter
 //!    ([`Globalisation::min_step`]), along the Newton direction and then
 //!    along `−∇θ` scaled to `‖Φ‖`. A hundred steps of `2⁻¹⁴` along a Newton direction lower
@@ -293,7 +294,8 @@ pub struct Remedies {
     pub merit_switches: usize,
     /// Phases of NSGS sweeps run from the best point after a switch that stalled too.
     pub sweep_phases: usize,
-    /// Restarts of a warm-started solve from its cold start after a switch that stalled too.
+    /// Restarts from zero of a solve that began from a warm start or sweeps, after a switch
+    /// that stalled too.
     pub restarts: usize,
     /// Solves without a warm start that started from NSGS sweeps instead of zero.
     pub sweep_starts: usize,
@@ -400,8 +402,8 @@ const STAGNATION_WINDOW: usize = 100;
 /// which moves the iterate off the point where both merits stalled.
 const FALLBACK_SWEEPS: usize = 50;
 /// Phases of fallback sweeps before a solve gives up (rule 2): with a switch of merit before
-/// each and after the last, the `2 · MAX_FALLBACKS + 2`-th stall ends a solve (two later with
-/// a warm start, which also switches and restarts once).
+/// each and after the last, the `2 · MAX_FALLBACKS + 2`-th stall ends a solve (two later when
+/// it began from a warm start or sweeps, which also switches and restarts once).
 const MAX_FALLBACKS: usize = 3;
 /// NSGS sweeps that give a solve without a warm start its start (rule 4): Siconos' hybrid
 /// solvers take ten projected iterations per round (`SICONOS_FRICTION_3D_NSN_HYBRID_MAX_ITER`
@@ -487,8 +489,9 @@ impl Newton {
         // The formulation the solve starts on (the solver's own) and the one it works on now.
         let own = self.formulation();
         let mut form = own;
-        let start = if warm {
-            initial_impulse(problem, settings)
+        // A start from sweeps (rule 4) can be restarted from zero, as a warm start can.
+        let (start, swept) = if warm {
+            (initial_impulse(problem, settings), false)
         } else {
             self.cold_start(problem, settings, &mut monitor, depth)
         };
@@ -501,7 +504,7 @@ impl Newton {
         // may end a failed solve on an iterate worse than an earlier one.
         let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
         let mut stagnation = Stagnation::new(STAGNATION_WINDOW);
-        let mut ladder = Ladder::new(own, warm, rules);
+        let mut ladder = Ladder::new(own, warm, swept, rules);
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
@@ -593,13 +596,16 @@ impl Newton {
                     it = Iterate::new(form, &ops, f);
                 }
                 Remedy::Restart => {
-                    // A warm start that led astray: the solver's own merit from the cold start,
-                    // keeping the best point measured so far.
+                    // A warm start (or a start from sweeps) that led astray: the solver's own
+                    // merit from zero (projected), keeping the best point measured so far.
                     form = own;
                     ladder.took_restart();
                     self.workspace.remedies.restarts += 1;
-                    let f = self.cold_start(problem, settings, &mut monitor, depth);
-                    it = Iterate::new(form, &ops, f);
+                    let cold = Settings {
+                        warm_start: None,
+                        ..settings.clone()
+                    };
+                    it = Iterate::new(form, &ops, initial_impulse(problem, &cold));
                 }
                 Remedy::Sweeps => {
                     // Rule 2: sweeps from the best point, then Newton on the solver's own merit
@@ -646,14 +652,14 @@ impl Newton {
     /// The start of a solve without a warm start (rule 4 of the module documentation): on an
     /// island with friction rows, at the top level (not a refinement's sub-problem),
     /// [`Globalisation::start_sweeps`] NSGS sweeps from zero (projected), kept when they lower
-    /// the shared residual; zero (projected) otherwise.
+    /// the shared residual; zero (projected) otherwise. True when the sweeps were kept.
     fn cold_start(
         &mut self,
         problem: &Problem,
         settings: &Settings,
         monitor: &mut Monitor<'_>,
         depth: usize,
-    ) -> Vec<f64> {
+    ) -> (Vec<f64>, bool) {
         let cold = Settings {
             warm_start: None,
             ..settings.clone()
@@ -661,15 +667,15 @@ impl Newton {
         let zero = initial_impulse(problem, &cold);
         let sweeps = self.globalisation.start_sweeps;
         if depth > 0 || sweeps == 0 || problem.friction().is_empty() {
-            return zero;
+            return (zero, false);
         }
         let from_zero = monitor.residual_of(&zero);
         let (swept, residual) = sweep_phase(problem, settings, monitor, zero.clone(), sweeps);
         if residual < from_zero {
             self.workspace.remedies.sweep_starts += 1;
-            swept
+            (swept, true)
         } else {
-            zero
+            (zero, false)
         }
     }
 
@@ -915,7 +921,7 @@ fn sweep_phase(
 enum Remedy {
     /// Switch to the other merit, from the current iterate.
     Switch,
-    /// Start a warm-started solve again from its cold start, on its own merit.
+    /// Start a solve that began from a warm start or sweeps again from zero, on its own merit.
     Restart,
     /// Sweeps from the best point, then Newton on its own merit from where they end.
     Sweeps,
@@ -924,7 +930,8 @@ enum Remedy {
 }
 
 /// Where a solve stands on its ladder of remedies: after a stall, the other merit; when that
-/// stalls too, the cold start (a warm-started solve, once) or a phase of sweeps (at most
+/// stalls too, a restart from zero (a solve that began from a warm start or sweeps, once) or a
+/// phase of sweeps (at most
 /// [`Globalisation::fallback_phases`]), each followed by the solver's own merit again; then it
 /// gives up. A rule turned off is skipped.
 struct Ladder {
@@ -934,8 +941,11 @@ struct Ladder {
     own: Formulation,
     /// Whether the merit was switched since the solve started, restarted or swept.
     switched: bool,
-    /// Whether the solve was warm-started and has not restarted from its cold start.
+    /// Whether the solve started from a warm start or sweeps and has not restarted from zero.
     can_restart: bool,
+    /// Whether that restart comes last, after the sweeps (a start from sweeps), rather than
+    /// after the first switch that stalled (a warm start).
+    restart_last: bool,
     /// The remedies taken, in order, for the reason of a solve that gives up.
     taken: Vec<String>,
     /// Phases of sweeps taken.
@@ -943,12 +953,13 @@ struct Ladder {
 }
 
 impl Ladder {
-    fn new(own: Formulation, warm: bool, rules: Globalisation) -> Self {
+    fn new(own: Formulation, warm: bool, swept: bool, rules: Globalisation) -> Self {
         Self {
             rules,
             own,
             switched: false,
-            can_restart: warm,
+            can_restart: warm || swept,
+            restart_last: !warm && swept,
             taken: vec![format!("{} merit", own.short_name())],
             fallbacks: 0,
         }
@@ -958,10 +969,12 @@ impl Ladder {
     fn remedy(&self) -> Remedy {
         if self.rules.merit_switch && !self.switched {
             Remedy::Switch
-        } else if self.can_restart {
+        } else if self.can_restart && !self.restart_last {
             Remedy::Restart
         } else if self.fallbacks < self.rules.fallback_phases {
             Remedy::Sweeps
+        } else if self.can_restart {
+            Remedy::Restart
         } else {
             Remedy::GiveUp
         }
@@ -973,12 +986,14 @@ impl Ladder {
         self.taken.push(format!("{} merit", to.short_name()));
     }
 
-    /// The solve restarted from its cold start.
+    /// The solve restarted from zero.
     fn took_restart(&mut self) {
         self.switched = false;
         self.can_restart = false;
-        self.taken
-            .push(format!("cold start, {} merit", self.own.short_name()));
+        self.taken.push(format!(
+            "restart from zero, {} merit",
+            self.own.short_name()
+        ));
     }
 
     /// A phase of sweeps was run.
@@ -1170,7 +1185,7 @@ mod tests {
         use Remedy::{GiveUp, Restart, Sweeps, Switch};
         let own = Newton::min_map().formulation();
         let walk = |warm: bool, rules: Globalisation| {
-            let mut ladder = Ladder::new(own, warm, rules);
+            let mut ladder = Ladder::new(own, warm, false, rules);
             let mut form = own;
             let mut taken = Vec::new();
             loop {
