@@ -337,15 +337,17 @@ fn first_order_methods_stall_instead_of_spinning_to_the_cap() {
     assert!(independent_relative_residual(&p, &r.f) <= 1e-8);
 }
 
-/// Newton's stagnation rule on the 1,155-row island of `sphere_pile_200`'s step 33 (exported
-/// with `newton-fb+warm` at `1e-8`, warm start included), where the warm-started solve ran to
-/// its cap of 10,000 iterations. Warm-started, Fischer–Burmeister Newton now makes no progress
-/// for the window, restarts from zero and then takes exactly the path of a cold solve, which
-/// converges: the two answers are the same bit for bit, the warm solve having spent its window
-/// first. Cold min-map Newton makes no progress for a window and stops `stalled` with its best
-/// point, far from the cap.
+/// Newton's stagnation rule and globalisation on the 1,155-row island of `sphere_pile_200`'s
+/// step 33 (exported with `newton-fb+warm` at `1e-8`, warm start included), where the
+/// warm-started solve ran to its cap of 10,000 iterations. Fischer–Burmeister Newton now
+/// converges warm and cold, far from the cap: both end on the same restart from zero (the cold
+/// one after its start from NSGS sweeps stalled), so their answers are the same bit for bit.
+/// Cold min-map Newton, which made no progress for a window and stopped `stalled`, converges
+/// with the globalisation; without it (`Globalisation::off`) it still stops `stalled` with its
+/// best point after a window, far from the cap.
 #[test]
 fn newton_restarts_a_warm_start_that_stagnates_and_a_cold_one_stalls() {
+    use lcpbench_solvers::Solver as _;
     let (p, warm) = spin_case("sphere_pile_200_step33_island.json");
     assert_eq!(p.n(), 1155);
     let warm_settings = Settings {
@@ -357,16 +359,20 @@ fn newton_restarts_a_warm_start_that_stagnates_and_a_cold_one_stalls() {
     assert!(restarted.status.is_converged(), "{}", restarted.status);
     assert!(cold.status.is_converged(), "{}", cold.status);
     assert_eq!(restarted.f, cold.f);
-    assert!(
-        restarted.iterations >= cold.iterations + 100,
-        "{} warm, {} cold",
-        restarted.iterations,
-        cold.iterations
-    );
-    assert!(restarted.iterations <= 1_000, "{}", restarted.iterations);
-    assert!(independent_relative_residual(&p, &restarted.f) <= 1e-8);
+    for r in [&restarted, &cold] {
+        assert!(r.iterations <= 2_000, "{}", r.iterations);
+        assert!(independent_relative_residual(&p, &r.f) <= 1e-8);
+    }
 
-    let stalled = solve(SolverKind::NewtonMin, &p, &settings(1e-8, 10_000));
+    let globalised = solve(SolverKind::NewtonMin, &p, &settings(1e-8, 10_000));
+    assert!(globalised.status.is_converged(), "{}", globalised.status);
+    assert!(independent_relative_residual(&p, &globalised.f) <= 1e-8);
+
+    let mut plain = lcpbench_solvers::Newton {
+        globalisation: lcpbench_solvers::Globalisation::off(),
+        ..lcpbench_solvers::Newton::min_map()
+    };
+    let stalled = plain.solve(&p, &settings(1e-8, 10_000));
     match &stalled.status {
         Status::Stalled { reason } => {
             assert!(reason.contains("no progress"), "{reason}");

@@ -24,6 +24,17 @@ pub(crate) const HALVING: f64 = 0.5;
 /// `2⁻³⁹ ≈ 1.8e-12`, a step that moves a unit-scaled iterate by less than its round-off.
 pub(crate) const NEWTON_BACKTRACKS: usize = 40;
 
+/// The shortest step the LCP Newton methods ([`crate::Newton`]) take along a direction by
+/// default ([`crate::Globalisation::min_step`]):
+/// `2⁻¹⁴ ≈ 6.1e-5`. Along a Newton direction the merit `θ = ½‖Φ‖²` falls by at most a factor
+/// `(1 − t)²` at step `t` (exactly so where `Φ` is linear), so a hundred steps of `2⁻¹⁴`
+/// lower `‖Φ‖` by at most `1 − (1 − 2⁻¹⁴)¹⁰⁰ ≈ 0.6 %`: less than the 1 % in a hundred
+/// iterations that the shared stagnation rule ([`crate::solver::Stagnation`], the Newton
+/// methods' window of 100) asks for. Shorter steps cannot make the progress that rule
+/// requires, so a search that finds none longer declares a stall at once instead of creeping
+/// for the whole window.
+pub(crate) const MIN_NEWTON_STEP: f64 = 1.0 / 16384.0;
+
 /// A direction `d` counts as a descent direction for the merit when `∇θᵀd <= −DESCENT_ANGLE ·
 /// ‖∇θ‖ ‖d‖`, that is when the angle between `d` and `−∇θ` is below about `90° − 6·10⁻⁷°`: a
 /// Newton direction nearly orthogonal to the gradient is replaced by steepest descent.
@@ -41,6 +52,9 @@ pub enum LineSearchError {
     /// At least one step must be tried.
     #[error("line search: the number of trial steps must be at least 1")]
     NoSteps,
+    /// The shortest step must lie in `(0, 1]`.
+    #[error("line search: shortest step {0} is not in (0, 1]")]
+    MinStep(f64),
 }
 
 /// A backtracking line search with validated parameters. See the module documentation.
@@ -72,9 +86,37 @@ impl Backtracking {
         })
     }
 
+    /// A search with sufficient-decrease constant `sigma` and shrink factor `shrink` (both in
+    /// `(0, 1)`) that tries the steps `1, ρ, ρ², …` no shorter than `min_step` (in `(0, 1]`):
+    /// a step below it makes too little progress to be worth taking, and the search fails
+    /// instead (the caller declares a stall). `ρᵏ` within a relative `10⁻⁹` of `min_step`
+    /// counts as reaching it, so that `min_step = 2⁻¹⁴` with halving tries `2⁻¹⁴` itself.
+    pub fn down_to(sigma: f64, shrink: f64, min_step: f64) -> Result<Self, LineSearchError> {
+        // Written so that NaN fails the test.
+        if !(min_step > 0.0 && min_step <= 1.0) {
+            return Err(LineSearchError::MinStep(min_step));
+        }
+        Self::new(sigma, shrink, 1)?;
+        // The largest k with ρᵏ >= min_step: k = ⌊ln(min_step) / ln ρ⌋, finite since both
+        // logarithms are (min_step > 0, 0 < ρ < 1), and at least 0 since min_step <= 1.
+        let k = (min_step.ln() / shrink.ln() * (1.0 + 1e-9)).floor();
+        let steps = if k < (usize::MAX / 2) as f64 {
+            k as usize + 1
+        } else {
+            usize::MAX / 2
+        };
+        Self::new(sigma, shrink, steps)
+    }
+
     /// The Newton methods' search: [`ARMIJO_SIGMA`], [`HALVING`], [`NEWTON_BACKTRACKS`].
     pub(crate) fn newton() -> Self {
         Self::new(ARMIJO_SIGMA, HALVING, NEWTON_BACKTRACKS).expect("valid constants")
+    }
+
+    /// The shortest step the search tries, `ρ^(max_steps − 1)`.
+    pub fn min_step(&self) -> f64 {
+        let exponent = i32::try_from(self.max_steps - 1).unwrap_or(i32::MAX);
+        self.shrink.powi(exponent)
     }
 
     /// The first step `t` of `1, ρ, ρ², …` that `accept` takes: `Ok(t)`, or `Err(t)` with the
@@ -149,6 +191,59 @@ mod tests {
         );
         // An ascent direction is never accepted.
         assert_eq!(ls.armijo(1.0, -1.0, |t| 1.0 + t), None);
+    }
+
+    /// The search down to `2⁻¹⁴` tries `1, ½, …, 2⁻¹⁴` and no shorter step: a merit that
+    /// decreases only for shorter steps is a failed search (a stall), not a creep.
+    #[test]
+    fn a_search_with_a_shortest_step_rejects_shorter_ones() {
+        let ls = Backtracking::down_to(ARMIJO_SIGMA, HALVING, MIN_NEWTON_STEP).unwrap();
+        assert_eq!(ls.min_step(), MIN_NEWTON_STEP);
+        let mut tried = Vec::new();
+        assert_eq!(
+            ls.search(|t| {
+                tried.push(t);
+                false
+            }),
+            Err(MIN_NEWTON_STEP)
+        );
+        assert_eq!(tried.len(), 15);
+        assert_eq!(tried[14], 1.0 / 16384.0);
+        // A merit that decreases only for steps up to 2⁻¹⁶: the search down to 2⁻³⁹ creeps
+        // with a step of 2⁻¹⁶, this one finds none.
+        let eps = MIN_NEWTON_STEP / 4.0;
+        let merit = |t: f64| if t <= eps { 1.0 - t } else { 1.0 + t };
+        assert!(Backtracking::newton().armijo(1.0, -1.0, merit).is_some());
+        assert_eq!(ls.armijo(1.0, -1.0, merit), None);
+        // A step of exactly the minimum is still taken.
+        let at_min = |t: f64| {
+            if t <= MIN_NEWTON_STEP {
+                1.0 - t
+            } else {
+                1.0 + t
+            }
+        };
+        assert_eq!(ls.armijo(1.0, -1.0, at_min), Some(MIN_NEWTON_STEP));
+        // Other shrink factors: ρᵏ >= min_step for the last step tried, ρᵏ⁺¹ < min_step.
+        for (shrink, min_step) in [(0.3, 1e-3), (0.9, 0.5), (0.5, 1.0), (0.1, 1e-300)] {
+            let ls = Backtracking::down_to(1e-4, shrink, min_step).unwrap();
+            let last = ls.min_step();
+            assert!(
+                last >= min_step * (1.0 - 1e-9),
+                "{shrink} {min_step}: {last}"
+            );
+            assert!(last * shrink < min_step, "{shrink} {min_step}: {last}");
+        }
+        for bad in [0.0, -1.0, 1.5, f64::NAN] {
+            assert!(matches!(
+                Backtracking::down_to(1e-4, 0.5, bad),
+                Err(LineSearchError::MinStep(_))
+            ));
+        }
+        assert_eq!(
+            Backtracking::down_to(1e-4, 1.0, 0.5),
+            Err(LineSearchError::Shrink(1.0))
+        );
     }
 
     #[test]

@@ -1,9 +1,11 @@
 //! The reformulations of the semismooth Newton method: `Φ` row by row (Fischer–Burmeister or
 //! min-map), its merit `θ = ½‖Φ‖²`, the rows of the generalised Jacobian `H`, and the merit
 //! gradient `∇θ = HᵀΦ`. The step along a direction is chosen by the shared line search
-//! ([`crate::solver::line_search`]).
+//! ([`crate::solver::line_search`]). A solve works on one [`Formulation`] at a time and may
+//! switch to the other reformulation when it stalls (the module documentation of
+//! [`super`]).
 
-use super::{FrictionHandling, Newton, Reformulation};
+use super::{FrictionHandling, Reformulation};
 use crate::linalg::newton_system::System;
 use crate::problem::Problem;
 
@@ -28,7 +30,34 @@ pub(crate) struct RowLinearisation {
     pub(crate) gamma: f64,
 }
 
-impl Newton {
+/// The nonsmooth equation a Newton iteration works on: the reformulation and the treatment of
+/// friction rows. A [`super::Newton`] solve starts on its own and may switch reformulation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Formulation {
+    pub(crate) reformulation: Reformulation,
+    pub(crate) friction: FrictionHandling,
+}
+
+impl Formulation {
+    /// The same friction handling on the other reformulation (min-map ↔ Fischer–Burmeister).
+    pub(crate) fn switched(self) -> Self {
+        Self {
+            reformulation: match self.reformulation {
+                Reformulation::FischerBurmeister => Reformulation::MinMap,
+                Reformulation::MinMap => Reformulation::FischerBurmeister,
+            },
+            ..self
+        }
+    }
+
+    /// Short name of the reformulation, for reasons and reports.
+    pub(crate) fn short_name(self) -> &'static str {
+        match self.reformulation {
+            Reformulation::FischerBurmeister => "FB",
+            Reformulation::MinMap => "min-map",
+        }
+    }
+
     /// `Φ_i` (and its derivative parts) at `f_i`, scaled velocity `fi_vel`, bounds `(lo, hi)`;
     /// `dmu` is `∂hi/∂f_k = −∂lo/∂f_k` for a friction row.
     pub(crate) fn row(&self, fi: f64, vel: f64, lo: f64, hi: f64, dmu: f64) -> RowLinearisation {
