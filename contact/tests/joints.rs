@@ -5,11 +5,10 @@ use lcpbench_contact::{ContactSolver, Scene, World};
 use lcpbench_solvers::Status;
 use std::path::PathBuf;
 
-const G: f64 = 9.81;
+mod common;
+use common::inline;
 
-fn inline(text: &str) -> Scene {
-    Scene::parse(text, &PathBuf::from("inline.toml")).unwrap_or_else(|e| panic!("{e}"))
-}
+const G: f64 = 9.81;
 
 fn with_solver(scene: &Scene, name: &str) -> World {
     let mut w = scene.world();
@@ -114,42 +113,6 @@ fn physical_pendulum_period_matches_the_analytic_one() {
             "{solver}: the joint drifted"
         );
     }
-}
-
-/// A chain of `links` 1 kg links (10 cm) hanging at rest from the world by ball joints, with
-/// an `end` kg mass on the last link.
-fn hanging_chain(links: usize, end: f64) -> Scene {
-    let mut text = String::from(
-        "[settings]\ndt = 0.01\nfriction_model = \"box\"\ntolerance = 1e-10\nmax_iterations = 100000\n",
-    );
-    for i in 0..links {
-        let z = 2.0 - 0.05 - 0.1 * i as f64;
-        text += &format!(
-            "[[bodies]]\nname = \"link_{i}\"\nshape = {{ type = \"box\", half_extents = [0.02, 0.02, 0.05] }}\nmass = 1.0\nposition = [0.0, 0.0, {z}]\n"
-        );
-    }
-    let bottom = 2.0 - 0.1 * links as f64;
-    text += &format!(
-        "[[bodies]]\nname = \"end\"\nshape = {{ type = \"box\", half_extents = [0.05, 0.05, 0.05] }}\nmass = {end}\nposition = [0.0, 0.0, {}]\n",
-        bottom - 0.05
-    );
-    for i in 0..=links {
-        let a = if i == 0 {
-            "world".to_owned()
-        } else {
-            format!("link_{}", i - 1)
-        };
-        let b = if i == links {
-            "end".to_owned()
-        } else {
-            format!("link_{i}")
-        };
-        let z = 2.0 - 0.1 * i as f64;
-        text += &format!(
-            "[[joints]]\ntype = \"ball\"\nbodies = [\"{a}\", \"{b}\"]\nanchor = [0.0, 0.0, {z}]\n"
-        );
-    }
-    inline(&text)
 }
 
 #[test]
@@ -301,4 +264,13 @@ fn split_impulses_correct_joint_error_like_baumgarte() {
     println!("final drift none / baumgarte / split: {errors:?}");
     assert!(errors[0] > 5e-3, "{errors:?}");
     assert!(errors[1] < 1e-4 && errors[2] < 1e-4, "{errors:?}");
+}
+
+/// [`common::hanging_chain`] at dt = 0.01 s.
+fn hanging_chain(links: usize, end: f64) -> Scene {
+    common::hanging_chain(
+        links,
+        end,
+        "dt = 0.01\nfriction_model = \"box\"\ntolerance = 1e-10\nmax_iterations = 100000",
+    )
 }

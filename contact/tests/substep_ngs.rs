@@ -11,6 +11,9 @@ use lcpbench_solvers::{Settings, Status};
 use nalgebra::{Point3, Vector3};
 use std::path::PathBuf;
 
+mod common;
+use common::inline;
+
 const G: f64 = 9.81;
 const SOLVERS: [&str; 2] = ["pgs-ngs", "jacobi"];
 
@@ -19,10 +22,6 @@ fn scene(name: &str) -> Scene {
         .join("../bench_scenes")
         .join(format!("{name}.toml"));
     Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn inline(text: &str) -> Scene {
-    Scene::parse(text, &PathBuf::from("inline.toml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The solver of a specification `name@key=value,…`.
@@ -218,40 +217,6 @@ fn pendulum_period_matches_the_analytic_one() {
         assert!(err < 1e-3, "{name}: period {t} against {exact}");
         assert!(drift < 1e-3, "{name}: joint drift {drift}");
     }
-}
-
-/// A chain of `links` 1 kg links (10 cm) hanging at rest from the world by ball joints, with
-/// an `end` kg mass on the last link.
-fn hanging_chain(links: usize, end: f64) -> Scene {
-    let mut text = String::from("[settings]\ndt = 0.01\nfriction_model = \"box\"\n");
-    for i in 0..links {
-        let z = 2.0 - 0.05 - 0.1 * i as f64;
-        text += &format!(
-            "[[bodies]]\nname = \"link_{i}\"\nshape = {{ type = \"box\", half_extents = [0.02, 0.02, 0.05] }}\nmass = 1.0\nposition = [0.0, 0.0, {z}]\n"
-        );
-    }
-    let bottom = 2.0 - 0.1 * links as f64;
-    text += &format!(
-        "[[bodies]]\nname = \"end\"\nshape = {{ type = \"box\", half_extents = [0.05, 0.05, 0.05] }}\nmass = {end}\nposition = [0.0, 0.0, {}]\n",
-        bottom - 0.05
-    );
-    for i in 0..=links {
-        let a = if i == 0 {
-            "world".to_owned()
-        } else {
-            format!("link_{}", i - 1)
-        };
-        let b = if i == links {
-            "end".to_owned()
-        } else {
-            format!("link_{i}")
-        };
-        let z = 2.0 - 0.1 * i as f64;
-        text += &format!(
-            "[[joints]]\ntype = \"ball\"\nbodies = [\"{a}\", \"{b}\"]\nanchor = [0.0, 0.0, {z}]\n"
-        );
-    }
-    inline(&text)
 }
 
 /// Worst relative error of the joint impulses of `report` against the weight below each
@@ -723,4 +688,9 @@ fn a_dropped_ball_rebounds_to_e_squared_of_its_height() {
         assert!(bounced, "{name}: no bounce");
         assert!((peak - 0.64).abs() < 0.01, "{name}: rebound to {peak} m");
     }
+}
+
+/// [`common::hanging_chain`] at dt = 0.01 s.
+fn hanging_chain(links: usize, end: f64) -> Scene {
+    common::hanging_chain(links, end, "dt = 0.01\nfriction_model = \"box\"")
 }

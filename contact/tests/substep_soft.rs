@@ -12,6 +12,9 @@ use lcpbench_solvers::{Settings, Status};
 use nalgebra::{Point3, Vector3};
 use std::path::PathBuf;
 
+mod common;
+use common::inline;
+
 const G: f64 = 9.81;
 
 fn scene(name: &str) -> Scene {
@@ -19,10 +22,6 @@ fn scene(name: &str) -> Scene {
         .join("../bench_scenes")
         .join(format!("{name}.toml"));
     Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn inline(text: &str) -> Scene {
-    Scene::parse(text, &PathBuf::from("inline.toml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The solver of a specification `name@key=value,…`.
@@ -217,42 +216,6 @@ fn pendulum_period_matches_the_small_angle_one() {
         assert!(err < 5e-3, "{spec}: period {t}");
         assert!(drift < 1e-3, "{spec}: the rod stretched {drift}");
     }
-}
-
-/// A chain of `links` 1 kg links (10 cm) hanging at rest from the world by ball joints, with
-/// an `end` kg mass on the last link.
-fn hanging_chain(links: usize, end: f64, dt: f64) -> Scene {
-    let mut text = format!(
-        "[settings]\ndt = {dt}\nfriction_model = \"box\"\ntolerance = 1e-8\nmax_iterations = 1000\n"
-    );
-    for i in 0..links {
-        let z = 2.0 - 0.05 - 0.1 * i as f64;
-        text += &format!(
-            "[[bodies]]\nname = \"link_{i}\"\nshape = {{ type = \"box\", half_extents = [0.02, 0.02, 0.05] }}\nmass = 1.0\nposition = [0.0, 0.0, {z}]\n"
-        );
-    }
-    let bottom = 2.0 - 0.1 * links as f64;
-    text += &format!(
-        "[[bodies]]\nname = \"end\"\nshape = {{ type = \"box\", half_extents = [0.05, 0.05, 0.05] }}\nmass = {end}\nposition = [0.0, 0.0, {}]\n",
-        bottom - 0.05
-    );
-    for i in 0..=links {
-        let a = if i == 0 {
-            "world".to_owned()
-        } else {
-            format!("link_{}", i - 1)
-        };
-        let b = if i == links {
-            "end".to_owned()
-        } else {
-            format!("link_{i}")
-        };
-        let z = 2.0 - 0.1 * i as f64;
-        text += &format!(
-            "[[joints]]\ntype = \"ball\"\nbodies = [\"{a}\", \"{b}\"]\nanchor = [0.0, 0.0, {z}]\n"
-        );
-    }
-    inline(&text)
 }
 
 #[test]
@@ -756,4 +719,13 @@ fn pyramid_3d_1015_holds_for_1_s_under_soft_step() {
         .fold(0.0, f64::max);
     println!("soft-step: pyramid_3d_1015: largest move in 1 s {moved:.3e} m");
     assert!(moved < 1e-2, "moved {moved}");
+}
+
+/// [`common::hanging_chain`] stepped at `dt`, tolerance 1e-8, 1,000 sweeps at most.
+fn hanging_chain(links: usize, end: f64, dt: f64) -> Scene {
+    common::hanging_chain(
+        links,
+        end,
+        &format!("dt = {dt}\nfriction_model = \"box\"\ntolerance = 1e-8\nmax_iterations = 1000"),
+    )
 }

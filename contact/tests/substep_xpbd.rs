@@ -13,6 +13,9 @@ use lcpbench_solvers::Settings;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use std::path::PathBuf;
 
+mod common;
+use common::inline;
+
 const G: f64 = 9.81;
 
 fn scene(name: &str) -> Scene {
@@ -20,10 +23,6 @@ fn scene(name: &str) -> Scene {
         .join("../bench_scenes")
         .join(format!("{name}.toml"));
     Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn inline(text: &str) -> Scene {
-    Scene::parse(text, &PathBuf::from("inline.toml")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// A world of `scene` solved by the body solver specification `spec` (`xpbd@key=value,…`).
@@ -188,42 +187,6 @@ fn pendulum_period_matches_the_analytic_one() {
     );
     assert!(err < 1e-3, "period {period}");
     assert!(drift < 1e-4, "rod error {drift}");
-}
-
-/// A chain of `links` 1 kg links (10 cm) hanging at rest from the world by ball joints, with
-/// an `end` kg box on the last link.
-fn hanging_chain(links: usize, end: f64) -> Scene {
-    let mut text = String::from(
-        "[settings]\ndt = 0.01\nfriction_model = \"box\"\ntolerance = 1e-10\nmax_iterations = 100000\n",
-    );
-    for i in 0..links {
-        let z = 2.0 - 0.05 - 0.1 * i as f64;
-        text += &format!(
-            "[[bodies]]\nname = \"link_{i}\"\nshape = {{ type = \"box\", half_extents = [0.02, 0.02, 0.05] }}\nmass = 1.0\nposition = [0.0, 0.0, {z}]\n"
-        );
-    }
-    let bottom = 2.0 - 0.1 * links as f64;
-    text += &format!(
-        "[[bodies]]\nname = \"end\"\nshape = {{ type = \"box\", half_extents = [0.05, 0.05, 0.05] }}\nmass = {end}\nposition = [0.0, 0.0, {}]\n",
-        bottom - 0.05
-    );
-    for i in 0..=links {
-        let a = if i == 0 {
-            "world".to_owned()
-        } else {
-            format!("link_{}", i - 1)
-        };
-        let b = if i == links {
-            "end".to_owned()
-        } else {
-            format!("link_{i}")
-        };
-        let z = 2.0 - 0.1 * i as f64;
-        text += &format!(
-            "[[joints]]\ntype = \"ball\"\nbodies = [\"{a}\", \"{b}\"]\nanchor = [0.0, 0.0, {z}]\n"
-        );
-    }
-    inline(&text)
 }
 
 /// Largest relative error of the joints' impulses of the last step against the weight below
@@ -712,4 +675,13 @@ fn a_spent_time_budget_leaves_the_remaining_substeps_integrating() {
     // Gravity over the 19 unsolved substeps sinks the ball.
     let ball = &out.state.bodies[1];
     assert!(ball.dp.z < 0.0 && ball.v.z < 0.0, "{ball:?}");
+}
+
+/// [`common::hanging_chain`] at dt = 0.01 s.
+fn hanging_chain(links: usize, end: f64) -> Scene {
+    common::hanging_chain(
+        links,
+        end,
+        "dt = 0.01\nfriction_model = \"box\"\ntolerance = 1e-10\nmax_iterations = 100000",
+    )
 }
