@@ -298,11 +298,20 @@ pub fn sweep_summary(rows: &[RunRecord]) -> String {
             } else {
                 format_seconds(c.mean_s)
             };
+            // A run whose residual was measured on a sample of its steps (`--residual
+            // sample=K`) solves at most its measured steps: the cell says how many there were.
+            let taken: usize = c.runs.iter().filter_map(|r| r.steps).sum();
+            let measured: usize = c.runs.iter().filter_map(|r| r.measured_steps()).sum();
+            let solved = if scene && measured < taken {
+                format!("{}/{} ({measured} measured)", c.solved, c.total)
+            } else {
+                format!("{}/{}", c.solved, c.total)
+            };
             let _ = write!(
                 out,
                 "  {:<22} {:>14} {:>8} {:>22}",
                 name,
-                format!("{}/{}", c.solved, c.total),
+                solved,
                 best_on.get(&name).copied().unwrap_or(0),
                 mean
             );
@@ -528,5 +537,25 @@ mod tests {
         assert!(line("si+warm").trim_end().ends_with(" 25.0 k"), "{text}");
         let lcp_only = sweep_summary(&[lcp("easy", SolverKind::Pgs, Some(1e-3))]);
         assert!(!lcp_only.contains("row updates"), "{lcp_only}");
+    }
+
+    /// A run measured on a sample of its steps shows how many were measured beside its
+    /// converged steps over the steps taken; a run measured on every step shows the count alone.
+    #[test]
+    fn the_scene_summary_says_how_many_steps_were_measured() {
+        let every = scene(SpecName("pgs+warm"), 1e-6, 10, 3e-4);
+        let mut sampled = scene(SpecName("si+warm"), 1e-6, 10, 2e-4);
+        sampled.steps_measured = Some(3);
+        sampled.nonconverged_steps = Some(0);
+        let text = sweep_summary(&[every, sampled]);
+        let line = |name: &str| {
+            text.lines()
+                .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+                .unwrap()
+                .to_owned()
+        };
+        assert!(line("si+warm").contains(" 3/10 (3 measured) "), "{text}");
+        assert!(line("pgs+warm").contains(" 10/10 "), "{text}");
+        assert!(!line("pgs+warm").contains("measured"), "{text}");
     }
 }
