@@ -75,14 +75,8 @@ pub fn sweep_and_prune_at_most(
     skip: impl FnMut(usize, usize) -> bool,
     max_pairs: usize,
 ) -> Result<Vec<(usize, usize)>, TooManyPairs> {
-    let n = aabbs.len();
-    if n < 2 {
-        return Ok(Vec::new());
-    }
-    let axis = sweep_axis(aabbs);
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| aabbs[a].mins[axis].total_cmp(&aabbs[b].mins[axis]));
-    sweep_sorted(aabbs, &order, axis, skip, max_pairs)
+    // A fresh order sorts from scratch: the persistent sweep's first call.
+    SweepOrder::new().pairs_at_most(aabbs, skip, max_pairs)
 }
 
 /// The sweep over boxes already in `order` (increasing lower bound on `axis`, as

@@ -131,7 +131,7 @@
 //!    along `−∇θ` scaled to `‖Φ‖`. A hundred steps of `2⁻¹⁴` along a Newton direction lower
 //!    `‖Φ‖` by at most 0.6 %, less than the stagnation rule asks for in its window, so a search
 //!    that finds no longer step is a stall at once (rule 1 takes over) instead of a creep
-//!    through the whole window; the old search went down to `2⁻³⁹`.
+//!    through the whole window.
 //! 4. **Sweep start.** A solve without a warm start on an island with friction rows (a contact
 //!    problem) starts from ten NSGS sweeps from zero instead of zero itself, when
 //!    they lower the shared residual (they do unless zero solves the problem): the first sweep
