@@ -166,7 +166,7 @@ pub(crate) struct ColouredSweep<C> {
 /// numbered densely. A contact's rows go with the contacts next to it in the system between
 /// the same two bodies (the builder lists a manifold's contacts together); a joint's rows
 /// form one group.
-fn groups(system: &ContactSystem, n: usize) -> Vec<Option<(ConstraintKey, usize)>> {
+pub(crate) fn groups(system: &ContactSystem, n: usize) -> Vec<Option<(ConstraintKey, usize)>> {
     let mut of_row = vec![None; n];
     let mut next = 0;
     let mut run: Option<ConstraintKey> = None;

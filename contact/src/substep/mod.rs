@@ -35,6 +35,7 @@
 pub mod bias;
 pub mod coloured_sweep;
 pub mod colouring;
+pub mod constraint_rows;
 pub mod jacobi;
 pub mod params;
 pub mod pgs_ngs;

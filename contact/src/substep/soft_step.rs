@@ -168,6 +168,9 @@
 
 use super::coloured_sweep::ColouredSweep;
 use super::colouring::ConstraintGraph;
+use super::constraint_rows::{
+    ConstraintRow, ConstraintRows, Kind, RowCoefficients, SweepRule, RIGID_ROW,
+};
 use super::params::{ParamSpec, Params};
 use super::softness::{self, Softness};
 use super::state::{RowRole, SolverBody, SolverRow, SolverState, StepCost};
@@ -280,12 +283,20 @@ pub const JOINT_CAP: f64 = 0.25;
 /// Default of `friction_anchor`.
 pub const FRICTION_ANCHOR: f64 = 0.0;
 
-/// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]) and, for `colour=1`, the
-/// colouring of the previous step's constraints.
+/// The `soft-step` solver: its parameters ([`SOFT_STEP_PARAMS`]) and its workspace (the
+/// rows' layout, for `colour=1` the colouring of the previous step's constraints).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SoftStep {
     params: Params,
+    workspace: Workspace,
+}
+
+/// What a substepping solver keeps between steps: the buffers of the rows' layout
+/// ([`ConstraintRows`]) and the colouring's memory of the previous step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Workspace {
     graph: ConstraintGraph,
+    rows: ConstraintRows,
 }
 
 impl SoftStep {
@@ -293,7 +304,7 @@ impl SoftStep {
     pub fn new(params: Params) -> Self {
         Self {
             params,
-            graph: ConstraintGraph::new(),
+            workspace: Workspace::default(),
         }
     }
 
@@ -365,12 +376,12 @@ impl BodySolver for SoftStep {
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
         let scheme = self.scheme();
-        Some(run(input, &scheme, &mut self.graph))
+        Some(run(input, &scheme, &mut self.workspace))
     }
 
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
         let scheme = self.scheme();
-        sweep_alone(system, settings, &scheme, &mut self.graph)
+        sweep_alone(system, settings, &scheme, &mut self.workspace)
     }
 }
 
@@ -506,20 +517,6 @@ impl Coefficients {
     }
 }
 
-/// A row's coefficients for one pass: `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct RowCoefficients {
-    bias: f64,
-    mass_scale: f64,
-    impulse_scale: f64,
-}
-
-const RIGID_ROW: RowCoefficients = RowCoefficients {
-    bias: 0.0,
-    mass_scale: 1.0,
-    impulse_scale: 0.0,
-};
-
 /// True when the row's only dynamic body is on one side (the other is static or the world).
 fn touches_static(row: &SolverRow, bodies: &[SolverBody]) -> bool {
     row.sides < 2
@@ -528,66 +525,124 @@ fn touches_static(row: &SolverRow, bodies: &[SolverBody]) -> bool {
             .any(|b| bodies[b.body].is_static())
 }
 
-/// The biased pass's coefficients of every row, from the position errors now.
-fn biased_coefficients(
-    state: &SolverState,
+/// The biased pass's coefficients of a row of `kind` (`None`: a row the sweep skips) whose
+/// position error is `s()`.
+fn biased_rule(
     c: &Coefficients,
     inv_h: f64,
-    out: &mut [RowCoefficients],
-) {
-    for (row, o) in state.rows.iter().zip(out.iter_mut()) {
-        *o = match row.role {
-            RowRole::Normal(_) => {
-                let s = row.position_error(&state.bodies);
-                if s > 0.0 {
-                    RowCoefficients {
-                        bias: s * inv_h,
-                        ..RIGID_ROW
-                    }
-                } else if let Some((rate, slop)) = c.baumgarte {
-                    RowCoefficients {
-                        bias: rate * (s + slop).min(0.0),
-                        ..RIGID_ROW
-                    }
+    kind: Option<Kind>,
+    touches_static: bool,
+    s: impl FnOnce() -> f64,
+) -> RowCoefficients {
+    match kind {
+        Some(Kind::Normal) => {
+            let s = s();
+            if s > 0.0 {
+                RowCoefficients {
+                    bias: s * inv_h,
+                    ..RIGID_ROW
+                }
+            } else if let Some((rate, slop)) = c.baumgarte {
+                RowCoefficients {
+                    bias: rate * (s + slop).min(0.0),
+                    ..RIGID_ROW
+                }
+            } else {
+                let soft = if touches_static {
+                    c.static_contact
                 } else {
-                    let soft = if touches_static(row, &state.bodies) {
-                        c.static_contact
-                    } else {
-                        c.contact
-                    };
-                    RowCoefficients {
-                        bias: (soft.bias_rate * s).max(c.min_bias),
-                        mass_scale: soft.mass_scale,
-                        impulse_scale: soft.impulse_scale,
-                    }
+                    c.contact
+                };
+                RowCoefficients {
+                    bias: (soft.bias_rate * s).max(c.min_bias),
+                    mass_scale: soft.mass_scale,
+                    impulse_scale: soft.impulse_scale,
                 }
             }
-            RowRole::Joint => RowCoefficients {
-                bias: c.joint.bias_rate * row.position_error(&state.bodies),
-                mass_scale: c.joint.mass_scale,
-                impulse_scale: c.joint.impulse_scale,
-            },
-            // A friction row's position error is the tangential slip of its contact points
-            // since the step's start (its `c0` is 0): the bias asks the sticking points back
-            // to where they touched (Rapier's tangent `rhs`, `(p1 − p2)·t / dt`).
-            RowRole::Friction { .. } if c.friction_rate > 0.0 => RowCoefficients {
-                bias: c.friction_rate * row.position_error(&state.bodies),
-                ..RIGID_ROW
-            },
-            RowRole::Friction { .. } | RowRole::Other => RIGID_ROW,
-        };
+        }
+        Some(Kind::Joint) => RowCoefficients {
+            bias: c.joint.bias_rate * s(),
+            mass_scale: c.joint.mass_scale,
+            impulse_scale: c.joint.impulse_scale,
+        },
+        // A friction row's position error is the tangential slip of its contact points since
+        // the step's start (its `c0` is 0): the bias asks the sticking points back to where
+        // they touched (Rapier's tangent `rhs`, `(p1 − p2)·t / dt`).
+        Some(Kind::Friction) if c.friction_rate > 0.0 => RowCoefficients {
+            bias: c.friction_rate * s(),
+            ..RIGID_ROW
+        },
+        Some(Kind::Friction) | None => RIGID_ROW,
     }
 }
 
 /// The relax pass's coefficients: rigid rows, only the speculative bias of an open contact.
-fn relax_coefficients(state: &SolverState, inv_h: f64, out: &mut [RowCoefficients]) {
-    for (row, o) in state.rows.iter().zip(out.iter_mut()) {
-        *o = match row.role {
-            RowRole::Normal(_) => RowCoefficients {
-                bias: row.position_error(&state.bodies).max(0.0) * inv_h,
-                ..RIGID_ROW
-            },
-            _ => RIGID_ROW,
+fn relax_rule(inv_h: f64, kind: Option<Kind>, s: impl FnOnce() -> f64) -> RowCoefficients {
+    match kind {
+        Some(Kind::Normal) => RowCoefficients {
+            bias: s().max(0.0) * inv_h,
+            ..RIGID_ROW
+        },
+        _ => RIGID_ROW,
+    }
+}
+
+/// The kind of a row of [`SolverState`] as the rules see it.
+fn kind_of(role: RowRole) -> Option<Kind> {
+    match role {
+        RowRole::Normal(_) => Some(Kind::Normal),
+        RowRole::Friction { .. } => Some(Kind::Friction),
+        RowRole::Joint => Some(Kind::Joint),
+        RowRole::Other => None,
+    }
+}
+
+/// The biased pass ([`biased_rule`]).
+struct Biased<'a> {
+    c: &'a Coefficients,
+    inv_h: f64,
+}
+
+impl SweepRule for Biased<'_> {
+    #[inline]
+    fn coefficients(&self, row: &ConstraintRow, s: impl FnOnce() -> f64) -> RowCoefficients {
+        biased_rule(self.c, self.inv_h, Some(row.kind), row.touches_static, s)
+    }
+}
+
+/// The relax pass ([`relax_rule`]).
+struct Relax {
+    inv_h: f64,
+}
+
+impl SweepRule for Relax {
+    #[inline]
+    fn coefficients(&self, row: &ConstraintRow, s: impl FnOnce() -> f64) -> RowCoefficients {
+        relax_rule(self.inv_h, Some(row.kind), s)
+    }
+}
+
+/// The coefficients of the rows the sweep skips (`passive`, system indices), for the last
+/// solve's `b`: the biased rule with `biased`, else the relax rule.
+fn passive_coefficients(
+    state: &SolverState,
+    passive: &[usize],
+    biased: Option<&Coefficients>,
+    inv_h: f64,
+    out: &mut [RowCoefficients],
+) {
+    for &i in passive {
+        let row = &state.rows[i];
+        let s = || row.position_error(&state.bodies);
+        out[i] = match biased {
+            Some(c) => biased_rule(
+                c,
+                inv_h,
+                kind_of(row.role),
+                touches_static(row, &state.bodies),
+                s,
+            ),
+            None => relax_rule(inv_h, kind_of(row.role), s),
         };
     }
 }
@@ -667,125 +722,6 @@ fn sweep_order(
     (order, pairs)
 }
 
-/// `J_a M⁻¹ J_bᵀ`: the coupling of two rows (the off-diagonal entry of `A`).
-fn coupling(a: &SolverRow, b: &SolverRow) -> f64 {
-    let mut k = 0.0;
-    for ba in &a.blocks[..a.sides as usize] {
-        for (bb, (lin, ang)) in b.blocks[..b.sides as usize].iter().zip(&b.response) {
-            if ba.body == bb.body {
-                k += ba.linear.dot(lin) + ba.angular.dot(ang);
-            }
-        }
-    }
-    k
-}
-
-/// The new accumulated impulses of two normal rows `a`, `b` solved as one block: the
-/// compliant 2×2 LCP `0 ≤ λ ⟂ K' λ + q ≥ 0`, `q = J v + bias − K λ_prev`, `K` the rows' 2×2
-/// block of `A`, `K'` it with its diagonal divided by each row's `mass_scale` (Rapier's
-/// `ContactConstraintNormalPart::solve_mlcp_two_constraints`). For one row alone it is the
-/// soft update of [`sweep_rows`] (`mass_scale + impulse_scale = 1`). The four cases (both
-/// active, one, none) are tried in turn; `None` when the block is singular (the caller then
-/// solves the rows one after the other).
-fn solve_pair(
-    rows: &[SolverRow],
-    bodies: &[SolverBody],
-    (a, b): (usize, usize),
-    k: &[RowCoefficients],
-    lambda: &[f64],
-) -> Option<(f64, f64)> {
-    let (ra, rb) = (&rows[a], &rows[b]);
-    let (k11, k22, k12) = (ra.k, rb.k, coupling(ra, rb));
-    let (ka, kb) = (k[a], k[b]);
-    if ka.mass_scale <= 0.0 || kb.mass_scale <= 0.0 || k11 <= 0.0 || k22 <= 0.0 {
-        return None;
-    }
-    let (pa, pb) = (lambda[a], lambda[b]);
-    let q1 = ra.rate(bodies) + ka.bias - k11 * pa - k12 * pb;
-    let q2 = rb.rate(bodies) + kb.bias - k12 * pa - k22 * pb;
-    let kp11 = k11 / ka.mass_scale;
-    let kp22 = k22 / kb.mass_scale;
-    let det = kp11 * kp22 - k12 * k12;
-    // Nearly parallel rows (two points on one line through the bodies), or a NaN: no block
-    // solve.
-    if det.is_nan() || det <= 1e-9 * kp11 * kp22 {
-        return None;
-    }
-    let both = ((k12 * q2 - kp22 * q1) / det, (k12 * q1 - kp11 * q2) / det);
-    if both.0 >= 0.0 && both.1 >= 0.0 {
-        return Some(both);
-    }
-    let only_a = -q1 / kp11;
-    if only_a >= 0.0 && q2 + k12 * only_a >= 0.0 {
-        return Some((only_a, 0.0));
-    }
-    let only_b = -q2 / kp22;
-    if only_b >= 0.0 && q1 + k12 * only_b >= 0.0 {
-        return Some((0.0, only_b));
-    }
-    if q1 >= 0.0 && q2 >= 0.0 {
-        return Some((0.0, 0.0));
-    }
-    None
-}
-
-/// One Gauss–Seidel sweep over `order` with the coefficients `k`, on the accumulated impulses
-/// `lambda`; the rows marked in `pairs` are solved with their successor as a block
-/// ([`solve_pair`]). Marks in `hit` the normal rows left with a positive impulse.
-fn sweep_rows(
-    rows: &[SolverRow],
-    bodies: &mut [SolverBody],
-    order: &[usize],
-    pairs: &[bool],
-    k: &[RowCoefficients],
-    lambda: &mut [f64],
-    hit: &mut [bool],
-) {
-    let mut p = 0;
-    while p < order.len() {
-        if pairs[p] {
-            let (a, b) = (order[p], order[p + 1]);
-            if let Some((na, nb)) = solve_pair(rows, bodies, (a, b), k, lambda) {
-                for (i, new) in [(a, na), (b, nb)] {
-                    let applied = new - lambda[i];
-                    if applied != 0.0 && applied.is_finite() {
-                        rows[i].apply(applied, bodies);
-                        lambda[i] = new;
-                    }
-                    if lambda[i] > 0.0 {
-                        hit[i] = true;
-                    }
-                }
-                p += 2;
-                continue;
-            }
-        }
-        let i = order[p];
-        p += 1;
-        let row = &rows[i];
-        let c = k[i];
-        let vn = row.rate(bodies);
-        let d = -row.mass * c.mass_scale * (vn + c.bias) - c.impulse_scale * lambda[i];
-        let new = match row.role {
-            RowRole::Normal(_) => (lambda[i] + d).max(0.0),
-            RowRole::Friction { normal } => {
-                let bound = row.mu * lambda[normal];
-                (lambda[i] + d).clamp(-bound, bound)
-            }
-            RowRole::Joint => lambda[i] + d,
-            RowRole::Other => lambda[i],
-        };
-        let applied = new - lambda[i];
-        if applied != 0.0 && applied.is_finite() {
-            row.apply(applied, bodies);
-            lambda[i] = new;
-        }
-        if matches!(row.role, RowRole::Normal(_)) && lambda[i] > 0.0 {
-            hit[i] = true;
-        }
-    }
-}
-
 /// The warm start of the step: the stored impulses projected onto the rows' bounds (normal
 /// `≥ 0`, friction within `±μ λ_n`), zero where none is stored.
 fn initial_impulses(state: &SolverState, warm: Option<&[f64]>, lambda: &mut [f64]) {
@@ -818,57 +754,12 @@ fn initial_impulses(state: &SolverState, warm: Option<&[f64]>, lambda: &mut [f64
     }
 }
 
-/// `passes` sweeps of the coefficients `k` over the accumulated impulses `lambda`: serially
-/// in `order`, or colour by colour with `coloured` ([`super::coloured_sweep`]; the impulses
-/// go into its blocks for the passes and back after them).
-fn sweep_passes(
-    state: &mut SolverState,
-    (order, pairs): (&[usize], &[bool]),
-    k: &[RowCoefficients],
-    lambda: &mut [f64],
-    hit: &mut [bool],
-    coloured: Option<&mut ColouredSweep<RowCoefficients>>,
-    passes: usize,
-) {
-    if passes == 0 {
-        return;
-    }
-    match coloured {
-        None => {
-            for _ in 0..passes {
-                sweep_rows(&state.rows, &mut state.bodies, order, pairs, k, lambda, hit);
-            }
-        }
-        Some(blocks) => {
-            blocks.load(lambda, k);
-            for _ in 0..passes {
-                blocks.sweep(
-                    &mut state.bodies,
-                    |b| {
-                        sweep_rows(
-                            &b.rows,
-                            &mut b.local,
-                            &b.order,
-                            &b.pairs,
-                            &b.coefficients,
-                            &mut b.lambda,
-                            &mut b.hit,
-                        )
-                    },
-                    |()| {},
-                );
-            }
-            blocks.store(lambda, Some(hit));
-        }
-    }
-}
-
-/// Run the scheme over the step of `input`; `graph` is the colouring's memory of the
-/// previous step (used with `scheme.colour`).
+/// Run the scheme over the step of `input`; `workspace` keeps the rows' layout buffers and
+/// the colouring's memory of the previous step (used with `scheme.colour`).
 pub(crate) fn run(
     input: &SubstepInput<'_>,
     scheme: &Scheme,
-    graph: &mut ConstraintGraph,
+    workspace: &mut Workspace,
 ) -> SubstepOutcome {
     let system = input.system;
     let settings = input.settings;
@@ -880,16 +771,28 @@ pub(crate) fn run(
     let inv_h = if h > 0.0 { 1.0 / h } else { 0.0 };
     let coefficients = Coefficients::new(&scheme.bias, h);
 
-    // The step's workspace, allocated once.
+    // The step's workspace: the rows laid out for the sweep (buffers kept between steps), the
+    // per-row results in the system's order allocated once.
     let (order, pairs) = sweep_order(system, &state, scheme.normals_first, scheme.block_pairs);
-    let mut coloured = scheme
-        .colour
-        .then(|| ColouredSweep::<RowCoefficients>::new(system, &state, &order, &pairs, graph));
     let mut lambda = vec![0.0; n];
     initial_impulses(&state, settings.warm_start.as_deref(), &mut lambda);
-    let mut f_step = vec![0.0; n];
+    let layout = &mut workspace.rows;
+    layout.build(
+        system,
+        &state,
+        (&order, &pairs),
+        scheme.colour.then_some(&mut workspace.graph),
+        &lambda,
+    );
+    // The rows the sweep skips keep their impulse (0); their coefficients still enter the
+    // last solve's `b`.
+    let mut swept = vec![false; n];
+    for &g in &layout.global {
+        swept[g as usize] = true;
+    }
+    let passive: Vec<usize> = (0..n).filter(|&i| !swept[i]).collect();
+    let mut f_swept = vec![0.0; layout.rows.len()];
     let mut k = vec![RowCoefficients::default(); n];
-    let mut hit = vec![false; n];
     // Velocities at the start of the last substep that solved (after its velocity
     // integration, before its warm start): the last solve's `b` is `J` of them plus its bias.
     let mut saved: Vec<(Vector3<f64>, Vector3<f64>)> =
@@ -913,56 +816,44 @@ pub(crate) fn run(
                 *s = (b.v, b.w);
             }
             // Warm start: the accumulated impulses of the previous substep.
-            for &i in &order {
-                if lambda[i] != 0.0 {
-                    state.rows[i].apply(lambda[i], &mut state.bodies);
-                }
-            }
+            layout.warm_start(&mut state.bodies);
             cost.row_updates += per_pass;
             // Biased solve.
-            biased_coefficients(&state, &coefficients, inv_h, &mut k);
             let passes = scheme
                 .iterations
                 .min(settings.max_iterations.saturating_sub(sweeps));
-            sweep_passes(
-                &mut state,
-                (&order, &pairs),
-                &k,
-                &mut lambda,
-                &mut hit,
-                coloured.as_mut(),
-                passes,
-            );
+            let rule = Biased {
+                c: &coefficients,
+                inv_h,
+            };
+            for _ in 0..passes {
+                layout.sweep(&mut state.bodies, &rule);
+            }
             sweeps += passes;
             cost.row_updates += per_pass * passes as u64;
             if passes > 0 {
+                passive_coefficients(&state, &passive, Some(&coefficients), inv_h, &mut k);
                 last_solve = Some((step, "biased solve"));
             }
         }
         state.integrate_positions(h);
         cost.body_passes += 1;
         if solving && scheme.relax_iterations > 0 && sweeps < settings.max_iterations {
-            relax_coefficients(&state, inv_h, &mut k);
             let passes = scheme
                 .relax_iterations
                 .min(settings.max_iterations.saturating_sub(sweeps));
-            sweep_passes(
-                &mut state,
-                (&order, &pairs),
-                &k,
-                &mut lambda,
-                &mut hit,
-                coloured.as_mut(),
-                passes,
-            );
+            for _ in 0..passes {
+                layout.sweep(&mut state.bodies, &Relax { inv_h });
+            }
             sweeps += passes;
             cost.row_updates += per_pass * passes as u64;
             if passes > 0 {
+                passive_coefficients(&state, &passive, None, inv_h, &mut k);
                 last_solve = Some((step, "relax pass"));
             }
         }
         if solving {
-            for (f, l) in f_step.iter_mut().zip(&lambda) {
+            for (f, l) in f_swept.iter_mut().zip(&layout.lambda) {
                 *f += l;
             }
         }
@@ -970,6 +861,17 @@ pub(crate) fn run(
             timed_out = true;
             solving = false;
         }
+    }
+
+    // Back to the system's order.
+    let mut f_step = vec![0.0; n];
+    let mut hit = vec![false; n];
+    for (p, &g) in layout.global.iter().enumerate() {
+        let g = g as usize;
+        lambda[g] = layout.lambda[p];
+        f_step[g] = f_swept[p];
+        hit[g] = layout.hit[p];
+        k[g] = layout.coefficients[p];
     }
 
     // The last solve's LCP, before the restitution pass changes the impulses.
@@ -1000,7 +902,15 @@ pub(crate) fn run(
                     "{pass}{} of substep {} of {substeps}{}",
                     if soft { " (soft rows)" } else { "" },
                     step + 1,
-                    coloured.as_ref().map_or(String::new(), coloured_note)
+                    if layout.coloured {
+                        colour_note(
+                            layout.constraint_count(),
+                            layout.colour_count(),
+                            layout.overflow_count(),
+                        )
+                    } else {
+                        String::new()
+                    }
                 ),
             }
         }
@@ -1056,12 +966,18 @@ pub(crate) fn run(
 /// What the step report's `residual_of` adds for a coloured sweep: the colours and the
 /// overflow set it visited.
 pub(crate) fn coloured_note<C>(blocks: &ColouredSweep<C>) -> String {
-    let colours = blocks.colour_count();
-    format!(
-        ", coloured sweeps ({} constraints in {colours} colour{}, {} in overflow)",
+    colour_note(
         blocks.constraint_count(),
+        blocks.colour_count(),
+        blocks.overflow_count(),
+    )
+}
+
+/// The note of [`coloured_note`] from the counts.
+fn colour_note(constraints: usize, colours: usize, overflow: usize) -> String {
+    format!(
+        ", coloured sweeps ({constraints} constraints in {colours} colour{}, {overflow} in overflow)",
         if colours == 1 { "" } else { "s" },
-        blocks.overflow_count()
     )
 }
 
@@ -1071,13 +987,13 @@ pub(crate) fn sweep_alone(
     system: &ContactSystem,
     settings: &Settings,
     scheme: &Scheme,
-    graph: &mut ConstraintGraph,
+    workspace: &mut Workspace,
 ) -> BodySweep {
     let input = SubstepInput {
         system,
         gravity: Vector3::zeros(),
         settings,
     };
-    let out = run(&input, scheme, graph);
+    let out = run(&input, scheme, workspace);
     BodySweep::from(out)
 }

@@ -86,9 +86,8 @@
 //! the feedback, which is why soft joints hold; `joint_hertz > 0` gives `tgs` those joints
 //! while its contacts keep the Baumgarte rule.
 
-use super::colouring::ConstraintGraph;
 use super::params::{ParamSpec, Params};
-use super::soft_step::{run, sweep_alone, BiasRule, Scheme, COLOUR_PARAM};
+use super::soft_step::{run, sweep_alone, BiasRule, Scheme, Workspace, COLOUR_PARAM};
 use super::softness::PUSH_OUT;
 use super::{SubstepInput, SubstepOutcome};
 use crate::body_solvers::{BodySolver, BodySolverKind, BodySweep};
@@ -144,7 +143,7 @@ pub const TGS_PARAMS: &[ParamSpec] = &[
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tgs {
     params: Params,
-    graph: ConstraintGraph,
+    workspace: Workspace,
 }
 
 impl Tgs {
@@ -152,7 +151,7 @@ impl Tgs {
     pub fn new(params: Params) -> Self {
         Self {
             params,
-            graph: ConstraintGraph::new(),
+            workspace: Workspace::default(),
         }
     }
 
@@ -227,11 +226,11 @@ impl BodySolver for Tgs {
 
     fn advance(&mut self, input: &SubstepInput<'_>) -> Option<SubstepOutcome> {
         let scheme = self.scheme();
-        Some(run(input, &scheme, &mut self.graph))
+        Some(run(input, &scheme, &mut self.workspace))
     }
 
     fn sweep(&mut self, system: &ContactSystem, settings: &Settings) -> BodySweep {
         let scheme = self.scheme();
-        sweep_alone(system, settings, &scheme, &mut self.graph)
+        sweep_alone(system, settings, &scheme, &mut self.workspace)
     }
 }
