@@ -1,6 +1,7 @@
 //! Coloured sweeps: a substepping solver's Gauss–Seidel sweep taken colour by colour, the
-//! constraints of a colour in parallel on rayon's threads (`colour=1` of `soft-step`, `tgs`
-//! and `pgs-ngs`).
+//! constraints of a colour in parallel on rayon's threads (`colour=1` of `pgs-ngs`'s velocity
+//! and position sweeps; `soft-step` and `tgs` sweep [`super::constraint_rows`] instead, which
+//! writes the bodies in place without these copies).
 //!
 //! The rows of a step are grouped into constraints (the rows of the contacts between two
 //! bodies, or of a joint) and the constraints coloured ([`super::colouring`]): no two

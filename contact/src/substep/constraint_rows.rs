@@ -155,7 +155,8 @@ pub(crate) fn coupling(a: &ConstraintRow, b: &ConstraintRow) -> f64 {
     for (sa, ba) in a.side[..a.sides as usize].iter().zip(&a.body) {
         for (sb, bb) in b.side[..b.sides as usize].iter().zip(&b.body) {
             if ba == bb {
-                k += sa.linear.dot(&(sb.linear * sb.inv_mass)) + sa.angular.dot(&sb.angular_response);
+                k += sa.linear.dot(&(sb.linear * sb.inv_mass))
+                    + sa.angular.dot(&sb.angular_response);
             }
         }
     }
@@ -417,8 +418,8 @@ impl ConstraintRows {
             for (k, &p) in rows.iter().enumerate() {
                 this.global.push(order[p] as u32);
                 // A pair stays a pair only with its partner next in the same constraint.
-                let paired = pairs.get(p).copied().unwrap_or(false)
-                    && rows.get(k + 1) == Some(&(p + 1));
+                let paired =
+                    pairs.get(p).copied().unwrap_or(false) && rows.get(k + 1) == Some(&(p + 1));
                 this.pairs.push(paired);
             }
             this.constraints.push(start..this.global.len());
@@ -572,8 +573,7 @@ unsafe fn run_span<R: SweepRule>(
         }
         return;
     };
-    let coefficient =
-        |row: &ConstraintRow| rule.coefficients(row, || row.position_error(bodies));
+    let coefficient = |row: &ConstraintRow| rule.coefficients(row, || row.position_error(bodies));
     let mut p = 0;
     while p < rows.len() {
         if pairs[p] && p + 1 < rows.len() {
@@ -810,7 +810,10 @@ mod tests {
             let mut moved = 0;
             for (p, &g) in sequence.iter().enumerate() {
                 let (got, w) = (layout.lambda[p], want_lambda[g]);
-                assert!((got - w).abs() <= 1e-12 * (1.0 + w.abs()), "row {g}: {got} vs {w}");
+                assert!(
+                    (got - w).abs() <= 1e-12 * (1.0 + w.abs()),
+                    "row {g}: {got} vs {w}"
+                );
                 moved += usize::from(got != lambda[g]);
             }
             assert!(moved > order.len() / 4, "{moved} of {}", order.len());

@@ -26,7 +26,9 @@
 //!
 //! `soft-step`, `tgs` and `pgs-ngs` take `colour=1` for coloured sweeps: the constraints
 //! coloured so that no two of a colour share a dynamic body ([`colouring`], Box2D v3's
-//! constraint graph) and each colour's swept in parallel ([`coloured_sweep`]).
+//! constraint graph) and each colour's swept in parallel: `soft-step` and `tgs` on their
+//! compact row layout, writing the bodies in place ([`constraint_rows`]), `pgs-ngs` on
+//! per-constraint blocks with body copies ([`coloured_sweep`]).
 //!
 //! Without a world (a [`crate::BodySolver::sweep`] on a system alone) a substepping solver
 //! starts from the system's free velocities, gravity already in them, and returns the impulse

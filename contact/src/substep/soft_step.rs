@@ -42,9 +42,9 @@
 //!    `colour = 1` sweeps the constraints (a joint's rows, the contacts between two bodies)
 //!    colour by colour instead, the overflow set first and each colour's constraints in
 //!    parallel, each constraint's rows in the order above (Box2D v3's `b2_stageSolve` over
-//!    its graph colours; [`super::coloured_sweep`]): a different Gauss–Seidel order, with
-//!    results that do not depend on the number of threads. The warm start and the
-//!    restitution pass stay serial (they apply impulses, in the order above).
+//!    its graph colours; [`super::constraint_rows`]): a different Gauss–Seidel order, with
+//!    results that do not depend on the number of threads. The warm start goes colour by
+//!    colour too; the restitution pass stays serial (in the order above).
 //!
 //!    The impulse of a row is `Δλ = −m · mass_scale · (J v + bias) − impulse_scale · λ`
 //!    (`m = 1 / (J M⁻¹ Jᵀ)`), clamped on the accumulated impulse (`λ ≥ 0` for normal rows);
@@ -106,7 +106,7 @@
 //! | `friction_anchor` | 0 | friction rows' slip bias factor (Box2D: none; Rapier: 1) |
 //! | `normals_first` | 0 | 1: a manifold's normal rows before its friction rows (Rapier) |
 //! | `block_pairs` | 0 | 1: normal rows two by two as 2×2 blocks (Rapier's `block-solver`) |
-//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel (Box2D v3's graph colouring; [`super::coloured_sweep`]) |
+//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel (Box2D v3's graph colouring; [`super::constraint_rows`]) |
 //!
 //! `hertz = 0` makes the contacts rigid with no position feedback (only the speculative bias);
 //! `joint_hertz = 0` the joints likewise.
@@ -161,10 +161,13 @@
 //!
 //! Per substep: two body passes (velocity and position integration) and, per sweep, one row
 //! update for each swept row; the warm start counts one row update per row it applies. The
-//! workspace (impulses, per-row bias and softness, saved velocities) is allocated once per
-//! step; the substep loop allocates nothing. With `colour = 1` the step also colours its
-//! constraints and copies their rows into blocks (linear in the rows, once per step); a
-//! sweep counts the same row updates as the serial one.
+//! swept rows are laid out once per step in sweep order, compact, into buffers the solver
+//! keeps between steps ([`super::constraint_rows`]); each row's bias and softness are
+//! computed in the sweep from its position error. The per-row results in the system's order
+//! (impulses, saved velocities) are allocated once per step; the substep loop allocates
+//! nothing. With `colour = 1` the step also colours its constraints and lays the rows out
+//! colour by colour (linear in the rows, once per step); a sweep writes the bodies in place
+//! and counts the same row updates as the serial one.
 
 use super::coloured_sweep::ColouredSweep;
 use super::colouring::ConstraintGraph;
@@ -265,7 +268,8 @@ pub const SOFT_STEP_PARAMS: &[ParamSpec] = &[
     COLOUR_PARAM,
 ];
 
-/// The `colour` key of `soft-step`, `tgs` and `pgs-ngs` (see [`super::coloured_sweep`]).
+/// The `colour` key of `soft-step`, `tgs` and `pgs-ngs` (see [`super::constraint_rows`] and
+/// [`super::coloured_sweep`]).
 pub const COLOUR_PARAM: ParamSpec = ParamSpec::count(
     "colour",
     0,
@@ -442,7 +446,7 @@ pub(crate) struct Scheme {
     /// A manifold's normal rows solved two by two as 2×2 blocks (implies `normals_first`).
     pub(crate) block_pairs: bool,
     /// Sweep colour by colour, each colour's constraints in parallel
-    /// ([`super::coloured_sweep`]); else the serial order.
+    /// ([`super::constraint_rows`]); else the serial order.
     pub(crate) colour: bool,
 }
 

@@ -42,7 +42,7 @@
 //! | `zeta` | 1 | damping ratio of the soft rows |
 //! | `joint_hertz` | 0 | with `hertz = 0`: 0 for Baumgarte joint rows; `> 0`: soft joint rows of this stiffness, at most `0.25 / h` (`soft-step`'s joints) |
 //! | `joint_zeta` | 2 | damping ratio of those soft joint rows (Box2D's `jointDampingRatio`) |
-//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel, as `soft-step@colour=1` ([`super::coloured_sweep`]) |
+//! | `colour` | 0 | 1: coloured sweeps, each colour's constraints in parallel, as `soft-step@colour=1` ([`super::constraint_rows`]) |
 //!
 //! # What it solves
 //!
@@ -138,8 +138,8 @@ pub const TGS_PARAMS: &[ParamSpec] = &[
     COLOUR_PARAM,
 ];
 
-/// The `tgs` solver: its parameters ([`TGS_PARAMS`]) and, for `colour=1`, the colouring
-/// of the previous step's constraints.
+/// The `tgs` solver: its parameters ([`TGS_PARAMS`]) and its workspace (the rows' layout,
+/// for `colour=1` the colouring of the previous step's constraints).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tgs {
     params: Params,
