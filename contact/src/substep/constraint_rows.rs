@@ -137,7 +137,7 @@ impl ConstraintRow {
     }
 
     /// The position error now, `C₀ + J Δx`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn position_error(&self, bodies: &SharedSlice<'_, SolverBody>) -> f64 {
         let mut c = self.c0;
         for (s, &b) in self.side[..self.sides as usize].iter().zip(&self.body) {
@@ -170,7 +170,9 @@ pub(crate) fn coupling(a: &ConstraintRow, b: &ConstraintRow) -> f64 {
 ///
 /// Invariant (the caller's): while the slice is shared, no element is written by one task and
 /// read or written by another. The layout guarantees it for a colour ([`ConstraintRows::build`]
-/// checks it in debug builds); indices are bounds-checked.
+/// checks it in debug builds). Element indices are checked in debug builds only: the body
+/// indices of the rows are checked against the bodies when the layout is built and when a
+/// pass starts; ranges are always checked.
 pub(crate) struct SharedSlice<'a, T> {
     ptr: *mut T,
     len: usize,
@@ -196,22 +198,22 @@ impl<'a, T> SharedSlice<'a, T> {
     /// Element `i`, read.
     ///
     /// # Safety
-    /// No other task writes element `i` while the reference lives.
+    /// `i < len`; no other task writes element `i` while the reference lives.
     #[inline]
     pub(crate) unsafe fn get(&self, i: usize) -> &T {
-        assert!(i < self.len);
+        debug_assert!(i < self.len);
         &*self.ptr.add(i)
     }
 
     /// Element `i`, written.
     ///
     /// # Safety
-    /// No other task reads or writes element `i` while the reference lives, and this task
-    /// holds no other reference to it.
+    /// `i < len`; no other task reads or writes element `i` while the reference lives, and this
+    /// task holds no other reference to it.
     #[inline]
     #[allow(clippy::mut_from_ref)]
     pub(crate) unsafe fn get_mut(&self, i: usize) -> &mut T {
-        assert!(i < self.len);
+        debug_assert!(i < self.len);
         &mut *self.ptr.add(i)
     }
 
@@ -270,6 +272,8 @@ pub(crate) struct ConstraintRows {
     pub(crate) colours: Vec<Range<usize>>,
     /// Coloured layout: whether the sweep goes colour by colour.
     pub(crate) coloured: bool,
+    /// Number of bodies the rows index (every body index is below it).
+    body_count: usize,
     /// Scratch: the layout position of each system row (`u32::MAX`: not swept).
     position: Vec<u32>,
 }
@@ -329,6 +333,7 @@ impl ConstraintRows {
             self.position[g as usize] = p as u32;
         }
         let bodies = &state.bodies;
+        self.body_count = bodies.len();
         let position = &self.position;
         self.rows.extend(self.global.iter().map(|&g| {
             let row = &state.rows[g as usize];
@@ -505,6 +510,9 @@ impl ConstraintRows {
     /// colour with each colour's constraints in parallel): the warm start without a rule, a
     /// sweep with one.
     fn pass<R: SweepRule>(&mut self, bodies: &mut [SolverBody], rule: Option<&R>) {
+        // The rows' body indices were checked against `body_count` bodies when built (the
+        // indexing of `bodies[b.body]` there).
+        assert_eq!(bodies.len(), self.body_count, "bodies of another step");
         let bodies = SharedSlice::new(bodies);
         let rows = &self.rows;
         let pairs = &self.pairs;

@@ -531,6 +531,7 @@ fn touches_static(row: &SolverRow, bodies: &[SolverBody]) -> bool {
 
 /// The biased pass's coefficients of a row of `kind` (`None`: a row the sweep skips) whose
 /// position error is `s()`.
+#[inline]
 fn biased_rule(
     c: &Coefficients,
     inv_h: f64,
@@ -581,6 +582,7 @@ fn biased_rule(
 }
 
 /// The relax pass's coefficients: rigid rows, only the speculative bias of an open contact.
+#[inline]
 fn relax_rule(inv_h: f64, kind: Option<Kind>, s: impl FnOnce() -> f64) -> RowCoefficients {
     match kind {
         Some(Kind::Normal) => RowCoefficients {
