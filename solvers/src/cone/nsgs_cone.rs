@@ -146,14 +146,13 @@ impl NsgsCone {
     fn sweep(
         &self,
         problem: &ConeProblem,
-        blocks: &[ContactBlock],
-        rows: &ContactRows,
-        scales: &[f64],
+        contacts: &Contacts,
         order: &[usize],
         within: Option<f64>,
         r: &mut [f64],
     ) -> (bool, bool) {
         let (w, q, mu) = (problem.delassus(), problem.q(), problem.mu());
+        let (blocks, rows, scales) = (&contacts.blocks, &contacts.rows, &contacts.scales);
         let omega = self.settings.omega;
         let bound = within.unwrap_or(f64::NAN);
         let (mut all_within, mut changed) = (within.is_some(), false);
@@ -198,6 +197,27 @@ impl NsgsCone {
             }
         }
         (all_within, changed)
+    }
+}
+
+/// What a sweep reads of each contact, built once per solve: its diagonal block `W_cc` with
+/// its factors, its rows of `W` ([`ContactRows`]) and its diagonal scale.
+struct Contacts {
+    blocks: Vec<ContactBlock>,
+    rows: ContactRows,
+    scales: Vec<f64>,
+}
+
+impl Contacts {
+    fn new(problem: &ConeProblem) -> Self {
+        let contacts = problem.contacts();
+        Contacts {
+            blocks: (0..contacts)
+                .map(|c| ContactBlock::new(problem.block(c)))
+                .collect(),
+            rows: ContactRows::new(problem),
+            scales: (0..contacts).map(|c| problem.scale_of(c)).collect(),
+        }
     }
 }
 
@@ -282,13 +302,8 @@ impl ConeSolver for NsgsCone {
             let reason = format!("over-relaxation omega = {omega} is outside (0, 2)");
             return monitor.finish(Vec::new(), 0, Outcome::Unsupported(reason));
         }
-        let contacts = problem.contacts();
-        let blocks: Vec<ContactBlock> = (0..contacts)
-            .map(|c| ContactBlock::new(problem.block(c)))
-            .collect();
-        let rows = ContactRows::new(problem);
-        let scales: Vec<f64> = (0..contacts).map(|c| problem.scale_of(c)).collect();
-        let mut order: Vec<usize> = (0..contacts).collect();
+        let contacts = Contacts::new(problem);
+        let mut order: Vec<usize> = (0..problem.contacts()).collect();
         let mut rng = self
             .settings
             .shuffle_seed
@@ -333,8 +348,7 @@ impl ConeSolver for NsgsCone {
             let next = iterations + 1;
             let certain = next == 1 || next % every == 0;
             let within = (!certain).then_some(MEASURE_WITHIN * tol);
-            let (all_within, changed) =
-                self.sweep(problem, &blocks, &rows, &scales, &order, within, &mut r);
+            let (all_within, changed) = self.sweep(problem, &contacts, &order, within, &mut r);
             iterations = next;
             monitor.record(iterations, &r);
             if r.iter().any(|v| !v.is_finite()) {
@@ -413,10 +427,7 @@ mod tests {
         for sparse in [false, true] {
             let p = banded(12, 3, sparse);
             let solver = NsgsCone::default();
-            let blocks: Vec<ContactBlock> =
-                (0..12).map(|c| ContactBlock::new(p.block(c))).collect();
-            let rows = ContactRows::new(&p);
-            let scales: Vec<f64> = (0..12).map(|c| p.scale_of(c)).collect();
+            let data = Contacts::new(&p);
             let order: Vec<usize> = (0..12).collect();
             let mut r = vec![0.0; p.n()];
             for _ in 0..40 {
@@ -433,7 +444,7 @@ mod tests {
                         }
                     }
                 }
-                solver.sweep(&p, &blocks, &rows, &scales, &order, None, &mut r);
+                solver.sweep(&p, &data, &order, None, &mut r);
             }
             let mut bad = r.clone();
             bad[4] = f64::NAN;
@@ -448,10 +459,7 @@ mod tests {
         for sparse in [false, true] {
             let p = banded(15, 7, sparse);
             let solver = NsgsCone::default();
-            let blocks: Vec<ContactBlock> =
-                (0..15).map(|c| ContactBlock::new(p.block(c))).collect();
-            let rows = ContactRows::new(&p);
-            let scales: Vec<f64> = (0..15).map(|c| p.scale_of(c)).collect();
+            let data = Contacts::new(&p);
             let order: Vec<usize> = (0..15).rev().collect();
             let mut plain = vec![0.0; p.n()];
             let mut terms = plain.clone();
@@ -469,14 +477,13 @@ mod tests {
                         uc[a] = wr + q[3 * c + a];
                         t[a] = m + q[3 * c + a].abs();
                     }
-                    worst = worst.max(contact_relative_error(mu[c], scales[c], rc, uc, t));
-                    solver.sweep(&p, &blocks, &rows, &scales, &[c], None, &mut one);
+                    worst = worst.max(contact_relative_error(mu[c], data.scales[c], rc, uc, t));
+                    solver.sweep(&p, &data, &[c], None, &mut one);
                     probe = one;
                 }
                 let bound = worst * if sweep % 2 == 0 { 1.0 } else { 0.5 };
-                let (within, _) =
-                    solver.sweep(&p, &blocks, &rows, &scales, &order, Some(bound), &mut terms);
-                solver.sweep(&p, &blocks, &rows, &scales, &order, None, &mut plain);
+                let (within, _) = solver.sweep(&p, &data, &order, Some(bound), &mut terms);
+                solver.sweep(&p, &data, &order, None, &mut plain);
                 assert_eq!(within, sweep % 2 == 0, "sweep {sweep}");
                 assert_eq!(
                     plain.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
@@ -504,11 +511,7 @@ mod tests {
             let result = NsgsCone::default().solve_cone(&p, &settings);
             assert!(result.status.is_converged(), "{:?}", result.status);
             let solver = NsgsCone::default();
-            let blocks: Vec<ContactBlock> = (0..contacts)
-                .map(|c| ContactBlock::new(p.block(c)))
-                .collect();
-            let rows = ContactRows::new(&p);
-            let scales: Vec<f64> = (0..contacts).map(|c| p.scale_of(c)).collect();
+            let data = Contacts::new(&p);
             let order: Vec<usize> = (0..contacts).collect();
             let mut r = vec![0.0; p.n()];
             let (mut sweeps, mut measure) = (0, true);
@@ -516,15 +519,8 @@ mod tests {
                 if measure && cone_residuals(&p, &r).natural_map_rel <= tol {
                     break;
                 }
-                let (within, _) = solver.sweep(
-                    &p,
-                    &blocks,
-                    &rows,
-                    &scales,
-                    &order,
-                    Some(MEASURE_WITHIN * tol),
-                    &mut r,
-                );
+                let (within, _) =
+                    solver.sweep(&p, &data, &order, Some(MEASURE_WITHIN * tol), &mut r);
                 sweeps += 1;
                 measure = sweeps == 1 || within || sweeps % STAGNATION_MEASURE_EVERY == 0;
             }
@@ -539,26 +535,27 @@ mod tests {
     #[test]
     fn contact_rows_give_the_row_products_bit_for_bit() {
         let p = banded(16, 9, true);
-        let rows = ContactRows::new(&p);
-        assert!(rows.ranges.iter().all(Option::is_some));
+        let data = Contacts::new(&p);
+        assert!(data.rows.ranges.iter().all(Option::is_some));
         assert!(ContactRows::new(&banded(4, 9, false))
             .ranges
             .iter()
             .all(Option::is_none));
-        let by_rows = ContactRows {
-            ranges: vec![None; 16],
-            cols: Vec::new(),
-            values: Vec::new(),
+        let by_rows = Contacts {
+            rows: ContactRows {
+                ranges: vec![None; 16],
+                cols: Vec::new(),
+                values: Vec::new(),
+            },
+            ..Contacts::new(&p)
         };
         let solver = NsgsCone::default();
-        let blocks: Vec<ContactBlock> = (0..16).map(|c| ContactBlock::new(p.block(c))).collect();
-        let scales: Vec<f64> = (0..16).map(|c| p.scale_of(c)).collect();
         let order: Vec<usize> = (0..16).collect();
         let (mut a, mut b) = (vec![0.0; p.n()], vec![0.0; p.n()]);
         for sweep in 0..50 {
             let within = (sweep % 3 != 0).then_some(if sweep % 3 == 1 { 1e300 } else { 1e-3 });
-            let x = solver.sweep(&p, &blocks, &rows, &scales, &order, within, &mut a);
-            let y = solver.sweep(&p, &blocks, &by_rows, &scales, &order, within, &mut b);
+            let x = solver.sweep(&p, &data, &order, within, &mut a);
+            let y = solver.sweep(&p, &by_rows, &order, within, &mut b);
             assert_eq!(x, y, "sweep {sweep}");
             assert_eq!(
                 a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
