@@ -1,5 +1,6 @@
 //! Scene runs through the sweep: per-step metrics aggregated into one row per run.
 
+use lcpbench::harness::step_failure::{parse_failed_steps, StepFailure};
 use lcpbench::harness::sweep::read_results;
 use std::process::Command;
 
@@ -166,6 +167,23 @@ fn steps_without_a_solution_are_counted() {
     assert_eq!(rows[0].status.as_str(), "diverged", "{:?}", rows[0]);
     assert_eq!(rows[0].no_solution_steps, Some(5));
     assert_eq!(rows[0].nonconverged_steps, Some(5));
+    // Each step, with why it failed and its size, in the `failed_steps` column.
+    let failed = parse_failed_steps(&rows[0].failed_steps);
+    assert_eq!(
+        failed.iter().map(|f| f.step).collect::<Vec<_>>(),
+        [0, 1, 2, 3, 4],
+        "{}",
+        rows[0].failed_steps
+    );
+    for f in &failed {
+        assert!(
+            matches!(f.failure, StepFailure::Diverged | StepFailure::NoSolution)
+                && f.rows > 0
+                && f.contacts > 0
+                && f.residual.is_some(),
+            "{f:?}"
+        );
+    }
 }
 
 /// The scenes after Solver2D's rush, double domino and circle stack, stepped whole with

@@ -313,7 +313,7 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
              joint_angle_max,sag_body,timed_solves,solve_time_min_s,solve_time_max_s,\
              warm_source,warm_time_s,substeps_per_step,row_updates_per_step,\
              body_passes_per_step,step_time_no_residual_s,residual_of,steps_measured,\
-             measured_step_time_s"
+             measured_step_time_s,failed_steps"
         ),
         "{header}"
     );
@@ -321,7 +321,7 @@ fn results_without_the_last_columns_read_but_are_not_resumed() {
         .lines()
         .map(|line| {
             let cells: Vec<&str> = line.split(',').collect();
-            format!("{}\n", cells[..cells.len() - 19].join(","))
+            format!("{}\n", cells[..cells.len() - 20].join(","))
         })
         .collect();
     std::fs::write(&results, &older).unwrap();

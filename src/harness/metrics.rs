@@ -8,7 +8,8 @@
 //!   friction-cone violation, non-converged, fallback and no-solution steps, the first
 //!   non-converged status, and the cost counts (substeps, row updates and body passes per
 //!   step, the step time without the residual phase, which LCP the residuals are of, the
-//!   steps whose residual was measured and their mean time). Only a measured step is
+//!   steps whose residual was measured and their mean time), and why each failed step failed
+//!   ([`crate::harness::step_failure`]). Only a measured step is
 //!   converged or not (`nonconverged_steps` counts measured steps; a residual schedule,
 //!   `scene:PATH?residual=sample=K`, leaves the others unmeasured); an unmeasured step that
 //!   gave up or ran out of time still counts in `fallback_steps` / `time_limit_steps` and keeps
@@ -48,6 +49,9 @@
 //! on static bodies against the total weight, at the last step).
 
 use crate::harness::record::{RunRecord, RunStatus};
+use crate::harness::step_failure::{
+    format_failed_steps, FailedStep, StepFailure, FAILED_STEPS_KEPT,
+};
 use crate::harness::timing::median;
 use lcpbench_contact::body::RigidBody;
 use lcpbench_contact::joint::JointMetrics;
@@ -203,10 +207,13 @@ pub struct StepTotals {
     /// Steps whose shared residual was measured (or that had no rows), and their wall time.
     measured: usize,
     measured_time: f64,
+    /// The steps that did not converge and why (the `failed_steps` column).
+    failed: Vec<FailedStep>,
 }
 
 impl StepTotals {
     fn observe(&mut self, report: &StepReport) {
+        let step = self.taken;
         self.taken += 1;
         self.solve_time += report.solve_time_s;
         self.step_time += report.step_time_s;
@@ -254,6 +261,19 @@ impl StepTotals {
         let measured_short = report.residual_measured && !report.status.is_converged();
         if measured_short {
             self.nonconverged += 1;
+        }
+        if measured_short || gave_up {
+            if let Some(failure) = StepFailure::of(&report.status) {
+                if self.failed.len() < FAILED_STEPS_KEPT {
+                    self.failed.push(FailedStep {
+                        step,
+                        failure,
+                        residual: report.residuals.as_ref().map(|r| r.natural_map_rel),
+                        rows: report.rows,
+                        contacts: report.contacts,
+                    });
+                }
+            }
         }
         if (measured_short || gave_up) && self.worst_status.is_none() {
             self.worst_status = Some(report.status.clone());
@@ -311,6 +331,7 @@ impl StepTotals {
         r.body_passes_per_step = Some(self.body_passes as f64 / n);
         r.step_time_no_residual_s = Some(((self.step_time - self.phases.residual) / n).max(0.0));
         r.residual_of = self.residual_of.clone();
+        r.failed_steps = format_failed_steps(&self.failed);
         r.steps_measured = Some(self.measured);
         r.measured_step_time_s =
             (self.measured > 0).then(|| self.measured_time / self.measured as f64);

@@ -37,6 +37,7 @@ pub mod run;
 pub mod scene;
 pub mod shard;
 pub mod solver_spec;
+pub mod step_failure;
 pub mod sweep;
 mod text;
 pub mod timing;

@@ -245,6 +245,16 @@ pub struct RunRecord {
     /// Scene: mean wall time of the measured steps of `steps_measured` (the shared residual
     /// included), seconds.
     pub measured_step_time_s: Option<f64>,
+    /// Scene: why each step that did not converge failed, one entry per step separated by
+    /// spaces, `STEP:CATEGORY:RESIDUAL:ROWS:CONTACTS` (steps numbered from 0, as `lcpbench
+    /// export --step`; `RESIDUAL` the step's shared relative residual, empty when it was not
+    /// measured; `CATEGORY` one of [`crate::harness::step_failure::StepFailure::name`]). A measured step that did not
+    /// converge and an unmeasured one whose solve gave up are listed; the first
+    /// [`crate::harness::step_failure::FAILED_STEPS_KEPT`] of them. Empty when every step converged
+    /// and in rows of an lcpbench before this column (see
+    /// [`crate::harness::step_failure::parse_failed_steps`]).
+    #[serde(default)]
+    pub failed_steps: String,
 }
 
 impl RunRecord {

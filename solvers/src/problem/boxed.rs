@@ -197,7 +197,10 @@ impl<'a> Row<'a> {
     pub fn dot(&self, x: &[f64]) -> f64 {
         match *self {
             Row::Dense(row) => dot(row, x),
-            Row::Sparse { cols, values } => cols.iter().zip(values).map(|(&j, v)| v * x[j]).sum(),
+            // The sum of `dot_and_magnitude`, term for term (a fold from `+0.0`).
+            Row::Sparse { cols, values } => {
+                cols.iter().zip(values).fold(0.0, |s, (&j, v)| s + v * x[j])
+            }
         }
     }
 
