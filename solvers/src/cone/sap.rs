@@ -804,6 +804,22 @@ fn softness(model: &Model, r: &[f64]) -> ((f64, usize), (f64, usize)) {
     (normal, tangent)
 }
 
+/// The contacts that push and separate at once (`γ_N > 0`, `u_N > 0`, `u = W r + q`): how many,
+/// and the largest such normal velocity with its contact.
+fn lift_off(problem: &ConeProblem, r: &[f64]) -> (usize, (f64, usize)) {
+    let u = problem.velocity(r);
+    let (mut count, mut largest) = (0, (0.0, 0));
+    for c in 0..problem.contacts() {
+        if r[3 * c] > 0.0 && u[3 * c] > 0.0 {
+            count += 1;
+            if u[3 * c] > largest.0 {
+                largest = (u[3 * c], c);
+            }
+        }
+    }
+    (count, largest)
+}
+
 impl ConeSolver for Sap {
     fn entry(&self) -> &'static SolverEntry {
         &SAP
@@ -860,14 +876,20 @@ impl ConeSolver for Sap {
                     Outcome::Stopped
                 } else {
                     let ((n_err, nc), (t_err, tc)) = softness(&model, &r);
+                    let (lifted, (lift, lc)) = lift_off(problem, &r);
                     Outcome::Stalled(format!(
                         "solved SAP's regularised convex model (beta = {}, sigma = {}) to its \
-                         optimality criterion in {} Newton iterations, not the exact Coulomb \
+                         optimality criterion in {} Newton iteration(s), not the exact Coulomb \
                          cone: the model leaves normal velocity errors up to R_N γ_N = {n_err:.3e} \
                          (contact {nc}) and tangential creep up to R_T ‖γ_T‖ = {t_err:.3e} \
-                         (contact {tc}); relative residual on the exact cone {rel:.3e} > \
-                         tolerance {:.1e}",
-                        self.beta, self.sigma, run.iterations, settings.tolerance
+                         (contact {tc}); {lifted} of {} contacts push and separate at once \
+                         (lift-off, largest u_N = {lift:.3e} at contact {lc}); relative residual \
+                         on the exact cone {rel:.3e} > tolerance {:.1e}",
+                        self.beta,
+                        self.sigma,
+                        run.iterations,
+                        problem.contacts(),
+                        settings.tolerance
                     ))
                 }
             }
