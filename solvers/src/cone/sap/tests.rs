@@ -456,3 +456,33 @@ fn problems_without_factors_are_unsupported() {
     let back = ConeProblem::from_box(&boxed.unwrap()).unwrap();
     assert!(back.factors().is_some());
 }
+
+#[test]
+fn warm_start_from_the_answer_needs_no_iteration_and_the_budget_is_kept() {
+    // Low friction: contacts slide, so ℓ is not one quadratic and Newton takes several steps.
+    let p = small_pile(0.1);
+    let cold = solve(&p, Sap::default(), 1e-8);
+    assert!(cold.iterations >= 2, "{}", cold.iterations);
+    let warm = Settings {
+        warm_start: Some(cold.f.clone()),
+        ..Settings::default()
+    };
+    let r = Sap::default().solve_cone(&p, &warm);
+    assert_eq!(r.iterations, 0, "{:?}", r.status);
+    let scale = cold.f.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    for (a, b) in r.f.iter().zip(&cold.f) {
+        assert!((a - b).abs() <= 1e-9 * scale);
+    }
+    let spent = Settings {
+        time_budget: Some(Duration::ZERO),
+        ..Settings::default()
+    };
+    let r = Sap::default().solve_cone(&p, &spent);
+    assert_eq!(r.status, Status::TimeLimit);
+    let capped = Settings {
+        max_iterations: 1,
+        ..Settings::default()
+    };
+    let r = Sap::default().solve_cone(&p, &capped);
+    assert_eq!(r.status, Status::IterationLimit);
+}
