@@ -227,7 +227,8 @@ fn invert_spd(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     let mut l = [[0.0; 6]; 6];
     for j in 0..6 {
         let d = a[j][j] - (0..j).map(|k| l[j][k] * l[j][k]).sum::<f64>();
-        if !(d > 1e-13 * big) {
+        // Also refuses a NaN pivot.
+        if d.is_nan() || d <= 1e-13 * big {
             return None;
         }
         l[j][j] = d.sqrt();
@@ -453,11 +454,13 @@ impl Model {
         pattern.fill(self, &g, &mut vals);
         let nv = self.nv();
         let mut h = vec![vec![0.0; nv]; nv];
-        for c in 0..nv {
-            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
-                let r = pattern.row_idx[p];
-                h[r][c] = vals[p];
-                h[c][r] = vals[p];
+        for (c, ends) in pattern.col_ptr.windows(2).enumerate() {
+            for (&r, &x) in pattern.row_idx[ends[0]..ends[1]]
+                .iter()
+                .zip(&vals[ends[0]..ends[1]])
+            {
+                h[r][c] = x;
+                h[c][r] = x;
             }
         }
         h
@@ -602,7 +605,7 @@ impl Line<'_> {
 /// error when the direction is not one of descent.
 fn exact_line_search(line: &Line) -> Result<(f64, f64, usize), String> {
     let (_, d0, dd0) = line.eval(0.0);
-    if !(d0 < 0.0) {
+    if d0.is_nan() || d0 >= 0.0 {
         return Err(format!(
             "the Newton direction is not one of descent (dℓ/dα(0) = {d0:.3e})"
         ));

@@ -47,13 +47,12 @@ fn inverse_mass(m: f64, i: f64) -> [[f64; 6]; 6] {
     b
 }
 
+/// One contact: each of its bodies with its three rows, and its friction coefficient.
+type ContactSpec = (Vec<(usize, [[f64; 6]; 3])>, f64);
+
 /// A factored cone problem: contacts as `(per-body rows, mu)`, inverse-mass blocks, free
 /// velocities of the bodies (six each): `q = J v_free`.
-fn factored(
-    contacts: &[(Vec<(usize, [[f64; 6]; 3])>, f64)],
-    minv: Vec<[[f64; 6]; 6]>,
-    v_free: &[f64],
-) -> ConeProblem {
+fn factored(contacts: &[ContactSpec], minv: Vec<[[f64; 6]; 6]>, v_free: &[f64]) -> ConeProblem {
     let mut block_ptr = vec![0];
     let mut blocks = Vec::new();
     let mut q = Vec::new();
@@ -210,14 +209,13 @@ fn cube_on_incline_sticks_below_and_slides_above_the_friction_angle() {
         } else {
             // Each contact slides down the slope on its cone's surface.
             let down = gh * (theta.sin() - mu * theta.cos());
-            for c in 0..4 {
+            for (c, s) in slip.iter().enumerate() {
                 let (rn, rt) = (r.f[3 * c], r.f[3 * c + 1].hypot(r.f[3 * c + 2]));
                 assert!((rt - mu * rn).abs() <= 1e-9 * m * gh, "contact {c}");
                 assert!(r.f[3 * c + 1] > 0.0, "friction points up the slope");
                 assert!(
-                    (slip[c] + down).abs() <= 0.1 * down,
-                    "contact {c}: {} vs {}",
-                    slip[c],
+                    (s + down).abs() <= 0.1 * down,
+                    "contact {c}: {s} vs {}",
                     -down
                 );
             }
