@@ -55,6 +55,7 @@ pub use cone::fixed_point_projection::FixedPointProjectionCone;
 pub use cone::newton::{ConeFunction, ConeNewton, NewtonAc};
 pub use cone::nsgs_cone::{NsgsCone, NsgsConeSettings};
 pub use cone::proximal::ProxCone;
+pub use cone::sap::Sap;
 pub use cone::{
     cone_residuals, cone_residuals_and_velocity, judge_cone, normal_unresolved, project_onto_cone,
     ConeError, ConeProblem, ConeSolver, NormalUnresolved,
@@ -171,6 +172,8 @@ impl ConeSolverKind {
     pub const ProxCone: Self = Self(&cone::proximal::PROX_CONE);
     /// Anitescu's convex relaxation as a second-order cone program, through Clarabel.
     pub const ClarabelSocp: Self = Self(&cone::clarabel_socp::CLARABEL_SOCP);
+    /// SAP: Newton on the body velocities of the regularised convex contact model.
+    pub const Sap: Self = Self(&cone::sap::SAP);
 
     /// True for solvers of a relaxation of Coulomb's law (whose answer is exact only where no
     /// contact slides, and so not `converged` on sliding problems).

@@ -284,7 +284,13 @@ fn every_converged_cone_solve_meets_the_independent_residual() {
                     kind.name()
                 );
             } else {
-                assert!(reported > settings.tolerance, "{} seed {seed}", kind.name());
+                // A solver that refuses the problem (`sap` needs the factors of W, which these
+                // problems have not) answers nothing, whatever the residual of its zero.
+                assert!(
+                    reported > settings.tolerance || matches!(r.status, Status::Unsupported { .. }),
+                    "{} seed {seed}",
+                    kind.name()
+                );
             }
         }
         // The relaxation converges only where no contact slides (few of these cases).
@@ -852,9 +858,11 @@ fn iterative_cone_solvers_warm_start_and_respect_the_budget() {
         let p = ConeProblem::new(w, q, mu).unwrap();
         let solution = ConeSolverKind::NewtonAc.create().solve_cone(&p, &settings);
         assert_eq!(solution.status, Status::Converged, "seed {seed}");
+        // `sap` works on the factors of W, which these problems have not (its warm start and
+        // budget are tested on factored problems in its module).
         for kind in ConeSolverKind::all()
             .into_iter()
-            .filter(|k| k.is_iterative())
+            .filter(|k| k.is_iterative() && *k != ConeSolverKind::Sap)
         {
             let warm = Settings {
                 warm_start: Some(solution.f.clone()),

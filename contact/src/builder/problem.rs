@@ -104,7 +104,7 @@ impl ContactSystem {
     }
 
     /// The step's contact problem as the exact Coulomb cone: `W = A`, `q = b` and `mu` of each
-    /// contact (`W` sparse, dense when tiny). Needs every contact to have the three rows of the
+    /// contact (`W` sparse, dense when tiny), with the factors `J`, `M⁻¹` of `W` attached. Needs every contact to have the three rows of the
     /// cone (or box) model, normal then two tangents; otherwise
     /// [`ConeError::NotContactTriples`] names the first contact that has not.
     pub fn cone_problem(&self) -> Result<ConeProblem, ConeError> {
@@ -181,11 +181,13 @@ impl ContactSystem {
         }
         let mu = contacts.iter().map(|&c| self.info[c].mu).collect();
         let w = self.assemble_delassus(subset);
-        if subset.rows.len() <= DENSE_ROWS {
-            ConeProblem::new(w.to_dense(), q, mu)
+        let problem = if subset.rows.len() <= DENSE_ROWS {
+            ConeProblem::new(w.to_dense(), q, mu)?
         } else {
-            ConeProblem::new_sparse(w, q, mu)
-        }
+            ConeProblem::new_sparse(w, q, mu)?
+        };
+        // The factors ride along for the solvers that work on the bodies (`sap`).
+        problem.with_factors(self.factors(subset)?)
     }
 
     fn subset_problem(

@@ -56,8 +56,9 @@
 //! map ([`crate::ConeNewton`]: `newton-ac`, `newton-fb-cone`, `newton-nm-cone`), the projection
 //! methods on De Saxcé's map (extragradient, [`crate::ExtragradientCone`]; fixed-point
 //! projection, [`crate::FixedPointProjectionCone`]), ADMM ([`crate::AdmmCone`]), the proximal
-//! point method ([`crate::ProxCone`]) and Anitescu's
-//! SOCP relaxation ([`crate::ClarabelSocp`]).
+//! point method ([`crate::ProxCone`]), Anitescu's
+//! SOCP relaxation ([`crate::ClarabelSocp`]) and, on problems that carry the factors of `W`,
+//! SAP's Newton method on the body velocities of a regularised convex model ([`crate::Sap`]).
 
 pub(crate) mod admm;
 pub(crate) mod alart_curnier;
@@ -72,6 +73,7 @@ mod problem;
 pub(crate) mod projected_step;
 pub(crate) mod proximal;
 mod residual;
+pub(crate) mod sap;
 
 pub use problem::*;
 pub use residual::*;

@@ -4,7 +4,7 @@
 use super::residual::{cone_residuals_and_velocity, normal_unresolved, project_onto_cone};
 use crate::problem::certificate::Certificate;
 use crate::problem::metrics::Residuals;
-use crate::problem::{FrictionRow, Problem, ProblemError};
+use crate::problem::{DelassusFactors, FrictionRow, Problem, ProblemError};
 use crate::solver::{decide, Measured, Monitor, Outcome, Settings, SolveResult, Status};
 use faer::sparse::SparseRowMat;
 use faer::Mat;
@@ -170,7 +170,26 @@ impl ConeProblem {
             Some(name) => delassus.with_name(name),
             None => delassus,
         };
+        let delassus = match problem.factors() {
+            Some(factors) => delassus.with_factors(factors.clone())?,
+            None => delassus,
+        };
         Self::assemble(delassus, mu)
+    }
+
+    /// Attach the factors `W = J M⁻¹ Jᵀ` (a sparse Jacobian and a 6×6 inverse-mass block per
+    /// body) of a problem that came from a contact scene, for solvers that work on the bodies
+    /// ([`crate::Sap`]). They must describe the same `W` (the builder guarantees it; the number
+    /// of rows is checked here). `W` itself is kept and still decides every residual.
+    pub fn with_factors(mut self, factors: DelassusFactors) -> Result<Self, ConeError> {
+        self.delassus = self.delassus.with_factors(factors)?;
+        Ok(self)
+    }
+
+    /// The factors `J`, `M⁻¹` of `W`, when the problem came from a contact scene with them
+    /// ([`ConeProblem::with_factors`], [`ConeProblem::from_box`] of a problem that has them).
+    pub fn factors(&self) -> Option<&DelassusFactors> {
+        self.delassus.factors()
     }
 
     /// The box-friction LCP approximation of this problem (normal rows `[0, ∞)`, each tangent

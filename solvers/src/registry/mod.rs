@@ -291,6 +291,7 @@ pub static CONE_SOLVERS: &[&SolverEntry] = &[
     &cone::admm::ADMM_CONE,
     &cone::proximal::PROX_CONE,
     &cone::clarabel_socp::CLARABEL_SOCP,
+    &cone::sap::SAP,
 ];
 
 /// The entries registered at run time, in registration order.
