@@ -115,6 +115,23 @@ impl Residuals {
         bound_violation: f64::INFINITY,
     };
 
+    /// Every measure NaN: the value of a result whose residual was not measured
+    /// ([`Settings::measure_result`](crate::Settings::measure_result)).
+    pub const NOT_MEASURED: Self = Self {
+        natural_map: f64::NAN,
+        natural_map_rel: f64::NAN,
+        complementarity_gap: f64::NAN,
+        bound_violation: f64::NAN,
+    };
+
+    /// True unless this is [`Residuals::NOT_MEASURED`] (every measure NaN).
+    pub fn is_measured(&self) -> bool {
+        !(self.natural_map.is_nan()
+            && self.natural_map_rel.is_nan()
+            && self.complementarity_gap.is_nan()
+            && self.bound_violation.is_nan())
+    }
+
     pub(crate) const ZERO: Self = Self {
         natural_map: 0.0,
         natural_map_rel: 0.0,
