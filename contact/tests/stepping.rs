@@ -458,3 +458,77 @@ fn persistent_manifolds_on_a_resting_stack_match_the_default_detection() {
     let top = w.bodies.last().unwrap().position.z;
     assert!((top - 9.5).abs() < 0.05, "the tower stands: top at {top}");
 }
+
+/// The residual schedule applies to matrix and cone solvers too, on the whole-step and the
+/// per-island paths: steps off the schedule report no residual and are never `converged`,
+/// scheduled steps carry the residual, and the schedule changes the measurement only (the
+/// poses after every step are bit for bit those of a run that measures every step).
+#[test]
+fn residual_schedule_applies_to_matrix_and_cone_solvers() {
+    use lcpbench_contact::step::ResidualSchedule;
+    let scene = |model: &str, islands: bool| {
+        let text = format!(
+            r#"
+            [settings]
+            dt = 0.01
+            steps = 7
+            friction_model = "{model}"
+            islands = {islands}
+            [[bodies]]
+            name = "ground"
+            shape = {{ type = "plane", normal = [0.0, 0.0, 1.0] }}
+            static = true
+            [[bodies]]
+            name = "a"
+            shape = {{ type = "box", half_extents = [0.5, 0.5, 0.5] }}
+            position = [0.0, 0.0, 0.5]
+            [[bodies]]
+            name = "b"
+            shape = {{ type = "box", half_extents = [0.5, 0.5, 0.5] }}
+            position = [3.0, 0.0, 0.5]
+            "#
+        );
+        Scene::parse(&text, Path::new("inline.toml")).unwrap()
+    };
+    for (solver, model, islands) in [
+        ("pgs", "box", false),
+        ("pgs", "box", true),
+        ("newton-fb", "pyramid", true),
+        ("nsgs-cone", "cone", false),
+        ("nsgs-cone", "cone", true),
+    ] {
+        let run = |schedule: ResidualSchedule| {
+            let mut world = scene(model, islands).world();
+            world.set_solver(ContactSolver::from_name(solver).unwrap());
+            world.settings.max_iterations = 3;
+            world.settings.residual = schedule;
+            let reports = world.run(7);
+            let poses: Vec<_> = world
+                .bodies
+                .iter()
+                .map(|b| (b.position, b.orientation))
+                .collect();
+            (reports, poses)
+        };
+        let (every, every_poses) = run(ResidualSchedule::Every);
+        let (sampled, sampled_poses) = run(ResidualSchedule::Sample(3));
+        assert_eq!(every_poses, sampled_poses, "{solver} islands={islands}");
+        let measured: Vec<usize> = sampled
+            .iter()
+            .filter(|r| r.residual_measured)
+            .map(|r| r.step)
+            .collect();
+        assert_eq!(measured, [0, 3, 6], "{solver} islands={islands}");
+        for (e, s) in every.iter().zip(&sampled) {
+            assert!(e.residual_measured && e.residuals.is_some(), "{solver}");
+            assert_eq!(e.contacts, s.contacts);
+            if s.residual_measured {
+                assert_eq!(e.residuals, s.residuals, "{solver} step {}", s.step);
+                assert_eq!(e.status, s.status, "{solver} step {}", s.step);
+            } else {
+                assert!(s.residuals.is_none(), "{solver} step {}", s.step);
+                assert!(!s.status.is_converged(), "{solver} step {}", s.step);
+            }
+        }
+    }
+}

@@ -150,6 +150,7 @@ fn settings(
         time_budget,
         warm_start,
         record_history: history,
+        measure_result: true,
     })
 }
 

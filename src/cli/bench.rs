@@ -32,10 +32,11 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     pub friction_models: Vec<String>,
     /// Which steps of the scene runs (`--scenes`, and `scene:` keys of `--lcps`) have the
-    /// shared residual measured, for body-level and substepping solvers: `every`, `none` or `sample=K` (steps 0, K, 2K, … and the
+    /// shared residual measured: `every`, `none` or `sample=K` (steps 0, K, 2K, … and the
     /// last; `scene:PATH?residual=SCHEDULE`). Default: each scene's own (`every` unless its
     /// file says otherwise). An unmeasured step is never counted converged; the row's
-    /// `steps_measured` says how many were measured. Matrix and cone solvers measure every step.
+    /// `steps_measured` says how many were measured. Off the schedule a matrix or cone solver
+    /// measures only what its own stopping rule needs.
     #[arg(long, value_name = "every|none|sample=K")]
     pub residual: Option<String>,
     /// Solvers, comma-separated: names (listed below from the solver table; the body-level

@@ -48,11 +48,11 @@ pub struct SimulateArgs {
     /// `time_limit` with the solver's best point, and the run goes on (none by default).
     #[arg(long)]
     pub time_budget: Option<f64>,
-    /// Which steps of a body-level or substepping solver have the shared residual measured
-    /// (overrides the scene's `residual`): `every`, `none`, or `sample=K` (steps 0, K, 2K, …
-    /// and the last). The measurement visits every entry of `A`, which these solvers do not
-    /// use; an unmeasured step is never `converged`. Matrix and cone solvers measure every
-    /// step (their status is decided inside the solve).
+    /// Which steps have the shared residual measured (overrides the scene's `residual`):
+    /// `every`, `none`, or `sample=K` (steps 0, K, 2K, … and the last). The measurement visits
+    /// every entry of `A`, which body-level solvers do not use; off the schedule a matrix or
+    /// cone solver measures only what its own stopping rule needs. An unmeasured step is never
+    /// `converged`.
     #[arg(long, value_name = "every|none|sample=K")]
     pub residual: Option<String>,
     /// The same as `--residual none`.

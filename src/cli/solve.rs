@@ -153,6 +153,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
         time_budget,
         warm_start,
         record_history: args.history,
+        measure_result: true,
     };
     // A JSON file with a `mu` key is a cone problem; everything else goes through the reader
     // of its format (JSON, Siconos .dat, FCLIB .hdf5).

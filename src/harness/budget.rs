@@ -153,6 +153,7 @@ impl Budget {
             time_budget: time_budget(self.time_s).ok(),
             warm_start: None,
             record_history: false,
+            measure_result: true,
         }
     }
 

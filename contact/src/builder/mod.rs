@@ -462,19 +462,22 @@ pub fn build_with_joints(
     h: f64,
 ) -> ContactSystem {
     let inv_mass: Vec<InverseMass> = bodies.iter().map(InverseMass::of).collect();
+    // The contacts' rows, allocated once (joint rows, few, are pushed past them).
+    let (rows, friction) = contact_rows(params.friction_model);
+    let n = rows * contacts.len();
     let mut sys = ContactSystem {
         contacts: contacts.to_vec(),
         info: Vec::with_capacity(contacts.len()),
-        rows: Vec::new(),
+        rows: Vec::with_capacity(n),
         inv_mass,
         free_velocity,
-        free_rate: Vec::new(),
-        bias: Vec::new(),
-        position_bias: Vec::new(),
-        position_error: Vec::new(),
-        lo: Vec::new(),
-        hi: Vec::new(),
-        friction: Vec::new(),
+        free_rate: Vec::with_capacity(n),
+        bias: Vec::with_capacity(n),
+        position_bias: Vec::with_capacity(n),
+        position_error: Vec::with_capacity(n),
+        lo: Vec::with_capacity(n),
+        hi: Vec::with_capacity(n),
+        friction: Vec::with_capacity(friction * contacts.len()),
         joints: Vec::new(),
         h,
         restitution_threshold: params.restitution_threshold,
@@ -492,6 +495,17 @@ pub fn build_with_joints(
         add_joint(&mut sys, k, joint, bodies, params);
     }
     sys
+}
+
+/// Rows per contact with friction under `model`, and how many of them are box-friction rows
+/// ([`FrictionRow`]): a normal row, then two tangent rows (`box`, `cone`) or `k` directions and
+/// a slack row (`pyramid-k`, whose rows are not box-friction rows).
+fn contact_rows(model: FrictionModel) -> (usize, usize) {
+    match model {
+        FrictionModel::None => (1, 0),
+        FrictionModel::Box | FrictionModel::Cone => (3, 2),
+        FrictionModel::Pyramid { directions } => (directions + 2, 0),
+    }
 }
 
 /// Joint `k`'s equality rows: one per scalar constraint, bounds `(−∞, ∞)`, the position error

@@ -48,11 +48,13 @@ pub struct SimSettings {
     /// Keep each step's [`Problem`](lcpbench_solvers::Problem) in its report (for export)
     /// \[`false`\].
     pub keep_problem: bool,
-    /// Which steps of a body-level or substepping solver have their shared residual measured
-    /// (on the step's LCP with `A` held as its factors,
-    /// [`DelassusForm::Factored`](crate::builder::DelassusForm::Factored): one pass over the
-    /// entries of `A`, formed row by row and not stored) \[`every`\]. Matrix and cone
-    /// solvers measure every step whatever this says: their status is decided inside the solve.
+    /// Which steps have their shared residual measured \[`every`\]: for a body-level or
+    /// substepping solver, on the step's LCP with `A` held as its factors
+    /// ([`DelassusForm::Factored`](crate::builder::DelassusForm::Factored): one pass over the
+    /// entries of `A`, formed row by row and not stored); for a matrix or cone solver, the
+    /// solver's final measurement of its returned impulse
+    /// ([`Settings::measure_result`](lcpbench_solvers::Settings::measure_result)), which it
+    /// skips off the schedule (it still measures what its own stopping rule needs).
     pub residual: ResidualSchedule,
     /// Ask matrix solvers for their convergence history (residual per iteration or pivot) and
     /// keep it in each [`StepReport`](super::StepReport) \[`false`\]. The measuring time is
@@ -72,8 +74,9 @@ pub struct SimSettings {
     pub deadline: Option<Instant>,
 }
 
-/// Which steps have the shared residual measured, for the solvers that do not need it to solve
-/// (body-level and substepping ones): scene files write it `residual = "every"`, `"none"` or
+/// Which steps have the shared residual measured (for every solver: a body-level or substepping
+/// solver does not need it to solve, a matrix or cone solver measures only what its own
+/// stopping rule needs off the schedule): scene files write it `residual = "every"`, `"none"` or
 /// `"sample=K"`, the command line `--residual every|none|sample=K`.
 ///
 /// A step that is not measured has no residual and its status is never `converged`: the

@@ -269,13 +269,13 @@ impl Solved {
 }
 
 impl World {
-    /// Whether a body-level or substepping solver's step has its shared residual measured: the
-    /// step is on the schedule ([`SimSettings::residual`](super::SimSettings::residual), for the
+    /// Whether a step has its shared residual measured: the step is on the schedule ([`SimSettings::residual`](super::SimSettings::residual), for the
     /// step being taken, `step_index`, of a run of [`SimSettings::steps`](super::SimSettings::steps))
     /// or its problem is kept (and measured with it), and `A` is within
     /// [`MAX_DELASSUS_ENTRIES`](crate::builder::MAX_DELASSUS_ENTRIES), since the measurement
-    /// visits each of its entries. A step past that limit is solved on the bodies as usual and
-    /// left unmeasured (never `converged`), instead of refused.
+    /// visits each of its entries. A body-level step past that limit is solved on the bodies as
+    /// usual and left unmeasured (never `converged`), instead of refused (a matrix or cone
+    /// step past it is refused before it is solved).
     pub(super) fn measures_step(&self, system: &ContactSystem) -> bool {
         let s = &self.settings;
         let scheduled = s.residual.measures(self.step_index, s.steps) || s.keep_problem;
@@ -355,6 +355,10 @@ impl World {
     ) -> Solved {
         let mut settings = self.solver_settings(deadline);
         settings.record_history = self.settings.record_history;
+        // Off the residual schedule the solver measures only what its own stopping rule
+        // needs, and the step reports no residual (never `converged`).
+        let measured = self.measures_step(system);
+        settings.measure_result = measured;
         if self.settings.solver.takes_warm_start() {
             settings.warm_start = warm_start;
         }
@@ -382,6 +386,9 @@ impl World {
             } else if solved.problem.is_none() {
                 solved.problem = system.problem().ok();
             }
+        }
+        if !measured {
+            solved.residuals = None;
         }
         self.warm.store(system, &solved.f);
         solved.warm_start = kept_warm_start;

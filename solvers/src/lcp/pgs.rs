@@ -23,7 +23,7 @@
 //!   it and the status is not `Converged`.
 //! * **Stopping rule**: every row's update `|Δf_i|` of a sweep (the natural-map step at the
 //!   sweep's running iterate) is within `tolerance` of that row's own scale
-//!   ([`relative_row_error`], the per-row measure of the shared residual); the shared residual
+//!   ([`relative_row_error`](crate::problem::metrics::relative_row_error), the per-row measure of the shared residual); the shared residual
 //!   is then recomputed and the sweeps continue if it is not yet within tolerance.
 //! * **Never spins**: the shared residual is also measured every
 //!   [`STAGNATION_MEASURE_EVERY`] sweeps, and when it has not reached a new low (1 % below the
@@ -82,7 +82,7 @@ pub static SOR: crate::registry::SolverEntry = crate::registry::SolverEntry {
 
 use crate::delassus::DelassusFactors;
 use crate::problem::diagonal::skipped_rows;
-use crate::problem::metrics::relative_row_error;
+use crate::problem::metrics::relative_row_error_at;
 use crate::problem::Problem;
 use crate::solver::{
     initial_impulse, Monitor, Outcome, Settings, SolveResult, Solver, Stagnation,
@@ -250,11 +250,12 @@ pub(crate) fn sweep_assembled(
         let new = (f[i] - omega * wi / d[i]).max(lo).min(hi);
         if new != f[i] {
             moved = true;
-            worst = worst.max(relative_row_error(
-                problem,
-                i,
-                f,
+            worst = worst.max(relative_row_error_at(
+                f[i],
+                lo,
+                hi,
                 wi,
+                d[i],
                 magnitude + b[i].abs(),
             ));
         }
@@ -299,7 +300,7 @@ fn sweep_matrix_free(
             moved = true;
             let own = problem.diagonal(i) * f[i];
             let magnitude = own.abs() + (af - own).abs() + b[i].abs();
-            worst = worst.max(relative_row_error(problem, i, f, wi, magnitude));
+            worst = worst.max(relative_row_error_at(f[i], lo, hi, wi, d[i], magnitude));
             for blk in blocks {
                 let ub = &mut u[6 * blk.body..6 * blk.body + 6];
                 for (x, r) in ub.iter_mut().zip(&blk.resp) {

@@ -115,6 +115,23 @@ impl Residuals {
         bound_violation: f64::INFINITY,
     };
 
+    /// Every measure NaN: the value of a result whose residual was not measured
+    /// ([`Settings::measure_result`](crate::Settings::measure_result)).
+    pub const NOT_MEASURED: Self = Self {
+        natural_map: f64::NAN,
+        natural_map_rel: f64::NAN,
+        complementarity_gap: f64::NAN,
+        bound_violation: f64::NAN,
+    };
+
+    /// True unless this is [`Residuals::NOT_MEASURED`] (every measure NaN).
+    pub fn is_measured(&self) -> bool {
+        !(self.natural_map.is_nan()
+            && self.natural_map_rel.is_nan()
+            && self.complementarity_gap.is_nan()
+            && self.bound_violation.is_nan())
+    }
+
     pub(crate) const ZERO: Self = Self {
         natural_map: 0.0,
         natural_map_rel: 0.0,
@@ -172,9 +189,24 @@ fn ratio(a: f64, b: f64, c: f64) -> f64 {
 /// (terms beyond the range of `f64`) gives `∞`: such a row cannot be measured.
 #[inline]
 pub fn relative_row_error(problem: &Problem, i: usize, f: &[f64], w_i: f64, t_i: f64) -> f64 {
-    let d = problem.diagonal_scale_of(i);
     let (lo, hi) = problem.bounds_at(i, f);
-    let rel = row_step(f[i], lo, hi, w_i, d, t_i).1;
+    relative_row_error_at(f[i], lo, hi, w_i, problem.diagonal_scale_of(i), t_i)
+}
+
+/// [`relative_row_error`] of a row whose impulse `f_i`, bounds `lo`, `hi` (at the current normal
+/// impulse, for a friction row) and diagonal scale `d_i` ([`Problem::diagonal_scale_of`]) the
+/// caller has at hand: a sweep that has just computed them for its update passes them instead
+/// of looking them up again. The same value, bit for bit.
+#[inline]
+pub(crate) fn relative_row_error_at(
+    f_i: f64,
+    lo: f64,
+    hi: f64,
+    w_i: f64,
+    d_i: f64,
+    t_i: f64,
+) -> f64 {
+    let rel = row_step(f_i, lo, hi, w_i, d_i, t_i).1;
     if t_i.is_finite() && !rel.is_nan() {
         rel
     } else {

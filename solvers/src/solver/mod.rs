@@ -475,6 +475,9 @@ impl<'a, P: Measured> Monitor<'a, P> {
                 Residuals::INFINITE,
                 Status::NumericalFailure { reason },
             )
+        } else if measured.is_none() && !self.settings.measure_result {
+            let status = unmeasured_status(outcome);
+            (f, Vec::new(), Residuals::NOT_MEASURED, status)
         } else {
             let (w, res) = match measured {
                 Some((_, w, res)) => (w, res),
@@ -623,6 +626,19 @@ pub fn decide(outcome: Outcome, rel: f64, tol: f64) -> Status {
         Outcome::Diverged(reason) => Status::Diverged { reason },
         Outcome::NumericalFailure(reason) => Status::NumericalFailure { reason },
         Outcome::Unsupported(reason) => Status::Unsupported { reason },
+    }
+}
+
+/// The status of a finite result whose shared residual was not measured
+/// ([`Settings::measure_result`] off): never `Converged`; a stopping rule met is `Stalled` with
+/// a reason saying so, every other outcome keeps its status.
+fn unmeasured_status(outcome: Outcome) -> Status {
+    match outcome {
+        Outcome::Stopped => Status::Stalled {
+            reason: "the solver met its own stopping rule; the shared residual was not measured"
+                .into(),
+        },
+        other => decide(other, f64::NAN, 0.0),
     }
 }
 

@@ -28,6 +28,15 @@ pub struct Settings {
     /// Record the shared residual after every iteration (time spent measuring it is excluded from
     /// the reported wall time). Default `false`.
     pub record_history: bool,
+    /// Measure the shared residual of the returned impulse when the solve has not measured that
+    /// impulse already (for its own stopping rule). Default `true`. With `false`, such a result
+    /// carries [`Residuals::NOT_MEASURED`](crate::Residuals::NOT_MEASURED) and an empty `w`, and
+    /// its status is what the solver's own loop says without the residual: never `Converged`
+    /// (a stopping rule met is `Stalled`, with a reason saying the residual was not measured),
+    /// else the iteration or time limit, stall or failure it ended on. A solve that did measure
+    /// the returned impulse decides as usual. The time stepper of `lcpbench-contact` sets it
+    /// from its residual schedule.
+    pub measure_result: bool,
 }
 
 /// Why [`Settings`] were refused.
@@ -83,6 +92,7 @@ impl Default for Settings {
             time_budget: None,
             warm_start: None,
             record_history: false,
+            measure_result: true,
         }
     }
 }
@@ -104,6 +114,51 @@ mod tests {
         assert_eq!(Settings::new(1e-8, 0), Err(SettingsError::MaxIterations));
         let msg = SettingsError::Tolerance(2.0).to_string();
         assert!(msg.contains("(0, 1)") && msg.contains('2'), "{msg}");
+    }
+
+    /// Without the final measurement no solver claims convergence on a residual it did not
+    /// measure, and a result that does carry residuals carries the true ones (recomputed here
+    /// independently); an iteration-capped PGS solve returns unmeasured.
+    #[test]
+    fn an_unmeasured_result_is_never_converged() {
+        use crate::{residuals, Problem, Residuals, SolverKind, Status};
+        let a = faer::Mat::from_fn(3, 3, |i, j| if i == j { 4.0 } else { 1.0 });
+        let p = Problem::lcp(a, vec![-1.0, 2.0, -3.0]).unwrap();
+        let unmeasured = Settings {
+            measure_result: false,
+            ..Settings::default()
+        };
+        for kind in SolverKind::all() {
+            let r = kind.create().solve(&p, &unmeasured);
+            let name = kind.name();
+            if r.residuals.is_measured() {
+                assert_eq!(r.residuals, residuals(&p, &r.f), "{name}");
+            } else {
+                assert!(!r.status.is_converged(), "{name}: {}", r.status);
+                assert!(r.w.is_empty(), "{name}");
+            }
+        }
+        let capped = Settings {
+            max_iterations: 1,
+            ..unmeasured
+        };
+        let r = SolverKind::Pgs.create().solve(&p, &capped);
+        assert_eq!(r.status, Status::IterationLimit);
+        assert!(!r.residuals.is_measured());
+        assert!(r.residuals.natural_map_rel.is_nan());
+        assert!(!Residuals::NOT_MEASURED.is_measured());
+        let measured = SolverKind::Pgs.create().solve(
+            &p,
+            &Settings {
+                measure_result: true,
+                ..capped
+            },
+        );
+        assert_eq!(
+            measured.f, r.f,
+            "the measurement does not change the iterate"
+        );
+        assert_eq!(measured.residuals, residuals(&p, &r.f));
     }
 
     /// A solve given a tolerance of 1 or more does not claim convergence.

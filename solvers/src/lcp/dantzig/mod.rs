@@ -321,6 +321,8 @@ impl Dantzig {
                         .map(|b| b.saturating_sub(rec.monitor.elapsed())),
                     warm_start: None,
                     record_history: false,
+                    // The result's status and residual decide what follows.
+                    measure_result: true,
                     tolerance: settings.tolerance,
                 };
                 let lemke = Lemke::default().solve(&reduced.with_fixed_bounds(&current), &sub);

@@ -926,6 +926,8 @@ fn sweep_phase(
             .map(|budget| budget.saturating_sub(monitor.elapsed())),
         warm_start: Some(f.clone()),
         record_history: false,
+        // The result's status and residual decide what follows.
+        measure_result: true,
     };
     let r = Nsgs.solve(problem, &sub);
     let residual = r.residuals.natural_map_rel;
