@@ -283,30 +283,33 @@ impl BlockJacobi {
         }
     }
 
-    /// Groups: the rows of `groups`.
-    pub(crate) fn groups(&self) -> impl Iterator<Item = &[usize]> {
-        self.ptr.windows(2).map(|w| &self.rows[w[0]..w[1]])
+    /// Entries over all blocks, in the layout `update`'s `entry` is given (group by group,
+    /// each block row-major).
+    pub(crate) fn len(&self) -> usize {
+        self.inv.len()
     }
 
-    /// Inverts each group's block `entry(i, j)` (`i`, `j` rows of the group). A block that
-    /// is singular to working precision is replaced by the inverse of its diagonal (entries
-    /// that are zero taken as one).
-    pub(crate) fn update(&mut self, mut entry: impl FnMut(usize, usize) -> f64) {
+    /// Inverts each group's block: `entry(k, i, j)` is its entry at rows `i`, `j` of the group,
+    /// `k` the entry's position in the layout of [`BlockJacobi::len`]. A block that is
+    /// singular to working precision is replaced by the inverse of its diagonal (entries that
+    /// are zero taken as one).
+    pub(crate) fn update(&mut self, mut entry: impl FnMut(usize, usize, usize) -> f64) {
         let mut block = Vec::new();
         for g in 0..self.ptr.len() - 1 {
             let rows = &self.rows[self.ptr[g]..self.ptr[g + 1]];
             let s = rows.len();
+            let first = self.inv_ptr[g];
             block.clear();
-            for &i in rows {
-                for &j in rows {
-                    block.push(entry(i, j));
+            for (a, &i) in rows.iter().enumerate() {
+                for (c, &j) in rows.iter().enumerate() {
+                    block.push(entry(first + a * s + c, i, j));
                 }
             }
-            let out = &mut self.inv[self.inv_ptr[g]..self.inv_ptr[g] + s * s];
+            let out = &mut self.inv[first..first + s * s];
             if !invert(&mut block, s, out) {
                 out.iter_mut().for_each(|v| *v = 0.0);
                 for (a, &i) in rows.iter().enumerate() {
-                    let d = entry(i, i);
+                    let d = entry(first + a * s + a, i, i);
                     out[a * s + a] = if d != 0.0 && d.is_finite() {
                         1.0 / d
                     } else {
@@ -534,7 +537,7 @@ mod tests {
         let rows: Vec<usize> = (0..n).collect();
         let ptr: Vec<usize> = (0..=nb).map(|g| 3 * g).collect();
         let mut m = BlockJacobi::new(rows, ptr);
-        m.update(|i, j| a[i][j]);
+        m.update(|_, i, j| a[i][j]);
         let pre = gmres(
             dense_apply(&a),
             |x, o| m.apply(x, o),
@@ -562,7 +565,7 @@ mod tests {
         assert!(res <= 1e-10 * norm(&b), "{res:.2e}");
         // A singular block falls back on its diagonal's inverse.
         let mut single = BlockJacobi::new(vec![0, 1], vec![0, 2]);
-        single.update(|i, _| [2.0, 4.0][i]);
+        single.update(|_, i, _| [2.0, 4.0][i]);
         let mut out = [0.0; 2];
         single.apply(&[1.0, 1.0], &mut out);
         assert_eq!(out, [0.5, 0.25]);

@@ -274,6 +274,8 @@ pub static MATRIX_SOLVERS: &[&SolverEntry] = &[
     &lcp::micro_impulse::MICRO,
     &lcp::newton::NEWTON_FB,
     &lcp::newton::NEWTON_MIN,
+    &lcp::newton::NEWTON_KRYLOV_FB,
+    &lcp::newton::NEWTON_KRYLOV_MIN,
     &lcp::apgd::APGD,
     &lcp::nncg::NNCG,
     &lcp::nsgs::NSGS,
