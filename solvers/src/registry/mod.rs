@@ -288,6 +288,8 @@ pub static CONE_SOLVERS: &[&SolverEntry] = &[
     &cone::newton::NEWTON_AC,
     &cone::newton::NEWTON_FB_CONE,
     &cone::newton::NEWTON_NM_CONE,
+    &cone::newton::NEWTON_KRYLOV_AC,
+    &cone::newton::NEWTON_KRYLOV_FB_CONE,
     &cone::extragradient::EG_CONE,
     &cone::fixed_point_projection::FPP_CONE,
     &cone::admm::ADMM_CONE,
