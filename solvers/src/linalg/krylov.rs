@@ -160,7 +160,7 @@ pub(crate) fn gmres(
             let rho = h[j].hypot(h[j + 1]);
             // A zero pivot of the rotated Hessenberg matrix: the new direction adds nothing
             // (singular `H M⁻¹`); the column is left out of the least-squares solve.
-            if !(rho > 1e-13 * wnorm0) {
+            if rho.is_nan() || rho <= 1e-13 * wnorm0 {
                 status = Some(KrylovStatus::Breakdown(format!(
                     "the preconditioned operator maps a basis vector to zero at Krylov \
                      iteration {iterations} (singular system)"
@@ -221,7 +221,9 @@ pub(crate) fn gmres(
         let status = match status {
             Some(s) => Some(s),
             None if beta <= target => Some(KrylovStatus::Converged),
-            None if !(beta < STAGNATION_FACTOR * cycle_start) => Some(KrylovStatus::Stagnation),
+            None if beta.is_nan() || beta >= STAGNATION_FACTOR * cycle_start => {
+                Some(KrylovStatus::Stagnation)
+            }
             None => None,
         };
         if let Some(status) = status {

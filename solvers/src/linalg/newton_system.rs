@@ -699,12 +699,12 @@ impl KrylovSystem {
         }
         let mut rows = Vec::with_capacity(n);
         let mut ptr = vec![0];
-        for i in 0..n {
+        for (i, hanging) in friction_rows.iter().enumerate() {
             if problem.friction_of(i).is_some() {
                 continue;
             }
             rows.push(i);
-            rows.extend_from_slice(&friction_rows[i]);
+            rows.extend_from_slice(hanging);
             ptr.push(rows.len());
         }
         let mut preconditioner = BlockJacobi::new(rows, ptr);

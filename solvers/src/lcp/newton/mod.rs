@@ -50,6 +50,26 @@
 //! Numer. Anal. 23 (1986) 707–716), so that full steps that cross a kink of `Φ` (a contact or a
 //! friction row changing between sticking, sliding and separating) are not cut to `2⁻⁶…2⁻¹²`.
 //!
+//! **Newton–Krylov** ([`LinearSystem::Krylov`]; `newton-krylov-fb`, `newton-krylov-min`): an
+//! inexact Newton method that forms and factorises nothing, so no island is too large. Each
+//! direction comes from restarted GMRES ([`crate::linalg::krylov`], right-preconditioned,
+//! [`KrylovSettings`]) on `(H + μI) d = −Φ`, applied as `(α + μ) ∘ x + β ∘ (A x) + γ ∘ x_k`
+//! with `A x = J (M⁻¹ (Jᵀ x))` through the problem's [`DelassusFactors`](crate::DelassusFactors)
+//! when it carries them (a problem of one island; the islands of a split problem are stored
+//! sparse) and through the stored rows otherwise; the preconditioner inverts each contact's
+//! diagonal block of `H + μI` (its normal and friction rows; 1×1 for any other row). GMRES stops
+//! at the relative residual `η_k` of Eisenstat and Walker's choice 2 (`η_k = 0.9 (‖Φ_k‖ /
+//! ‖Φ_{k−1}‖)²`, safeguarded, between `10⁻¹¹` and [`KrylovSettings::eta_max`]; S. C. Eisenstat,
+//! H. F. Walker, SIAM J. Sci. Comput. 17, 1996), so the steps are loose far from the solution
+//! and as accurate as a factorisation's near it, where the local convergence stays superlinear.
+//! The time budget is checked between GMRES iterations (the solve ends `TimeLimit` there); a
+//! GMRES solve that ends short of `η_k` (its iteration cap [`KrylovSettings::max_krylov`], a
+//! breakdown, stagnation; counted in [`Newton::krylov_stats`]) gives its best iterate to the
+//! line search, which falls back on the gradient direction when it is no descent direction, and
+//! a line search that fails is a stall for the globalisation below. The rest of the method
+//! (merits, line search, globalisation, the polish and the refinement) is the same; those read
+//! the rows of `A`, so a factored problem's `A` is still assembled once (never factorised).
+//!
 //! * **Problem class**: standard and boxed LCP with friction rows, any `A`; islands up to
 //!   [`Newton::max_dense`] rows (default 3000) dense, up to [`Newton::max_sparse`] (default
 //!   200 000) sparse; a larger island is `Unsupported`. Globally convergent to a stationary point of `θ`; for P-matrices (FB) every
