@@ -81,6 +81,8 @@ fn gen_then_solve_json_with_every_solver() {
         "micro",
         "newton-fb",
         "newton-min",
+        "newton-krylov-fb",
+        "newton-krylov-min",
         "apgd",
         "nncg",
         "nsgs",

@@ -325,12 +325,12 @@ fn solvers_that_do_not_take_the_friction_model_are_unsupported() {
         (
             "cone",
             "pgs",
-            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
+            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, newton-krylov-ac, newton-krylov-fb-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
         ),
         (
             "cone",
             "si",
-            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
+            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, newton-krylov-ac, newton-krylov-fb-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
         ),
         ("box", "nsgs-cone", "--friction-model cone"),
         ("pyramid", "newton-ac", "--friction-model cone"),

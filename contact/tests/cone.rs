@@ -179,7 +179,7 @@ fn solvers_that_do_not_take_the_model_report_unsupported() {
         (
             FrictionModel::Cone,
             "pgs",
-            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
+            "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, newton-krylov-ac, newton-krylov-fb-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)",
         ),
         (FrictionModel::Cone, "si", "cone solver"),
         (

@@ -147,7 +147,7 @@ fn errors_name_file_field_and_problem() {
         ),
         (
             "[settings]\nfriction_model = \"cone\"\nsolver = \"pgs\"\n",
-            &["settings.solver", "`pgs`", "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)"],
+            &["settings.solver", "`pgs`", "cone solver (nsgs-cone, newton-ac, newton-fb-cone, newton-nm-cone, newton-krylov-ac, newton-krylov-fb-cone, eg-cone, fpp-cone, admm-cone, prox-cone, clarabel-socp, sap)"],
         ),
         (
             "[settings]\nsolver = \"nsgs-cone\"\n",

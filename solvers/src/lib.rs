@@ -74,8 +74,8 @@ pub use lcp::enumeration::{Enumeration, MAX_BASES};
 pub use lcp::lemke::Lemke;
 pub use lcp::micro_impulse::MicroImpulse;
 pub use lcp::newton::{
-    FrictionHandling, Globalisation, LinearSystem, Newton, NewtonWorkspace, Reformulation,
-    Remedies, SparseForm,
+    FrictionHandling, Globalisation, KrylovSettings, KrylovStats, LinearSystem, Newton,
+    NewtonWorkspace, Reformulation, Remedies, SparseForm,
 };
 pub use lcp::nncg::Nncg;
 pub use lcp::nsgs::Nsgs;

@@ -47,13 +47,27 @@
 //!   ends short of it returns the best such point it measured.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the cones.
 //!
+//! **Newton–Krylov** ([`ConeNewton::krylov`], `newton-krylov-ac`, `newton-krylov-fb-cone`): no
+//! matrix is formed and nothing is factorised, so there is no row or fill cap. Each direction
+//! comes from restarted GMRES ([`crate::linalg::krylov`]) on the same system, applied as
+//! `P_c x_c + Q_c (W x)_c + λ x_c` contact by contact with the products `W x` on the stored
+//! blocks of `W`, right-preconditioned by the inverse of each contact's 3×3 diagonal block
+//! `P_c + Q_c W_cc + λI` (block Jacobi), to the relative tolerance of the Eisenstat–Walker
+//! forcing sequence (choice 2; S. C. Eisenstat, H. F. Walker, SIAM J. Sci. Comput. 17, 1996).
+//! The time budget is checked between GMRES iterations (`TimeLimit` when it runs out there);
+//! a GMRES solve that stops short (iteration cap, breakdown, stagnation) gives its best iterate
+//! to the line search, which falls back on the gradient direction when it is not a descent
+//! direction.
+//!
 //! References: P. Alart, A. Curnier, CMAME 92, 1991; M. Fukushima, Z.-Q. Luo, P. Tseng, SIAM J.
 //! Optim. 12, 2002; V. Acary, M. Brémond, O. Huber, *On solving contact problems with Coulomb
 //! friction: formulations and numerical comparisons*, 2018; Siconos numerics,
 //! `fc3d_nonsmooth_Newton_solvers.c` (`FC3D_NSN_AC`, `FC3D_NSN_FB`, `FC3D_NSN_NM`).
 
 use crate::cone::{initial_reaction, project_onto_cone, ConeMonitor, ConeProblem, ConeSolver};
-use crate::lcp::newton::MAX_REGULARISATION;
+use crate::lcp::newton::{KrylovSettings, MAX_REGULARISATION};
+use crate::linalg::krylov::{gmres, BlockJacobi, Forcing, GmresParams, KrylovStatus};
+use crate::linalg::newton_system::KRYLOV_ETA_MIN;
 use crate::linalg::newton_system::{factor_and_solve, EntryKind, SparseJacobian};
 use crate::linalg::symmetric_fill;
 use crate::solver::line_search::{is_descent, Backtracking};
@@ -106,6 +120,74 @@ pub static NEWTON_NM_CONE: crate::registry::SolverEntry = crate::registry::Solve
     relaxation: None,
     params: &[],
     make: crate::registry::Make::Cone(|_params| Box::new(ConeNewton::natural_map())),
+};
+
+/// Problem classes handled by the Newton–Krylov variants.
+pub(crate) const PROBLEM_CLASSES_KRYLOV: &str =
+    "FC3D cone (exact Coulomb); global semismooth Newton with GMRES directions (products with the stored W, per-contact block-Jacobi preconditioner, Eisenstat-Walker forcing); no factorisation, no size or fill cap";
+
+/// Parameters of the cone Newton–Krylov entries.
+const CONE_KRYLOV_PARAMS: &[crate::registry::ParamSpec] = &[
+    crate::registry::ParamSpec::count(
+        "restart",
+        crate::lcp::newton::DEFAULT_RESTART,
+        1,
+        1000,
+        "GMRES basis vectors per cycle before a restart",
+    ),
+    crate::registry::ParamSpec::count(
+        "max_krylov",
+        crate::lcp::newton::DEFAULT_MAX_KRYLOV,
+        1,
+        1_000_000,
+        "GMRES iterations per Newton step",
+    ),
+    crate::registry::ParamSpec::real(
+        "forcing",
+        crate::lcp::newton::DEFAULT_ETA_MAX,
+        1e-10,
+        0.99,
+        "largest relative GMRES tolerance (Eisenstat-Walker eta_max)",
+    ),
+];
+
+/// `newton` with GMRES directions and the settings of `params`.
+fn krylov_from(newton: ConeNewton, params: &crate::registry::Params) -> Box<ConeNewton> {
+    Box::new(ConeNewton {
+        krylov: Some(KrylovSettings {
+            restart: params.count("restart"),
+            max_krylov: params.count("max_krylov"),
+            eta_max: params.get("forcing"),
+        }),
+        ..newton
+    })
+}
+
+/// The registry's entry of `newton-krylov-ac`.
+pub static NEWTON_KRYLOV_AC: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-krylov-ac",
+    summary:
+        "global Alart-Curnier semismooth Newton with matrix-free GMRES directions (Newton-Krylov)",
+    problem_classes: PROBLEM_CLASSES_KRYLOV,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: CONE_KRYLOV_PARAMS,
+    make: crate::registry::Make::Cone(|params| krylov_from(ConeNewton::alart_curnier(), params)),
+};
+
+/// The registry's entry of `newton-krylov-fb-cone`.
+pub static NEWTON_KRYLOV_FB_CONE: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-krylov-fb-cone",
+    summary: "global second-order-cone Fischer-Burmeister semismooth Newton with matrix-free GMRES directions (Newton-Krylov)",
+    problem_classes: PROBLEM_CLASSES_KRYLOV,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: CONE_KRYLOV_PARAMS,
+    make: crate::registry::Make::Cone(|params| {
+        krylov_from(ConeNewton::fischer_burmeister(), params)
+    }),
 };
 
 /// Rows up to which the Newton system is formed dense by default: below it a dense LU costs
@@ -169,6 +251,10 @@ pub struct ConeNewton {
     /// any numerical work; a larger one makes the solve `Unsupported`. Default
     /// [`MAX_FACTOR_ENTRIES`].
     pub max_factor_entries: usize,
+    /// GMRES directions with these settings instead of a factorisation (the module
+    /// documentation's Newton–Krylov paragraph); `max_rows` and `max_factor_entries` then do
+    /// not apply. Default `None`.
+    pub krylov: Option<KrylovSettings>,
 }
 
 /// The Alart–Curnier Newton method (`newton-ac`), the name it had before its variants.
@@ -202,6 +288,7 @@ impl ConeNewton {
             dense_up_to: DENSE_UP_TO,
             max_rows: MAX_ROWS,
             max_factor_entries: MAX_FACTOR_ENTRIES,
+            krylov: None,
         }
     }
 }
@@ -271,6 +358,77 @@ impl BlockRows {
 enum NewtonMatrix {
     Dense(Mat<f64>),
     Sparse(Box<SparseJacobian>),
+    /// Nothing formed: each contact's `P_c`, `Q_c` and diagonal block for GMRES.
+    Krylov(Box<KrylovMatrix>),
+}
+
+/// What GMRES needs of the cone Newton system `P + Q W + λI`.
+struct KrylovMatrix {
+    p: Vec<[[f64; 3]; 3]>,
+    q: Vec<[[f64; 3]; 3]>,
+    lambda: f64,
+    diagonal: Vec<[[f64; 3]; 3]>,
+    preconditioner: BlockJacobi,
+    forcing: Forcing,
+    params: GmresParams,
+    /// How the last GMRES solve ended.
+    status: KrylovStatus,
+}
+
+impl KrylovMatrix {
+    fn new(contacts: usize, settings: KrylovSettings) -> Self {
+        Self {
+            p: vec![[[0.0; 3]; 3]; contacts],
+            q: vec![[[0.0; 3]; 3]; contacts],
+            lambda: 0.0,
+            diagonal: vec![[[0.0; 3]; 3]; contacts],
+            preconditioner: BlockJacobi::new(
+                (0..3 * contacts).collect(),
+                (0..=contacts).map(|c| 3 * c).collect(),
+            ),
+            forcing: Forcing::new(settings.eta_max, KRYLOV_ETA_MIN),
+            params: GmresParams {
+                restart: settings.restart,
+                max_iterations: settings.max_krylov,
+                tolerance: settings.eta_max,
+            },
+            status: KrylovStatus::Converged,
+        }
+    }
+
+    /// GMRES on `(P + Q W + λI) x = rhs`, `stop` asked between iterations; the best iterate
+    /// (how GMRES ended is kept in `status`).
+    fn solve(&mut self, rhs: &[f64], blocks: &BlockRows, stop: impl FnMut() -> bool) -> Vec<f64> {
+        let norm = rhs.iter().map(|v| v * v).sum::<f64>().sqrt();
+        self.params.tolerance = self.forcing.next(norm);
+        let diagonal = &self.diagonal;
+        self.preconditioner
+            .update(|_, i, j| diagonal[i / 3][i % 3][j % 3]);
+        let (p, q, lambda) = (&self.p, &self.q, self.lambda);
+        let mut wx = vec![0.0; rhs.len()];
+        let apply = |x: &[f64], out: &mut [f64]| {
+            blocks.apply(x, &mut wx);
+            for (c, (pc, qc)) in p.iter().zip(q).enumerate() {
+                let (xc, wc) = (take(&x[3 * c..]), take(&wx[3 * c..]));
+                for a in 0..3 {
+                    out[3 * c + a] = (0..3)
+                        .map(|m| pc[a][m] * xc[m] + qc[a][m] * wc[m])
+                        .sum::<f64>()
+                        + lambda * xc[a];
+                }
+            }
+        };
+        let preconditioner = &self.preconditioner;
+        let r = gmres(
+            apply,
+            |x, out| preconditioner.apply(x, out),
+            rhs,
+            &self.params,
+            stop,
+        );
+        self.status = r.status;
+        r.x
+    }
 }
 
 impl NewtonMatrix {
@@ -313,6 +471,11 @@ impl NewtonMatrix {
     #[inline]
     fn set(&mut self, k: usize, c: usize, e: usize, block: &[[f64; 3]; 3]) {
         match self {
+            Self::Krylov(m) => {
+                if c == e {
+                    m.diagonal[c] = *block;
+                }
+            }
             Self::Dense(h) => {
                 for (a, row) in block.iter().enumerate() {
                     for (b, v) in row.iter().enumerate() {
@@ -328,9 +491,22 @@ impl NewtonMatrix {
         }
     }
 
-    /// The solution of `H x = rhs`; non-finite when the factorisation fails.
-    fn solve(&mut self, rhs: &[f64]) -> Vec<f64> {
+    /// Contact `c`'s `P_c` and `Q_c`, and the regularisation `λ` (kept by the Krylov form
+    /// only, which applies the system from them).
+    #[inline]
+    fn set_linearisation(&mut self, c: usize, l: &Linearisation, lambda: f64) {
+        if let Self::Krylov(m) = self {
+            m.p[c] = l.p;
+            m.q[c] = l.q;
+            m.lambda = lambda;
+        }
+    }
+
+    /// The solution of `H x = rhs`; non-finite when the factorisation fails. The Krylov form
+    /// applies `W` through `blocks` and asks `stop` between GMRES iterations.
+    fn solve(&mut self, rhs: &[f64], blocks: &BlockRows, stop: impl FnMut() -> bool) -> Vec<f64> {
         match self {
+            Self::Krylov(m) => m.solve(rhs, blocks, stop),
             Self::Dense(h) => {
                 let n = rhs.len();
                 let mut x = Mat::from_fn(n, 1, |i, _| rhs[i]);
@@ -416,6 +592,7 @@ impl Work<'_> {
             let l = self
                 .function
                 .linearise(mu, self.rho[c], take(&r[s..]), take(&u[s..]));
+            h.set_linearisation(c, &l, lambda);
             for (e, w) in row {
                 let mut block = [[0.0; 3]; 3];
                 for (a, brow) in block.iter_mut().enumerate() {
@@ -464,6 +641,8 @@ struct Iterate {
 impl ConeSolver for ConeNewton {
     fn entry(&self) -> &'static crate::registry::SolverEntry {
         match self.function {
+            ConeFunction::AlartCurnier if self.krylov.is_some() => &NEWTON_KRYLOV_AC,
+            ConeFunction::FischerBurmeister if self.krylov.is_some() => &NEWTON_KRYLOV_FB_CONE,
             ConeFunction::AlartCurnier => &NEWTON_AC,
             ConeFunction::FischerBurmeister => &NEWTON_FB_CONE,
             ConeFunction::NaturalMap => &NEWTON_NM_CONE,
@@ -473,7 +652,7 @@ impl ConeSolver for ConeNewton {
     fn solve_cone(&mut self, problem: &ConeProblem, settings: &Settings) -> SolveResult {
         let mut monitor = ConeMonitor::new(problem, settings);
         let n = problem.n();
-        if n > self.max_rows {
+        if n > self.max_rows && self.krylov.is_none() {
             let reason = format!(
                 "n = {n} rows: the Newton system is formed only up to n = {}",
                 self.max_rows
@@ -527,13 +706,18 @@ impl ConeSolver for ConeNewton {
             if iterations >= settings.max_iterations {
                 break Outcome::IterationLimit;
             }
-            if monitor.out_of_time() || monitor.cannot_fit(last_iteration) {
+            // A GMRES solve is interrupted by the budget itself; a factorisation cannot be.
+            let interruptible = self.krylov.is_some();
+            if monitor.out_of_time() || (!interruptible && monitor.cannot_fit(last_iteration)) {
                 break Outcome::TimeLimit;
             }
             let iteration_start = monitor.elapsed();
-            let h = match &mut matrix {
-                Some(h) => h,
-                None => match NewtonMatrix::new(
+            let h = match (&mut matrix, self.krylov) {
+                (Some(h), _) => h,
+                (None, Some(k)) => {
+                    matrix.insert(NewtonMatrix::Krylov(Box::new(KrylovMatrix::new(nc, k))))
+                }
+                (None, None) => match NewtonMatrix::new(
                     &work.blocks,
                     n,
                     n > self.dense_up_to,
@@ -548,7 +732,12 @@ impl ConeSolver for ConeNewton {
             let lambda = (phi_inf / scale).min(MAX_REGULARISATION);
             let grad = work.assemble(&it.r, &it.u, lambda, h);
             let rhs: Vec<f64> = it.phi.iter().map(|v| -v).collect();
-            let newton_dir = h.solve(&rhs);
+            let newton_dir = h.solve(&rhs, &work.blocks, || monitor.out_of_time());
+            if let NewtonMatrix::Krylov(m) = h {
+                if m.status == KrylovStatus::TimeLimit {
+                    break Outcome::TimeLimit;
+                }
+            }
             iterations += 1;
             let dnorm = newton_dir.iter().map(|v| v * v).sum::<f64>().sqrt();
             let slope: f64 = grad.iter().zip(&newton_dir).map(|(g, d)| g * d).sum();
@@ -811,6 +1000,111 @@ pub(crate) mod tests {
                 assert_eq!(r.status.name(), "time_limit", "{}", s.name());
             }
         }
+    }
+
+    /// De Saxcé's natural map `r − P_K(r − (u + μ‖u_t‖ e_n))` with `u = W r + q` from the dense
+    /// `W` and the projection onto the cone `‖r_t‖ <= μ r_n` written out here, over
+    /// `max(‖q‖∞, 1)`, in the infinity norm.
+    fn independent_cone_residual(p: &ConeProblem, r: &[f64]) -> f64 {
+        let w = p.delassus().to_dense();
+        let n = p.n();
+        let u: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| w[(i, j)] * r[j]).sum::<f64>() + p.q()[i])
+            .collect();
+        let mut worst = 0.0_f64;
+        for (c, &mu) in p.mu().iter().enumerate() {
+            let s = 3 * c;
+            let ut = u[s + 1].hypot(u[s + 2]);
+            let z = [
+                r[s] - u[s] - mu * ut,
+                r[s + 1] - u[s + 1],
+                r[s + 2] - u[s + 2],
+            ];
+            let zt = z[1].hypot(z[2]);
+            let proj = if zt <= mu * z[0] {
+                z
+            } else if mu * zt <= -z[0] {
+                [0.0; 3]
+            } else {
+                let a = (mu * zt + z[0]) / (mu * mu + 1.0);
+                [a, mu * a * z[1] / zt, mu * a * z[2] / zt]
+            };
+            for k in 0..3 {
+                worst = worst.max((r[s + k] - proj[k]).abs());
+            }
+        }
+        worst / p.q().iter().fold(1.0_f64, |m, v| m.max(v.abs()))
+    }
+
+    fn with_krylov(function: ConeFunction) -> ConeNewton {
+        ConeNewton {
+            function,
+            krylov: Some(KrylovSettings::default()),
+            ..ConeNewton::default()
+        }
+    }
+
+    /// GMRES directions against the LU ones (Alart–Curnier and FB): the same statuses, the
+    /// same reactions to `1e-8`, every `converged` answer checked by the independent natural
+    /// map; with `max_rows` below the problem's rows (no cap for Krylov) and the registry names.
+    #[test]
+    fn krylov_and_lu_directions_agree() {
+        let settings = Settings {
+            tolerance: 1e-10,
+            max_iterations: 100,
+            ..Settings::default()
+        };
+        let mut compared = 0;
+        for seed in 0..4 {
+            let p = banded(40, seed);
+            for function in [ConeFunction::AlartCurnier, ConeFunction::FischerBurmeister] {
+                let lu = ConeNewton {
+                    function,
+                    ..ConeNewton::default()
+                }
+                .solve_cone(&p, &settings);
+                let mut s = ConeNewton {
+                    max_rows: 6,
+                    ..with_krylov(function)
+                };
+                let r = s.solve_cone(&p, &settings);
+                assert!(s.name().starts_with("newton-krylov-"), "{}", s.name());
+                assert_eq!(r.status, lu.status, "{function:?} seed {seed}");
+                if !r.status.is_converged() {
+                    continue;
+                }
+                compared += 1;
+                let scale = 1.0 + lu.f.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                for (x, y) in r.f.iter().zip(&lu.f) {
+                    assert!(
+                        (x - y).abs() <= 1e-8 * scale,
+                        "{function:?} seed {seed}: {x} vs {y}"
+                    );
+                }
+                let res = independent_cone_residual(&p, &r.f);
+                assert!(res <= 1e-8, "{function:?} seed {seed}: {res:.2e}");
+            }
+        }
+        assert!(compared >= 6, "only {compared} converged pairs");
+    }
+
+    /// A spent budget: the GMRES loop asks first and the solve ends `time_limit` (the Krylov
+    /// form skips the rule for uninterruptible factorisations, so this is the GMRES check or
+    /// the one before the iteration).
+    #[test]
+    fn a_zero_time_budget_ends_a_krylov_solve_time_limit() {
+        let p = banded(10, 1);
+        let settings = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let mut m = KrylovMatrix::new(10, KrylovSettings::default());
+        let blocks = BlockRows::of(&p);
+        let x = m.solve(&vec![1.0; 30], &blocks, || true);
+        assert_eq!(m.status, KrylovStatus::TimeLimit);
+        assert!(x.iter().all(|&v| v == 0.0));
+        let r = with_krylov(ConeFunction::AlartCurnier).solve_cone(&p, &settings);
+        assert_eq!(r.status.name(), "time_limit");
     }
 
     #[test]

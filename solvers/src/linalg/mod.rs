@@ -2,6 +2,7 @@
 //! with diagonal pivoting that reveals the rank, and the fill estimate that guards the
 //! factorisations no budget can interrupt.
 
+pub(crate) mod krylov;
 pub(crate) mod newton_system;
 pub(crate) mod pivoted_lu;
 pub(crate) mod sparse_lu;

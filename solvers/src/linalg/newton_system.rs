@@ -5,8 +5,11 @@
 //! (partial-pivoting LU), sparse on the pattern of `A` (COLAMD ordering, supernodal LU, the
 //! symbolic analysis kept between solves), the augmented body-space form for problems that carry
 //! their factors `A = J M⁻¹ Jᵀ`, and the reduced system of the rows left after the rows with
-//! `β_i = 0` are eliminated ([`Elimination`]).
+//! `β_i = 0` are eliminated ([`Elimination`]). A fifth, [`KrylovSystem`], forms nothing: GMRES
+//! with products through `A`'s factors (or its stored rows) and a per-contact block-Jacobi
+//! preconditioner.
 
+use crate::linalg::krylov::{gmres, BlockJacobi, Forcing, GmresParams, KrylovResult};
 use crate::linalg::sparse_lu::SparseLu;
 use crate::problem::{DelassusFactors, Problem};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -659,5 +662,147 @@ pub(crate) fn island_rank(problem: &Problem) -> Vec<usize> {
     ) {
         Ok(_) => inv,
         Err(_) => (0..n).collect(),
+    }
+}
+
+/// The Newton systems of an island solved matrix-free ([`crate::LinearSystem::Krylov`]):
+/// `(H + μI) x = (α + μ) ∘ x + β ∘ (A x) + γ ∘ x_k` (`x_k` the normal of each friction row), with
+/// `A x = J (M⁻¹ (Jᵀ x))` through the problem's [`DelassusFactors`] when it carries them (no
+/// `A` formed for the product), else through its stored rows; right-preconditioned GMRES with
+/// the inverses of the diagonal blocks of `H + μI` per contact (a normal row and its friction
+/// rows; 1×1 for every other row), and the relative tolerance of the Eisenstat–Walker forcing
+/// sequence.
+pub(crate) struct KrylovSystem {
+    preconditioner: BlockJacobi,
+    /// `A_ij` of each block, in the preconditioner's layout (constant over a solve).
+    a_block: Vec<f64>,
+    forcing: Forcing,
+    params: GmresParams,
+    ax: Vec<f64>,
+}
+
+impl KrylovSystem {
+    /// The groups of `problem`'s rows and their blocks of `A`; `restart`, `max_iterations` and
+    /// the largest forcing term `eta_max` from the solver's settings.
+    pub(crate) fn new(
+        problem: &Problem,
+        restart: usize,
+        max_iterations: usize,
+        eta_max: f64,
+    ) -> Self {
+        let n = problem.n();
+        let mut friction_rows: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for i in 0..n {
+            if let Some((k, _)) = problem.friction_of(i) {
+                friction_rows[k].push(i);
+            }
+        }
+        let mut rows = Vec::with_capacity(n);
+        let mut ptr = vec![0];
+        for (i, hanging) in friction_rows.iter().enumerate() {
+            if problem.friction_of(i).is_some() {
+                continue;
+            }
+            rows.push(i);
+            rows.extend_from_slice(hanging);
+            ptr.push(rows.len());
+        }
+        let mut preconditioner = BlockJacobi::new(rows, ptr);
+        let mut a_block = vec![0.0; preconditioner.len()];
+        preconditioner.update(|k, i, j| {
+            a_block[k] = problem.entry(i, j);
+            f64::from(i == j)
+        });
+        Self {
+            preconditioner,
+            a_block,
+            forcing: Forcing::new(eta_max, KRYLOV_ETA_MIN),
+            params: GmresParams {
+                restart,
+                max_iterations,
+                tolerance: eta_max,
+            },
+            ax: vec![0.0; n],
+        }
+    }
+
+    /// The inexact Newton direction of `system`: GMRES on `(H + μI) d = −Φ` to the relative
+    /// tolerance of the next forcing term, `stop` asked between Krylov iterations.
+    pub(crate) fn direction(
+        &mut self,
+        problem: &Problem,
+        system: &System<'_>,
+        stop: impl FnMut() -> bool,
+    ) -> KrylovResult {
+        let &System {
+            alpha,
+            beta,
+            gamma,
+            phi,
+            mu_reg,
+        } = system;
+        let phi_norm = phi.iter().map(|v| v * v).sum::<f64>().sqrt();
+        self.params.tolerance = self.forcing.next(phi_norm);
+        let coupling = |i: usize| {
+            if gamma[i] != 0.0 {
+                problem.friction_of(i).map(|(k, _)| (k, gamma[i]))
+            } else {
+                None
+            }
+        };
+        let a_block = &self.a_block;
+        self.preconditioner.update(|k, i, j| {
+            let mut h = beta[i] * a_block[k];
+            if i == j {
+                h += alpha[i] + mu_reg;
+            }
+            if coupling(i).is_some_and(|(c, _)| c == j) {
+                h += gamma[i];
+            }
+            h
+        });
+        let ax = &mut self.ax;
+        let apply = |x: &[f64], out: &mut [f64]| {
+            delassus_product(problem, x, ax);
+            for i in 0..x.len() {
+                let mut h = (alpha[i] + mu_reg) * x[i] + beta[i] * ax[i];
+                if let Some((k, g)) = coupling(i) {
+                    h += g * x[k];
+                }
+                out[i] = h;
+            }
+        };
+        let rhs: Vec<f64> = phi.iter().map(|v| -v).collect();
+        let preconditioner = &self.preconditioner;
+        gmres(
+            apply,
+            |x, out| preconditioner.apply(x, out),
+            &rhs,
+            &self.params,
+            stop,
+        )
+    }
+}
+
+/// The smallest forcing term of [`KrylovSystem`]: near working precision relative to `‖Φ‖`, so
+/// the last Newton steps are as accurate as a factorisation's without asking GMRES for digits it
+/// cannot give.
+pub(crate) const KRYLOV_ETA_MIN: f64 = 1e-11;
+
+/// `out = A x`: through the factors `J M⁻¹ Jᵀ` when the problem carries them, else through its
+/// stored rows.
+pub(crate) fn delassus_product(problem: &Problem, x: &[f64], out: &mut [f64]) {
+    match problem.factors() {
+        Some(factors) => {
+            let u = factors.body_velocity(x);
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = factors.row_dot(i, &u);
+            }
+        }
+        None => {
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = problem.row(i).dot(x);
+            }
+        }
     }
 }

@@ -50,6 +50,26 @@
 //! Numer. Anal. 23 (1986) 707–716), so that full steps that cross a kink of `Φ` (a contact or a
 //! friction row changing between sticking, sliding and separating) are not cut to `2⁻⁶…2⁻¹²`.
 //!
+//! **Newton–Krylov** ([`LinearSystem::Krylov`]; `newton-krylov-fb`, `newton-krylov-min`): an
+//! inexact Newton method that forms and factorises nothing, so no island is too large. Each
+//! direction comes from restarted GMRES ([`crate::linalg::krylov`], right-preconditioned,
+//! [`KrylovSettings`]) on `(H + μI) d = −Φ`, applied as `(α + μ) ∘ x + β ∘ (A x) + γ ∘ x_k`
+//! with `A x = J (M⁻¹ (Jᵀ x))` through the problem's [`DelassusFactors`](crate::DelassusFactors)
+//! when it carries them (a problem of one island; the islands of a split problem are stored
+//! sparse) and through the stored rows otherwise; the preconditioner inverts each contact's
+//! diagonal block of `H + μI` (its normal and friction rows; 1×1 for any other row). GMRES stops
+//! at the relative residual `η_k` of Eisenstat and Walker's choice 2 (`η_k = 0.9 (‖Φ_k‖ /
+//! ‖Φ_{k−1}‖)²`, safeguarded, between `10⁻¹¹` and [`KrylovSettings::eta_max`]; S. C. Eisenstat,
+//! H. F. Walker, SIAM J. Sci. Comput. 17, 1996), so the steps are loose far from the solution
+//! and as accurate as a factorisation's near it, where the local convergence stays superlinear.
+//! The time budget is checked between GMRES iterations (the solve ends `TimeLimit` there); a
+//! GMRES solve that ends short of `η_k` (its iteration cap [`KrylovSettings::max_krylov`], a
+//! breakdown, stagnation; counted in [`Newton::krylov_stats`]) gives its best iterate to the
+//! line search, which falls back on the gradient direction when it is no descent direction, and
+//! a line search that fails is a stall for the globalisation below. The rest of the method
+//! (merits, line search, globalisation, the polish and the refinement) is the same; those read
+//! the rows of `A`, so a factored problem's `A` is still assembled once (never factorised).
+//!
 //! * **Problem class**: standard and boxed LCP with friction rows, any `A`; islands up to
 //!   [`Newton::max_dense`] rows (default 3000) dense, up to [`Newton::max_sparse`] (default
 //!   200 000) sparse; a larger island is `Unsupported`. Globally convergent to a stationary point of `θ`; for P-matrices (FB) every
@@ -157,10 +177,11 @@ mod merit;
 
 use crate::lcp::nsgs::Nsgs;
 use crate::lcp::pgs::sweep_assembled;
+use crate::linalg::krylov::KrylovStatus;
 use crate::linalg::newton_system::{
     augmented_pays, dense_direction, reduced_direction, sparse_direction, Elimination, Jacobian,
-    ReducedCache, SparseJacobian, SymbolicCache, System, SIMPLICIAL_UP_TO, SPARSE_BELOW_DENSITY,
-    SPARSE_FROM_ROWS,
+    KrylovSystem, ReducedCache, SparseJacobian, SymbolicCache, System, SIMPLICIAL_UP_TO,
+    SPARSE_BELOW_DENSITY, SPARSE_FROM_ROWS,
 };
 use crate::problem::diagonal::skipped_rows;
 use crate::problem::metrics::{impulse_scale, relative_row_error};
@@ -207,6 +228,121 @@ pub static NEWTON_MIN: crate::registry::SolverEntry = crate::registry::SolverEnt
     make: crate::registry::Make::Matrix(|_params| Box::new(Newton::min_map())),
 };
 
+/// Problem classes handled by the Newton–Krylov variants.
+pub(crate) const PROBLEM_CLASSES_KRYLOV: &str =
+    "LCP, boxed LCP, friction rows (directly), free (equality) rows; any A; no factorisation and no size cap: GMRES per Newton step, products with A through its factors J M^-1 J^T when the problem carries them (one island), per-contact block-Jacobi preconditioner, Eisenstat-Walker forcing";
+
+/// Parameters of the Newton–Krylov entries.
+const KRYLOV_PARAMS: &[crate::registry::ParamSpec] = &[
+    crate::registry::ParamSpec::count(
+        "restart",
+        DEFAULT_RESTART,
+        1,
+        1000,
+        "GMRES basis vectors per cycle before a restart",
+    ),
+    crate::registry::ParamSpec::count(
+        "max_krylov",
+        DEFAULT_MAX_KRYLOV,
+        1,
+        1_000_000,
+        "GMRES iterations per Newton step",
+    ),
+    crate::registry::ParamSpec::real(
+        "forcing",
+        DEFAULT_ETA_MAX,
+        1e-10,
+        0.99,
+        "largest relative GMRES tolerance (Eisenstat-Walker eta_max)",
+    ),
+];
+
+/// `Newton` with [`LinearSystem::Krylov`] and the settings of `params`.
+fn krylov_from(mut newton: Newton, params: &crate::registry::Params) -> Box<Newton> {
+    newton.linear_system = LinearSystem::Krylov;
+    newton.krylov = KrylovSettings {
+        restart: params.count("restart"),
+        max_krylov: params.count("max_krylov"),
+        eta_max: params.get("forcing"),
+    };
+    Box::new(newton)
+}
+
+/// The registry's entry of `newton-krylov-fb`.
+pub static NEWTON_KRYLOV_FB: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-krylov-fb",
+    summary: "matrix-free inexact (Newton-Krylov, GMRES) semismooth Newton on the Fischer-Burmeister reformulation",
+    problem_classes: PROBLEM_CLASSES_KRYLOV,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: KRYLOV_PARAMS,
+    make: crate::registry::Make::Matrix(|params| {
+        krylov_from(Newton::fischer_burmeister(), params)
+    }),
+};
+
+/// The registry's entry of `newton-krylov-min`.
+pub static NEWTON_KRYLOV_MIN: crate::registry::SolverEntry = crate::registry::SolverEntry {
+    name: "newton-krylov-min",
+    summary:
+        "matrix-free inexact (Newton-Krylov, GMRES) semismooth Newton on the min-map reformulation",
+    problem_classes: PROBLEM_CLASSES_KRYLOV,
+    iteration_unit: "Newton steps",
+    iterative: true,
+    relaxation: None,
+    params: KRYLOV_PARAMS,
+    make: crate::registry::Make::Matrix(|params| krylov_from(Newton::min_map(), params)),
+};
+
+/// GMRES basis vectors per cycle by default.
+pub const DEFAULT_RESTART: usize = 30;
+/// GMRES iterations per Newton step by default.
+pub const DEFAULT_MAX_KRYLOV: usize = 300;
+/// The largest forcing term by default: a first Newton step solved to half of `‖Φ‖`.
+pub const DEFAULT_ETA_MAX: f64 = 0.5;
+
+/// The settings of [`LinearSystem::Krylov`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KrylovSettings {
+    /// GMRES basis vectors per cycle. Default [`DEFAULT_RESTART`].
+    pub restart: usize,
+    /// GMRES iterations per Newton step. Default [`DEFAULT_MAX_KRYLOV`].
+    pub max_krylov: usize,
+    /// Largest Eisenstat–Walker forcing term `η_max` (the relative GMRES tolerance of the first
+    /// step and the cap of every later one). Default [`DEFAULT_ETA_MAX`].
+    pub eta_max: f64,
+}
+
+impl Default for KrylovSettings {
+    fn default() -> Self {
+        Self {
+            restart: DEFAULT_RESTART,
+            max_krylov: DEFAULT_MAX_KRYLOV,
+            eta_max: DEFAULT_ETA_MAX,
+        }
+    }
+}
+
+/// What the Krylov solves of the last solve of a [`Newton`] with [`LinearSystem::Krylov`] did,
+/// summed over its islands; read with [`Newton::krylov_stats`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct KrylovStats {
+    /// Newton directions computed by GMRES.
+    pub directions: usize,
+    /// GMRES iterations (products with the Newton matrix) over all of them.
+    pub iterations: usize,
+    /// Directions whose GMRES solve stopped at its iteration cap short of the forcing term.
+    pub iteration_limits: usize,
+    /// Directions whose GMRES solve broke down (an invariant Krylov space short of the
+    /// tolerance, or a non-finite product).
+    pub breakdowns: usize,
+    /// Directions whose GMRES solve stagnated over a restart cycle.
+    pub stagnations: usize,
+    /// The largest relative residual `‖(H + μI) d + Φ‖ / ‖Φ‖` a direction was returned with.
+    pub worst_relative_residual: f64,
+}
+
 /// Which nonsmooth equation the solver works on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reformulation {
@@ -238,6 +374,8 @@ pub struct Newton {
     pub max_sparse: usize,
     /// How the Newton systems are factorised. Default [`LinearSystem::Auto`].
     pub linear_system: LinearSystem,
+    /// The GMRES settings of [`LinearSystem::Krylov`]. Default [`KrylovSettings::default`].
+    pub krylov: KrylovSettings,
     /// Which sparse system is factorised. Default [`SparseForm::Auto`].
     pub sparse_form: SparseForm,
     /// What a solve does when it stalls, and how it starts without a warm start (the module
@@ -307,6 +445,7 @@ pub struct NewtonWorkspace {
     numeric: NumericLu<usize, f64>,
     reduced: ReducedCache,
     remedies: Remedies,
+    krylov: KrylovStats,
 }
 
 /// What the globalisation of the last solve of a [`Newton`] did (rules 1, 2 and 4 of the module
@@ -335,6 +474,9 @@ pub enum LinearSystem {
     Dense,
     /// Sparse LU (faer: COLAMD ordering, partial pivoting), up to [`Newton::max_sparse`] rows.
     Sparse,
+    /// No factorisation and no size cap: restarted GMRES, matrix-free, with the settings of
+    /// [`Newton::krylov`] (the module documentation's Newton–Krylov paragraph).
+    Krylov,
 }
 
 /// Which sparse system gives the Newton directions.
@@ -366,6 +508,7 @@ impl Newton {
             max_dense: 3000,
             max_sparse: 200_000,
             linear_system: LinearSystem::Auto,
+            krylov: KrylovSettings::default(),
             sparse_form: SparseForm::Auto,
             globalisation: Globalisation::default(),
             workspace: NewtonWorkspace::default(),
@@ -384,6 +527,12 @@ impl Newton {
     /// sweeps, restarts and sweep starts, summed over its islands. Zero before any solve.
     pub fn remedies(&self) -> Remedies {
         self.workspace.remedies
+    }
+
+    /// What the GMRES solves of the last solve did (zero unless
+    /// [`Newton::linear_system`] is [`LinearSystem::Krylov`]).
+    pub fn krylov_stats(&self) -> KrylovStats {
+        self.workspace.krylov
     }
 
     /// The nonsmooth equation a solve starts on.
@@ -438,16 +587,23 @@ const START_SWEEPS: usize = 10;
 
 impl Solver for Newton {
     fn entry(&self) -> &'static crate::registry::SolverEntry {
-        match self.reformulation {
-            Reformulation::FischerBurmeister => &NEWTON_FB,
-            Reformulation::MinMap => &NEWTON_MIN,
+        match (self.reformulation, self.linear_system) {
+            (Reformulation::FischerBurmeister, LinearSystem::Krylov) => &NEWTON_KRYLOV_FB,
+            (Reformulation::MinMap, LinearSystem::Krylov) => &NEWTON_KRYLOV_MIN,
+            (Reformulation::FischerBurmeister, _) => &NEWTON_FB,
+            (Reformulation::MinMap, _) => &NEWTON_MIN,
         }
     }
 
     fn solve(&mut self, problem: &Problem, settings: &Settings) -> SolveResult {
         self.workspace.remedies = Remedies::default();
+        self.workspace.krylov = KrylovStats::default();
         if self.sparse_for(problem) {
-            let limit = self.max_sparse;
+            let limit = if self.linear_system == LinearSystem::Krylov {
+                usize::MAX
+            } else {
+                self.max_sparse
+            };
             solve_by_sparse_islands(problem, settings, limit, |island, settings| {
                 let sparse = self.sparse_for(island);
                 self.solve_island(island, settings, sparse, 0)
@@ -467,7 +623,7 @@ impl Newton {
         let n = problem.n();
         match self.linear_system {
             LinearSystem::Dense => false,
-            LinearSystem::Sparse => true,
+            LinearSystem::Sparse | LinearSystem::Krylov => true,
             LinearSystem::Auto => {
                 n > self.max_dense
                     || (problem.is_sparse()
@@ -502,6 +658,7 @@ impl Newton {
         // Formed at the first iteration that needs a direction: a warm start that already meets
         // the tolerance costs no factorisation analysis.
         let mut jacobian: Option<Jacobian> = None;
+        let mut krylov: Option<KrylovSystem> = None;
         let d = problem.diagonal_scale();
         let ops = Scaled { problem, d: &d };
         let skip = skipped_rows(problem);
@@ -585,9 +742,20 @@ impl Newton {
                     mu_reg: (phi_inf / scale).min(MAX_REGULARISATION),
                 };
                 let grad = merit_gradient(problem, &system);
-                let newton_dir = match self.direction(problem, &system, sparse, &mut jacobian) {
-                    Ok(dir) => dir,
-                    Err(outcome) => break outcome,
+                let newton_dir = if self.linear_system == LinearSystem::Krylov {
+                    let k = krylov.get_or_insert_with(|| {
+                        let s = self.krylov;
+                        KrylovSystem::new(problem, s.restart, s.max_krylov, s.eta_max)
+                    });
+                    match self.krylov_direction(problem, &system, k, &monitor) {
+                        Ok(dir) => dir,
+                        Err(outcome) => break outcome,
+                    }
+                } else {
+                    match self.direction(problem, &system, sparse, &mut jacobian) {
+                        Ok(dir) => dir,
+                        Err(outcome) => break outcome,
+                    }
                 };
                 iterations += 1;
                 let stepped =
@@ -706,6 +874,9 @@ impl Newton {
     /// Why an island of `n` rows is beyond the size up to which the (sparse or dense) Newton
     /// system is formed, if it is.
     fn too_large(&self, n: usize, sparse: bool) -> Option<String> {
+        if self.linear_system == LinearSystem::Krylov {
+            return None;
+        }
         let limit = if sparse {
             self.max_sparse
         } else {
@@ -751,6 +922,34 @@ impl Newton {
                 "no Newton system was formed".into(),
             )),
         }
+    }
+
+    /// The inexact Newton direction from GMRES ([`KrylovSystem`]), the time budget checked
+    /// between Krylov iterations. A GMRES solve that stops short of its forcing term (its
+    /// iteration cap, a breakdown, stagnation) still gives its best iterate, which the line
+    /// search takes if it is a descent direction and replaces by the gradient step otherwise;
+    /// the globalisation then treats a failed line search as any stall. `Err(TimeLimit)` when
+    /// the budget ran out inside GMRES.
+    fn krylov_direction(
+        &mut self,
+        problem: &Problem,
+        system: &System<'_>,
+        krylov: &mut KrylovSystem,
+        monitor: &Monitor<'_>,
+    ) -> Result<Vec<f64>, Outcome> {
+        let r = krylov.direction(problem, system, || monitor.out_of_time());
+        let stats = &mut self.workspace.krylov;
+        stats.directions += 1;
+        stats.iterations += r.iterations;
+        stats.worst_relative_residual = stats.worst_relative_residual.max(r.rel_residual);
+        match r.status {
+            KrylovStatus::TimeLimit => return Err(Outcome::TimeLimit),
+            KrylovStatus::IterationLimit => stats.iteration_limits += 1,
+            KrylovStatus::Breakdown(_) => stats.breakdowns += 1,
+            KrylovStatus::Stagnation => stats.stagnations += 1,
+            KrylovStatus::Converged => {}
+        }
+        Ok(r.x)
     }
 
     /// The rows still short of the tolerance when the whole island is at round-off level of
@@ -1665,6 +1864,142 @@ mod tests {
             coupled > 0,
             "no eliminated friction row hangs on a kept normal"
         );
+    }
+
+    /// The natural map `f − mid(lo, hi, f − w)` with `w = A f + b` and the friction bounds
+    /// `±mu f_k`, from the dense `A` (independent of the solver crate's residual code), in the
+    /// infinity norm, over the scale `max(‖b‖∞, ‖f‖∞ · max A_ii)`.
+    fn independent_natural_map(p: &Problem, f: &[f64]) -> f64 {
+        let a = p.to_dense();
+        let n = p.n();
+        let mut worst = 0.0_f64;
+        let mut scale = p.b().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let amax = (0..n).fold(0.0_f64, |m, i| m.max(a[(i, i)]));
+        scale = scale.max(f.iter().fold(0.0_f64, |m, v| m.max(v.abs())) * amax);
+        for i in 0..n {
+            let w: f64 = (0..n).map(|j| a[(i, j)] * f[j]).sum::<f64>() + p.b()[i];
+            let (lo, hi) = match p.friction_of(i) {
+                Some((k, mu)) => (-mu * f[k].max(0.0), mu * f[k].max(0.0)),
+                None => (p.lo()[i], p.hi()[i]),
+            };
+            worst = worst.max((f[i] - (f[i] - w).max(lo).min(hi)).abs());
+        }
+        worst / scale.max(f64::MIN_POSITIVE)
+    }
+
+    fn krylov(reformulation: Reformulation) -> Newton {
+        Newton {
+            reformulation,
+            linear_system: LinearSystem::Krylov,
+            ..Newton::default()
+        }
+    }
+
+    /// Newton–Krylov against the LU Newton on random boxed LCPs with friction rows (dense,
+    /// rank-deficient `A`) and on factored contact chains (products through `J M⁻¹ Jᵀ`): the
+    /// same statuses, impulses within `1e-8`, and every `converged` answer checked by an
+    /// independent natural map.
+    #[test]
+    fn krylov_newton_agrees_with_the_lu_newton() {
+        let settings = Settings {
+            tolerance: 1e-11,
+            max_iterations: 200,
+            ..Settings::default()
+        };
+        let mut problems: Vec<Problem> = (0..8).map(rank_deficient_contacts).collect();
+        problems.extend((0..3).map(|seed| chain_with_factors(30, seed)));
+        let (mut converged, mut directions) = (0, 0);
+        for (k, p) in problems.iter().enumerate() {
+            for reformulation in [Reformulation::FischerBurmeister, Reformulation::MinMap] {
+                let direct = Newton {
+                    reformulation,
+                    ..Newton::default()
+                }
+                .solve(p, &settings);
+                let mut s = krylov(reformulation);
+                let r = s.solve(p, &settings);
+                assert_eq!(
+                    r.status, direct.status,
+                    "problem {k} {reformulation:?}: {r:?}"
+                );
+                if r.status != Status::Converged {
+                    continue;
+                }
+                converged += 1;
+                directions += s.krylov_stats().directions;
+                let scale = 1.0 + direct.f.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                for (x, y) in r.f.iter().zip(&direct.f) {
+                    assert!(
+                        (x - y).abs() <= 1e-8 * scale,
+                        "problem {k} {reformulation:?}: {x} vs {y}"
+                    );
+                }
+                let nm = independent_natural_map(p, &r.f);
+                assert!(nm <= 1e-9, "problem {k} {reformulation:?}: {nm:.2e}");
+            }
+        }
+        assert!(converged >= 16, "only {converged} converged");
+        assert!(directions >= 20, "only {directions} GMRES directions");
+    }
+
+    /// An island above `max_sparse` rows: the LU Newton refuses it, the Krylov Newton (no
+    /// factorisation cap) solves it, checked by the independent natural map.
+    #[test]
+    fn krylov_newton_has_no_size_cap() {
+        let p = chain_with_factors(40, 5);
+        let settings = Settings {
+            tolerance: 1e-10,
+            max_iterations: 100,
+            ..Settings::default()
+        };
+        let lu = Newton {
+            linear_system: LinearSystem::Sparse,
+            max_sparse: 50,
+            ..Newton::default()
+        }
+        .solve(&p, &settings);
+        assert!(
+            matches!(lu.status, Status::Unsupported { .. }),
+            "{:?}",
+            lu.status
+        );
+        let mut s = Newton {
+            max_sparse: 50,
+            max_dense: 50,
+            ..krylov(Reformulation::FischerBurmeister)
+        };
+        let r = s.solve(&p, &settings);
+        assert_eq!(r.status, Status::Converged, "{r:?}");
+        assert!(independent_natural_map(&p, &r.f) <= 1e-8);
+        assert_eq!(s.name(), "newton-krylov-fb");
+    }
+
+    /// A spent time budget ends the GMRES loop before its first product with the time-limit
+    /// outcome, and a whole solve with it ends `TimeLimit`.
+    #[test]
+    fn a_spent_budget_ends_the_krylov_loop_with_time_limit() {
+        let p = chain_with_factors(20, 1);
+        let n = p.n();
+        let settings = Settings {
+            time_budget: Some(std::time::Duration::ZERO),
+            ..Settings::default()
+        };
+        let monitor = Monitor::new(&p, &settings);
+        let (alpha, beta, gamma, phi) = (vec![1.0; n], vec![0.5; n], vec![0.0; n], vec![1.0; n]);
+        let system = System {
+            alpha: &alpha,
+            beta: &beta,
+            gamma: &gamma,
+            phi: &phi,
+            mu_reg: 0.0,
+        };
+        let mut s = krylov(Reformulation::MinMap);
+        let mut k = KrylovSystem::new(&p, 30, 100, 0.5);
+        let out = s.krylov_direction(&p, &system, &mut k, &monitor);
+        assert_eq!(out, Err(Outcome::TimeLimit));
+        assert_eq!(s.krylov_stats().iterations, 0);
+        let r = s.solve(&p, &settings);
+        assert_eq!(r.status, Status::TimeLimit);
     }
 
     /// A warm start whose every row is clamped (impulses on separating contacts): the reduced
