@@ -150,8 +150,8 @@
 //!    ([`Globalisation::min_step`]), along the Newton direction and then
 //!    along `−∇θ` scaled to `‖Φ‖`. A hundred steps of `2⁻¹⁴` along a Newton direction lower
 //!    `‖Φ‖` by at most 0.6 %, less than the stagnation rule asks for in its window, so a search
-//!    that finds no longer step is a stall at once (rule 1 takes over) instead of a creep
-//!    through the whole window.
+//!    whose every step down to `2⁻¹⁴` is rejected is a stall at once (rule 1 takes over),
+//!    not a creep through the whole window.
 //! 4. **Sweep start.** A solve without a warm start on an island with friction rows (a contact
 //!    problem) starts from ten NSGS sweeps from zero instead of zero itself, when
 //!    they lower the shared residual (they do unless zero solves the problem): the first sweep
@@ -401,8 +401,8 @@ pub struct Globalisation {
     /// Sweeps per fallback phase (rule 2). Default `50`.
     pub fallback_sweeps: usize,
     /// Rule 3: the shortest step the line search takes, in `(0, 1]`. Default `2⁻¹⁴`; `2⁻³⁹` is
-    /// the search without the rule (the step below which a step no longer moves a unit-scaled
-    /// iterate). A value outside `(0, 1]` makes the solve `Unsupported` with the reason.
+    /// the search without the rule (steps shorter than that move a unit-scaled iterate by less
+    /// than its rounding). A value outside `(0, 1]` makes the solve `Unsupported` with the reason.
     pub min_step: f64,
     /// Rule 4: NSGS sweeps that start a solve without a warm start on an island with friction
     /// rows. Default `10`; `0` starts from zero.
