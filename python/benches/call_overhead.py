@@ -13,8 +13,10 @@ it prints the CLI's median solve time (the solver's own time), the median of ``r
 ``lcpbench.solve(A_csr, b, ...)`` calls (problem built from scipy CSR arrays in the call), the
 median with the problem built once (``lcpbench.solve(problem, ...)``), each with its ratio to
 the solver's own time (the CLI's), beside the solve time the calls report themselves
-(``time_s``: the extension is built with the dev profile, opt-level 2, the CLI with release), and the same for a 4×4 LCP, where the figure is the call's cost beyond
-the solve it reports (``time_s``). Medians with min–max spread; run it on a quiet machine.
+(``time_s``), what the CSR call adds beyond its own reported solve time, and the time of
+``Problem.lcp(A_csr, b)`` alone; and for a 4×4 LCP the call's cost beyond the solve it reports
+(``time_s``). Medians with min–max spread; run it on a quiet machine, with the package built
+by ``pip install ./python`` (release, as the CLI).
 """
 
 import argparse
@@ -81,6 +83,19 @@ def main():
         inner = statistics.median(
             lcpbench.solve(problem, solver=solver, max_iter=10000).time_s
             for _ in range(args.repeat))
+        # The CSR call's own solve time (the problem it builds from the CSR arrays is stored
+        # sparse, the one read from the file may be dense, so the two solves differ) and what
+        # the call adds to it: reading the arrays, building the problem, the result's arrays.
+        csr_own, beyond = [], []
+        for _ in range(args.repeat):
+            t0 = timeit.default_timer()
+            rc = lcpbench.solve(a, b, lo, hi, friction, solver=solver, max_iter=10000)
+            wall = timeit.default_timer() - t0
+            csr_own.append(rc.time_s)
+            beyond.append(wall - rc.time_s)
+        csr_own_med = statistics.median(csr_own)
+        beyond_med = statistics.median(beyond)
+        build = timed(lambda: lcpbench.Problem.lcp(a, b, lo, hi, friction), args.repeat)
         call = timed(lambda: lcpbench.solve(a, b, lo, hi, friction, solver=solver,
                                             max_iter=10000), args.repeat)
         reuse = timed(lambda: lcpbench.solve(problem, solver=solver, max_iter=10000),
@@ -88,6 +103,10 @@ def main():
         print(f"{solver:<12} {r.status:<16} {own * 1e3:13.3f} {inner * 1e3:17.3f} "
               f"{call[0] * 1e3:8.3f} ({call[1] * 1e3:.3f}-{call[2] * 1e3:.3f}) "
               f"{call[0] / own:6.2f} {reuse[0] * 1e3:18.3f} {reuse[0] / own:6.2f}")
+        print(f"{'':<12} solve(A,b): own {csr_own_med * 1e3:.3f} ms, the call beyond it "
+              f"{beyond_med * 1e3:.3f} ms ({100 * beyond_med / csr_own_med:.1f} % of its own "
+              f"time); Problem.lcp(A,b) alone {build[0] * 1e3:.3f} ms "
+              f"({build[1] * 1e3:.3f}-{build[2] * 1e3:.3f})")
 
     a4 = np.array([[4.0, 1, 0, 0], [1, 4, 1, 0], [0, 1, 4, 1], [0, 0, 1, 4]])
     b4 = np.array([-1.0, 2, -3, 1])
