@@ -48,6 +48,26 @@ def timed(fn, repeat):
     return statistics.median(times), min(times), max(times)
 
 
+def timed_solves(solve, repeat):
+    """``repeat`` timed calls of ``solve`` (after one untimed call, as ``--repeat`` does): the
+    first call's result, the calls' wall times and the solve times they report (``time_s``),
+    and per call what it added beyond its own solve (wall less ``time_s``)."""
+    first = solve()
+    walls, owns, beyond = [], [], []
+    for _ in range(repeat):
+        t0 = timeit.default_timer()
+        r = solve()
+        wall = timeit.default_timer() - t0
+        walls.append(wall)
+        owns.append(r.time_s)
+        beyond.append(wall - r.time_s)
+    return first, walls, owns, beyond
+
+
+def spread(xs):
+    return statistics.median(xs), min(xs), max(xs)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lcpbench", default="target/release/lcpbench")
@@ -79,27 +99,19 @@ def main():
     for solver in args.solvers.split(","):
         cli = cli_time(args.lcpbench, path, solver, args.repeat)
         own = cli["time_s"]
-        r = lcpbench.solve(a, b, lo, hi, friction, solver=solver, max_iter=10000)
-        inner = statistics.median(
-            lcpbench.solve(problem, solver=solver, max_iter=10000).time_s
-            for _ in range(args.repeat))
-        # The CSR call's own solve time (the problem it builds from the CSR arrays is stored
-        # sparse, the one read from the file may be dense, so the two solves differ) and what
-        # the call adds to it: reading the arrays, building the problem, the result's arrays.
-        csr_own, beyond = [], []
-        for _ in range(args.repeat):
-            t0 = timeit.default_timer()
-            rc = lcpbench.solve(a, b, lo, hi, friction, solver=solver, max_iter=10000)
-            wall = timeit.default_timer() - t0
-            csr_own.append(rc.time_s)
-            beyond.append(wall - rc.time_s)
-        csr_own_med = statistics.median(csr_own)
-        beyond_med = statistics.median(beyond)
+        # The CSR call builds its problem from the CSR arrays, stored sparse; the one read from
+        # the file may be dense, so the two solves differ. What the CSR call adds beyond its own
+        # solve: reading the arrays, building the problem, the result's arrays.
+        r, csr_walls, csr_owns, csr_beyond = timed_solves(
+            lambda: lcpbench.solve(a, b, lo, hi, friction, solver=solver, max_iter=10000),
+            args.repeat)
+        _, reuse_walls, reuse_owns, _ = timed_solves(
+            lambda: lcpbench.solve(problem, solver=solver, max_iter=10000), args.repeat)
         build = timed(lambda: lcpbench.Problem.lcp(a, b, lo, hi, friction), args.repeat)
-        call = timed(lambda: lcpbench.solve(a, b, lo, hi, friction, solver=solver,
-                                            max_iter=10000), args.repeat)
-        reuse = timed(lambda: lcpbench.solve(problem, solver=solver, max_iter=10000),
-                      args.repeat)
+        call, reuse = spread(csr_walls), spread(reuse_walls)
+        inner = statistics.median(reuse_owns)
+        csr_own_med = statistics.median(csr_owns)
+        beyond_med = statistics.median(csr_beyond)
         print(f"{solver:<12} {r.status:<16} {own * 1e3:13.3f} {inner * 1e3:17.3f} "
               f"{call[0] * 1e3:8.3f} ({call[1] * 1e3:.3f}-{call[2] * 1e3:.3f}) "
               f"{call[0] / own:6.2f} {reuse[0] * 1e3:18.3f} {reuse[0] / own:6.2f}")
@@ -111,14 +123,11 @@ def main():
     a4 = np.array([[4.0, 1, 0, 0], [1, 4, 1, 0], [0, 1, 4, 1], [0, 0, 1, 4]])
     b4 = np.array([-1.0, 2, -3, 1])
     for solver in ["lemke", "pgs"]:
-        beyond = []
-        for _ in range(args.repeat * 20):
-            t0 = timeit.default_timer()
-            r = lcpbench.solve(a4, b4, solver=solver)
-            beyond.append(timeit.default_timer() - t0 - r.time_s)
+        _, _, _, beyond = timed_solves(lambda: lcpbench.solve(a4, b4, solver=solver),
+                                       args.repeat * 20)
+        med, lo_, hi_ = spread(beyond)
         print(f"4x4 {solver}: call beyond the reported solve time: median "
-              f"{statistics.median(beyond) * 1e6:.2f} us (min {min(beyond) * 1e6:.2f}, "
-              f"max {max(beyond) * 1e6:.2f})")
+              f"{med * 1e6:.2f} us (min {lo_ * 1e6:.2f}, max {hi_ * 1e6:.2f})")
 
 
 if __name__ == "__main__":

@@ -40,10 +40,6 @@ __all__ = [
 
 def _matrix_arg(A, name):
     """A dense float64 array, or the parts of a CSR/CSC matrix as stored (other scipy formats -> CSR)."""
-    if type(A) is _np.ndarray and A.dtype == _np.float64:
-        # The common dense case, passed on as it is, without the lookups of a sparse matrix's
-        # attributes below.
-        return A
     fmt = getattr(A, "format", None)
     if fmt is not None and hasattr(A, "tocsr"):  # a scipy.sparse matrix or array
         if fmt not in ("csr", "csc"):
