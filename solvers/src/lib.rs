@@ -75,7 +75,7 @@ pub use lcp::lemke::Lemke;
 pub use lcp::micro_impulse::MicroImpulse;
 pub use lcp::newton::{
     FrictionHandling, Globalisation, KrylovSettings, KrylovStats, LinearSystem, Newton,
-    NewtonWorkspace, Reformulation, Remedies, SparseForm,
+    NewtonWorkspace, Reformulation, Remedies, SparseForm, START_SWEEPS,
 };
 pub use lcp::nncg::Nncg;
 pub use lcp::nsgs::Nsgs;

@@ -68,7 +68,7 @@ use crate::cone::{initial_reaction, project_onto_cone, ConeMonitor, ConeProblem,
 use crate::lcp::newton::{KrylovSettings, MAX_REGULARISATION};
 use crate::linalg::krylov::{gmres, BlockJacobi, Forcing, GmresParams, KrylovStatus};
 use crate::linalg::newton_system::KRYLOV_ETA_MIN;
-use crate::linalg::newton_system::{factor_and_solve, EntryKind, SparseJacobian};
+use crate::linalg::newton_system::{factor_and_solve, EntryKind, PatternRefusal, SparseJacobian};
 use crate::linalg::symmetric_fill;
 use crate::solver::line_search::{is_descent, Backtracking};
 use crate::solver::{Outcome, Settings, SolveResult};
@@ -462,9 +462,13 @@ impl NewtonMatrix {
                 }
             }
         }
-        SparseJacobian::factor_pattern(entries, n, None)
+        // The estimate above stands for the pattern's own (on W's block pattern, finer).
+        SparseJacobian::factor_pattern(entries, n, None, usize::MAX)
             .map(|j| Self::Sparse(Box::new(j)))
-            .map_err(Refusal::Failed)
+            .map_err(|refusal| match refusal {
+                PatternRefusal::TooMuchFill(reason) => Refusal::TooMuchFill(reason),
+                PatternRefusal::Failed(reason) => Refusal::Failed(reason),
+            })
     }
 
     /// Set block `(c, e)` (the `k`-th stored block in block-row order).

@@ -14,10 +14,12 @@ use crate::linalg::sparse_lu::SparseLu;
 use crate::problem::{DelassusFactors, Problem};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::solvers::Solve;
+use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu, SymbolicLu};
+use faer::sparse::linalg::qr;
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::Mat;
 use faer::{Conj, Par};
 
@@ -73,6 +75,54 @@ pub(crate) const REDUCE_FROM: f64 = 0.1;
 /// Rows from which [`LinearSystem::Auto`] considers the sparse factorisation.
 pub(crate) const SPARSE_FROM_ROWS: usize = 100;
 
+/// Why no sparse Newton system was formed.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum PatternRefusal {
+    /// Its LU is estimated above the entry limit ([`lu_entries_estimate`]); the reason names
+    /// the estimate and the limit.
+    TooMuchFill(String),
+    /// The pattern or its symbolic analysis failed.
+    Failed(String),
+}
+
+/// Entries of `L` and `U` of the sparse LU of the pattern `a` under the column ordering of its
+/// symbolic LU, estimated before any numerical work from the column counts of the Cholesky
+/// factor `R` of `(AQ)ᵀ(AQ)` (faer's symbolic analysis of the same ordering): with partial
+/// pivoting `U`'s pattern lies within `R`'s and `L`'s within the Householder vectors' (George
+/// and Ng, *Symbolic factorization for sparse Gaussian elimination with partial pivoting*,
+/// SIAM J. Sci. Stat. Comput. 8, 1987), counted here as `R`'s again: `2·nnz(R) − n`.
+/// `usize::MAX` when the analysis fails.
+pub(crate) fn lu_entries_estimate(
+    a: SymbolicSparseColMatRef<'_, usize>,
+    col_perm: PermRef<'_, usize>,
+) -> usize {
+    let (m, n) = (a.nrows(), a.ncols());
+    let Ok(at) = a.transpose().to_col_major() else {
+        return usize::MAX;
+    };
+    let Ok(mut mem) = MemBuffer::try_new(StackReq::new::<usize>(6 * (m + n) + 8)) else {
+        return usize::MAX;
+    };
+    let stack = MemStack::new(&mut mem);
+    let mut etree = vec![0usize; n];
+    let mut post = vec![0usize; n];
+    let mut col_counts = vec![0usize; n];
+    let mut min_col = vec![0usize; m];
+    let etree = qr::col_etree(a, Some(col_perm), &mut etree, stack);
+    qr::postorder(&mut post, etree, stack);
+    qr::column_counts_ata(
+        &mut col_counts,
+        &mut min_col,
+        at.as_ref(),
+        Some(col_perm),
+        etree,
+        &post,
+        stack,
+    );
+    let r: usize = col_counts.iter().sum();
+    (2 * r).saturating_sub(n)
+}
+
 /// One Newton system `H + μI` of an island, with its storage.
 pub(crate) enum Jacobian {
     /// Dense `A`; `H` formed dense and factorised by partial-pivoting LU.
@@ -114,7 +164,11 @@ pub(crate) struct SparseJacobian {
 }
 
 impl SparseJacobian {
-    pub(crate) fn new(problem: &Problem, cache: Option<SymbolicCache>) -> Result<Self, String> {
+    pub(crate) fn new(
+        problem: &Problem,
+        cache: Option<SymbolicCache>,
+        max_entries: usize,
+    ) -> Result<Self, PatternRefusal> {
         let n = problem.n();
         let mut entries = Vec::with_capacity(problem.nnz() + 2 * n);
         for i in 0..n {
@@ -128,7 +182,7 @@ impl SparseJacobian {
                 entries.push((i, k, EntryKind::Coupling));
             }
         }
-        Self::factor_pattern(entries, n, cache)
+        Self::factor_pattern(entries, n, cache, max_entries)
     }
 
     /// The augmented (body-space) form of `H + μI` for `A = J M⁻¹ Jᵀ`, with the body
@@ -146,7 +200,8 @@ impl SparseJacobian {
         problem: &Problem,
         factors: &DelassusFactors,
         cache: Option<SymbolicCache>,
-    ) -> Result<Self, String> {
+        max_entries: usize,
+    ) -> Result<Self, PatternRefusal> {
         let n = problem.n();
         let jac = factors.jacobian();
         let sym = jac.symbolic();
@@ -197,16 +252,21 @@ impl SparseJacobian {
         for r in n..size {
             entries.push((r, r, EntryKind::Fixed(-1.0)));
         }
-        Self::factor_pattern(entries, size, cache)
+        Self::factor_pattern(entries, size, cache, max_entries)
     }
 
     /// The pattern, its column ordering and the symbolic LU; those of `cache` when its pattern
-    /// is the same.
+    /// is the same. A new pattern whose LU is estimated above `max_entries` entries
+    /// ([`lu_entries_estimate`]; skipped when even a dense LU would fit) is refused before
+    /// any numerical work: a factorisation cannot be interrupted, so one that takes longer than
+    /// the time budget would overrun it (a 41,664-row box-pyramid island took 14–38 s per
+    /// factorisation against a 1 s budget).
     pub(crate) fn factor_pattern(
         entries: Vec<(usize, usize, EntryKind)>,
         size: usize,
         cache: Option<SymbolicCache>,
-    ) -> Result<Self, String> {
+        max_entries: usize,
+    ) -> Result<Self, PatternRefusal> {
         let pairs: Vec<Pair<usize, usize>> = entries
             .iter()
             .map(|&(row, col, _)| Pair { row, col })
@@ -217,7 +277,11 @@ impl SparseJacobian {
                 let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(
                     size, size, &pairs,
                 )
-                .map_err(|e| format!("the sparse Newton pattern could not be built: {e:?}"))?;
+                .map_err(|e| {
+                    PatternRefusal::Failed(format!(
+                        "the sparse Newton pattern could not be built: {e:?}"
+                    ))
+                })?;
                 // Supernodal always: the contact blocks (three rows per contact point, six
                 // columns per body) make dense supernodes, and faer's flop-ratio rule chose the
                 // simplicial LU on towers, where it took 2.6× the instructions.
@@ -225,8 +289,22 @@ impl SparseJacobian {
                     supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
                     ..Default::default()
                 };
-                let lu = factorize_symbolic_lu(symbolic.as_ref(), params)
-                    .map_err(|e| format!("the symbolic sparse LU failed: {e:?}"))?;
+                let lu = factorize_symbolic_lu(symbolic.as_ref(), params).map_err(|e| {
+                    PatternRefusal::Failed(format!("the symbolic sparse LU failed: {e:?}"))
+                })?;
+                // A dense LU of `size` rows holds `size²` entries: below the cap, no estimate.
+                if size.saturating_mul(size) > max_entries {
+                    let estimate = lu_entries_estimate(symbolic.as_ref(), lu.col_perm());
+                    if estimate > max_entries {
+                        return Err(PatternRefusal::TooMuchFill(format!(
+                            "the sparse LU of the Newton system ({size} unknowns) would hold \
+                             about {estimate} entries (column counts of the Cholesky factor of \
+                             AᵀA under its COLAMD ordering), above Newton::max_factor_entries = \
+                             {max_entries}: a factorisation cannot be interrupted, so the solve \
+                             would overrun its time budget"
+                        )));
+                    }
+                }
                 SymbolicCache {
                     size,
                     pairs,
@@ -250,8 +328,9 @@ impl SparseJacobian {
                 .factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
             pattern.lu.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
-        let scratch = MemBuffer::try_new(scratch)
-            .map_err(|_| "no memory for the sparse LU's scratch space".to_string())?;
+        let scratch = MemBuffer::try_new(scratch).map_err(|_| {
+            PatternRefusal::Failed("no memory for the sparse LU's scratch space".to_string())
+        })?;
         Ok(Self {
             entries,
             size,
@@ -484,7 +563,8 @@ impl Elimination {
 /// `β_i = 0`: dense LU of the reduced matrix when `dense`; else, up to `simplicial_up_to`
 /// ([`SIMPLICIAL_UP_TO`]) kept rows, [`sparse_reduced_solve`], and above, faer's sparse LU on
 /// the reduced pattern (the symbolic analysis in `cache` reused while the kept rows, and so the
-/// pattern, stay the same). A failed factorisation gives a non-finite direction.
+/// pattern, stay the same), refused when its LU is estimated above `max_entries` entries
+/// (`Err` with the reason). A failed factorisation gives a non-finite direction.
 pub(crate) fn reduced_direction(
     problem: &Problem,
     elimination: &Elimination,
@@ -492,7 +572,8 @@ pub(crate) fn reduced_direction(
     dense: bool,
     simplicial_up_to: usize,
     cache: &mut ReducedCache,
-) -> Vec<f64> {
+    max_entries: usize,
+) -> Result<Vec<f64>, String> {
     let m = elimination.kept.len();
     let x = if dense {
         let mut r = Mat::<f64>::zeros(m, m);
@@ -513,7 +594,7 @@ pub(crate) fn reduced_direction(
                     entries.push((r, c, EntryKind::Fixed(v)));
                 }
             }
-            match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take()) {
+            match SparseJacobian::factor_pattern(entries, m, cache.symbolic.take(), max_entries) {
                 Ok(mut j) => {
                     j.numeric = std::mem::take(&mut cache.numeric);
                     let x = factor_and_solve(&mut j, &rhs);
@@ -521,11 +602,12 @@ pub(crate) fn reduced_direction(
                     cache.numeric = j.numeric;
                     x
                 }
-                Err(_) => vec![f64::NAN; m],
+                Err(PatternRefusal::TooMuchFill(reason)) => return Err(reason),
+                Err(PatternRefusal::Failed(_)) => vec![f64::NAN; m],
             }
         }
     };
-    elimination.expand(&x)
+    Ok(elimination.expand(&x))
 }
 
 /// A sparse matrix `R` assembled row by row into the compressed columns of `Rᵀ`: the entries of
@@ -804,5 +886,60 @@ pub(crate) fn delassus_product(problem: &Problem, x: &[f64], out: &mut [f64]) {
                 *o = problem.row(i).dot(x);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The symbolic LU of the pattern made of `pairs` and its estimate.
+    fn estimate(size: usize, pairs: &[(usize, usize)]) -> usize {
+        let pairs: Vec<Pair<usize, usize>> =
+            pairs.iter().map(|&(row, col)| Pair { row, col }).collect();
+        let (symbolic, _) = SymbolicSparseColMat::try_new_from_indices(size, size, &pairs).unwrap();
+        let lu = factorize_symbolic_lu(symbolic.as_ref(), Default::default()).unwrap();
+        lu_entries_estimate(symbolic.as_ref(), lu.col_perm())
+    }
+
+    /// A diagonal pattern factors without fill (`n` entries); a full one into a full `L` and
+    /// `U` (`n²` entries with the diagonal counted once). An arrow (full last row and column)
+    /// is the bound's worst case: its dense row makes `AᵀA` full, so the estimate is `n²`
+    /// where elimination without pivoting in the arrow's order needs `3n − 2` (partial
+    /// pivoting may move the dense row up, and faer's supernodal LU plans for that).
+    #[test]
+    fn lu_estimate_is_exact_for_diagonal_full_and_arrow_patterns() {
+        let n = 9;
+        let diagonal: Vec<_> = (0..n).map(|i| (i, i)).collect();
+        assert_eq!(estimate(n, &diagonal), n);
+        let full: Vec<_> = (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).collect();
+        assert_eq!(estimate(n, &full), n * n);
+        let mut arrow = diagonal.clone();
+        arrow.extend((0..n - 1).flat_map(|i| [(i, n - 1), (n - 1, i)]));
+        assert_eq!(estimate(n, &arrow), n * n);
+    }
+
+    /// A pattern whose estimate is above the cap is refused before any numerical work, with
+    /// the estimate and the cap in the reason; at the estimate itself it is factorised.
+    #[test]
+    fn a_pattern_above_the_entry_cap_is_refused() {
+        let n = 40;
+        let entries: Vec<_> = (0..n)
+            .flat_map(|i| {
+                (0..n).map(move |j| (i, j, EntryKind::Fixed(if i == j { 4.0 } else { 0.01 })))
+            })
+            .collect();
+        match SparseJacobian::factor_pattern(entries.clone(), n, None, n * n - 1) {
+            Err(PatternRefusal::TooMuchFill(reason)) => {
+                assert!(reason.contains("about 1600 entries"), "{reason}");
+                assert!(reason.contains("max_factor_entries = 1599"), "{reason}");
+            }
+            Err(other) => panic!("{other:?}"),
+            Ok(_) => panic!("factorised above the cap"),
+        }
+        let mut j = SparseJacobian::factor_pattern(entries, n, None, n * n).unwrap();
+        let x = factor_and_solve(&mut j, &vec![1.0; n]);
+        // Every row sums to 4 + 0.39: x = 1 / 4.39 throughout.
+        assert!(x.iter().all(|v| (v - 1.0 / 4.39).abs() < 1e-12), "{x:?}");
     }
 }

@@ -102,7 +102,7 @@
 //!   that ends short of it returns the best point it measured (projected or polished iterate),
 //!   which the non-monotone line search need not have ended on.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds; without one (or
-//!   with an all-zero one), rule 4.
+//!   with an all-zero one), zero (projected), or the sweeps of rule 4 when it is on.
 //! * **Never spins**: an iterate that solves the problem while its projection does not (a
 //!   normal at `−1e-20` whose friction rows sit at their bounds `±mu·max(f_k, 0) = 0`; the
 //!   projection clips the normal and leaves the friction rows 100 % wrong) is returned as it
@@ -152,21 +152,23 @@
 //!    `‖Φ‖` by at most 0.6 %, less than the stagnation rule asks for in its window, so a search
 //!    whose every step down to `2⁻¹⁴` is rejected is a stall at once (rule 1 takes over),
 //!    not a creep through the whole window.
-//! 4. **Sweep start.** A solve without a warm start on an island with friction rows (a contact
-//!    problem) starts from ten NSGS sweeps from zero instead of zero itself, when
-//!    they lower the shared residual (they do unless zero solves the problem): the first sweep
-//!    solves each contact exactly with its neighbours fixed, and the next ones settle which
-//!    contacts are closed and which friction rows slide, the active set Newton has to find from
-//!    zero otherwise (Siconos' hybrid strategy `VI_EG_NSN` likewise runs a first-order method
-//!    before Newton). Problems without friction rows (the generated SPD, PSD and P-matrix
-//!    families, joints) start from zero: sweeps carry no guarantee on a non-symmetric `A`, and
-//!    Newton from zero needs no help there. A refinement's sub-problem always starts from its
-//!    warm start. Its cost, measured: on a problem with many solutions (redundant face
+//! 4. **Sweep start** (off by default; the `start_sweeps` parameter, [`START_SWEEPS`] when
+//!    on). A solve without a warm start on an island with friction rows (a contact problem)
+//!    starts from NSGS sweeps from zero instead of zero itself, when they lower the shared
+//!    residual: the first sweep solves each contact exactly with its neighbours fixed, and the
+//!    next ones settle which contacts are closed and which friction rows slide, the active set
+//!    Newton has to find from zero otherwise (Siconos' hybrid strategy `VI_EG_NSN` likewise
+//!    runs a first-order method before Newton). Problems without friction rows (the generated
+//!    SPD, PSD and P-matrix families, joints) start from zero: sweeps carry no guarantee on a
+//!    non-symmetric `A`. A refinement's sub-problem always starts from its warm start. Off by
+//!    default because of its measured cost: on a problem with many solutions (redundant face
 //!    contacts, PSD `A`) the sweeps lead Newton to another solution than the one it reaches
 //!    from zero, and as the warm start of the next steps that one is worse — `wall_105`
-//!    under `newton-min+warm` takes 25.2 Newton iterations per step over 6 steps with this
-//!    rule and 2.3 without it, and `pyramid_20`'s cold first step takes `newton-fb` 17
-//!    iterations instead of 10.
+//!    under `newton-min+warm` takes 25.2 Newton iterations per step over 6 steps with ten
+//!    sweeps and 2.3 without them, `pyramid_20`'s cold first step takes `newton-fb` 17
+//!    iterations (0.99 s) instead of 10 (0.69 s), and its warm-started run at a 0.5 s budget
+//!    ends 5 of 5 steps at the time limit instead of 1. The unit test of the rule shows where
+//!    it helps (a cold solve that needs fewer Newton iterations from sweeps).
 //!
 //! References: A. Fischer, *A special Newton-type optimization method*, Optimization 24, 1992;
 //! T. De Luca, F. Facchinei, C. Kanzow, *A semismooth equation approach to the solution of
@@ -185,8 +187,8 @@ use crate::lcp::pgs::sweep_assembled;
 use crate::linalg::krylov::KrylovStatus;
 use crate::linalg::newton_system::{
     augmented_pays, dense_direction, reduced_direction, sparse_direction, Elimination, Jacobian,
-    KrylovSystem, ReducedCache, SparseJacobian, SymbolicCache, System, SIMPLICIAL_UP_TO,
-    SPARSE_BELOW_DENSITY, SPARSE_FROM_ROWS,
+    KrylovSystem, PatternRefusal, ReducedCache, SparseJacobian, SymbolicCache, System,
+    SIMPLICIAL_UP_TO, SPARSE_BELOW_DENSITY, SPARSE_FROM_ROWS,
 };
 use crate::problem::diagonal::skipped_rows;
 use crate::problem::metrics::{impulse_scale, relative_row_error};
@@ -209,6 +211,39 @@ pub(crate) const PROBLEM_CLASSES_FB: &str =
 pub(crate) const PROBLEM_CLASSES_MIN: &str =
     "LCP, boxed LCP, friction rows (directly), free (equality) rows as Phi_i = w_i / d_i; any A; LU per island: dense up to 3000 rows, sparse (Delassus or, on dense contact islands, body-space form) up to 200000; local quadratic convergence";
 
+/// The `start_sweeps` parameter of every Newton entry (rule 4 of the module documentation).
+const START_SWEEPS_PARAM: crate::registry::ParamSpec = crate::registry::ParamSpec::count(
+    "start_sweeps",
+    0,
+    0,
+    100_000,
+    "NSGS sweeps that start a solve without a warm start on a contact island (rule 4; 0: start from zero)",
+);
+
+/// Parameters of the factorising Newton entries.
+const NEWTON_PARAMS: &[crate::registry::ParamSpec] = &[
+    START_SWEEPS_PARAM,
+    crate::registry::ParamSpec::count(
+        "max_factor_entries",
+        crate::cone::newton::MAX_FACTOR_ENTRIES,
+        1,
+        1_000_000_000_000,
+        "largest sparse LU factorised, in entries of L and U estimated before any numerical work (a larger one: unsupported)",
+    ),
+];
+
+/// `newton` with the sweep start (rule 4) of `params`.
+fn with_start(mut newton: Newton, params: &crate::registry::Params) -> Newton {
+    newton.globalisation.start_sweeps = params.count("start_sweeps");
+    newton
+}
+
+/// `newton` with the sweep start and factorisation cap of `params`.
+fn factorising(mut newton: Newton, params: &crate::registry::Params) -> Newton {
+    newton.max_factor_entries = params.count("max_factor_entries");
+    with_start(newton, params)
+}
+
 /// The registry's entry of `newton-fb`.
 pub static NEWTON_FB: crate::registry::SolverEntry = crate::registry::SolverEntry {
     name: "newton-fb",
@@ -217,8 +252,10 @@ pub static NEWTON_FB: crate::registry::SolverEntry = crate::registry::SolverEntr
     iteration_unit: "Newton steps",
     iterative: true,
     relaxation: None,
-    params: &[],
-    make: crate::registry::Make::Matrix(|_params| Box::new(Newton::fischer_burmeister())),
+    params: NEWTON_PARAMS,
+    make: crate::registry::Make::Matrix(|params| {
+        Box::new(factorising(Newton::fischer_burmeister(), params))
+    }),
 };
 
 /// The registry's entry of `newton-min`.
@@ -229,8 +266,8 @@ pub static NEWTON_MIN: crate::registry::SolverEntry = crate::registry::SolverEnt
     iteration_unit: "Newton steps",
     iterative: true,
     relaxation: None,
-    params: &[],
-    make: crate::registry::Make::Matrix(|_params| Box::new(Newton::min_map())),
+    params: NEWTON_PARAMS,
+    make: crate::registry::Make::Matrix(|params| Box::new(factorising(Newton::min_map(), params))),
 };
 
 /// Problem classes handled by the Newton–Krylov variants.
@@ -260,10 +297,12 @@ const KRYLOV_PARAMS: &[crate::registry::ParamSpec] = &[
         0.99,
         "largest relative GMRES tolerance (Eisenstat-Walker eta_max)",
     ),
+    START_SWEEPS_PARAM,
 ];
 
 /// `Newton` with [`LinearSystem::Krylov`] and the settings of `params`.
-fn krylov_from(mut newton: Newton, params: &crate::registry::Params) -> Box<Newton> {
+fn krylov_from(newton: Newton, params: &crate::registry::Params) -> Box<Newton> {
+    let mut newton = with_start(newton, params);
     newton.linear_system = LinearSystem::Krylov;
     newton.krylov = KrylovSettings {
         restart: params.count("restart"),
@@ -377,6 +416,13 @@ pub struct Newton {
     pub max_dense: usize,
     /// Largest island for which the sparse Jacobian is formed. Default `200 000`.
     pub max_sparse: usize,
+    /// Largest sparse LU a solve factorises, in entries of `L` and `U` estimated before any
+    /// numerical work (the symbolic Cholesky of the system's symmetrised pattern): a larger
+    /// one is refused, the solve ending `Unsupported` with the estimate in its reason, since a
+    /// factorisation cannot be interrupted at the time budget. Default
+    /// [`crate::cone::newton::MAX_FACTOR_ENTRIES`] (20 million, about 2 s of factorisation on
+    /// two cores).
+    pub max_factor_entries: usize,
     /// How the Newton systems are factorised. Default [`LinearSystem::Auto`].
     pub linear_system: LinearSystem,
     /// The GMRES settings of [`LinearSystem::Krylov`]. Default [`KrylovSettings::default`].
@@ -410,7 +456,8 @@ pub struct Globalisation {
     /// than its rounding). A value outside `(0, 1]` makes the solve `Unsupported` with the reason.
     pub min_step: f64,
     /// Rule 4: NSGS sweeps that start a solve without a warm start on an island with friction
-    /// rows. Default `10`; `0` starts from zero.
+    /// rows. Default `0` (a start from zero); [`START_SWEEPS`] is the measured choice when
+    /// the rule is on (the `start_sweeps` parameter of the registry's Newton entries).
     pub start_sweeps: usize,
 }
 
@@ -421,7 +468,7 @@ impl Default for Globalisation {
             fallback_phases: MAX_FALLBACKS,
             fallback_sweeps: FALLBACK_SWEEPS,
             min_step: MIN_NEWTON_STEP,
-            start_sweeps: START_SWEEPS,
+            start_sweeps: 0,
         }
     }
 }
@@ -512,6 +559,7 @@ impl Newton {
             friction: FrictionHandling::Direct,
             max_dense: 3000,
             max_sparse: 200_000,
+            max_factor_entries: crate::cone::newton::MAX_FACTOR_ENTRIES,
             linear_system: LinearSystem::Auto,
             krylov: KrylovSettings::default(),
             sparse_form: SparseForm::Auto,
@@ -588,7 +636,7 @@ const MAX_FALLBACKS: usize = 3;
 /// defaults to 10); on contact problems the first sweep already solves each decoupled contact
 /// exactly, and the following ones settle which contacts are closed and which friction rows
 /// slide, the active set a cold Newton start has to find otherwise.
-const START_SWEEPS: usize = 10;
+pub const START_SWEEPS: usize = 10;
 
 impl Solver for Newton {
     fn entry(&self) -> &'static crate::registry::SolverEntry {
@@ -907,20 +955,22 @@ impl Newton {
     ) -> Result<Vec<f64>, Outcome> {
         let elimination = Elimination::of(problem, system);
         if jacobian.is_none() && elimination.is_none() {
-            *jacobian = Some(
-                self.jacobian(problem, sparse)
-                    .map_err(Outcome::NumericalFailure)?,
-            );
+            *jacobian = Some(self.jacobian(problem, sparse).map_err(|r| match r {
+                PatternRefusal::TooMuchFill(reason) => Outcome::Unsupported(reason),
+                PatternRefusal::Failed(reason) => Outcome::NumericalFailure(reason),
+            })?);
         }
         match (elimination, jacobian.as_mut()) {
-            (Some(e), _) => Ok(reduced_direction(
+            (Some(e), _) => reduced_direction(
                 problem,
                 &e,
                 system,
                 !sparse,
                 SIMPLICIAL_UP_TO,
                 &mut self.workspace.reduced,
-            )),
+                self.max_factor_entries,
+            )
+            .map_err(Outcome::Unsupported),
             (None, Some(Jacobian::Dense(a))) => Ok(dense_direction(problem, a, system)),
             (None, Some(Jacobian::Sparse(j))) => Ok(sparse_direction(j, system)),
             (None, None) => Err(Outcome::NumericalFailure(
@@ -1014,7 +1064,7 @@ impl Newton {
     /// The Newton system's storage for `problem`: dense, or the sparse pattern in the form
     /// [`Newton::sparse_form`] chooses, reusing the cached symbolic analysis and the numeric
     /// factors' storage.
-    fn jacobian(&mut self, problem: &Problem, sparse: bool) -> Result<Jacobian, String> {
+    fn jacobian(&mut self, problem: &Problem, sparse: bool) -> Result<Jacobian, PatternRefusal> {
         if !sparse {
             return Ok(Jacobian::Dense(problem.to_dense()));
         }
@@ -1025,9 +1075,9 @@ impl Newton {
                     || (self.sparse_form == SparseForm::Auto
                         && augmented_pays(problem, factors)) =>
             {
-                SparseJacobian::augmented(problem, factors, cache)
+                SparseJacobian::augmented(problem, factors, cache, self.max_factor_entries)
             }
-            _ => SparseJacobian::new(problem, cache),
+            _ => SparseJacobian::new(problem, cache, self.max_factor_entries),
         };
         built.map(|mut j| {
             j.numeric = std::mem::take(&mut self.workspace.numeric);
@@ -1570,11 +1620,13 @@ mod tests {
         }
     }
 
-    /// Problems without friction rows start from zero (rule 4 is for contact problems).
+    /// Problems without friction rows start from zero, rule 4 on or off (it is for contact
+    /// problems).
     #[test]
     fn a_problem_without_friction_rows_starts_from_zero() {
         let g = generate(Family::Spd { cond: 1e2 }, 20, 1);
         let mut s = Newton::fischer_burmeister();
+        s.globalisation.start_sweeps = START_SWEEPS;
         let r = s.solve(&g.problem, &tight());
         assert!(r.status.is_converged());
         assert_eq!(s.remedies(), Remedies::default());
@@ -1849,8 +1901,16 @@ mod tests {
                 let mut cache = ReducedCache::default();
                 // Dense; sparse on the island's ordering (simplicial); sparse with its own.
                 for (dense, simplicial_up_to) in [(true, 0), (false, usize::MAX), (false, 0)] {
-                    let reduced =
-                        reduced_direction(&p, &e, &system, dense, simplicial_up_to, &mut cache);
+                    let reduced = reduced_direction(
+                        &p,
+                        &e,
+                        &system,
+                        dense,
+                        simplicial_up_to,
+                        &mut cache,
+                        usize::MAX,
+                    )
+                    .unwrap();
                     for i in 0..n {
                         assert!(
                             (reduced[i] - full[i]).abs() <= 1e-10 * scale,
@@ -1945,6 +2005,38 @@ mod tests {
         }
         assert!(converged >= 16, "only {converged} converged");
         assert!(directions >= 20, "only {directions} GMRES directions");
+    }
+
+    /// An island whose sparse LU is estimated above `max_factor_entries`: the LU Newton ends
+    /// `Unsupported` before any factorisation, naming the cap (the report's `factor_cap`); with
+    /// the default cap it solves the island, checked by the independent natural map.
+    #[test]
+    fn an_island_above_the_factorisation_cap_is_refused() {
+        let p = chain_with_factors(40, 5);
+        let settings = Settings {
+            tolerance: 1e-10,
+            max_iterations: 100,
+            ..Settings::default()
+        };
+        let capped = Newton {
+            linear_system: LinearSystem::Sparse,
+            max_factor_entries: 10,
+            ..Newton::default()
+        }
+        .solve(&p, &settings);
+        match &capped.status {
+            Status::Unsupported { reason } => {
+                assert!(reason.contains("max_factor_entries = 10"), "{reason}")
+            }
+            other => panic!("{other}"),
+        }
+        let r = Newton {
+            linear_system: LinearSystem::Sparse,
+            ..Newton::default()
+        }
+        .solve(&p, &settings);
+        assert_eq!(r.status, Status::Converged, "{r:?}");
+        assert!(independent_natural_map(&p, &r.f) <= 1e-8);
     }
 
     /// An island above `max_sparse` rows: the LU Newton refuses it, the Krylov Newton (no
