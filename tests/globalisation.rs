@@ -1,5 +1,5 @@
 //! Newton's globalisation (the module documentation of `lcpbench_solvers::Newton`: merit switch,
-//! sweeps and return, shortest step, sweep start) on exported steps of the sphere piles where
+//! sweeps and return, shortest step, restart from sweeps) on exported steps of the sphere piles where
 //! the plain method stalled. The files are in `tests/data/stall/` (its README says how each was
 //! made); every answer is checked by a residual written here from its definition, not taken
 //! from the library.

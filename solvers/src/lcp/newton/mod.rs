@@ -102,14 +102,16 @@
 //!   that ends short of it returns the best point it measured (projected or polished iterate),
 //!   which the non-monotone line search need not have ended on.
 //! * **Warm start**: uses [`Settings::warm_start`], projected onto the bounds; without one (or
-//!   with an all-zero one), zero (projected), or the sweeps of rule 4 when it is on.
+//!   with an all-zero one), zero (projected). NSGS sweeps from zero are a remedy (rule 4),
+//!   not the start.
 //! * **Never spins**: an iterate that solves the problem while its projection does not (a
 //!   normal at `−1e-20` whose friction rows sit at their bounds `±mu·max(f_k, 0) = 0`; the
 //!   projection clips the normal and leaves the friction rows 100 % wrong) is returned as it
 //!   is, instead of iterating to the cap at a round-off residual (a 1,008-row island of
 //!   `sphere_pile_200` sits at `7e-15` there). Every stall is met by the next remedy below; the
-//!   eighth stall of a solve that began from zero ends it (the tenth otherwise), and each stall
-//!   comes at most 100 Newton iterations after the remedy before it.
+//!   tenth stall of a contact-island solve that began from zero ends it (the eighth without
+//!   friction rows, the twelfth from a warm start), and each stall comes at most 100 Newton
+//!   iterations after the remedy before it.
 //!
 //! # Globalisation
 //!
@@ -135,40 +137,42 @@
 //!    stalled at `3.4e-3` after a restart, where FB Newton from zero converges): see
 //!    `tests/globalisation.rs`.
 //! 2. **Sweeps and return.** When the switched merit stalls too, fifty NSGS
-//!    sweeps ([`Nsgs`]) run from the best point measured, and Newton resumes on the solver's own
+//!    sweeps ([`Nsgs`]) run from the best point measured since the last restart (rule 4 and
+//!    below: the run before a restart led astray), and Newton resumes on the solver's own
 //!    merit from where they end; at most three such phases, each preceded by a
 //!    switch, before the solve gives up. This is Siconos' hybrid nonsmooth Newton (numerics,
 //!    `fc3d_onecontact_nonsmooth_Newton_solvers_solve_hybrid`, strategy
 //!    `NSN_AND_PLI_NSN_LOOP`: Newton first, then rounds of projected fixed-point iterations
 //!    and Newton again, keeping the better point after each), with NSGS as the projected
-//!    iteration and the whole island instead of one contact. A warm-started solve first
-//!    restarts once from zero on its own merit instead, and a solve that began from sweeps
-//!    (rule 4) does so once after its last phase of sweeps: a start that led astray (the
-//!    1,155-row island of `sphere_pile_200`'s step 33: FB Newton stagnates from its warm start
-//!    and from ten sweeps, and converges from zero).
+//!    iteration and the whole island instead of one contact. Before the first phase a
+//!    warm-started solve restarts once from zero on its own merit (a warm start that led
+//!    astray: the 1,155-row island of `sphere_pile_200`'s step 33, where FB Newton stagnates
+//!    from its warm start and from ten sweeps, and converges from zero), and then rule 4
+//!    applies.
 //! 3. **Shortest step.** The line search tries steps `1, ½, …, 2⁻¹⁴` and no shorter
 //!    ([`Globalisation::min_step`]), along the Newton direction and then
 //!    along `−∇θ` scaled to `‖Φ‖`. A hundred steps of `2⁻¹⁴` along a Newton direction lower
 //!    `‖Φ‖` by at most 0.6 %, less than the stagnation rule asks for in its window, so a search
 //!    whose every step down to `2⁻¹⁴` is rejected is a stall at once (rule 1 takes over),
 //!    not a creep through the whole window.
-//! 4. **Sweep start** (off by default; the `start_sweeps` parameter, [`START_SWEEPS`] when
-//!    on). A solve without a warm start on an island with friction rows (a contact problem)
-//!    starts from NSGS sweeps from zero instead of zero itself, when they lower the shared
-//!    residual: the first sweep solves each contact exactly with its neighbours fixed, and the
-//!    next ones settle which contacts are closed and which friction rows slide, the active set
-//!    Newton has to find from zero otherwise (Siconos' hybrid strategy `VI_EG_NSN` likewise
-//!    runs a first-order method before Newton). Problems without friction rows (the generated
-//!    SPD, PSD and P-matrix families, joints) start from zero: sweeps carry no guarantee on a
-//!    non-symmetric `A`. A refinement's sub-problem always starts from its warm start. Off by
-//!    default because of its measured cost: on a problem with many solutions (redundant face
-//!    contacts, PSD `A`) the sweeps lead Newton to another solution than the one it reaches
-//!    from zero, and as the warm start of the next steps that one is worse — `wall_105`
-//!    under `newton-min+warm` takes 25.2 Newton iterations per step over 6 steps with ten
-//!    sweeps and 2.3 without them, `pyramid_20`'s cold first step takes `newton-fb` 17
+//! 4. **Restart from sweeps.** On an island with friction rows (a contact problem), a solve
+//!    whose run from zero stalled on both merits restarts once, on its own merit, from
+//!    [`Globalisation::start_sweeps`] NSGS sweeps from zero (default [`START_SWEEPS`], the
+//!    `start_sweeps` parameter): the first sweep solves each contact exactly with its
+//!    neighbours fixed, and the next ones settle which contacts are closed and which friction
+//!    rows slide, the active set Newton has to find from zero otherwise (Siconos' hybrid
+//!    strategy `VI_EG_NSN` likewise runs a first-order method before Newton). Measured on step
+//!    26 of `sphere_pile_100` (`tests/globalisation.rs`): min-map Newton from zero stalls on
+//!    both merits and through every phase of sweeps, and converges from the sweeps. A remedy,
+//!    not the start: on problems with many solutions (redundant face contacts, PSD `A`) a start
+//!    from sweeps leads Newton to another solution than the one it reaches from zero, and as
+//!    the warm start of the next steps that one is worse — with the sweeps as every cold
+//!    solve's start, `wall_105` under `newton-min+warm` took 25.2 Newton iterations per step
+//!    over 6 steps instead of 2.3, `pyramid_20`'s cold first step took `newton-fb` 17
 //!    iterations (0.99 s) instead of 10 (0.69 s), and its warm-started run at a 0.5 s budget
-//!    ends 5 of 5 steps at the time limit instead of 1. The unit test of the rule shows where
-//!    it helps (a cold solve that needs fewer Newton iterations from sweeps).
+//!    ended 5 of 5 steps at the time limit instead of 1. Problems without friction rows (the
+//!    generated SPD, PSD and P-matrix families, joints) do without it: sweeps carry no
+//!    guarantee on a non-symmetric `A`; a refinement's sub-problem too.
 //!
 //! References: A. Fischer, *A special Newton-type optimization method*, Optimization 24, 1992;
 //! T. De Luca, F. Facchinei, C. Kanzow, *A semismooth equation approach to the solution of
@@ -214,10 +218,10 @@ pub(crate) const PROBLEM_CLASSES_MIN: &str =
 /// The `start_sweeps` parameter of every Newton entry (rule 4 of the module documentation).
 const START_SWEEPS_PARAM: crate::registry::ParamSpec = crate::registry::ParamSpec::count(
     "start_sweeps",
-    0,
+    START_SWEEPS,
     0,
     100_000,
-    "NSGS sweeps that start a solve without a warm start on a contact island (rule 4; 0: start from zero)",
+    "NSGS sweeps from zero a stalled start from zero restarts from, once, on a contact island (rule 4; 0: off)",
 );
 
 /// Parameters of the factorising Newton entries.
@@ -232,13 +236,13 @@ const NEWTON_PARAMS: &[crate::registry::ParamSpec] = &[
     ),
 ];
 
-/// `newton` with the sweep start (rule 4) of `params`.
+/// `newton` with the restart from sweeps (rule 4) of `params`.
 fn with_start(mut newton: Newton, params: &crate::registry::Params) -> Newton {
     newton.globalisation.start_sweeps = params.count("start_sweeps");
     newton
 }
 
-/// `newton` with the sweep start and factorisation cap of `params`.
+/// `newton` with the restart from sweeps and the factorisation cap of `params`.
 fn factorising(mut newton: Newton, params: &crate::registry::Params) -> Newton {
     newton.max_factor_entries = params.count("max_factor_entries");
     with_start(newton, params)
@@ -455,9 +459,10 @@ pub struct Globalisation {
     /// the search without the rule (steps shorter than that move a unit-scaled iterate by less
     /// than its rounding). A value outside `(0, 1]` makes the solve `Unsupported` with the reason.
     pub min_step: f64,
-    /// Rule 4: NSGS sweeps that start a solve without a warm start on an island with friction
-    /// rows. Default `0` (a start from zero); [`START_SWEEPS`] is the measured choice when
-    /// the rule is on (the `start_sweeps` parameter of the registry's Newton entries).
+    /// Rule 4: NSGS sweeps from zero that a solve on an island with friction rows restarts
+    /// from, once, when a start from zero has stalled on both merits. Default
+    /// [`START_SWEEPS`] (the `start_sweeps` parameter of the registry's Newton entries); `0`
+    /// turns the rule off.
     pub start_sweeps: usize,
 }
 
@@ -468,7 +473,7 @@ impl Default for Globalisation {
             fallback_phases: MAX_FALLBACKS,
             fallback_sweeps: FALLBACK_SWEEPS,
             min_step: MIN_NEWTON_STEP,
-            start_sweeps: 0,
+            start_sweeps: START_SWEEPS,
         }
     }
 }
@@ -509,10 +514,11 @@ pub struct Remedies {
     pub merit_switches: usize,
     /// Phases of NSGS sweeps run from the best point after a switch that stalled too.
     pub sweep_phases: usize,
-    /// Restarts from zero of a solve that began from a warm start or sweeps, after a switch
-    /// that stalled too.
+    /// Restarts from zero of a solve that began from a warm start, after a switch that
+    /// stalled too.
     pub restarts: usize,
-    /// Solves without a warm start that started from NSGS sweeps instead of zero.
+    /// Restarts from NSGS sweeps from zero of a solve that stalled from zero on both merits
+    /// (rule 4).
     pub sweep_starts: usize,
 }
 
@@ -628,14 +634,15 @@ const STAGNATION_WINDOW: usize = 100;
 /// which moves the iterate off the point where both merits stalled.
 const FALLBACK_SWEEPS: usize = 50;
 /// Phases of fallback sweeps before a solve gives up (rule 2): with a switch of merit before
-/// each and after the last, the `2 · MAX_FALLBACKS + 2`-th stall ends a solve (two later when
-/// it began from a warm start or sweeps, which also switches and restarts once).
+/// each and after the last, the `2 · MAX_FALLBACKS + 2`-th stall ends a solve without friction
+/// rows from zero (two later on a contact island, which restarts from sweeps once, and two
+/// more from a warm start, which restarts from zero once).
 const MAX_FALLBACKS: usize = 3;
-/// NSGS sweeps that give a solve without a warm start its start (rule 4): Siconos' hybrid
+/// NSGS sweeps from zero that a stalled solve restarts from (rule 4): Siconos' hybrid
 /// solvers take ten projected iterations per round (`SICONOS_FRICTION_3D_NSN_HYBRID_MAX_ITER`
 /// defaults to 10); on contact problems the first sweep already solves each decoupled contact
 /// exactly, and the following ones settle which contacts are closed and which friction rows
-/// slide, the active set a cold Newton start has to find otherwise.
+/// slide, the active set Newton from zero has to find otherwise.
 pub const START_SWEEPS: usize = 10;
 
 impl Solver for Newton {
@@ -723,12 +730,11 @@ impl Newton {
         // The formulation the solve starts on (the solver's own) and the one it works on now.
         let own = self.formulation();
         let mut form = own;
-        // A start from sweeps (rule 4) can be restarted from zero, as a warm start can.
-        let (start, swept) = if warm {
-            (initial_impulse(problem, settings), false)
-        } else {
-            self.cold_start(problem, settings, &mut monitor, depth)
+        let cold = Settings {
+            warm_start: None,
+            ..settings.clone()
         };
+        let start = initial_impulse(problem, if warm { settings } else { &cold });
         let mut it = Iterate::new(form, &ops, start);
         let mut lin = Linearisation::new(n);
         let mut iterations = 0;
@@ -737,8 +743,14 @@ impl Newton {
         // The best point measured (projected or polished iterate): the non-monotone line search
         // may end a failed solve on an iterate worse than an earlier one.
         let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
+        // The best point since the last restart (from zero or from sweeps), where a phase of
+        // sweeps (rule 2) starts: a restart means the run before it led astray.
+        let mut run_best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
         let mut stagnation = Stagnation::new(STAGNATION_WINDOW);
-        let mut ladder = Ladder::new(own, warm, swept, rules);
+        // Rule 4 is for contact islands at the top level (a refinement's sub-problem keeps its
+        // warm start).
+        let sweep_start = depth == 0 && !problem.friction().is_empty();
+        let mut ladder = Ladder::new(own, warm, sweep_start, rules);
         let outcome = loop {
             // The iterate may sit just outside its bounds (neither reformulation keeps it
             // feasible); its projection is tested too and returned when it is within tolerance.
@@ -748,6 +760,9 @@ impl Newton {
                     break Outcome::Stopped;
                 }
                 Err(short) => {
+                    if short.best < run_best.0 {
+                        run_best = (short.best, short.candidate.clone());
+                    }
                     if short.best < best.0 {
                         best = (short.best, short.candidate);
                     }
@@ -841,16 +856,24 @@ impl Newton {
                     it = Iterate::new(form, &ops, f);
                 }
                 Remedy::Restart => {
-                    // A warm start (or a start from sweeps) that led astray: the solver's own
-                    // merit from zero (projected), keeping the best point measured so far.
+                    // A warm start that led astray: the solver's own merit from zero
+                    // (projected), keeping the best point measured so far.
                     form = own;
                     ladder.took_restart();
                     self.workspace.remedies.restarts += 1;
-                    let cold = Settings {
-                        warm_start: None,
-                        ..settings.clone()
-                    };
                     it = Iterate::new(form, &ops, initial_impulse(problem, &cold));
+                    run_best = (f64::INFINITY, Vec::new());
+                }
+                Remedy::SweepStart => {
+                    // Rule 4: zero led astray on both merits; the solver's own merit from NSGS
+                    // sweeps from zero, keeping the best point measured so far.
+                    form = own;
+                    ladder.took_sweep_start();
+                    self.workspace.remedies.sweep_starts += 1;
+                    let zero = initial_impulse(problem, &cold);
+                    let (f, _) = sweep_phase(problem, settings, &monitor, zero, rules.start_sweeps);
+                    it = Iterate::new(form, &ops, f);
+                    run_best = (f64::INFINITY, Vec::new());
                 }
                 Remedy::Sweeps => {
                     // Rule 2: sweeps from the best point, then Newton on the solver's own merit
@@ -858,10 +881,10 @@ impl Newton {
                     form = own;
                     ladder.took_sweeps();
                     self.workspace.remedies.sweep_phases += 1;
-                    let from = if best.1.is_empty() {
+                    let from = if run_best.1.is_empty() {
                         std::mem::take(&mut it.f)
                     } else {
-                        best.1.clone()
+                        run_best.1.clone()
                     };
                     let (f, _) =
                         sweep_phase(problem, settings, &monitor, from, rules.fallback_sweeps);
@@ -892,36 +915,6 @@ impl Newton {
             }
         }
         monitor.finish(f, iterations, outcome)
-    }
-
-    /// The start of a solve without a warm start (rule 4 of the module documentation): on an
-    /// island with friction rows, at the top level (not a refinement's sub-problem),
-    /// [`Globalisation::start_sweeps`] NSGS sweeps from zero (projected), kept when they lower
-    /// the shared residual; zero (projected) otherwise. True when the sweeps were kept.
-    fn cold_start(
-        &mut self,
-        problem: &Problem,
-        settings: &Settings,
-        monitor: &mut Monitor<'_>,
-        depth: usize,
-    ) -> (Vec<f64>, bool) {
-        let cold = Settings {
-            warm_start: None,
-            ..settings.clone()
-        };
-        let zero = initial_impulse(problem, &cold);
-        let sweeps = self.globalisation.start_sweeps;
-        if depth > 0 || sweeps == 0 || problem.friction().is_empty() {
-            return (zero, false);
-        }
-        let from_zero = monitor.residual_of(&zero);
-        let (swept, residual) = sweep_phase(problem, settings, monitor, zero.clone(), sweeps);
-        if residual < from_zero {
-            self.workspace.remedies.sweep_starts += 1;
-            (swept, true)
-        } else {
-            (zero, false)
-        }
     }
 
     /// Why an island of `n` rows is beyond the size up to which the (sparse or dense) Newton
@@ -1201,8 +1194,11 @@ fn sweep_phase(
 enum Remedy {
     /// Switch to the other merit, from the current iterate.
     Switch,
-    /// Start a solve that began from a warm start or sweeps again from zero, on its own merit.
+    /// Start a solve that began from a warm start again from zero, on its own merit.
     Restart,
+    /// Start a solve that stalled from zero again from NSGS sweeps from zero, on its own merit
+    /// (rule 4).
+    SweepStart,
     /// Sweeps from the best point, then Newton on its own merit from where they end.
     Sweeps,
     /// Stop `Stalled`.
@@ -1210,10 +1206,10 @@ enum Remedy {
 }
 
 /// Where a solve stands on its ladder of remedies: after a stall, the other merit; when that
-/// stalls too, a restart from zero (a solve that began from a warm start or sweeps, once) or a
-/// phase of sweeps (at most
-/// [`Globalisation::fallback_phases`]), each followed by the solver's own merit again; then it
-/// gives up. A rule turned off is skipped.
+/// stalls too, a restart from zero (a solve that began from a warm start, once), a restart
+/// from sweeps (rule 4, once, after a start from zero stalled on both merits) or a phase of
+/// sweeps (at most [`Globalisation::fallback_phases`]), each followed by the solver's own merit
+/// again; then it gives up. A rule turned off is skipped.
 struct Ladder {
     /// The rules in force.
     rules: Globalisation,
@@ -1221,11 +1217,10 @@ struct Ladder {
     own: Formulation,
     /// Whether the merit was switched since the solve started, restarted or swept.
     switched: bool,
-    /// Whether the solve started from a warm start or sweeps and has not restarted from zero.
+    /// Whether the solve started from a warm start and has not restarted from zero.
     can_restart: bool,
-    /// Whether that restart comes last, after the sweeps (a start from sweeps), rather than
-    /// after the first switch that stalled (a warm start).
-    restart_last: bool,
+    /// Whether the restart from sweeps (rule 4) is still to come.
+    can_sweep_start: bool,
     /// The remedies taken, in order, for the reason of a solve that gives up.
     taken: Vec<String>,
     /// Phases of sweeps taken.
@@ -1233,13 +1228,15 @@ struct Ladder {
 }
 
 impl Ladder {
-    fn new(own: Formulation, warm: bool, swept: bool, rules: Globalisation) -> Self {
+    /// `sweep_start`: whether the problem is one rule 4 is for (a contact island at the top
+    /// level); the rule also needs [`Globalisation::start_sweeps`] above zero.
+    fn new(own: Formulation, warm: bool, sweep_start: bool, rules: Globalisation) -> Self {
         Self {
             rules,
             own,
             switched: false,
-            can_restart: warm || swept,
-            restart_last: !warm && swept,
+            can_restart: warm,
+            can_sweep_start: sweep_start && rules.start_sweeps > 0,
             taken: vec![format!("{} merit", own.short_name())],
             fallbacks: 0,
         }
@@ -1249,12 +1246,12 @@ impl Ladder {
     fn remedy(&self) -> Remedy {
         if self.rules.merit_switch && !self.switched {
             Remedy::Switch
-        } else if self.can_restart && !self.restart_last {
-            Remedy::Restart
-        } else if self.fallbacks < self.rules.fallback_phases {
-            Remedy::Sweeps
         } else if self.can_restart {
             Remedy::Restart
+        } else if self.can_sweep_start {
+            Remedy::SweepStart
+        } else if self.fallbacks < self.rules.fallback_phases {
+            Remedy::Sweeps
         } else {
             Remedy::GiveUp
         }
@@ -1264,6 +1261,17 @@ impl Ladder {
     fn took_switch(&mut self, to: Formulation) {
         self.switched = true;
         self.taken.push(format!("{} merit", to.short_name()));
+    }
+
+    /// The solve restarted from sweeps from zero (rule 4).
+    fn took_sweep_start(&mut self) {
+        self.switched = false;
+        self.can_sweep_start = false;
+        self.taken.push(format!(
+            "restart from {} NSGS sweeps from zero, {} merit",
+            self.rules.start_sweeps,
+            self.own.short_name()
+        ));
     }
 
     /// The solve restarted from zero.
@@ -1458,14 +1466,15 @@ mod tests {
     }
 
     /// The order of the remedies: the other merit first; then, for a warm start, the cold
-    /// start once; then phases of sweeps, each followed by a switch; then the solve gives up.
-    /// A rule turned off is skipped.
+    /// start once; then, on a contact island, the start from sweeps once; then phases of
+    /// sweeps, each followed by a switch; then the solve gives up. A rule turned off is
+    /// skipped.
     #[test]
     fn remedies_come_in_the_documented_order() {
-        use Remedy::{GiveUp, Restart, Sweeps, Switch};
+        use Remedy::{GiveUp, Restart, SweepStart, Sweeps, Switch};
         let own = Newton::min_map().formulation();
         let walk = |warm: bool, rules: Globalisation| {
-            let mut ladder = Ladder::new(own, warm, false, rules);
+            let mut ladder = Ladder::new(own, warm, true, rules);
             let mut form = own;
             let mut taken = Vec::new();
             loop {
@@ -1480,6 +1489,10 @@ mod tests {
                         form = own;
                         ladder.took_restart();
                     }
+                    Remedy::SweepStart => {
+                        form = own;
+                        ladder.took_sweep_start();
+                    }
                     Remedy::Sweeps => {
                         form = own;
                         ladder.took_sweeps();
@@ -1493,27 +1506,36 @@ mod tests {
         let (cold, summary) = walk(false, Globalisation::default());
         assert_eq!(
             cold,
-            [Switch, Sweeps, Switch, Sweeps, Switch, Sweeps, Switch, GiveUp]
+            [Switch, SweepStart, Switch, Sweeps, Switch, Sweeps, Switch, Sweeps, Switch, GiveUp]
         );
         assert_eq!(
             summary,
-            "every remedy stalled in turn: min-map merit -> FB merit -> 50 NSGS sweeps, min-map \
-             merit -> FB merit -> 50 NSGS sweeps, min-map merit -> FB merit -> 50 NSGS sweeps, \
-             min-map merit -> FB merit"
+            "every remedy stalled in turn: min-map merit -> FB merit -> restart from 10 NSGS \
+             sweeps from zero, min-map merit -> FB merit -> 50 NSGS sweeps, min-map merit -> FB \
+             merit -> 50 NSGS sweeps, min-map merit -> FB merit -> 50 NSGS sweeps, min-map \
+             merit -> FB merit"
         );
         let (warm, _) = walk(true, Globalisation::default());
         assert_eq!(
             warm,
-            [Switch, Restart, Switch, Sweeps, Switch, Sweeps, Switch, Sweeps, Switch, GiveUp]
+            [
+                Switch, Restart, Switch, SweepStart, Switch, Sweeps, Switch, Sweeps, Switch,
+                Sweeps, Switch, GiveUp
+            ]
         );
         // Without the rules: a cold solve gives up at its first stall, a warm one restarts once.
         assert_eq!(walk(false, Globalisation::off()).0, [GiveUp]);
         assert_eq!(walk(true, Globalisation::off()).0, [Restart, GiveUp]);
         let sweeps_only = Globalisation {
             merit_switch: false,
+            start_sweeps: 0,
             ..Globalisation::default()
         };
         assert_eq!(walk(false, sweeps_only).0, [Sweeps, Sweeps, Sweeps, GiveUp]);
+        // Off a contact island (or in a refinement's sub-problem) rule 4 does not apply.
+        let mut ladder = Ladder::new(own, false, false, Globalisation::default());
+        ladder.took_switch(own.switched());
+        assert_eq!(ladder.remedy(), Sweeps);
     }
 
     /// Contacts of a normal and two friction rows each, `A = J Jᵀ + εI` from a random
@@ -1601,7 +1623,7 @@ mod tests {
             assert!(r.status.is_converged(), "seed {seed}, sweeps: {}", r.status);
             assert!(remedies.sweep_phases >= 1, "{remedies:?}");
             assert_eq!((remedies.merit_switches, remedies.sweep_starts), (0, 0));
-            // Rule 4: a start from ten NSGS sweeps instead of zero.
+            // Rule 4: after the stall from zero, a restart from ten NSGS sweeps from zero.
             let start = Globalisation {
                 start_sweeps: START_SWEEPS,
                 ..off
@@ -1609,11 +1631,7 @@ mod tests {
             let (r, remedies) = min_map_with(start, &p);
             assert!(r.status.is_converged(), "seed {seed}, start: {}", r.status);
             assert_eq!(remedies.sweep_starts, 1, "{remedies:?}");
-            assert!(
-                r.iterations < plain.iterations,
-                "{} iterations",
-                r.iterations
-            );
+            assert_eq!((remedies.merit_switches, remedies.sweep_phases), (0, 0));
             // All of them.
             let (r, _) = min_map_with(Globalisation::default(), &p);
             assert!(r.status.is_converged(), "seed {seed}: {}", r.status);
