@@ -439,13 +439,13 @@ impl NewtonMatrix {
         n: usize,
         sparse: bool,
         max_entries: usize,
-    ) -> Result<Self, Refusal> {
+    ) -> Result<Self, PatternRefusal> {
         if !sparse {
             return Ok(Self::Dense(Mat::zeros(n, n)));
         }
         let estimate = lu_estimate(blocks);
         if estimate > max_entries {
-            return Err(Refusal::TooMuchFill(format!(
+            return Err(PatternRefusal::TooMuchFill(format!(
                 "the LU of the sparse Newton system ({n} rows) would hold about {estimate} \
                  entries (symbolic analysis of W's block pattern, AMD ordering), above the \
                  {max_entries} a Newton iteration is allowed to factorise: a factorisation \
@@ -465,10 +465,6 @@ impl NewtonMatrix {
         // The estimate above stands for the pattern's own (on W's block pattern, finer).
         SparseJacobian::factor_pattern(entries, n, None, usize::MAX)
             .map(|j| Self::Sparse(Box::new(j)))
-            .map_err(|refusal| match refusal {
-                PatternRefusal::TooMuchFill(reason) => Refusal::TooMuchFill(reason),
-                PatternRefusal::Failed(reason) => Refusal::Failed(reason),
-            })
     }
 
     /// Set block `(c, e)` (the `k`-th stored block in block-row order).
@@ -520,14 +516,6 @@ impl NewtonMatrix {
             Self::Sparse(j) => factor_and_solve(j, rhs),
         }
     }
-}
-
-/// Why no Newton matrix was formed.
-enum Refusal {
-    /// Its LU would exceed the entry limit.
-    TooMuchFill(String),
-    /// The pattern or its symbolic analysis failed.
-    Failed(String),
 }
 
 /// Entries of `L` and `U` for the Newton matrix on `W`'s block pattern, estimated from the
@@ -728,8 +716,7 @@ impl ConeSolver for ConeNewton {
                     self.max_factor_entries,
                 ) {
                     Ok(h) => matrix.insert(h),
-                    Err(Refusal::TooMuchFill(reason)) => break Outcome::Unsupported(reason),
-                    Err(Refusal::Failed(reason)) => break Outcome::NumericalFailure(reason),
+                    Err(refusal) => break refusal.outcome(),
                 },
             };
             let phi_inf = it.phi.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -12,6 +12,7 @@
 use crate::linalg::krylov::{gmres, BlockJacobi, Forcing, GmresParams, KrylovResult};
 use crate::linalg::sparse_lu::SparseLu;
 use crate::problem::{DelassusFactors, Problem};
+use crate::solver::Outcome;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::solvers::Solve;
 use faer::perm::PermRef;
@@ -85,13 +86,26 @@ pub(crate) enum PatternRefusal {
     Failed(String),
 }
 
+impl PatternRefusal {
+    /// How a solve that needed the system ends: `Unsupported` above the entry limit (the
+    /// report's `factor_cap`), `NumericalFailure` when the analysis failed.
+    pub(crate) fn outcome(self) -> Outcome {
+        match self {
+            Self::TooMuchFill(reason) => Outcome::Unsupported(reason),
+            Self::Failed(reason) => Outcome::NumericalFailure(reason),
+        }
+    }
+}
+
 /// Entries of `L` and `U` of the sparse LU of the pattern `a` under the column ordering of its
 /// symbolic LU, estimated before any numerical work from the column counts of the Cholesky
 /// factor `R` of `(AQ)ᵀ(AQ)` (faer's symbolic analysis of the same ordering): with partial
 /// pivoting `U`'s pattern lies within `R`'s and `L`'s within the Householder vectors' (George
 /// and Ng, *Symbolic factorization for sparse Gaussian elimination with partial pivoting*,
 /// SIAM J. Sci. Stat. Comput. 8, 1987), counted here as `R`'s again: `2·nnz(R) − n`.
-/// `usize::MAX` when the analysis fails.
+/// faer's symbolic LU computes the same column counts but does not expose them, hence this
+/// second pass (linear in the pattern, after the ordering it reuses). `usize::MAX` when the
+/// analysis fails.
 pub(crate) fn lu_entries_estimate(
     a: SymbolicSparseColMatRef<'_, usize>,
     col_perm: PermRef<'_, usize>,
@@ -259,7 +273,7 @@ impl SparseJacobian {
     /// is the same. A new pattern whose LU is estimated above `max_entries` entries
     /// ([`lu_entries_estimate`]; skipped when even a dense LU would fit) is refused before
     /// any numerical work: a factorisation cannot be interrupted, so one that takes longer than
-    /// the time budget would overrun it (a 41,664-row box-pyramid island took 14–38 s per
+    /// the time budget would overrun it (a 41,664-row box-pyramid island took 5–38 s per
     /// factorisation against a 1 s budget).
     pub(crate) fn factor_pattern(
         entries: Vec<(usize, usize, EntryKind)>,

@@ -648,8 +648,15 @@ pub(crate) fn initial_impulse(problem: &Problem, settings: &Settings) -> Vec<f64
     let n = problem.n();
     let mut f = match &settings.warm_start {
         Some(ws) if ws.len() == n && ws.iter().all(|v| v.is_finite()) => ws.clone(),
-        _ => vec![0.0; n],
+        _ => return zero_impulse(problem),
     };
+    problem.project_onto_bounds(&mut f);
+    f
+}
+
+/// Zero projected onto the bounds: the start of a solve without a warm start.
+pub(crate) fn zero_impulse(problem: &Problem) -> Vec<f64> {
+    let mut f = vec![0.0; problem.n()];
     problem.project_onto_bounds(&mut f);
     f
 }

@@ -201,8 +201,8 @@ use crate::solver::line_search::{
     is_descent, Backtracking, ARMIJO_SIGMA, HALVING, MIN_NEWTON_STEP, NEWTON_BACKTRACKS,
 };
 use crate::solver::{
-    initial_impulse, solve_by_islands, solve_by_sparse_islands, Monitor, Outcome, Settings,
-    SolveResult, Solver, Stagnation, Status,
+    initial_impulse, solve_by_islands, solve_by_sparse_islands, zero_impulse, Monitor, Outcome,
+    Settings, SolveResult, Solver, Stagnation, Status,
 };
 use faer::sparse::linalg::lu::NumericLu;
 use merit::{merit_gradient, Formulation};
@@ -421,7 +421,8 @@ pub struct Newton {
     /// Largest island for which the sparse Jacobian is formed. Default `200 000`.
     pub max_sparse: usize,
     /// Largest sparse LU a solve factorises, in entries of `L` and `U` estimated before any
-    /// numerical work (the symbolic Cholesky of the system's symmetrised pattern): a larger
+    /// numerical work (the column counts of the Cholesky factor of `AᵀA` under the LU's
+    /// COLAMD ordering, [`crate::linalg::newton_system::lu_entries_estimate`]): a larger
     /// one is refused, the solve ending `Unsupported` with the estimate in its reason, since a
     /// factorisation cannot be interrupted at the time budget. Default
     /// [`crate::cone::newton::MAX_FACTOR_ENTRIES`] (20 million, about 2 s of factorisation on
@@ -730,21 +731,22 @@ impl Newton {
         // The formulation the solve starts on (the solver's own) and the one it works on now.
         let own = self.formulation();
         let mut form = own;
-        let cold = Settings {
-            warm_start: None,
-            ..settings.clone()
+        let start = if warm {
+            initial_impulse(problem, settings)
+        } else {
+            zero_impulse(problem)
         };
-        let start = initial_impulse(problem, if warm { settings } else { &cold });
         let mut it = Iterate::new(form, &ops, start);
         let mut lin = Linearisation::new(n);
         let mut iterations = 0;
         let tol = settings.tolerance;
         let mut refined = false;
         // The best point measured (projected or polished iterate): the non-monotone line search
-        // may end a failed solve on an iterate worse than an earlier one.
+        // may end a failed solve on an iterate worse than an earlier one. `run_best` is the best
+        // since the last restart (from zero or from sweeps), where a phase of sweeps (rule 2)
+        // starts, since a restart means the run before it led astray; a restart hands it on to
+        // `best`, the best of the earlier runs.
         let mut best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
-        // The best point since the last restart (from zero or from sweeps), where a phase of
-        // sweeps (rule 2) starts: a restart means the run before it led astray.
         let mut run_best: (f64, Vec<f64>) = (f64::INFINITY, Vec::new());
         let mut stagnation = Stagnation::new(STAGNATION_WINDOW);
         // Rule 4 is for contact islands at the top level (a refinement's sub-problem keeps its
@@ -761,10 +763,7 @@ impl Newton {
                 }
                 Err(short) => {
                     if short.best < run_best.0 {
-                        run_best = (short.best, short.candidate.clone());
-                    }
-                    if short.best < best.0 {
-                        best = (short.best, short.candidate);
+                        run_best = (short.best, short.candidate);
                     }
                     short.iterate
                 }
@@ -861,8 +860,8 @@ impl Newton {
                     form = own;
                     ladder.took_restart();
                     self.workspace.remedies.restarts += 1;
-                    it = Iterate::new(form, &ops, initial_impulse(problem, &cold));
-                    run_best = (f64::INFINITY, Vec::new());
+                    it = Iterate::new(form, &ops, zero_impulse(problem));
+                    keep_better(&mut best, &mut run_best);
                 }
                 Remedy::SweepStart => {
                     // Rule 4: zero led astray on both merits; the solver's own merit from NSGS
@@ -870,10 +869,10 @@ impl Newton {
                     form = own;
                     ladder.took_sweep_start();
                     self.workspace.remedies.sweep_starts += 1;
-                    let zero = initial_impulse(problem, &cold);
+                    let zero = zero_impulse(problem);
                     let (f, _) = sweep_phase(problem, settings, &monitor, zero, rules.start_sweeps);
                     it = Iterate::new(form, &ops, f);
-                    run_best = (f64::INFINITY, Vec::new());
+                    keep_better(&mut best, &mut run_best);
                 }
                 Remedy::Sweeps => {
                     // Rule 2: sweeps from the best point, then Newton on the solver's own merit
@@ -907,6 +906,7 @@ impl Newton {
         // iterate, falls back on `best` too.
         let mut f = it.f;
         if outcome != Outcome::Stopped {
+            keep_better(&mut best, &mut run_best);
             let raw = monitor.residual_of(&f);
             // `best` is empty when no point was measured finite (a warm start at which the
             // velocity overflows): the iterate stays, and its non-finite residual says so.
@@ -948,10 +948,10 @@ impl Newton {
     ) -> Result<Vec<f64>, Outcome> {
         let elimination = Elimination::of(problem, system);
         if jacobian.is_none() && elimination.is_none() {
-            *jacobian = Some(self.jacobian(problem, sparse).map_err(|r| match r {
-                PatternRefusal::TooMuchFill(reason) => Outcome::Unsupported(reason),
-                PatternRefusal::Failed(reason) => Outcome::NumericalFailure(reason),
-            })?);
+            *jacobian = Some(
+                self.jacobian(problem, sparse)
+                    .map_err(PatternRefusal::outcome)?,
+            );
         }
         match (elimination, jacobian.as_mut()) {
             (Some(e), _) => reduced_direction(
@@ -1149,6 +1149,15 @@ fn line_search_step(
         }
     }
     accepted
+}
+
+/// Ends a run of a solve (a restart, or the solve's end): `run` becomes `best` when it is
+/// strictly better (the earlier point wins a tie), and is emptied for the next run.
+fn keep_better(best: &mut (f64, Vec<f64>), run: &mut (f64, Vec<f64>)) {
+    let run = std::mem::replace(run, (f64::INFINITY, Vec::new()));
+    if run.0 < best.0 {
+        *best = run;
+    }
 }
 
 /// `sweeps` NSGS sweeps ([`Nsgs`]) from `f`, within what is left of the solve's time budget
